@@ -1,0 +1,64 @@
+"""The headless command line: `python -m lapig_addon CMD` or `blender -b -c lapig CMD`."""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+
+def _parser():
+    parser = argparse.ArgumentParser(prog="python -m lapig_addon",
+                                     description="LAPIG projector-image tools, headless.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    demo = sub.add_parser("demo", help="build the demo scene, capture it, and write images to look at")
+    demo.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
+    demo.add_argument("--shape", default="panel", choices=["panel", "box", "statue"])
+    demo.add_argument("--surface", default="sakura")
+    demo.add_argument("--train", type=int, default=16, help="training captures (default 16)")
+    demo.add_argument("--test", type=int, default=4, help="test captures (default 4)")
+    demo.add_argument("--seed", type=int, default=0)
+
+    cap = sub.add_parser("capture", help="capture the scene's projector-camera setup into a data set")
+    cap.add_argument("--blend", help=".blend file with a LAPIG rig (default: the open file)")
+    cap.add_argument("--out", required=True, help="data set root folder")
+    cap.add_argument("--setup", default=None, help="setup name (default: the surface object's name)")
+    cap.add_argument("--train", type=int, default=32)
+    cap.add_argument("--test", type=int, default=8)
+    cap.add_argument("--size", type=int, default=256, help="working size (default 256)")
+    cap.add_argument("--samples", type=int, default=1)
+    cap.add_argument("--patterns", help="folder of your own projector images (default: generated)")
+    cap.add_argument("--seed", type=int, default=0)
+
+    bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
+    bench.add_argument("what", choices=["capture"], help="which benchmark")
+    bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
+    bench.add_argument("--out", default="out/bench_capture")
+    bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        from ..lapig_core.deps import require
+
+        require("numpy", "cv2")
+        from . import commands
+
+        return getattr(commands, "cmd_" + args.command)(args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, OSError, ImportError) as exc:  # user-facing problems, no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+
+
+def print_json(summary: dict):
+    print(json.dumps(summary, sort_keys=True), flush=True)

@@ -1,0 +1,100 @@
+"""Drive a Job from Blender's UI: a timer steps it, Esc cancels, progress shows in the status bar.
+
+Inside the bpy module and in background mode modal operators cannot run, so the same job is
+run to completion synchronously there (see jobs.Job).
+"""
+from __future__ import annotations
+
+import bpy
+
+_active = {"job": None}
+
+
+def active_job():
+    return _active["job"]
+
+
+def can_run_modal(context) -> bool:
+    return not bpy.app.background and context.window_manager is not None and context.window is not None
+
+
+class JobRunnerMixin:
+    """Mix into an Operator; implement make_job(context) and on_done(context, job)."""
+
+    _timer = None
+    _job = None
+
+    def make_job(self, context):
+        raise NotImplementedError
+
+    def on_done(self, context, job):
+        pass
+
+    def execute(self, context):  # synchronous: scripts, tests, background mode
+        try:
+            job = self.make_job(context)
+        except (ValueError, ImportError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        _run_sync(job, context.scene.lapig)
+        return self._finish(context, job)
+
+    def invoke(self, context, event):
+        if not can_run_modal(context):
+            return self.execute(context)
+        if _active["job"] is not None and not _active["job"].finished:
+            self.report({"ERROR"}, "Another LAPIG job is running: wait for it or press Esc")
+            return {"CANCELLED"}
+        try:
+            self._job = self.make_job(context)
+        except (ValueError, ImportError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        _active["job"] = self._job
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.05, window=context.window)
+        wm.modal_handler_add(self)
+        wm.progress_begin(0, 1000)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == "ESC":
+            job.cancel()
+        elif event.type == "TIMER":
+            job.step()
+            _show(context.scene.lapig, job.progress, job.message)
+            context.window_manager.progress_update(int(job.progress * 1000))
+            context.workspace.status_text_set(f"{job.title}: {job.message} ({job.progress:.0%}) - Esc to cancel")
+            for area in context.screen.areas:
+                if area.type == "VIEW_3D":
+                    area.tag_redraw()
+        if not job.finished:
+            return {"RUNNING_MODAL"}
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        _active["job"] = None
+        return self._finish(context, job)
+
+    def _finish(self, context, job):
+        if job.state == "DONE":
+            self.on_done(context, job)
+            return {"FINISHED"}
+        if job.state == "CANCELLED":
+            self.report({"WARNING"}, f"{job.title} cancelled: the scene is as it was")
+        else:
+            self.report({"ERROR"}, f"{job.title} failed: {job.message}")
+        return {"CANCELLED"}
+
+
+def _show(settings, progress, message):
+    settings.job_progress = progress
+    settings.job_message = message
+
+
+def _run_sync(job, settings):
+    while job.step():
+        _show(settings, job.progress, job.message)
+    _show(settings, job.progress, job.message)

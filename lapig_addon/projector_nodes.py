@@ -1,0 +1,104 @@
+"""The projector as a Cycles spot light whose node tree projects an image (Blender >= 4.0).
+
+Geometry 'Incoming' in the light's object space gives the ray direction; x/z and y/z, scaled by
+the throw ratio and offset by the lens shift, index an image texture (clip outside the frame,
+closest-pixel so structured-light patterns stay pixel exact). See lapig_core.projector_model.
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+
+NODE_PREFIX = "LAPIG "
+TEXTURE_NODE = NODE_PREFIX + "projected image"
+
+
+def _math(nodes, links, op, a, b, name):
+    node = nodes.get(name) or nodes.new("ShaderNodeMath")
+    node.name = node.label = name
+    node.operation = op
+    for index, value in enumerate((a, b)):
+        if isinstance(value, (int, float)):
+            node.inputs[index].default_value = value
+        else:
+            links.new(value, node.inputs[index])
+    return node
+
+
+def build_light_tree(light: bpy.types.SpotLight, model, image=None):
+    """(Re)build the projection nodes of a spot light from a ProjectorModel; idempotent."""
+    light.use_nodes = True
+    light.spot_size = math.pi * 0.999  # the image texture, not the cone, bounds the frame
+    light.spot_blend = 0.0
+    light.shadow_soft_size = 0.0  # pinhole: sharp pixels, noise-free direct light
+    if hasattr(light, "use_soft_falloff"):
+        light.use_soft_falloff = False  # keep the inverse-square law exact
+    tree = light.node_tree
+    nodes, links = tree.nodes, tree.links
+    for node in list(nodes):
+        if node.bl_idname not in {"ShaderNodeEmission", "ShaderNodeOutputLight"} \
+                and not node.name.startswith(NODE_PREFIX):
+            nodes.remove(node)
+    emission = next((n for n in nodes if n.bl_idname == "ShaderNodeEmission"), None) \
+        or nodes.new("ShaderNodeEmission")
+    output = next((n for n in nodes if n.bl_idname == "ShaderNodeOutputLight"), None) \
+        or nodes.new("ShaderNodeOutputLight")
+    links.new(emission.outputs[0], output.inputs["Surface"])
+    emission.inputs["Strength"].default_value = 1.0
+
+    geometry = nodes.get(NODE_PREFIX + "geometry") or nodes.new("ShaderNodeNewGeometry")
+    geometry.name = NODE_PREFIX + "geometry"
+    to_local = nodes.get(NODE_PREFIX + "to local") or nodes.new("ShaderNodeVectorTransform")
+    to_local.name = NODE_PREFIX + "to local"
+    to_local.vector_type, to_local.convert_from, to_local.convert_to = "VECTOR", "WORLD", "OBJECT"
+    split = nodes.get(NODE_PREFIX + "split") or nodes.new("ShaderNodeSeparateXYZ")
+    split.name = NODE_PREFIX + "split"
+    links.new(geometry.outputs["Incoming"], to_local.inputs[0])
+    links.new(to_local.outputs[0], split.inputs[0])
+
+    sx, sy = model.uv_scale()
+    # The ratio x/z does not depend on the sign of 'Incoming', so u = 0.5 + shift - s * x / z.
+    u = _math(nodes, links, "DIVIDE", split.outputs["X"], split.outputs["Z"], NODE_PREFIX + "x/z")
+    u = _math(nodes, links, "MULTIPLY", u.outputs[0], -sx, NODE_PREFIX + "u scale")
+    u = _math(nodes, links, "ADD", u.outputs[0], 0.5 + model.shift_x, NODE_PREFIX + "u")
+    v = _math(nodes, links, "DIVIDE", split.outputs["Y"], split.outputs["Z"], NODE_PREFIX + "y/z")
+    v = _math(nodes, links, "MULTIPLY", v.outputs[0], -sy, NODE_PREFIX + "v scale")
+    v = _math(nodes, links, "ADD", v.outputs[0], 0.5 + model.shift_y, NODE_PREFIX + "v")
+    uv = nodes.get(NODE_PREFIX + "uv") or nodes.new("ShaderNodeCombineXYZ")
+    uv.name = NODE_PREFIX + "uv"
+    links.new(u.outputs[0], uv.inputs["X"])
+    links.new(v.outputs[0], uv.inputs["Y"])
+
+    texture = nodes.get(TEXTURE_NODE) or nodes.new("ShaderNodeTexImage")
+    texture.name = texture.label = TEXTURE_NODE
+    texture.extension = "CLIP"
+    texture.interpolation = "Closest"
+    links.new(uv.outputs[0], texture.inputs["Vector"])
+    links.new(texture.outputs["Color"], emission.inputs["Color"])
+    if image is not None:
+        texture.image = image
+    _layout(nodes)
+    return texture
+
+
+def set_projected_image(light, image):
+    texture = light.node_tree.nodes.get(TEXTURE_NODE) if light.node_tree else None
+    if texture is None:
+        raise RuntimeError(f"'{light.name}' is not a LAPIG projector light (no projection nodes)")
+    texture.image = image
+    return texture
+
+
+def projected_image(light):
+    texture = light.node_tree.nodes.get(TEXTURE_NODE) if light.node_tree else None
+    return texture.image if texture else None
+
+
+def _layout(nodes):
+    order = ["geometry", "to local", "split", "x/z", "u scale", "u", "y/z", "v scale", "v", "uv",
+             "projected image"]
+    for column, name in enumerate(order):
+        node = nodes.get(NODE_PREFIX + name)
+        if node:
+            node.location = (-1400 + 130 * column, 300 if name.startswith(("y", "v")) else 0)

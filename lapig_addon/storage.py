@@ -1,0 +1,32 @@
+"""Where captures, weights and results live: a folder next to the .blend, or a temporary one."""
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+
+import bpy
+
+FOLDER_SUFFIX = "_lapig"
+
+
+def data_root() -> tuple[str, bool]:
+    """(folder, is_temporary). Saved files keep data in '<name>_lapig' beside the .blend."""
+    blend = bpy.data.filepath
+    if blend:
+        stem = os.path.splitext(os.path.basename(blend))[0]
+        return os.path.join(os.path.dirname(blend), stem + FOLDER_SUFFIX), False
+    return os.path.join(tempfile.gettempdir(), f"lapig_unsaved_{os.getpid()}"), True
+
+
+def setup_name_for(target) -> str:
+    """A file-system-safe setup folder name from the surface object's name."""
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", target.name).strip("._") or "setup"
+    return name[:64]
+
+
+def location_message() -> str:
+    folder, temporary = data_root()
+    if temporary:
+        return "Unsaved file: data goes to a temporary folder (save the .blend to keep it)"
+    return f"Data folder: {folder}"

@@ -1,0 +1,90 @@
+"""PCNet: project-and-capture simulator pi_hat(x, s).
+
+x is the projector input, s the surface image (capture under gray); the output
+is the simulated camera capture, registered to projector space.
+Images are (B, 3, H, W) in [0, 1], H and W divisible by 4.
+
+Wiring (chosen so the count is exactly 1,231,767 parameters):
+  surface branch on t0 = cat(s, x*s)  (x*s is a rough shading estimate):
+      b1 = sc1(t0); b2 = sc2(ReLU(b1)); b3 = sc3(ReLU(b2)); b4 = sc4(ReLU(b3))
+  backbone on x (branch outputs enter PRE-activation, i.e. the branch adds a
+  signed, linear modulation and the backbone ReLU applies to the sum):
+      h1 = ReLU(conv1(x) + b1)            32, H/2
+      h2 = ReLU(conv2(h1) + b2)           64, H/4
+      h3 = ReLU(conv3(h2) + b3)           128
+      h4 = ReLU(conv4(h3) + b4)           256
+      h5 = ReLU(conv5(h4) + skip2(h2))    128   (skip2: 3x3 64->128)
+      h6 = ReLU(tconv1(h5) + skip1(h1))   64, H/2 (skip1: 1x1 32->64)
+      h7 = ReLU(tconv2(h6))               32, H
+      y  = ReLU(conv6(h7) + R(s))         R: 1x1, ReLU, 3x3, ReLU, 3x3, ReLU on s
+  output = clamp(y, i_min, i_max) per pixel (default [0, 1]).
+"""
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+
+def _bound(v, like: torch.Tensor, default: float) -> torch.Tensor:
+    """Scalar / tensor / None bound -> tensor broadcastable to `like`."""
+    if v is None:
+        v = default
+    return torch.as_tensor(v, dtype=like.dtype, device=like.device)
+
+
+class PCNet(nn.Module):
+    ARCH_NAME = "PCNet"
+
+    def __init__(self):
+        super().__init__()
+        # Backbone on x.
+        self.conv1 = nn.Conv2d(3, 32, 3, 2, 1)
+        self.conv2 = nn.Conv2d(32, 64, 3, 2, 1)
+        self.conv3 = nn.Conv2d(64, 128, 3, 1, 1)
+        self.conv4 = nn.Conv2d(128, 256, 3, 1, 1)
+        self.conv5 = nn.Conv2d(256, 128, 3, 1, 1)
+        self.tconv1 = nn.ConvTranspose2d(128, 64, 3, 2, 1, output_padding=1)
+        self.tconv2 = nn.ConvTranspose2d(64, 32, 2, 2, 0)
+        self.conv6 = nn.Conv2d(32, 3, 3, 1, 1)
+        # Surface branch on cat(s, x*s).
+        self.sconv1 = nn.Conv2d(6, 32, 3, 2, 1)
+        self.sconv2 = nn.Conv2d(32, 64, 3, 2, 1)
+        self.sconv3 = nn.Conv2d(64, 128, 3, 1, 1)
+        self.sconv4 = nn.Conv2d(128, 256, 3, 1, 1)
+        # Skips.
+        self.skip1 = nn.Conv2d(32, 64, 1, 1, 0)
+        self.skip2 = nn.Conv2d(64, 128, 3, 1, 1)
+        self.res_a = nn.Conv2d(3, 3, 1, 1, 0)
+        self.res_b = nn.Conv2d(3, 3, 3, 1, 1)
+        self.res_c = nn.Conv2d(3, 3, 3, 1, 1)
+        for m in self.modules():
+            if isinstance(m, nn.Conv2d):  # spec: Kaiming on Conv2d only
+                nn.init.kaiming_normal_(m.weight)
+
+    def describe(self) -> str:
+        n = sum(p.numel() for p in self.parameters())
+        return f"{self.ARCH_NAME} ({n:,} parameters)"
+
+    def forward(self, x: torch.Tensor, s: torch.Tensor, i_min=None, i_max=None) -> torch.Tensor:
+        """Simulate the capture of projecting x onto surface s.
+
+        i_min / i_max: per-pixel capture bounds (e.g. captures under black and
+        white projection), broadcastable to (B, 3, H, W), or scalars; None
+        means 0 / 1. The clamp keeps the simulation physically reachable.
+        """
+        s = s.expand_as(x) if s.shape[0] == 1 else s  # one surface for a batch
+        b1 = self.sconv1(torch.cat([s, x * s], dim=1))
+        b2 = self.sconv2(F.relu(b1))
+        b3 = self.sconv3(F.relu(b2))
+        b4 = self.sconv4(F.relu(b3))
+
+        h1 = F.relu(self.conv1(x) + b1)
+        h2 = F.relu(self.conv2(h1) + b2)
+        h3 = F.relu(self.conv3(h2) + b3)
+        h4 = F.relu(self.conv4(h3) + b4)
+        h5 = F.relu(self.conv5(h4) + self.skip2(h2))
+        h6 = F.relu(self.tconv1(h5) + self.skip1(h1))
+        h7 = F.relu(self.tconv2(h6))
+        res = F.relu(self.res_c(F.relu(self.res_b(F.relu(self.res_a(s))))))
+        y = F.relu(self.conv6(h7) + res)
+        # minimum/maximum (not clamp) so tensor bounds broadcast per pixel.
+        return torch.minimum(torch.maximum(y, _bound(i_min, y, 0.0)), _bound(i_max, y, 1.0))

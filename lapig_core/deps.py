@@ -1,0 +1,54 @@
+"""Which Python dependencies are importable, and what to do about missing ones (no bpy)."""
+from __future__ import annotations
+
+import importlib.util
+import sys
+from dataclasses import dataclass
+
+REQUIRED = (
+    ("numpy", "numpy", "numpy<2 (Blender bundles it)"),
+    ("cv2", "opencv-contrib-python-headless", "opencv-contrib-python-headless==4.11.0.86"),
+    ("torch", "torch", "torch==2.13.0 (CPU build is enough)"),
+)
+OPTIONAL = (
+    ("sentence_transformers", "sentence-transformers", "for the offline prompt model"),
+    ("diffusers", "diffusers", "for the InstructPix2Pix backend (needs its weights locally)"),
+)
+
+
+@dataclass
+class Dependency:
+    module: str
+    package: str
+    hint: str
+    present: bool
+    required: bool
+
+
+def check_dependencies() -> list[Dependency]:
+    found = []
+    for required, table in ((True, REQUIRED), (False, OPTIONAL)):
+        for module, package, hint in table:
+            present = module in sys.modules or importlib.util.find_spec(module) is not None
+            found.append(Dependency(module, package, hint, present, required))
+    return found
+
+
+def missing_required() -> list[Dependency]:
+    return [d for d in check_dependencies() if d.required and not d.present]
+
+
+def install_command(python_executable: str, target: str | None = None) -> str:
+    """The pip command a user runs to get the missing packages into Blender's Python."""
+    packages = " ".join(f'"{d.hint.split(" ")[0]}"' for d in missing_required()) or "(nothing missing)"
+    where = f' --target "{target}"' if target else ""
+    return f'"{python_executable}" -m pip install{where} {packages}'
+
+
+def require(*modules: str):
+    """Raise ImportError with an actionable message if any of the modules is missing."""
+    missing = [d for d in check_dependencies() if d.module in modules and not d.present]
+    if missing:
+        names = ", ".join(d.package for d in missing)
+        raise ImportError(f"LAPIG needs {names}: see the add-on preferences or the README "
+                          f"('Installing the Python dependencies into Blender')")

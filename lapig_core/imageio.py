@@ -1,0 +1,147 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Reading and writing images as float32 RGB arrays in [0, 1].
+
+OpenCV stores colour images as BGR; every function here speaks RGB so the
+rest of the code never has to think about channel order. Files are read
+through ``np.fromfile`` + ``cv2.imdecode`` (and written the mirror way) so
+non-ASCII paths work on Windows, where ``cv2.imread`` cannot open them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+_JPEG_MAGIC = b"\xff\xd8\xff"
+
+
+class ImageReadError(OSError):
+    """An image file is missing, unreadable or not a decodable image."""
+
+
+def to_float(img: np.ndarray) -> np.ndarray:
+    """Scale uint8/uint16/float pixels to float32 in [0, 1] (NaN -> 0)."""
+    img = np.asarray(img)
+    if img.dtype == np.uint8:
+        return img.astype(np.float32) / np.float32(255)
+    if img.dtype == np.uint16:
+        return img.astype(np.float32) / np.float32(65535)
+    if img.dtype == np.bool_:
+        return img.astype(np.float32)
+    if np.issubdtype(img.dtype, np.floating):
+        out = np.nan_to_num(img.astype(np.float32), nan=0.0, posinf=1.0, neginf=0.0)
+        return np.clip(out, 0.0, 1.0, out=out)
+    raise TypeError(f"unsupported pixel type {img.dtype}; expected uint8, uint16 or float")
+
+
+def to_uint8(img: np.ndarray) -> np.ndarray:
+    """Convert float [0, 1] (clipped), uint16 or uint8 pixels to uint8."""
+    img = np.asarray(img)
+    if img.dtype == np.uint8:
+        return img
+    if img.dtype == np.uint16:
+        return ((img.astype(np.uint32) + 128) // 257).astype(np.uint8)
+    return (to_float(img) * 255.0 + 0.5).astype(np.uint8)
+
+
+def to_uint16(img: np.ndarray) -> np.ndarray:
+    """Convert float [0, 1] (clipped), uint8 or uint16 pixels to uint16."""
+    img = np.asarray(img)
+    if img.dtype == np.uint16:
+        return img
+    if img.dtype == np.uint8:
+        return img.astype(np.uint16) * np.uint16(257)
+    return (to_float(img).astype(np.float64) * 65535.0 + 0.5).astype(np.uint16)
+
+
+def _to_rgb(img: np.ndarray) -> np.ndarray:
+    """Float image of any channel layout OpenCV returns -> (H, W, 3) RGB."""
+    if img.ndim == 2:
+        img = img[:, :, None]
+    channels = img.shape[2]
+    if channels == 1:
+        return np.repeat(img, 3, axis=2)
+    if channels == 2:  # gray + alpha: transparent areas project as black
+        return np.repeat(img[:, :, :1] * img[:, :, 1:], 3, axis=2)
+    if channels == 3:
+        return np.ascontiguousarray(img[:, :, ::-1])
+    if channels == 4:  # BGRA: transparent areas project as black
+        return np.ascontiguousarray(img[:, :, 2::-1] * img[:, :, 3:4])
+    raise ValueError(f"unsupported channel count {channels}")
+
+
+def read_image(path) -> np.ndarray:
+    """Read an 8/16-bit PNG, JPEG, BMP, TIFF, ... as float32 RGB (H, W, 3) in [0, 1].
+
+    Grayscale is replicated to three channels; alpha is composited over black.
+    Raises ImageReadError naming the file when it is missing or undecodable.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ImageReadError(f"image file not found: {path}")
+    try:
+        data = np.fromfile(path, dtype=np.uint8)
+    except OSError as exc:
+        raise ImageReadError(f"cannot read image file {path}: {exc}") from exc
+    # JPEG cannot hold alpha, so decode it with EXIF rotation applied;
+    # everything else UNCHANGED to keep 16-bit depth and the alpha channel.
+    if data[:3].tobytes() == _JPEG_MAGIC:
+        flags = cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH
+    else:
+        flags = cv2.IMREAD_UNCHANGED
+    img = cv2.imdecode(data, flags) if data.size else None
+    if img is None:
+        raise ImageReadError(
+            f"cannot decode image file {path}: it is empty, truncated or not a supported image format"
+        )
+    try:
+        return _to_rgb(to_float(img))
+    except (TypeError, ValueError) as exc:
+        raise ImageReadError(f"cannot use image file {path}: {exc}") from exc
+
+
+def atomic_write_bytes(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` via a temporary file in the same folder.
+
+    The final name only appears once the bytes are completely written, so a
+    full disk or crash mid-write leaves the previous file (or nothing), never
+    a truncated one. No fsync: ENOSPC surfaces at write/close, before the
+    rename, and fsync per file would slow down captures of thousands of images.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.replace(tmp_name, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp_name)
+        raise
+    return path
+
+
+def write_png(path, img: np.ndarray, bit_depth: int = 8) -> Path:
+    """Write an RGB (H, W, 3) or grayscale (H, W) image as an 8- or 16-bit PNG.
+
+    Accepts float [0, 1] (clipped), uint8 or uint16 pixels. Parent folders are
+    created; the write is atomic (see atomic_write_bytes).
+    """
+    if bit_depth not in (8, 16):
+        raise ValueError(f"bit_depth must be 8 or 16, got {bit_depth}")
+    img = np.asarray(img)
+    if not (img.ndim == 2 or (img.ndim == 3 and img.shape[2] in (1, 3))):
+        raise ValueError(f"expected an (H, W) or (H, W, 3) image, got shape {img.shape}")
+    pixels = to_uint8(img) if bit_depth == 8 else to_uint16(img)
+    if pixels.ndim == 3 and pixels.shape[2] == 3:
+        pixels = pixels[:, :, ::-1]
+    ok, encoded = cv2.imencode(".png", np.ascontiguousarray(pixels))
+    if not ok:
+        raise OSError(f"OpenCV failed to encode PNG for {path}")
+    return atomic_write_bytes(path, encoded.tobytes())

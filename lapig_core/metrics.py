@@ -1,0 +1,107 @@
+"""Image quality metrics: PSNR, RMSE, SSIM (numpy or torch inputs).
+
+Layout convention: numpy arrays are channel-last ((H,W), (H,W,C), (N,H,W,C)),
+as produced by OpenCV/imageio; torch tensors are channel-first ((C,H,W) or
+(N,C,H,W)). Values are floats in [0, 1]; uint8 inputs are divided by 255.
+All metrics are averaged over every pixel, channel and image, computed in float64.
+
+SSIM: Gaussian window 11x11, sigma 1.5, per channel, C1=(0.01)^2, C2=(0.03)^2,
+mean of the SSIM map over the *valid* region (no padding), i.e. the same
+definition as pytorch-msssim's `ssim` (used by losses.py). Note that the
+original CompenNeSt++ evaluation code zero-pads ("same" convolution), which
+gives slightly different (border-affected) values.
+"""
+import math
+
+import numpy as np
+import torch
+from torch.nn import functional as F
+
+SSIM_WIN_SIZE = 11
+SSIM_SIGMA = 1.5
+SSIM_K = (0.01, 0.03)
+
+
+def to_nchw(img) -> torch.Tensor:
+    """numpy (channel-last) or torch (channel-first) image(s) -> float64 NCHW tensor."""
+    if isinstance(img, torch.Tensor):
+        t = img.detach()
+        if t.dim() == 2:
+            t = t[None, None]
+        elif t.dim() == 3:
+            t = t[None]
+    else:
+        a = np.asarray(img)
+        if a.ndim == 2:
+            a = a[..., None]
+        if a.ndim == 3:
+            a = a[None]
+        t = torch.from_numpy(np.ascontiguousarray(a)).permute(0, 3, 1, 2)
+    if t.dim() != 4:
+        raise ValueError(f"expected 2-4 dimensional image(s), got shape {tuple(t.shape)}")
+    scale = 255.0 if t.dtype == torch.uint8 else 1.0
+    return t.to(torch.float64) / scale
+
+
+def _pair(pred, target):
+    p, t = to_nchw(pred), to_nchw(target)
+    if p.shape != t.shape:
+        raise ValueError(f"shape mismatch: {tuple(p.shape)} vs {tuple(t.shape)}")
+    return p, t.to(p.device)
+
+
+def gaussian_window(size: int = SSIM_WIN_SIZE, sigma: float = SSIM_SIGMA, dtype=torch.float64,
+                    device=None) -> torch.Tensor:
+    """Normalised 1-D Gaussian (the 2-D window is its outer product)."""
+    c = torch.arange(size, dtype=dtype, device=device) - size // 2
+    g = torch.exp(-(c ** 2) / (2 * sigma ** 2))
+    return g / g.sum()
+
+
+def ssim_torch(x: torch.Tensor, y: torch.Tensor, data_range: float = 1.0,
+               win_size: int = SSIM_WIN_SIZE, sigma: float = SSIM_SIGMA, k=SSIM_K) -> torch.Tensor:
+    """Differentiable mean SSIM of NCHW tensors (valid region), in the input dtype."""
+    n, c, h, w = x.shape
+    if min(h, w) < win_size:
+        raise ValueError(f"SSIM needs images at least {win_size}px, got {h}x{w}")
+    g = gaussian_window(win_size, sigma, x.dtype, x.device)
+    gh = g.view(1, 1, 1, -1).repeat(c, 1, 1, 1)  # separable: rows then columns
+    gv = g.view(1, 1, -1, 1).repeat(c, 1, 1, 1)
+
+    def blur(z):
+        return F.conv2d(F.conv2d(z, gh, groups=c), gv, groups=c)
+
+    c1, c2 = (k[0] * data_range) ** 2, (k[1] * data_range) ** 2
+    mx, my = blur(x), blur(y)
+    sxx = blur(x * x) - mx * mx
+    syy = blur(y * y) - my * my
+    sxy = blur(x * y) - mx * my
+    smap = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
+    return smap.mean()
+
+
+def mse(pred, target) -> float:
+    p, t = _pair(pred, target)
+    return float(((p - t) ** 2).mean())
+
+
+def psnr(pred, target) -> float:
+    """10 log10(1 / MSE) for data range 1; inf for identical images."""
+    m = mse(pred, target)
+    return math.inf if m == 0 else 10.0 * math.log10(1.0 / m)
+
+
+def rmse(pred, target) -> float:
+    """sqrt(C * MSE): the RMS over pixels of the per-pixel colour (RGB) Euclidean error."""
+    p, t = _pair(pred, target)
+    return math.sqrt(p.shape[1] * float(((p - t) ** 2).mean()))
+
+
+def ssim(pred, target) -> float:
+    p, t = _pair(pred, target)
+    return float(ssim_torch(p, t))
+
+
+def evaluate(pred, target) -> dict:
+    """All three metrics at once, as plain floats."""
+    return {"psnr": psnr(pred, target), "rmse": rmse(pred, target), "ssim": ssim(pred, target)}

@@ -1,0 +1,118 @@
+"""Pinhole model of a video projector: pixel <-> ray geometry and its light transfer.
+
+The same formulas drive the Blender light's node tree (lapig_addon.projector_nodes) and the exact
+ray-cast check of the registration, so they live here once, free of bpy.
+
+Conventions: the projector looks down its local -Z axis with +X right and +Y up, like a Blender
+camera. Normalised image coordinates (u, v) run 0..1 from the left and from the *bottom* edge (the
+convention of Blender's image textures); pixel coordinates follow OpenCV: pixel (col i, row j) has
+its centre at (i, j), rows counted from the top.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ProjectorModel:
+    width: int = 800
+    height: int = 600
+    throw_ratio: float = 1.5  # distance / image width
+    shift_x: float = 0.0  # lens shift, in image widths
+    shift_y: float = 0.0  # lens shift, in image heights
+    gamma: float = 2.2  # input value -> relative light output
+    black_level: float = 0.002  # light leaked by a black input, relative to white
+
+    def __post_init__(self):
+        if self.width < 2 or self.height < 2:
+            raise ValueError(f"projector resolution must be at least 2x2, got {self.width}x{self.height}")
+        if not self.throw_ratio > 0:
+            raise ValueError(f"throw ratio must be positive, got {self.throw_ratio}")
+        if not 0 <= self.black_level < 1:
+            raise ValueError(f"black level must be in [0, 1), got {self.black_level}")
+        if not self.gamma > 0:
+            raise ValueError(f"projector gamma must be positive, got {self.gamma}")
+
+    @property
+    def aspect(self) -> float:
+        return self.width / self.height
+
+    # u = 0.5 + shift_x + throw * x / d ; v = 0.5 + shift_y + throw * aspect * y / d, d = -z
+    def uv_scale(self) -> tuple[float, float]:
+        return self.throw_ratio, self.throw_ratio * self.aspect
+
+    def directions_to_uv(self, directions: np.ndarray) -> np.ndarray:
+        """Local-space directions (..., 3) -> normalised (u, v); NaN behind the projector."""
+        d = np.asarray(directions, dtype=np.float64)
+        depth = -d[..., 2]
+        sx, sy = self.uv_scale()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = 0.5 + self.shift_x + sx * d[..., 0] / depth
+            v = 0.5 + self.shift_y + sy * d[..., 1] / depth
+        behind = depth <= 0
+        u = np.where(behind, np.nan, u)
+        v = np.where(behind, np.nan, v)
+        return np.stack([u, v], axis=-1)
+
+    def uv_to_pixel(self, uv: np.ndarray) -> np.ndarray:
+        """Normalised (u, v) -> continuous pixel coordinates (x, y) in OpenCV convention."""
+        uv = np.asarray(uv, dtype=np.float64)
+        x = uv[..., 0] * self.width - 0.5
+        y = (1.0 - uv[..., 1]) * self.height - 0.5
+        return np.stack([x, y], axis=-1)
+
+    def pixel_to_uv(self, xy: np.ndarray) -> np.ndarray:
+        xy = np.asarray(xy, dtype=np.float64)
+        u = (xy[..., 0] + 0.5) / self.width
+        v = 1.0 - (xy[..., 1] + 0.5) / self.height
+        return np.stack([u, v], axis=-1)
+
+    def pixel_to_direction(self, xy: np.ndarray) -> np.ndarray:
+        """Continuous pixel coordinates -> unit local-space ray directions (..., 3)."""
+        uv = self.pixel_to_uv(xy)
+        sx, sy = self.uv_scale()
+        x = (uv[..., 0] - 0.5 - self.shift_x) / sx
+        y = (uv[..., 1] - 0.5 - self.shift_y) / sy
+        d = np.stack([x, y, -np.ones_like(x)], axis=-1)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    def half_angles(self) -> tuple[float, float]:
+        """Largest angle off the axis, horizontally and vertically (lens shift included)."""
+        sx, sy = self.uv_scale()
+        hx = (0.5 + abs(self.shift_x)) / sx
+        hy = (0.5 + abs(self.shift_y)) / sy
+        return float(np.arctan(hx)), float(np.arctan(hy))
+
+    def emitted(self, image: np.ndarray) -> np.ndarray:
+        """Input image values in [0,1] -> relative emitted light (gamma, then black-level leak)."""
+        x = np.clip(np.asarray(image, dtype=np.float32), 0.0, 1.0)
+        return self.black_level + (1.0 - self.black_level) * np.power(x, self.gamma)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def square_region(width: int, height: int) -> tuple[int, int, int]:
+    """(x0, y0, side) of the central square of a width x height frame, in whole pixels."""
+    side = min(width, height)
+    return (width - side) // 2, (height - side) // 2, side
+
+
+def frame_from_working_image(image: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Place a square working image in the central square of a native frame, black elsewhere.
+
+    The working (e.g. 256x256) projector image covers the central square of the projector frame,
+    so the registered capture (crop of that square) lines up with it pixel for pixel.
+    """
+    import cv2
+
+    x0, y0, side = square_region(width, height)
+    img = np.asarray(image, dtype=np.float32)
+    if img.ndim == 2:
+        img = np.repeat(img[..., None], 3, axis=-1)
+    frame = np.zeros((height, width, 3), np.float32)
+    interp = cv2.INTER_LINEAR if side >= img.shape[0] else cv2.INTER_AREA
+    frame[y0:y0 + side, x0:x0 + side] = cv2.resize(img, (side, side), interpolation=interp)
+    return frame

@@ -1,0 +1,41 @@
+"""Comparison and contact sheets: labelled image grids saved as PNG for people to look at."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def _fit(img, cell):
+    import cv2
+
+    img = np.asarray(img, np.float32)
+    if img.dtype != np.float32 or img.max() > 1.0 + 1e-6:
+        img = img / 255.0
+    if img.ndim == 2:
+        img = np.repeat(img[..., None], 3, -1)
+    h, w = img.shape[:2]
+    scale = min(cell / w, cell / h)
+    resized = cv2.resize(img, (max(1, round(w * scale)), max(1, round(h * scale))),
+                         interpolation=cv2.INTER_AREA if scale < 1 else cv2.INTER_LINEAR)
+    out = np.full((cell, cell, 3), 0.12, np.float32)
+    y0, x0 = (cell - resized.shape[0]) // 2, (cell - resized.shape[1]) // 2
+    out[y0:y0 + resized.shape[0], x0:x0 + resized.shape[1]] = resized
+    return out
+
+
+def labelled_grid(images, labels=None, columns=4, cell=256, title=None) -> np.ndarray:
+    """Images (any size, float [0,1] or uint8) in a grid with a caption under each."""
+    import cv2
+
+    labels = list(labels or [""] * len(images))
+    rows = (len(images) + columns - 1) // columns
+    caption, header = 22, (30 if title else 0)
+    sheet = np.full((header + rows * (cell + caption), columns * cell, 3), 1.0, np.float32)
+    if title:
+        cv2.putText(sheet, title, (8, 21), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 0, 0), 1, cv2.LINE_AA)
+    for i, (img, label) in enumerate(zip(images, labels)):
+        r, c = divmod(i, columns)
+        y, x = header + r * (cell + caption), c * cell
+        sheet[y:y + cell, x:x + cell] = _fit(img, cell)
+        cv2.putText(sheet, str(label)[:40], (x + 4, y + cell + 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
+                    (0, 0, 0), 1, cv2.LINE_AA)
+    return sheet

@@ -1,0 +1,310 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Gray-code structured light: patterns, decoding and the projector -> camera map.
+
+Conventions (shared with the exact ray-cast check elsewhere): image coordinates follow OpenCV,
+pixel (col i, row j) has its centre at (x=i, y=j) and arrays are indexed [row, col]. A camera
+point anywhere inside projector pixel (px, py) decodes to (px, py), whose continuous position is
+that pixel's centre (px, py).
+
+Pattern order (``graycode_patterns``), as produced by OpenCV's ``GrayCodePattern.generate``:
+for each column bit, most significant first, the pattern (white where that bit of the Gray code
+of the column is 1) then its complement; then the same for the row bits; we append a plain white
+and a plain black frame. With n_c = ceil(log2 Wp) and n_r = ceil(log2 Hp) bits that is
+2 * (n_c + n_r) + 2 images (42 for 800x600, 40 for 1024x768).
+
+Plain Python + numpy + OpenCV; never imports bpy.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import cv2
+import numpy as np
+
+# Default thresholds, in 8-bit units (scaled by 1/255 for float captures in [0, 1]).
+BLACK_THRESHOLD = 20.0  # white - black must exceed this: the pixel is lit by the projector
+WHITE_THRESHOLD = 5.0  # |pattern - complement| must reach this for every bit: bit is readable
+
+
+def _bits(n: int) -> int:
+    return (int(n) - 1).bit_length()  # ceil(log2 n), as OpenCV counts pattern bits
+
+
+def _check_proj_size(proj_width, proj_height):
+    if int(proj_width) != proj_width or int(proj_height) != proj_height:
+        raise ValueError(f"projector size must be integers, got {proj_width}x{proj_height}")
+    if proj_width < 2 or proj_height < 2:
+        raise ValueError(f"projector size must be at least 2x2, got {proj_width}x{proj_height}")
+    return int(proj_width), int(proj_height)
+
+
+def pattern_count(proj_width: int, proj_height: int) -> int:
+    """Number of images ``graycode_patterns`` returns (Gray-code pairs + white + black)."""
+    w, h = _check_proj_size(proj_width, proj_height)
+    return 2 * (_bits(w) + _bits(h)) + 2
+
+
+def graycode_patterns(proj_width: int, proj_height: int) -> list[np.ndarray]:
+    """OpenCV's Gray-code pattern set followed by plain white and plain black, uint8 (Hp, Wp).
+
+    Order: [col bit MSB, its complement, ..., col bit LSB, complement, row bit MSB, complement,
+    ..., row bit LSB, complement, white, black] (see the module docstring).
+    """
+    w, h = _check_proj_size(proj_width, proj_height)
+    ok, pats = cv2.structured_light.GrayCodePattern.create(w, h).generate()
+    if not ok:
+        raise RuntimeError("OpenCV failed to generate the Gray-code patterns")
+    out = [np.ascontiguousarray(p, dtype=np.uint8) for p in pats]
+    out.append(np.full((h, w), 255, np.uint8))
+    out.append(np.zeros((h, w), np.uint8))
+    return out
+
+
+@dataclass
+class DecodeResult:
+    """Per camera pixel: the projector pixel it sees (-1 where not decoded) and a validity mask."""
+
+    proj_x: np.ndarray  # int32 (H, W)
+    proj_y: np.ndarray  # int32 (H, W)
+    valid: np.ndarray  # bool (H, W)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.valid.shape
+
+
+_LUMA = np.array([0.299, 0.587, 0.114], np.float32)  # Rec.601 weights, channels taken as RGB
+
+
+def _gray_8bit(img: np.ndarray, index: int) -> np.ndarray:
+    """One capture -> float32 gray in 8-bit units (uint8 as is, floats in [0, 1] times 255)."""
+    if img.dtype == np.uint8:
+        scale = 1.0
+    elif np.issubdtype(img.dtype, np.floating):
+        scale = 255.0
+    else:
+        raise ValueError(f"capture {index}: dtype {img.dtype} not supported (use uint8 or float in [0, 1])")
+    if img.ndim == 3 and img.shape[2] == 1:
+        img = img[:, :, 0]
+    if img.ndim == 3 and img.shape[2] in (3, 4):
+        g = img[:, :, :3].astype(np.float32) @ (_LUMA * np.float32(scale))  # alpha dropped
+    elif img.ndim == 2:
+        g = img.astype(np.float32) * np.float32(scale)
+    else:
+        raise ValueError(f"capture {index}: shape {img.shape} is neither HxW nor HxWx(1|3|4)")
+    return g
+
+
+def _gray_stack(captures, expected: int) -> np.ndarray:
+    if isinstance(captures, np.ndarray):
+        if captures.ndim not in (3, 4):
+            raise ValueError(f"captures array must be N,H,W or N,H,W,C, got shape {captures.shape}")
+        n = captures.shape[0]
+    else:
+        captures = list(captures)
+        n = len(captures)
+    if n != expected:
+        raise ValueError(f"expected {expected} captures (Gray-code pairs + white + black), got {n}")
+    first = np.asarray(captures[0])
+    out = np.empty((n,) + first.shape[:2], np.float32)
+    for k in range(n):  # per image, not per pixel: avoids a full float copy of colour stacks
+        img = np.asarray(captures[k])
+        if img.shape != first.shape:
+            raise ValueError(f"capture {k} has shape {img.shape}, capture 0 has {first.shape}")
+        out[k] = _gray_8bit(img, k)
+    return out
+
+
+def decode_graycode(
+    captures: Sequence[np.ndarray] | np.ndarray,
+    proj_width: int,
+    proj_height: int,
+    black_threshold: float = BLACK_THRESHOLD,
+    white_threshold: float = WHITE_THRESHOLD,
+) -> DecodeResult:
+    """Decode camera captures of ``graycode_patterns`` into projector pixel coordinates.
+
+    ``captures``: sequence of HxW or HxWx3 (RGB; x4 drops alpha) images, or one N,H,W[,C] array,
+    uint8 or float in [0, 1], in pattern order (last two: white, black). Colour is converted to
+    Rec.601 luma. Thresholds are in 8-bit units whatever the dtype (default black 20, white 5).
+
+    A camera pixel is valid where white - black > black_threshold, every bit has
+    |pattern - complement| >= white_threshold, and the decoded (x, y) lies inside the projector.
+    Bits are read as pattern > complement, exactly like ``GrayCodePattern.getProjPixel``.
+    """
+    w, h = _check_proj_size(proj_width, proj_height)
+    nc, nr = _bits(w), _bits(h)
+    imgs = _gray_stack(captures, 2 * (nc + nr) + 2)
+    valid = (imgs[-2] - imgs[-1]) > black_threshold
+
+    def read(first: int, nbits: int) -> np.ndarray:
+        value = np.zeros(valid.shape, np.int32)
+        binary = np.zeros(valid.shape, bool)
+        for k in range(nbits):  # loop over bits only; each step is whole-image numpy
+            diff = imgs[first + 2 * k] - imgs[first + 2 * k + 1]
+            valid[...] &= np.abs(diff) >= white_threshold
+            binary ^= diff > 0  # Gray -> binary: b_k = b_{k-1} xor g_k
+            value <<= 1
+            value |= binary
+        return value
+
+    px = read(0, nc)
+    py = read(2 * nc, nr)
+    valid &= (px < w) & (py < h)  # non-power-of-two sizes leave unused codes
+    px[~valid] = -1
+    py[~valid] = -1
+    return DecodeResult(px, py, valid)
+
+
+# --------------------------------------------------------------------------
+# Projector -> camera map
+# --------------------------------------------------------------------------
+
+
+def _neighbour_agreement(px, py, valid, tol: float) -> np.ndarray:
+    """Number of 8-neighbours decoding within ``tol`` projector pixels (Chebyshev)."""
+    H, W = valid.shape
+    pad = lambda a, v: np.pad(a, 1, constant_values=v)  # noqa: E731
+    qx, qy, qv = pad(px, -1), pad(py, -1), pad(valid, False)
+    count = np.zeros((H, W), np.int32)
+    for dj in (-1, 0, 1):
+        for di in (-1, 0, 1):
+            if di == 0 and dj == 0:
+                continue
+            sl = (slice(1 + dj, 1 + dj + H), slice(1 + di, 1 + di + W))
+            ok = qv[sl] & (np.abs(qx[sl] - px) <= tol) & (np.abs(qy[sl] - py) <= tol)
+            count += ok
+    return count
+
+
+def _sample_density(px, py, ok) -> float:
+    """Camera samples per projector pixel: 1 / |mean det d(proj)/d(cam)| from forward differences."""
+    px = px.astype(np.float64)
+    py = py.astype(np.float64)
+    m = ok[:-1, :-1] & ok[:-1, 1:] & ok[1:, :-1]
+    dxu = (px[:-1, 1:] - px[:-1, :-1])[m]
+    dyu = (py[:-1, 1:] - py[:-1, :-1])[m]
+    dxv = (px[1:, :-1] - px[:-1, :-1])[m]
+    dyv = (py[1:, :-1] - py[:-1, :-1])[m]
+    smooth = np.maximum.reduce([np.abs(dxu), np.abs(dyu), np.abs(dxv), np.abs(dyv)]) <= 16  # no depth jumps
+    if smooth.sum() < 16:
+        return 1.0
+    det = abs(float(np.mean(dxu[smooth] * dyv[smooth] - dyu[smooth] * dxv[smooth])))
+    return float(np.clip(1.0 / max(det, 1e-6), 1.0 / 64, 64.0))
+
+
+def projector_to_camera_map(
+    decoded: DecodeResult,
+    proj_width: int,
+    proj_height: int,
+    sigma: float | None = None,
+    max_offset: float = 0.8,
+    max_residual: float = 1.5,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Dense map from every native projector pixel centre to continuous camera coordinates.
+
+    Each decoded camera pixel is a sample: camera centre (i, j) seen at projector pixel (px, py).
+    Around every projector pixel p we fit camera = b + A (q - p) by Gaussian-weighted least squares
+    over the samples q; b is the estimate. The weighted moments are accumulated on the projector
+    grid and filtered with separable kernels g, x g, x^2 g, so everything is whole-image work.
+
+    ``sigma`` (projector pixels): Gaussian width; None picks it from the sample density so the
+    window holds ~8 samples (about 1 when the camera is finer than the projector, ~2 at 0.55
+    camera px per projector px). A pixel is valid where its window has enough support, the
+    samples' weighted centroid is within ``max_offset * sigma`` (no extrapolation past edges), the
+    fit is well conditioned, and its RMS residual is below ``max_residual`` projector pixels
+    (windows straddling a depth discontinuity mix two surfaces).
+
+    Returns (cam_xy float32 (Hp, Wp, 2) holding [x, y], -1 where invalid; valid bool (Hp, Wp)).
+    """
+    w, h = _check_proj_size(proj_width, proj_height)
+    if not isinstance(decoded, DecodeResult):
+        raise ValueError("decoded must be a DecodeResult from decode_graycode")
+    px, py, ok = decoded.proj_x, decoded.proj_y, decoded.valid.copy()
+    if not (px.shape == py.shape == ok.shape) or ok.ndim != 2:
+        raise ValueError(f"DecodeResult arrays disagree in shape: {px.shape}, {py.shape}, {ok.shape}")
+    ok &= (px >= 0) & (px < w) & (py >= 0) & (py < h)
+    cam_xy = np.full((h, w, 2), -1.0, np.float32)
+    valid = np.zeros((h, w), bool)
+    if ok.sum() < 16:
+        return cam_xy, valid
+
+    rho = _sample_density(px, py, ok)  # camera samples per projector pixel
+    step = 1.0 / np.sqrt(rho)  # projector pixels between neighbouring camera pixels
+    # Drop isolated mis-decodes (bit errors jump far): need two neighbours that agree.
+    ok &= _neighbour_agreement(px, py, ok, tol=2.0 + 2.0 * step) >= 2
+    if sigma is None:
+        sigma = float(np.clip(1.5 * step, 1.5, 8.0))  # 2 pi sigma^2 rho >= ~14 samples
+    if not sigma > 0:
+        raise ValueError(f"sigma must be positive, got {sigma}")
+
+    jj, ii = np.nonzero(ok)
+    cell = py[jj, ii].astype(np.int64) * w + px[jj, ii]
+    # Camera coordinates relative to their mean keep the float64 moments well scaled.
+    cu0, cv0 = float(ii.mean()), float(jj.mean())
+    cu, cv = ii - cu0, jj - cv0
+    n_cells = w * h
+
+    def acc(weights=None):
+        return np.bincount(cell, weights=weights, minlength=n_cells).reshape(h, w).astype(np.float64)
+
+    n = acc()
+    su, sv = acc(cu), acc(cv)
+    sq = acc(cu * cu) + acc(cv * cv)  # only the total squared norm is needed for residuals
+
+    r = int(np.ceil(3 * sigma))
+    d = np.arange(-r, r + 1, dtype=np.float64)
+    g = np.exp(-0.5 * (d / sigma) ** 2)
+    g1, g2 = d * g, d * d * g
+
+    def filt(img, kx, ky):  # correlation: sum_q k(q - p) img(q); zero outside the frame
+        return cv2.sepFilter2D(img, cv2.CV_64F, kx, ky, borderType=cv2.BORDER_CONSTANT)
+
+    base = np.dstack([n, su, sv])
+    m0 = filt(base, g, g)  # [sum w, sum w cu, sum w cv]
+    mx = filt(base, g1, g)  # [sum w dx, sum w dx cu, sum w dx cv]
+    my = filt(base, g, g1)
+    m20 = filt(n, g2, g)
+    m11 = filt(n, g1, g1)
+    m02 = filt(n, g, g2)
+    mcc = filt(sq, g, g)
+
+    s0, s1, s2 = m0[..., 0], mx[..., 0], my[..., 0]
+    has = s0 > 1e-9
+    s0s = np.where(has, s0, 1.0)
+    # Normal equations [[s0 s1 s2][s1 m20 m11][s2 m11 m02]] beta = rhs; symmetric adjugate inverse.
+    c00 = m20 * m02 - m11 * m11
+    c01 = s2 * m11 - s1 * m02
+    c02 = s1 * m11 - m20 * s2
+    c11 = s0 * m02 - s2 * s2
+    c12 = s1 * s2 - s0 * m11
+    c22 = s0 * m20 - s1 * s1
+    det = s0 * c00 + s1 * c01 + s2 * c02
+    # Conditioning: determinant of the weighted covariance of sample offsets vs a full window.
+    cov_det = np.where(has, det / s0s**3, 0.0)
+    good = has & (cov_det > 0.04 * sigma**4)
+    det = np.where(good, det, 1.0)
+
+    sse = mcc.copy()
+    est = []
+    for ch in (1, 2):
+        r0, r1, r2 = m0[..., ch], mx[..., ch], my[..., ch]
+        b0 = (c00 * r0 + c01 * r1 + c02 * r2) / det
+        b1 = (c01 * r0 + c11 * r1 + c12 * r2) / det
+        b2 = (c02 * r0 + c12 * r1 + c22 * r2) / det
+        sse -= b0 * r0 + b1 * r1 + b2 * r2
+        est.append(b0)
+    rms = np.sqrt(np.maximum(sse, 0.0) / s0s)  # camera pixels
+
+    full = 2 * np.pi * sigma**2 * rho  # expected support of a fully covered window
+    offset = np.hypot(s1, s2) / s0s
+    valid = (
+        good
+        & (s0 >= 0.25 * full)
+        & (offset <= max_offset * sigma)
+        & (rms <= max_residual * np.sqrt(rho))  # sqrt(rho): camera px per projector px
+    )
+    cam_xy[..., 0] = np.where(valid, est[0] + cu0, -1.0)
+    cam_xy[..., 1] = np.where(valid, est[1] + cv0, -1.0)
+    return cam_xy, valid

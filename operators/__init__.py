@@ -1,0 +1,14 @@
+"""Operators: thin wrappers that validate input, call lapig_addon, and report to the user."""
+from . import capture_ops, rig_ops
+
+_MODULES = (rig_ops, capture_ops)
+
+
+def register():
+    for module in _MODULES:
+        module.register()
+
+
+def unregister():
+    for module in reversed(_MODULES):
+        module.unregister()

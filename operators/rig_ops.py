@@ -1,0 +1,39 @@
+import bpy
+
+from ..lapig_addon import rig
+
+
+class LAPIG_OT_add_rig(bpy.types.Operator):
+    """Add a projector and a camera aimed at the selected object, so it fills the projector's frame"""
+    bl_idname = "lapig.add_rig"
+    bl_label = "Add Projector and Camera"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        settings = context.scene.lapig
+        target = context.active_object if context.active_object and context.active_object.select_get() \
+            else None
+        if target is None or target.type != "MESH":
+            self.report({"ERROR"}, "Select the mesh object to project on first")
+            return {"CANCELLED"}
+        try:
+            projector, camera, placement = rig.add_rig(context, target, settings.projector, settings.camera)
+        except (rig.RigError, ValueError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        kind = "filling the surface" if placement.planar else "fitting the object"
+        self.report({"INFO"}, f"Projector {placement.distance:.2f} m from '{target.name}', {kind}")
+        return {"FINISHED"}
+
+
+CLASSES = (LAPIG_OT_add_rig,)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,139 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+import time
+
+import cv2
+import numpy as np
+import pytest
+
+from lapig_core.imageio import write_png
+from lapig_core.patterns import (
+    PatternFolderError,
+    generate_pattern,
+    generate_patterns,
+    load_image_folder,
+    reference_patterns,
+)
+
+
+@pytest.fixture(scope="module")
+def set_of_100():
+    return generate_patterns(100, size=64, seed=0)
+
+
+def test_shape_dtype_range(set_of_100):
+    assert set_of_100.shape == (100, 64, 64, 3)
+    assert set_of_100.dtype == np.float32
+    assert set_of_100.min() >= 0.0 and set_of_100.max() <= 1.0
+    assert np.isfinite(set_of_100).all()
+
+
+def test_deterministic_per_seed():
+    a = generate_patterns(4, size=48, seed=7)
+    b = generate_patterns(4, size=48, seed=7)
+    c = generate_patterns(4, size=48, seed=8)
+    assert np.array_equal(a, b)
+    assert np.abs(a - c).mean() > 0.05
+
+
+def test_image_k_independent_of_count():
+    few = generate_patterns(3, size=48, seed=3)
+    many = generate_patterns(9, size=48, seed=3)
+    assert np.array_equal(few, many[:3])
+    assert np.array_equal(many[6], generate_pattern(6, size=48, seed=3))
+
+
+def test_colour_coverage(set_of_100):
+    pixels = set_of_100.reshape(-1, 3)
+    for channel in range(3):
+        hist, _ = np.histogram(pixels[:, channel], bins=10, range=(0.0, 1.0))
+        fractions = hist / hist.sum()
+        assert fractions.min() > 0.03, fractions  # every tenth of the range is used
+    # the corners and interior of the RGB cube are all reached
+    cells = np.unique(np.minimum((pixels * 4).astype(int), 3), axis=0)
+    assert len(cells) == 64
+
+
+def test_variety(set_of_100):
+    flat = set_of_100.reshape(100, -1)
+    diffs = [np.abs(flat[i] - flat[j]).mean() for i in range(0, 100, 3) for j in range(i + 1, 100, 3)]
+    assert np.mean(diffs) > 0.2
+    assert min(diffs) > 0.02  # no two near-identical images
+    # each image has structure, not a flat field
+    assert (set_of_100.reshape(100, -1, 3).std(axis=1).mean(axis=1) > 0.03).mean() > 0.95
+
+
+def test_contains_fine_detail(set_of_100):
+    # strong pixel-to-pixel differences: hard edges and high frequencies exist
+    gradient = np.abs(np.diff(set_of_100, axis=2)).max(axis=3)
+    assert (gradient > 0.5).mean(axis=(1, 2)).max() > 0.01
+    assert ((gradient > 0.3).any(axis=(1, 2))).mean() > 0.8
+
+
+def test_speed_budget():
+    start = time.perf_counter()
+    generate_patterns(20, size=256, seed=1)
+    assert time.perf_counter() - start < 2.0  # target: 100 images in < 3 s
+
+
+def test_invalid_arguments():
+    with pytest.raises(ValueError):
+        generate_patterns(-1)
+    with pytest.raises(ValueError):
+        generate_patterns(1, size=4)
+    assert generate_patterns(0, size=16).shape == (0, 16, 16, 3)
+
+
+def test_reference_patterns():
+    refs = reference_patterns(size=16, gray_level=0.25)
+    assert set(refs) == {"black", "white", "gray"}
+    assert refs["black"].max() == 0.0 and refs["white"].min() == 1.0
+    assert np.allclose(refs["gray"], 0.25) and refs["gray"].dtype == np.float32
+    with pytest.raises(ValueError):
+        reference_patterns(gray_level=1.5)
+
+
+def _write_raw(path, array):
+    ok, data = cv2.imencode(path.suffix, array)
+    assert ok
+    path.write_bytes(data.tobytes())
+
+
+def test_load_image_folder_formats(tmp_path):
+    wide = np.zeros((40, 80, 3), np.float32)
+    wide[:, 20:60] = (1.0, 0.0, 0.0)  # red centre square, blue borders cropped away
+    wide[:, :20] = wide[:, 60:] = (0.0, 0.0, 1.0)
+    write_png(tmp_path / "a_wide.png", wide)
+    _write_raw(tmp_path / "b_gray16.png", np.full((32, 32), 65535, np.uint16))
+    bgra = np.zeros((32, 32, 4), np.uint8)
+    bgra[..., 1] = 255  # green
+    bgra[:16, :, 3] = 255  # top half opaque, bottom transparent
+    _write_raw(tmp_path / "c_alpha.png", bgra)
+    _write_raw(tmp_path / "d.jpg", np.full((32, 32, 3), (255, 0, 0), np.uint8))  # BGR blue
+    _write_raw(tmp_path / "e.bmp", np.full((32, 32, 3), 128, np.uint8))
+    _write_raw(tmp_path / "f.tif", np.full((32, 32, 3), 64, np.uint8))
+    (tmp_path / "notes.txt").write_text("ignored")
+
+    images = load_image_folder(tmp_path, size=16)
+    assert images.shape == (6, 16, 16, 3) and images.dtype == np.float32
+    assert np.allclose(images[0], (1.0, 0.0, 0.0), atol=0.01)  # centre crop, RGB order
+    assert np.allclose(images[1], 1.0)
+    assert np.allclose(images[2][:6], (0.0, 1.0, 0.0), atol=0.01)
+    assert np.allclose(images[2][10:], 0.0, atol=0.01)
+    assert images[3][..., 2].mean() > 0.9 and images[3][..., 0].mean() < 0.1
+    assert np.allclose(images[4], 128 / 255, atol=0.01)
+    assert load_image_folder(tmp_path, size=16, count=2).shape == (2, 16, 16, 3)
+
+
+def test_load_image_folder_errors(tmp_path):
+    missing = tmp_path / "nowhere"
+    with pytest.raises(PatternFolderError, match="nowhere"):
+        load_image_folder(missing)
+    (tmp_path / "readme.txt").write_text("no images here")
+    with pytest.raises(PatternFolderError, match=str(tmp_path.name)):
+        load_image_folder(tmp_path)
+    write_png(tmp_path / "good.png", np.zeros((8, 8, 3)))
+    (tmp_path / "broken.png").write_bytes(b"\x89PNG\r\n\x1a\n garbage")
+    with pytest.raises(PatternFolderError, match="broken.png"):
+        load_image_folder(tmp_path, size=8)
+    with pytest.raises(PatternFolderError, match="requested"):
+        load_image_folder(tmp_path, size=8, count=5)

@@ -1,0 +1,196 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Tests for lapig_core.registration, on the synthetic rig of test_structured_light.py."""
+from __future__ import annotations
+
+import importlib.util
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lapig_core.registration import (
+    Registration,
+    square_crop_grid,
+    supersampled_map,
+    warp_to_projector,
+    working_map,
+)
+from lapig_core.structured_light import decode_graycode, graycode_patterns, projector_to_camera_map
+
+# The rig lives beside us; load it by path so this works whatever pytest's import mode.
+_spec = importlib.util.spec_from_file_location("_sl_rig", Path(__file__).with_name("test_structured_light.py"))
+sl = sys.modules.setdefault("_sl_rig", importlib.util.module_from_spec(_spec))
+_spec.loader.exec_module(sl)
+PW, PH, CW, CH, MASK = sl.PW, sl.PH, sl.CW, sl.CH, sl.MASK
+SIZE = 256
+
+
+def smooth_image(X, Y):
+    return 0.5 + 0.4 * np.sin(2 * np.pi * X / 97.0) * np.cos(2 * np.pi * Y / 131.0)
+
+
+@pytest.fixture(scope="module", params=[0.55, 1.5], ids=["coarse-camera", "fine-camera"])
+def reg_scene(request):
+    rig = sl.Rig(request.param)
+    view = rig.camera_view()
+    dec = decode_graycode(rig.render(graycode_patterns(PW, PH), view), PW, PH)
+    t0 = time.perf_counter()
+    reg = Registration.from_decoded(dec, PW, PH, SIZE, supersample=2)
+    t_reg = time.perf_counter() - t0
+    cam_xy, valid = projector_to_camera_map(dec, PW, PH)
+    return dict(rig=rig, view=view, reg=reg, dense=(cam_xy, valid), t_reg=t_reg)
+
+
+def test_from_decoded_equals_from_map(reg_scene):
+    reg = reg_scene["reg"]
+    ref = Registration.from_map(*reg_scene["dense"], PW, PH, SIZE, 2, camera_shape=(CH, CW))
+    assert reg.camera_shape == ref.camera_shape == (CH, CW)
+    for name in ("map_x", "map_y", "valid", "fine_x", "fine_y", "fine_valid"):
+        assert np.array_equal(getattr(reg, name), getattr(ref, name))
+    assert reg.fine_x.shape == (2 * SIZE, 2 * SIZE)
+
+
+# -- grid and map sampling ------------------------------------------------------------------
+
+
+def test_square_crop_grid():
+    xs, ys = square_crop_grid(800, 600, 256)
+    j = np.arange(256)
+    assert np.allclose(xs, 100 + (j + 0.5) * 600 / 256 - 0.5)
+    assert np.allclose(ys, (j + 0.5) * 600 / 256 - 0.5)
+    assert np.isclose(xs.mean(), 399.5) and np.isclose(ys.mean(), 299.5)  # centred on the frame
+    xs, ys = square_crop_grid(600, 800, 600)  # portrait, 1:1: native pixel centres
+    assert np.allclose(xs, np.arange(600)) and np.allclose(ys, 100 + np.arange(600))
+    with pytest.raises(ValueError):
+        square_crop_grid(800, 600, 0)
+
+
+def test_working_map_is_bilinear_and_propagates_invalid():
+    Y, X = np.mgrid[0:PH, 0:PW].astype(np.float64)
+    cam = np.dstack([0.5 * X + 0.1 * Y + 3.0, -0.05 * X + 0.6 * Y + 7.0]).astype(np.float32)
+    valid = np.ones((PH, PW), bool)
+    valid[300, 400] = False
+    mx, my, ok = working_map(cam, valid, PW, PH, SIZE)
+    assert mx.shape == my.shape == ok.shape == (SIZE, SIZE) and mx.dtype == np.float32
+    xs, ys = square_crop_grid(PW, PH, SIZE)
+    gx, gy = np.meshgrid(xs, ys)
+    bad = (np.abs(gx - 400) < 1) & (np.abs(gy - 300) < 1)  # footprints touching the bad pixel
+    assert (ok == ~bad).all() and bad.sum() >= 1
+    assert np.allclose(mx[ok], (0.5 * gx + 0.1 * gy + 3.0)[ok], atol=2e-3)
+    assert np.allclose(my[ok], (-0.05 * gx + 0.6 * gy + 7.0)[ok], atol=2e-3)
+    assert (mx[~ok] == -1).all()
+    with pytest.raises(ValueError, match="cam_xy has shape"):
+        working_map(cam[:, :-1], valid, PW, PH)
+
+
+def test_working_map_matches_geometry(reg_scene):
+    rig, reg = reg_scene["rig"], reg_scene["reg"]
+    xs, ys = square_crop_grid(PW, PH, SIZE)
+    gx, gy = np.meshgrid(xs, ys)
+    u, v = rig.forward(gx, gy)
+    ex, ey = sl.solve2(rig.jacobian(gx, gy), reg.map_x - u, reg.map_y - v)
+    err = np.hypot(ex, ey)[reg.valid]  # projector pixels
+    assert reg.valid.mean() > 0.2
+    assert np.median(err) < 0.3 and np.percentile(err, 95) < 1.0
+
+
+# -- warping --------------------------------------------------------------------------------
+
+
+def _expected(reg, white=0.8, black=0.05):
+    xs, ys = square_crop_grid(PW, PH, SIZE)
+    gx, gy = np.meshgrid(xs, ys)
+    return black + (white - black) * smooth_image(gx, gy)
+
+
+def test_registered_smooth_image_matches(reg_scene):
+    rig, view, reg = reg_scene["rig"], reg_scene["view"], reg_scene["reg"]
+    Y, X = np.mgrid[0:PH, 0:PW].astype(np.float64)
+    cap = rig.capture(smooth_image(X, Y), view, noise=0.003)
+    cap8 = np.round(cap * 255).astype(np.uint8)
+    out, ok = reg.warp(cap8, return_valid=True)
+    assert out.shape == (SIZE, SIZE) and out.dtype == np.float32
+    assert (out[~ok] == 0).all() and (ok <= reg.valid).all()
+    err = np.abs(out - _expected(reg))[ok]
+    assert ok.mean() > 0.2
+    assert err.mean() < 0.01 and np.percentile(err, 99) < 0.03
+    # Colour captures keep their channels; float input behaves like uint8 / 255.
+    rgb = np.dstack([cap, 0.5 * cap, cap**2]).astype(np.float32)
+    out3 = reg.warp(rgb)
+    assert out3.shape == (SIZE, SIZE, 3)
+    assert np.allclose(out3[..., 0], reg.warp(cap.astype(np.float32)), atol=1e-5)
+    assert np.allclose(out3[..., 1][ok], 0.5 * out3[..., 0][ok], atol=1e-5)
+
+
+def test_masked_region_comes_back_invalid(reg_scene):
+    reg = reg_scene["reg"]
+    xs, ys = square_crop_grid(PW, PH, SIZE)
+    x0, x1, y0, y1 = MASK
+    cols = (xs > x0 + 2) & (xs < x1 - 2)
+    rows = (ys > y0 + 2) & (ys < y1 - 2)
+    assert not reg.valid[np.ix_(rows, cols)].any()
+    out = reg.warp(np.ones((CH, CW), np.float32))
+    assert (out[np.ix_(rows, cols)] == 0).all()
+
+
+def test_supersampling_reduces_aliasing(reg_scene):
+    """Projector stripes one native pixel wide: a working pixel (2.34 native px) should see
+    roughly their mean; point sampling (supersample=1) aliases much more than the area mean."""
+    rig, view, reg = reg_scene["rig"], reg_scene["view"], reg_scene["reg"]
+    if rig.scale < 1:
+        pytest.skip("camera coarser than the projector: it cannot resolve the stripes anyway")
+    stripes = (np.arange(PW)[None, :] % 2).repeat(PH, 0).astype(np.float64)
+    cap = rig.capture(stripes, view, white=1.0, black=0.0, noise=0.0)
+    ss4 = supersampled_map(*reg_scene["dense"], PW, PH, SIZE, 4)
+    plain = warp_to_projector(cap, reg.map_x, reg.map_y, reg.valid, supersample=1)
+    fine2 = reg.warp(cap)
+    fine4 = warp_to_projector(cap, *ss4, supersample=4)
+    ok = reg.valid & (fine4 > 0)
+    spread = [np.std(a[ok]) for a in (plain, fine2, fine4)]
+    assert spread[0] > 0.3 and spread[1] < 0.8 * spread[0] and spread[2] < 0.5 * spread[0]
+
+
+# -- Registration object --------------------------------------------------------------------
+
+
+def test_registration_save_load_roundtrip(reg_scene, tmp_path):
+    reg = reg_scene["reg"]
+    cap = np.random.default_rng(0).random((CH, CW, 3)).astype(np.float32)
+    path = tmp_path / "reg.npz"
+    reg.save(path)
+    back = Registration.load(path)
+    assert (back.proj_width, back.proj_height, back.size, back.supersample) == (PW, PH, SIZE, 2)
+    assert back.camera_shape == (CH, CW)
+    assert np.array_equal(back.warp(cap), reg.warp(cap))
+    # Without cached fine maps it still works (plain remap of the working map).
+    bare = Registration(PW, PH, SIZE, reg.map_x, reg.map_y, reg.valid)
+    bare.save(tmp_path / "bare.npz")
+    assert np.array_equal(Registration.load(tmp_path / "bare.npz").warp(cap), bare.warp(cap))
+
+
+def test_warp_is_fast(reg_scene):
+    reg = reg_scene["reg"]
+    cap = np.zeros((CH, CW, 3), np.uint8)
+    t0 = time.perf_counter()
+    for _ in range(10):
+        reg.warp(cap)
+    assert (time.perf_counter() - t0) / 10 < 0.1  # typically a few ms
+    assert reg_scene["t_reg"] < 2.0
+
+
+def test_bad_inputs_raise(reg_scene):
+    reg = reg_scene["reg"]
+    with pytest.raises(ValueError, match="registration was made for 640x480"):
+        reg.warp(np.zeros((100, 120), np.float32))
+    with pytest.raises(ValueError, match="dtype"):
+        reg.warp(np.zeros((CH, CW), np.int32))
+    with pytest.raises(ValueError, match="must be equal 2-D shapes"):
+        warp_to_projector(np.zeros((CH, CW)), reg.map_x, reg.map_y[:-1])
+    with pytest.raises(ValueError, match="not a multiple of supersample"):
+        warp_to_projector(np.zeros((CH, CW)), reg.map_x[:-1, :-1], reg.map_y[:-1, :-1], supersample=2)
+    with pytest.raises(ValueError, match="valid_w has shape"):
+        warp_to_projector(np.zeros((CH, CW)), reg.map_x, reg.map_y, reg.valid[:-1], supersample=1)
+    with pytest.raises(ValueError, match="expected"):
+        Registration(PW, PH, 128, reg.map_x, reg.map_y, reg.valid)

@@ -21,7 +21,12 @@ def run(args) -> dict:
     shutil.rmtree(out, ignore_errors=True)
     os.makedirs(out)
     t0 = time.perf_counter()
-    scene, projector, camera, target = headless.build_demo_setup("panel", "sakura", folder=out)
+    try:
+        cam_w, cam_h = (int(v) for v in args.camera.lower().split("x"))
+    except ValueError:
+        raise ValueError(f"--camera must look like 480x360, got '{args.camera}'") from None
+    scene, projector, camera, target = headless.build_demo_setup("panel", "sakura", folder=out,
+                                                                 camera_resolution=(cam_w, cam_h))
     count = max(2, args.patterns)
     settings = CaptureSettings(out_dir=os.path.join(out, "dataset"), setup_name="bench",
                                train_count=count - count // 5, test_count=count // 5)

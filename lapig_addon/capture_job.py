@@ -111,7 +111,7 @@ class CaptureJob(Job):
             refs = pat.reference_patterns(size=s.working_size, gray_level=s.gray_level)
             ref_images = [refs["black"], refs["white"], refs["gray"]]
             t = time.perf_counter()
-            ref_linear = studio.render([model.emitted(frame_from_working_image(im, model.width, model.height))
+            ref_linear = studio.render([model.emitted_8bit(frame_from_working_image(im, model.width, model.height))
                                         for im in ref_images])
             if self.camera.lapig_camera.auto_exposure:
                 stops = auto_exposure_stops(ref_linear[1], mask=ref_linear[1].max(-1) > 1e-6)
@@ -129,8 +129,7 @@ class CaptureJob(Job):
             sl_caps = []
             for start in range(0, len(sl_patterns), s.chunk):
                 chunk = sl_patterns[start:start + s.chunk]
-                frames = [model.emitted(np.repeat((p.astype(np.float32) / 255)[..., None], 3, -1))
-                          for p in chunk]
+                frames = [model.emitted_8bit(p) for p in chunk]
                 sl_caps += [response.capture(x, rng) for x in studio.render(frames)]
                 yield 0.06 + 0.3 * len(sl_caps) / len(sl_patterns), \
                     f"structured light {len(sl_caps)}/{len(sl_patterns)}"
@@ -178,7 +177,7 @@ class CaptureJob(Job):
                 ds.write_projector_images(layout, kind, group)
                 for start in range(0, len(group), s.chunk):
                     chunk = group[start:start + s.chunk]
-                    frames = [model.emitted(frame_from_working_image(im, model.width, model.height))
+                    frames = [model.emitted_8bit(frame_from_working_image(im, model.width, model.height))
                               for im in chunk]
                     for j, linear in enumerate(studio.render(frames), start=start + 1):
                         cap = response.capture(linear, rng)

@@ -36,6 +36,7 @@ def _parser():
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
     bench.add_argument("--out", default="out/bench_capture")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
+    bench.add_argument("--camera", default="480x360", help="capture resolution WxH (default 480x360)")
     return parser
 
 

@@ -9,7 +9,7 @@ from . import demo_scene, rig
 from .capture_job import CaptureJob, CaptureSettings  # noqa
 
 
-def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camera_resolution=(640, 480)):
+def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camera_resolution=(480, 360)):
     """A fresh scene with a textured object, a projector and a camera placed around it."""
     demo_scene.new_empty_scene()
     target = demo_scene.add_surface_object(shape, surface, folder=folder, seed=seed)

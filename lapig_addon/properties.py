@@ -41,9 +41,9 @@ class LapigProjectorSettings(bpy.types.PropertyGroup):
 
 
 class LapigCameraSettings(bpy.types.PropertyGroup):
-    resolution_x: IntProperty(name="Width", default=640, min=16, max=8192,
+    resolution_x: IntProperty(name="Width", default=480, min=16, max=8192,
                               description="Capture width in pixels")
-    resolution_y: IntProperty(name="Height", default=480, min=16, max=8192,
+    resolution_y: IntProperty(name="Height", default=360, min=16, max=8192,
                               description="Capture height in pixels")
     auto_exposure: BoolProperty(name="Auto exposure", default=True,
                                 description="Set the exposure from the white capture so it does not clip")

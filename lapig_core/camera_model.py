@@ -43,7 +43,7 @@ class CameraResponse:
         x = np.asarray(radiance, dtype=np.float32) * np.float32(2.0 ** self.exposure_stops)
         if self.noise_std > 0:
             rng = rng if rng is not None else np.random.default_rng(0)
-            x = x + rng.normal(0.0, self.noise_std, size=x.shape).astype(np.float32)
+            x = x + np.float32(self.noise_std) * rng.standard_normal(x.shape, dtype=np.float32)
         return np.round(self.curve(x) * 255.0).astype(np.uint8)
 
     def to_dict(self) -> dict:

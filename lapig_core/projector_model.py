@@ -90,6 +90,16 @@ class ProjectorModel:
         x = np.clip(np.asarray(image, dtype=np.float32), 0.0, 1.0)
         return self.black_level + (1.0 - self.black_level) * np.power(x, self.gamma)
 
+    def emitted_8bit(self, image) -> np.ndarray:
+        """Like emitted(), for the 8-bit frame a real projector receives: quantise, then a lookup."""
+        img = np.asarray(image)
+        if img.dtype != np.uint8:
+            img = np.round(np.clip(img, 0.0, 1.0) * 255.0).astype(np.uint8)
+        if img.ndim == 2:
+            img = np.repeat(img[..., None], 3, axis=-1)
+        lut = self.emitted(np.arange(256, dtype=np.float32) / 255.0).astype(np.float32)
+        return lut[img]
+
     def to_dict(self) -> dict:
         return asdict(self)
 

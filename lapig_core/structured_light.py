@@ -96,24 +96,18 @@ def _gray_8bit(img: np.ndarray, index: int) -> np.ndarray:
     return g
 
 
-def _gray_stack(captures, expected: int) -> np.ndarray:
-    if isinstance(captures, np.ndarray):
-        if captures.ndim not in (3, 4):
-            raise ValueError(f"captures array must be N,H,W or N,H,W,C, got shape {captures.shape}")
-        n = captures.shape[0]
-    else:
-        captures = list(captures)
-        n = len(captures)
-    if n != expected:
-        raise ValueError(f"expected {expected} captures (Gray-code pairs + white + black), got {n}")
-    first = np.asarray(captures[0])
-    out = np.empty((n,) + first.shape[:2], np.float32)
-    for k in range(n):  # per image, not per pixel: avoids a full float copy of colour stacks
-        img = np.asarray(captures[k])
-        if img.shape != first.shape:
-            raise ValueError(f"capture {k} has shape {img.shape}, capture 0 has {first.shape}")
-        out[k] = _gray_8bit(img, k)
-    return out
+def _checked_captures(captures, expected: int) -> list[np.ndarray]:
+    """Validate count and shapes; gray conversion happens later, one image at a time (memory)."""
+    if isinstance(captures, np.ndarray) and captures.ndim not in (3, 4):
+        raise ValueError(f"captures array must be N,H,W or N,H,W,C, got shape {captures.shape}")
+    caps = [np.asarray(c) for c in captures]
+    if len(caps) != expected:
+        raise ValueError(f"expected {expected} captures (Gray-code pairs + white + black), got {len(caps)}")
+    for k, c in enumerate(caps):
+        if c.shape != caps[0].shape:
+            raise ValueError(f"capture {k} has shape {c.shape}, capture 0 has {caps[0].shape}")
+    _gray_8bit(caps[0], 0)  # fail early on a bad dtype or channel count
+    return caps
 
 
 def decode_graycode(
@@ -135,14 +129,16 @@ def decode_graycode(
     """
     w, h = _check_proj_size(proj_width, proj_height)
     nc, nr = _bits(w), _bits(h)
-    imgs = _gray_stack(captures, 2 * (nc + nr) + 2)
-    valid = (imgs[-2] - imgs[-1]) > black_threshold
+    caps = _checked_captures(captures, 2 * (nc + nr) + 2)
+    n = len(caps)
+    valid = (_gray_8bit(caps[-2], n - 2) - _gray_8bit(caps[-1], n - 1)) > black_threshold
 
     def read(first: int, nbits: int) -> np.ndarray:
         value = np.zeros(valid.shape, np.int32)
         binary = np.zeros(valid.shape, bool)
         for k in range(nbits):  # loop over bits only; each step is whole-image numpy
-            diff = imgs[first + 2 * k] - imgs[first + 2 * k + 1]
+            i = first + 2 * k
+            diff = _gray_8bit(caps[i], i) - _gray_8bit(caps[i + 1], i + 1)
             valid[...] &= np.abs(diff) >= white_threshold
             binary ^= diff > 0  # Gray -> binary: b_k = b_{k-1} xor g_k
             value <<= 1
@@ -209,12 +205,16 @@ def projector_to_camera_map(
     over the samples q; b is the estimate. The weighted moments are accumulated on the projector
     grid and filtered with separable kernels g, x g, x^2 g, so everything is whole-image work.
 
-    ``sigma`` (projector pixels): Gaussian width; None picks it from the sample density so the
-    window holds ~8 samples (about 1 when the camera is finer than the projector, ~2 at 0.55
-    camera px per projector px). A pixel is valid where its window has enough support, the
-    samples' weighted centroid is within ``max_offset * sigma`` (no extrapolation past edges), the
-    fit is well conditioned, and its RMS residual is below ``max_residual`` projector pixels
-    (windows straddling a depth discontinuity mix two surfaces).
+    ``sigma`` (projector pixels): Gaussian width; None picks max(1.5, 1.5 x sample spacing) from
+    the measured sample density (1.5 when the camera is finer than the projector, ~2.7 at 0.55
+    camera px per projector px); larger is smoother but widens the invalid band at depth edges.
+
+    A projector pixel is valid where its window has enough support, a sample lies within
+    max(1.5, 1.2 x sample spacing) pixels, the samples' weighted centroid is within
+    ``max_offset * sigma`` (no extrapolation past edges), the fit is well conditioned, and its
+    RMS residual is below ``max_residual`` projector pixels (windows straddling a depth
+    discontinuity mix two surfaces). Isolated mis-decoded camera pixels (no two of their 8
+    neighbours agree) are dropped first.
 
     Returns (cam_xy float32 (Hp, Wp, 2) holding [x, y], -1 where invalid; valid bool (Hp, Wp)).
     """
@@ -235,7 +235,7 @@ def projector_to_camera_map(
     # Drop isolated mis-decodes (bit errors jump far): need two neighbours that agree.
     ok &= _neighbour_agreement(px, py, ok, tol=2.0 + 2.0 * step) >= 2
     if sigma is None:
-        sigma = float(np.clip(1.5 * step, 1.5, 8.0))  # 2 pi sigma^2 rho >= ~14 samples
+        sigma = float(np.clip(1.5 * step, 1.5, 8.0))  # >= ~14 samples in the window
     if not sigma > 0:
         raise ValueError(f"sigma must be positive, got {sigma}")
 
@@ -299,8 +299,11 @@ def projector_to_camera_map(
 
     full = 2 * np.pi * sigma**2 * rho  # expected support of a fully covered window
     offset = np.hypot(s1, s2) / s0s
+    # Distance to the nearest sample: stops wide windows reaching into holes round corners.
+    gap = cv2.distanceTransform((n == 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     valid = (
         good
+        & (gap <= max(1.5, 1.2 * step))
         & (s0 >= 0.25 * full)
         & (offset <= max_offset * sigma)
         & (rms <= max_residual * np.sqrt(rho))  # sqrt(rho): camera px per projector px

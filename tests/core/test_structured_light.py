@@ -8,6 +8,7 @@ the projected image at the nearest projector pixel (floor(X + 0.5), OpenCV conve
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 
@@ -103,16 +104,18 @@ def patterns():
     return graycode_patterns(PW, PH)
 
 
-def _make(scale, patterns, **kw):
-    rig = Rig(scale, **kw)
+@functools.lru_cache(maxsize=None)
+def rendered(scale: float):
+    """(rig, view, uint8 captures, decode) for the default rig at ``scale``; shared by both files."""
+    rig = Rig(scale)
     view = rig.camera_view()
-    caps = rig.render(patterns, view)
-    return rig, view, caps
+    caps = rig.render(graycode_patterns(PW, PH), view)
+    return rig, view, caps, decode_graycode(caps, PW, PH)
 
 
 @pytest.fixture(scope="module", params=[0.55, 1.5], ids=["coarse-camera", "fine-camera"])
-def scene(request, patterns):
-    rig, view, caps = _make(request.param, patterns)
+def scene(request):
+    rig, view, caps, _ = rendered(request.param)
     t0 = time.perf_counter()
     dec = decode_graycode(caps, PW, PH)
     t1 = time.perf_counter()
@@ -193,14 +196,12 @@ def test_decode_agrees_with_opencv_getprojpixel(scene):
     assert checked > 140
 
 
-def test_decode_float_colour_and_array_inputs_agree(patterns):
-    rig = Rig(0.55)
-    view = rig.camera_view()
-    caps_f = rig.render(patterns, view, as_uint8=False)
-    ref = decode_graycode(caps_f, PW, PH)
-    rgb = [np.repeat(c[..., None], 3, axis=2).astype(np.float32) for c in caps_f]
-    for alt in (decode_graycode(rgb, PW, PH), decode_graycode(np.stack(caps_f), PW, PH)):
-        assert (alt.valid == ref.valid).mean() > 0.9999  # float32 rounding at threshold ties only
+def test_decode_float_colour_and_array_inputs_agree(scene):
+    ref = scene["dec"]
+    caps_f = [c.astype(np.float32) / 255 for c in scene["caps"]]
+    rgb = [np.repeat(c[..., None], 3, axis=2) for c in caps_f]
+    for alt in (decode_graycode(caps_f, PW, PH), decode_graycode(rgb, PW, PH), decode_graycode(np.stack(caps_f), PW, PH)):
+        assert (alt.valid == ref.valid).mean() > 0.9999  # float rounding at threshold ties only
         both = alt.valid & ref.valid
         assert (alt.proj_x[both] == ref.proj_x[both]).all() and (alt.proj_y[both] == ref.proj_y[both]).all()
 

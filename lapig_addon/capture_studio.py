@@ -70,6 +70,7 @@ class CaptureStudio:
         self.close()
 
     def _build(self):
+        self._had_render_result = any(i.type == "RENDER_RESULT" for i in bpy.data.images)
         scene = bpy.data.scenes.new(STUDIO_NAME)
         self.scene = scene
         for ob in renderable_objects(self.source_scene):
@@ -174,6 +175,9 @@ class CaptureStudio:
             if world is not None and world.users == 0:
                 bpy.data.worlds.remove(world)
             self.scene = None
+        if not getattr(self, "_had_render_result", True):  # rendering made one: take it away again
+            for image in [i for i in bpy.data.images if i.type == "RENDER_RESULT"]:
+                bpy.data.images.remove(image)
         if self._own_dir:
             shutil.rmtree(self.work_dir, ignore_errors=True)
 

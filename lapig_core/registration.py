@@ -196,6 +196,7 @@ class Registration:
         return warp_to_projector(capture, self.map_x, self.map_y, self.valid, 1, return_valid)
 
     def save(self, path) -> None:
+        """Write everything (fine maps included) to ``path`` as .npz, exactly at that name."""
         arrays = dict(
             proj_size=np.array([self.proj_width, self.proj_height]),
             size=np.array(self.size),
@@ -210,6 +211,7 @@ class Registration:
 
     @classmethod
     def load(cls, path) -> "Registration":
+        """Read a file written by ``save``."""
         with np.load(Path(path), allow_pickle=False) as z:
             cam = tuple(int(v) for v in z["camera_shape"]) or None
             fine = [z[k] if k in z.files else None for k in ("fine_x", "fine_y", "fine_valid")]

@@ -234,6 +234,8 @@ def projector_to_camera_map(
     step = 1.0 / np.sqrt(rho)  # projector pixels between neighbouring camera pixels
     # Drop isolated mis-decodes (bit errors jump far): need two neighbours that agree.
     ok &= _neighbour_agreement(px, py, ok, tol=2.0 + 2.0 * step) >= 2
+    if ok.sum() < 16:
+        return cam_xy, valid
     if sigma is None:
         sigma = float(np.clip(1.5 * step, 1.5, 8.0))  # >= ~14 samples in the window
     if not sigma > 0:

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from lapig_core.structured_light import (
-    DecodeResult,
+    BLACK_THRESHOLD,
+    WHITE_THRESHOLD,
     decode_graycode,
     graycode_patterns,
     pattern_count,
@@ -175,25 +176,35 @@ def test_decode_matches_exact_geometry(scene):
     assert (dec.proj_x[~v] == -1).all() and (dec.proj_y[~v] == -1).all()
 
 
-def test_decode_agrees_with_opencv_getprojpixel(scene):
-    caps, dec = scene["caps"], scene["dec"]
+def _compare_with_opencv(caps, dec, pixels):
+    """Our decode vs GrayCodePattern.getProjPixel (+ OpenCV's shadow-mask rule) at (x, y) pixels."""
     gc = cv2.structured_light.GrayCodePattern.create(PW, PH)
-    gc.setWhiteThreshold(5)
-    gc.setBlackThreshold(20)
-    gray = [c for c in caps[:-2]]
-    rng = np.random.default_rng(1)
-    lit = scene["view"][2]
-    js, is_ = np.nonzero(lit)
-    pick = rng.choice(len(js), 150, replace=False)
-    checked = 0
-    for j, i in zip(js[pick], is_[pick]):
-        err, (x, y) = gc.getProjPixel(gray, int(i), int(j))
-        lit_ok = int(caps[-2][j, i]) - int(caps[-1][j, i]) > 20  # OpenCV's shadow mask rule
-        assert (not err and lit_ok) == bool(dec.valid[j, i])
-        if not err:
-            assert (x, y) == (dec.proj_x[j, i], dec.proj_y[j, i])
-            checked += 1
-    assert checked > 140
+    gc.setWhiteThreshold(int(WHITE_THRESHOLD))
+    gc.setBlackThreshold(int(BLACK_THRESHOLD))
+    n_ok = 0
+    for i, j in pixels:
+        err, (x, y) = gc.getProjPixel(list(caps[:-2]), int(i), int(j))
+        lit = int(caps[-2][j, i]) - int(caps[-1][j, i]) > BLACK_THRESHOLD
+        assert (not err and lit) == bool(dec.valid[j, i]), (i, j)
+        if not err and lit:
+            assert (x, y) == (dec.proj_x[j, i], dec.proj_y[j, i]), (i, j)
+            n_ok += 1
+    return n_ok
+
+
+def test_decode_agrees_with_opencv_getprojpixel(scene):
+    js, is_ = np.nonzero(scene["view"][2])
+    pick = np.random.default_rng(1).choice(len(js), 120, replace=False)
+    assert _compare_with_opencv(scene["caps"], scene["dec"], zip(is_[pick], js[pick])) > 110
+
+
+def test_decode_agrees_with_opencv_on_random_images():
+    """Random captures exercise the thresholds and out-of-frame codes (800 < 1024, 600 < 1024)."""
+    rng = np.random.default_rng(2)
+    caps = list(rng.integers(0, 256, (pattern_count(PW, PH), 40, 50), dtype=np.uint8))
+    dec = decode_graycode(caps, PW, PH)
+    assert 0 < dec.valid.mean() < 0.5
+    assert _compare_with_opencv(caps, dec, [(i, j) for j in range(40) for i in range(50)]) == dec.valid.sum()
 
 
 def test_decode_float_colour_and_array_inputs_agree(scene):

@@ -1,0 +1,117 @@
+import json
+
+import bpy
+import numpy as np
+import pytest
+
+
+def _settings(tmp_path, **kw):
+    from lapig.lapig_addon.capture_job import CaptureSettings
+
+    base = dict(out_dir=str(tmp_path / "data"), setup_name="panel", train_count=4, test_count=2,
+                working_size=64, chunk=8, check_grid_step=2)
+    base.update(kw)
+    return CaptureSettings(**base)
+
+
+def _user_state(scene):
+    """What a capture must leave exactly as it was."""
+    r = scene.render
+    return {
+        "scenes": sorted(s.name for s in bpy.data.scenes),
+        "objects": sorted(o.name for o in bpy.data.objects),
+        "materials": {o.name: [m.name for m in o.data.materials] for o in bpy.data.objects if o.type == "MESH"},
+        "lights": sorted(light.name for light in bpy.data.lights),
+        "render": (r.engine, r.resolution_x, r.resolution_y, r.filepath, scene.cycles.samples,
+                   scene.view_settings.view_transform, scene.frame_start, scene.frame_end),
+        "collections": {o.name: sorted(c.name for c in o.users_collection) for o in bpy.data.objects},
+        "worlds": sorted(w.name for w in bpy.data.worlds),
+        "images": sorted(i.name for i in bpy.data.images),
+    }
+
+
+@pytest.mark.blender
+def test_capture_writes_a_registered_dataset_and_restores_the_scene(small_setup, tmp_path):
+    from lapig.lapig_addon import headless
+    from lapig.lapig_core.dataset import load_capture_set
+
+    scene, projector, camera, target = small_setup
+    before = _user_state(scene)
+    result = headless.run_capture(scene, _settings(tmp_path))
+    assert _user_state(scene) == before
+
+    meta = result["meta"]
+    assert meta["valid_fraction"] > 0.95
+    assert meta["registration"]["registration_error_px_median"] < 0.5
+    assert meta["registration"]["registration_error_px_p95"] < 1.5
+    assert meta["white_clipped_fraction"] < 0.02
+
+    cs = load_capture_set(result["setup_dir"])
+    assert cs.cam_train.shape == (4, 64, 64, 3) and cs.cam_test.shape == (2, 64, 64, 3)
+    # a real room: I- is dim but not black, I+ is bright, s in between
+    assert 0.005 < cs.cam_black.mean() < cs.cam_gray.mean() < cs.cam_white.mean()
+    assert cs.cam_white.mean() > 0.4
+    # registered captures follow what was projected (same structure, surface-modulated)
+    for prj, cam in zip(cs.prj_train, cs.cam_train):
+        corr = np.corrcoef(prj.mean(-1).ravel(), cam.mean(-1).ravel())[0, 1]
+        assert corr > 0.7
+    saved = json.loads((tmp_path / "data" / "setups" / "panel" / "setup.json").read_text())
+    assert saved["gray_level"] == 0.5 and saved["projector"]["width"] == 160
+
+
+@pytest.mark.blender
+def test_cancel_in_the_middle_restores_the_scene(small_setup, tmp_path):
+    from lapig.lapig_addon.capture_job import CaptureJob
+
+    scene, projector, camera, target = small_setup
+    before = _user_state(scene)
+    image_before = projector.data.node_tree.nodes["LAPIG projected image"].image
+    job = CaptureJob(scene, projector, camera, target, _settings(tmp_path, chunk=4))
+    for _ in range(4):
+        assert job.step()
+    assert any(s.name.startswith("LAPIG capture studio") for s in bpy.data.scenes)
+    job.cancel()
+    assert job.state == "CANCELLED"
+    assert _user_state(scene) == before
+    assert projector.data.node_tree.nodes["LAPIG projected image"].image == image_before
+
+
+@pytest.mark.blender
+def test_object_outside_the_projector_is_refused_with_the_coverage(small_setup, tmp_path):
+    from lapig.lapig_addon import headless
+    from lapig.lapig_addon.capture_job import CaptureError
+
+    scene, projector, camera, target = small_setup
+    before = _user_state(scene)
+    projector.rotation_euler.z += 1.2  # aim well away from the panel
+    with pytest.raises(CaptureError, match=r"covers \d+% of the projector"):
+        headless.run_capture(scene, _settings(tmp_path))
+    assert _user_state(scene) == before
+
+
+@pytest.mark.blender
+def test_capture_operator_reports_missing_rig(lapig_registered):
+    from lapig.lapig_addon import demo_scene
+
+    demo_scene.new_empty_scene()
+    with pytest.raises(RuntimeError, match="No LAPIG projector"):
+        bpy.ops.lapig.capture()
+
+
+@pytest.mark.blender
+def test_capture_operator_on_unsaved_file_uses_a_temporary_folder(small_setup):
+    from lapig.lapig_addon import storage
+
+    scene = small_setup[0]
+    s = scene.lapig
+    s.train_count, s.test_count, s.working_size = 2, 0, 32
+    folder, temporary = storage.data_root()
+    assert temporary and "lapig_unsaved" in folder
+    assert bpy.ops.lapig.capture() == {"FINISHED"}
+    assert s.last_capture_dir.startswith(folder)
+    from lapig.operators.capture_ops import capture_state
+
+    assert capture_state(scene)[0] == "DONE"
+    small_setup[3].location.x += 0.1  # the object moved: the capture is stale
+    bpy.context.view_layer.update()  # as any redraw does in the UI
+    assert capture_state(scene)[0] == "STALE"

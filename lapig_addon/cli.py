@@ -31,6 +31,9 @@ def _parser():
     cap.add_argument("--patterns", help="folder of your own projector images (default: generated)")
     cap.add_argument("--seed", type=int, default=0)
 
+    build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")
+    build.add_argument("--out", default="dist", help="output folder (default: dist)")
+
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
     bench.add_argument("what", choices=["capture"], help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")

@@ -98,3 +98,11 @@ def cmd_bench(args) -> int:
             print(f"{key:36s} {value}")
     print_json(summary)
     return 0
+
+
+def cmd_build(args) -> int:
+    from .packaging import build_extension
+
+    path = build_extension(os.path.abspath(args.out))
+    print(f"built and validated {path}")
+    return 0

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Create .venv (Python 3.11, as bpy 5.0.1 needs) with the pinned packages of requirements.txt.
+# Idempotent: a second run only checks that everything is installed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PY="${LAPIG_PYTHON:-}"
+if [ -z "$PY" ]; then
+  for candidate in python3.11 python3; do
+    if command -v "$candidate" >/dev/null 2>&1 && \
+       "$candidate" -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else 1)' 2>/dev/null; then
+      PY="$candidate"; break
+    fi
+  done
+fi
+if [ -z "$PY" ]; then
+  echo "error: Python 3.11 is needed (bpy 5.0.1 is built for it); set LAPIG_PYTHON=/path/to/python3.11" >&2
+  exit 1
+fi
+
+if [ ! -x .venv/bin/python ]; then
+  echo "creating .venv with $("$PY" --version)"
+  "$PY" -m venv .venv
+fi
+if ! .venv/bin/python -c 'import bpy, torch, cv2, numpy, scipy, pytest, pytorch_msssim' >/dev/null 2>&1; then
+  .venv/bin/python -m pip install --quiet --upgrade pip
+  # torch==2.13.0 first and alone: it is the CPU build; nothing after it may pull another torch
+  .venv/bin/python -m pip install --quiet torch==2.13.0
+  .venv/bin/python -m pip install --quiet -r requirements.txt
+fi
+.venv/bin/python -c 'import torch; assert torch.__version__.startswith("2.13.0"), torch.__version__'

@@ -1,0 +1,44 @@
+"""Run in a fresh Python with BLENDER_USER_RESOURCES set: install the built zip, enable, use, disable.
+
+Usage: python install_and_run.py EXTENSION.zip WORK_DIR
+"""
+import math
+import os
+import sys
+
+import bpy
+
+zip_path, work = sys.argv[1], sys.argv[2]
+module = "bl_ext.user_default.lapig"
+
+bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
+import addon_utils  # noqa: E402
+
+assert addon_utils.check(module)[1], "the extension did not enable"
+assert hasattr(bpy.types.Scene, "lapig") and hasattr(bpy.ops.lapig, "capture")
+installed = os.path.join(os.environ["BLENDER_USER_RESOURCES"], "extensions", "user_default", "lapig")
+assert os.path.isfile(os.path.join(installed, "blender_manifest.toml")), installed
+
+# the artist's path through the operators: select an object, add the rig, capture
+bpy.ops.wm.read_homefile(app_template="")  # keeps user extensions (read_factory_settings does not)
+for ob in list(bpy.data.objects):
+    bpy.data.objects.remove(ob)
+bpy.ops.mesh.primitive_plane_add(size=2, location=(0, 0, 1), rotation=(math.pi / 2, 0, 0))
+wall = bpy.context.object
+wall.select_set(True)
+assert bpy.ops.lapig.add_rig() == {"FINISHED"}
+s = bpy.context.scene.lapig
+s.projector.lapig_projector.resolution_x, s.projector.lapig_projector.resolution_y = 128, 96
+s.camera.lapig_camera.resolution_x, s.camera.lapig_camera.resolution_y = 128, 96
+s.train_count, s.test_count, s.working_size = 2, 1, 32
+bpy.ops.wm.save_as_mainfile(filepath=os.path.join(work, "e2e.blend"))
+assert bpy.ops.lapig.capture() == {"FINISHED"}
+assert s.last_capture_dir.startswith(os.path.join(work, "e2e_lapig")), s.last_capture_dir
+assert os.path.isfile(os.path.join(s.last_capture_dir, "cam", "warp", "train", "img_0002.png"))
+
+bpy.ops.preferences.addon_disable(module=module)
+assert not hasattr(bpy.types.Scene, "lapig"), "disable left properties behind"
+bpy.ops.preferences.addon_enable(module=module)
+assert hasattr(bpy.types.Scene, "lapig"), "re-enable failed"
+bpy.ops.preferences.addon_disable(module=module)
+print("E2E OK")

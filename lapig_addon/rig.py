@@ -54,6 +54,15 @@ def _rig_collection(scene) -> bpy.types.Collection:
     return coll
 
 
+def test_card() -> bpy.types.Image:
+    """A colour grid the projector shows until there is a result, so aim and focus are visible."""
+    image = bpy.data.images.get("LAPIG test card")
+    if image is None:
+        image = bpy.data.images.new("LAPIG test card", 800, 600)
+        image.generated_type = "COLOR_GRID"
+    return image
+
+
 def create_projector(scene, name="LAPIG Projector") -> bpy.types.Object:
     light = bpy.data.lights.new(name, "SPOT")
     obj = bpy.data.objects.new(name, light)
@@ -61,7 +70,7 @@ def create_projector(scene, name="LAPIG Projector") -> bpy.types.Object:
     settings = obj.lapig_projector
     settings.is_projector = True  # triggers no rebuild by itself: build explicitly below
     light.energy = settings.brightness
-    projector_nodes.build_light_tree(light, projector_model(obj))
+    projector_nodes.build_light_tree(light, projector_model(obj), image=test_card())
     obj.show_in_front = True
     return obj
 

@@ -55,6 +55,12 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             col.prop(c, "response_gamma")
             col.prop(c, "noise")
         layout.prop(s, "ambient")
+        if s.target is not None:
+            from ..lapig_addon.preview import is_previewing
+
+            on = is_previewing(s.target)
+            layout.operator("lapig.preview_toggle", icon="HIDE_OFF" if on else "HIDE_ON",
+                            text="Hide Projection Preview" if on else "Preview Projection in Viewport")
 
 
 class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):

@@ -53,3 +53,32 @@ def test_projector_properties_rebuild_the_light_nodes(small_setup):
     assert node.inputs[1].default_value == pytest.approx(-2.0)
     projector.lapig_projector.brightness = 1234.0
     assert projector.data.energy == pytest.approx(1234.0)
+
+
+@pytest.mark.blender
+def test_viewport_preview_is_reversible_and_keeps_user_materials(small_setup, tmp_path):
+    from lapig.lapig_addon import preview
+
+    scene, projector, camera, target = small_setup
+    original = target.material_slots[0].material
+    names_before = sorted(m.name for m in bpy.data.materials)
+    assert bpy.ops.lapig.preview_toggle() == {"FINISHED"}
+    shown = target.material_slots[0].material
+    assert shown is not original and shown.name.startswith(preview.PREVIEW_PREFIX)
+    assert shown.node_tree.nodes.active.image == projector.data.node_tree.nodes["LAPIG projected image"].image
+    assert original.use_fake_user  # survives a save while previewing
+    assert target.data.uv_layers.active.name == preview.UV_NAME and target.modifiers.get(preview.UV_NAME)
+    objects_while = len(bpy.data.objects)
+    # a save and reload while previewing keeps the user's material
+    path = str(tmp_path / "preview.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    target = scene.lapig.target
+    assert bpy.data.materials.get("sakura surface") is not None
+    assert bpy.ops.lapig.preview_toggle() == {"FINISHED"}
+    assert target.material_slots[0].material.name == "sakura surface"
+    assert not target.material_slots[0].material.use_fake_user
+    assert sorted(m.name for m in bpy.data.materials) == names_before
+    assert target.data.uv_layers.active.name == "UVMap" and not target.modifiers
+    assert len(bpy.data.objects) == objects_while - 1  # the hidden lens camera is gone

@@ -1,0 +1,181 @@
+"""Viewport preview of the projected image through the object's material, fully reversible.
+
+Cycles shows the projection through the projector light itself; Solid and Material Preview modes
+ignore light node trees, so the preview swaps each material slot for a copy whose base colour is
+multiplied by the image, projected from the projector object (Texture Coordinate 'Object'), and
+adds a projected UV map for Solid mode, which draws image textures through the active UV map.
+The originals get a fake user while swapped, so saving the file can never lose them.
+"""
+from __future__ import annotations
+
+import bpy
+
+from .properties import projector_model
+
+ORIGINALS_KEY = "lapig_preview_originals"
+PREVIEW_PREFIX = "LAPIG preview: "
+EMPTY_SLOT = ""
+
+
+def is_previewing(obj) -> bool:
+    return ORIGINALS_KEY in obj.keys()
+
+
+def _projection_nodes(tree, projector, image):
+    nodes, links = tree.nodes, tree.links
+    model = projector_model(projector)
+    sx, sy = model.uv_scale()
+    coords = nodes.new("ShaderNodeTexCoord")
+    coords.object = projector
+    split = nodes.new("ShaderNodeSeparateXYZ")
+    links.new(coords.outputs["Object"], split.inputs[0])
+
+    def chain(axis, scale, offset):
+        div = nodes.new("ShaderNodeMath")
+        div.operation = "DIVIDE"
+        links.new(split.outputs[axis], div.inputs[0])
+        links.new(split.outputs["Z"], div.inputs[1])
+        mad = nodes.new("ShaderNodeMath")
+        mad.operation = "MULTIPLY_ADD"
+        links.new(div.outputs[0], mad.inputs[0])
+        mad.inputs[1].default_value = -scale
+        mad.inputs[2].default_value = offset
+        return mad.outputs[0]
+
+    uv = nodes.new("ShaderNodeCombineXYZ")
+    links.new(chain("X", sx, 0.5 + model.shift_x), uv.inputs["X"])
+    links.new(chain("Y", sy, 0.5 + model.shift_y), uv.inputs["Y"])
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.name = tex.label = "LAPIG projected image"
+    tex.image = image
+    tex.extension = "CLIP"
+    # exact per-pixel projection for Material Preview and renders; Solid mode uses the UV map
+    links.new(uv.outputs[0], tex.inputs["Vector"])
+    for i, node in enumerate((coords, split, uv, tex)):
+        node.location = (-1200 + 250 * i, -400)
+    return tex
+
+
+def _preview_material(original, projector, image):
+    if original is not None:
+        mat = original.copy()
+        mat.name = PREVIEW_PREFIX + original.name
+    else:
+        mat = bpy.data.materials.new(PREVIEW_PREFIX + "(no material)")
+    if getattr(mat, "node_tree", None) is None:  # Blender 4.x materials may start without nodes
+        mat.use_nodes = True
+    tree = mat.node_tree
+    tex = _projection_nodes(tree, projector, image)
+    bsdf = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
+    if bsdf is not None:
+        mix = tree.nodes.new("ShaderNodeMix")
+        mix.data_type, mix.blend_type = "RGBA", "MULTIPLY"
+        mix.inputs["Factor"].default_value = 1.0
+        base = bsdf.inputs["Base Color"]
+        if base.is_linked:
+            tree.links.new(base.links[0].from_socket, mix.inputs["A"])
+        else:
+            mix.inputs["A"].default_value = base.default_value
+        tree.links.new(tex.outputs["Color"], mix.inputs["B"])
+        tree.links.new(mix.outputs["Result"], base)
+        mix.location = (bsdf.location.x - 250, bsdf.location.y)
+    tree.nodes.active = tex  # Solid mode's 'Texture' colour shows the active image node
+    return mat
+
+
+LENS_NAME = "LAPIG projector lens"
+UV_NAME = "LAPIG projection"
+
+
+def _add_solid_mode_projection(obj, projector):
+    """Solid mode maps textures through the active UV map: project one with a UV Project modifier.
+
+    The modifier needs a camera for perspective, so a hidden camera with the projector's field of
+    view rides along as the projector's child.
+    """
+    model = projector_model(projector)
+    lens = bpy.data.cameras.new(LENS_NAME)
+    lens.sensor_fit, lens.sensor_width = "HORIZONTAL", 36.0
+    lens.lens = 36.0 * model.throw_ratio  # tan(half fov) = 0.5 / throw ratio
+    lens.shift_x, lens.shift_y = model.shift_x, model.shift_y / model.aspect  # in image widths
+    lens_obj = bpy.data.objects.new(LENS_NAME, lens)
+    for coll in projector.users_collection:
+        coll.objects.link(lens_obj)
+    lens_obj.parent = projector
+    lens_obj.hide_select = lens_obj.hide_render = True
+    lens_obj.hide_viewport = True
+    mesh = obj.data
+    obj["lapig_preview_active_uv"] = mesh.uv_layers.active.name if mesh.uv_layers.active else ""
+    uv = mesh.uv_layers.new(name=UV_NAME)
+    if uv is None:
+        raise ValueError(f"'{obj.name}' has no room for another UV map (Blender allows 8)")
+    mesh.uv_layers.active = uv
+    mod = obj.modifiers.new(UV_NAME, "UV_PROJECT")
+    mod.uv_layer = uv.name
+    mod.projector_count = 1
+    mod.projectors[0].object = lens_obj
+    mod.aspect_x, mod.aspect_y = model.width, model.height
+    obj["lapig_preview_lens"] = lens_obj.name
+
+
+def _remove_solid_mode_projection(obj):
+    mod = obj.modifiers.get(UV_NAME)
+    if mod is not None:
+        obj.modifiers.remove(mod)
+    mesh = obj.data
+    uv = mesh.uv_layers.get(UV_NAME)
+    if uv is not None:
+        mesh.uv_layers.remove(uv)
+    active = obj.pop("lapig_preview_active_uv", "")
+    if active and mesh.uv_layers.get(active) is not None:
+        mesh.uv_layers.active = mesh.uv_layers[active]
+    lens_obj = bpy.data.objects.get(obj.pop("lapig_preview_lens", ""))
+    if lens_obj is not None:
+        lens = lens_obj.data
+        bpy.data.objects.remove(lens_obj)
+        if lens is not None and lens.users == 0:
+            bpy.data.cameras.remove(lens)
+
+
+def enable_preview(obj, projector, image):
+    if image is None:
+        raise ValueError("the projector has no image to preview")
+    if obj.type != "MESH":
+        raise ValueError(f"'{obj.name}' is not a mesh: the preview needs one")
+    if is_previewing(obj):
+        disable_preview(obj)
+    _add_solid_mode_projection(obj, projector)
+    if len(obj.material_slots) == 0:
+        obj.data.materials.append(None)
+        obj["lapig_preview_added_slot"] = True
+    originals, fake_users = [], []
+    for slot in obj.material_slots:
+        original = slot.material
+        originals.append(original.name if original else EMPTY_SLOT)
+        fake_users.append(bool(original.use_fake_user) if original else False)
+        if original is not None:
+            original.use_fake_user = True
+        slot.material = _preview_material(original, projector, image)
+    obj[ORIGINALS_KEY] = originals
+    obj["lapig_preview_fake_users"] = fake_users
+
+
+def disable_preview(obj):
+    if not is_previewing(obj):
+        return
+    originals = list(obj[ORIGINALS_KEY])
+    fake_users = list(obj.get("lapig_preview_fake_users", [False] * len(originals)))
+    for slot, name, fake in zip(obj.material_slots, originals, fake_users):
+        preview = slot.material
+        original = bpy.data.materials.get(name) if name else None
+        slot.material = original
+        if original is not None:
+            original.use_fake_user = fake
+        if preview is not None and preview.name.startswith(PREVIEW_PREFIX) and preview.users == 0:
+            bpy.data.materials.remove(preview)
+    if obj.get("lapig_preview_added_slot"):
+        obj.data.materials.pop(index=len(obj.data.materials) - 1)
+        del obj["lapig_preview_added_slot"]
+    del obj[ORIGINALS_KEY]
+    obj.pop("lapig_preview_fake_users", None)
+    _remove_solid_mode_projection(obj)

@@ -25,7 +25,7 @@ def run(args) -> dict:
         cam_w, cam_h = (int(v) for v in args.camera.lower().split("x"))
     except ValueError:
         raise ValueError(f"--camera must look like 480x360, got '{args.camera}'") from None
-    scene, projector, camera, target = headless.build_demo_setup("panel", "sakura", folder=out,
+    scene, projector, camera, target = headless.build_demo_setup(args.shape, "sakura", folder=out,
                                                                  camera_resolution=(cam_w, cam_h))
     count = max(2, args.patterns)
     settings = CaptureSettings(out_dir=os.path.join(out, "dataset"), setup_name="bench",
@@ -50,6 +50,7 @@ def run(args) -> dict:
         "projector_resolution": f"{projector.lapig_projector.resolution_x}x{projector.lapig_projector.resolution_y}",
         "camera_resolution": f"{cam.resolution_x}x{cam.resolution_y}",
         "samples": settings.samples,
+        "shape": args.shape,
         "cpu_threads": os.cpu_count(),
         "machine": platform.processor() or platform.machine(),
         "blender": bpy.app.version_string,

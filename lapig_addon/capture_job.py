@@ -7,6 +7,7 @@ and written in the public layout (lapig_core.dataset).
 from __future__ import annotations
 
 import os
+import shutil
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -84,7 +85,17 @@ class CaptureJob(Job):
                                    f"{s.train_count + s.test_count} are needed")
         else:
             images = pat.generate_patterns(s.train_count + s.test_count, size=s.working_size, seed=s.seed)
-        layout = ds.DatasetLayout(s.out_dir, s.setup_name)
+        final_layout = ds.DatasetLayout(s.out_dir, s.setup_name)
+        # write into '<name>.partial' and swap it in at the end: a cancel or a crash never leaves
+        # a half-written setup where a complete one is expected
+        layout = ds.DatasetLayout(s.out_dir, s.setup_name + ".partial")
+        shutil.rmtree(layout.setup_dir, ignore_errors=True)
+        try:
+            yield from self._capture(s, model, cam_w, cam_h, images, layout, final_layout)
+        finally:
+            shutil.rmtree(layout.setup_dir, ignore_errors=True)
+
+    def _capture(self, s, model, cam_w, cam_h, images, layout, final_layout):
         rng = np.random.default_rng(s.seed)
         timings = s.timings
         t0 = time.perf_counter()
@@ -211,5 +222,8 @@ class CaptureJob(Job):
         }
         meta["timings"]["total_s"] = round(time.perf_counter() - t0, 3)
         ds.write_setup_json(layout, meta)
-        self.result = {"setup_dir": layout.setup_dir, "meta": meta}
+        if final_layout.setup_dir.exists():
+            shutil.rmtree(final_layout.setup_dir)
+        os.replace(layout.setup_dir, final_layout.setup_dir)
+        self.result = {"setup_dir": final_layout.setup_dir, "meta": meta}
         yield 1.0, "capture complete"

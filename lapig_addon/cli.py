@@ -40,6 +40,8 @@ def _parser():
     bench.add_argument("--out", default="out/bench_capture")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
     bench.add_argument("--camera", default="480x360", help="capture resolution WxH (default 480x360)")
+    bench.add_argument("--shape", default="panel", choices=["panel", "box", "statue"],
+                       help="demo object (default: panel, the demo scene)")
     return parser
 
 

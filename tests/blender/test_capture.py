@@ -74,6 +74,8 @@ def test_cancel_in_the_middle_restores_the_scene(small_setup, tmp_path):
     assert job.state == "CANCELLED"
     assert _user_state(scene) == before
     assert projector.data.node_tree.nodes["LAPIG projected image"].image == image_before
+    setups = tmp_path / "data" / "setups"
+    assert not setups.exists() or not any(setups.iterdir())  # no half-written setup left behind
 
 
 @pytest.mark.blender

@@ -109,8 +109,13 @@ def test_capture_operator_on_unsaved_file_uses_a_temporary_folder(small_setup):
     s.train_count, s.test_count, s.working_size = 2, 0, 32
     folder, temporary = storage.data_root()
     assert temporary and "lapig_unsaved" in folder
-    assert bpy.ops.lapig.capture() == {"FINISHED"}
-    assert s.last_capture_dir.startswith(folder)
+    try:
+        assert bpy.ops.lapig.capture() == {"FINISHED"}
+        assert s.last_capture_dir.startswith(folder)
+    finally:
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)
     from lapig.operators.capture_ops import capture_state
 
     assert capture_state(scene)[0] == "DONE"

@@ -48,12 +48,4 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
 
 CLASSES = (LAPIG_OT_copy_install_command, LAPIG_AP_preferences)
 
-
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

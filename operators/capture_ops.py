@@ -77,12 +77,4 @@ def capture_state(scene) -> tuple[str, str]:
 
 CLASSES = (LAPIG_OT_capture, LAPIG_OT_import_capture)
 
-
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

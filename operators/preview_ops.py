@@ -32,12 +32,4 @@ class LAPIG_OT_preview_toggle(bpy.types.Operator):
 
 CLASSES = (LAPIG_OT_preview_toggle,)
 
-
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -28,12 +28,4 @@ class LAPIG_OT_add_rig(bpy.types.Operator):
 
 CLASSES = (LAPIG_OT_add_rig,)
 
-
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -97,12 +97,4 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
 
 CLASSES = (LAPIG_PT_setup, LAPIG_PT_capture)
 
-
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

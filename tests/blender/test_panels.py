@@ -1,0 +1,50 @@
+import bpy
+import pytest
+
+
+class RecordingLayout:
+    """Stands in for UILayout: records what a panel draws and checks every property exists."""
+
+    def __init__(self, log):
+        self.log = log
+        self.enabled = True
+
+    def _child(self, *args, **kwargs):
+        return RecordingLayout(self.log)
+
+    row = column = box = split = _child
+
+    def prop(self, data, name, **kwargs):
+        assert hasattr(data, name) or name in data.bl_rna.properties, f"no property {name} on {data}"
+        self.log.append(("prop", name))
+
+    def operator(self, idname, **kwargs):
+        module, _, op = idname.partition(".")
+        assert hasattr(getattr(bpy.ops, module), op), f"no operator {idname}"
+        self.log.append(("operator", idname))
+        return type("Props", (), {})()
+
+    def label(self, text="", **kwargs):
+        self.log.append(("label", text))
+
+    def progress(self, **kwargs):
+        self.log.append(("progress", kwargs.get("text")))
+
+
+@pytest.mark.blender
+@pytest.mark.parametrize("with_rig", [False, True])
+def test_panels_draw_with_and_without_a_rig(lapig_registered, small_setup, with_rig):
+    from lapig.panels.main_panel import CLASSES
+
+    if not with_rig:
+        s = bpy.context.scene.lapig
+        s.projector = s.camera = s.target = None
+    log = []
+    for cls in CLASSES:
+        cls.draw(type("P", (), {"layout": RecordingLayout(log)})(), bpy.context)
+    texts = [entry[1] for entry in log if entry[0] == "label"]
+    assert any("temporary folder" in t for t in texts)  # unsaved file: the UI says so
+    if with_rig:
+        assert ("prop", "throw_ratio") in log and ("operator", "lapig.capture") in log
+    else:
+        assert any("Add the projector and camera first" in t for t in texts)

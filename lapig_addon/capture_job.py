@@ -23,6 +23,7 @@ from ..lapig_core.registration import Registration
 from ..lapig_core.registration_check import registration_error_px, summarize_errors
 from ..lapig_core.structured_light import decode_graycode, graycode_patterns, projector_to_camera_map
 from . import geometry_probe as probe
+from . import preview, projector_nodes
 from .capture_studio import CaptureStudio
 from .fingerprint import rig_fingerprint
 from .jobs import Job
@@ -90,10 +91,17 @@ class CaptureJob(Job):
         # a half-written setup where a complete one is expected
         layout = ds.DatasetLayout(s.out_dir, s.setup_name + ".partial")
         shutil.rmtree(layout.setup_dir, ignore_errors=True)
+        # the viewport preview tints the object's materials: capture the real surface
+        previewing = preview.is_previewing(self.target)
+        if previewing:
+            preview.disable_preview(self.target)
         try:
             yield from self._capture(s, model, cam_w, cam_h, images, layout, final_layout)
         finally:
             shutil.rmtree(layout.setup_dir, ignore_errors=True)
+            if previewing:
+                preview.enable_preview(self.target, self.projector,
+                                       projector_nodes.projected_image(self.projector.data))
 
     def _capture(self, s, model, cam_w, cam_h, images, layout, final_layout):
         rng = np.random.default_rng(s.seed)

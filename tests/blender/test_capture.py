@@ -122,3 +122,16 @@ def test_capture_operator_on_unsaved_file_uses_a_temporary_folder(small_setup):
     small_setup[3].location.x += 0.1  # the object moved: the capture is stale
     bpy.context.view_layer.update()  # as any redraw does in the UI
     assert capture_state(scene)[0] == "STALE"
+
+
+@pytest.mark.blender
+def test_capture_sees_the_real_surface_while_the_preview_is_on(small_setup, tmp_path):
+    from lapig.lapig_addon import headless, preview, projector_nodes
+
+    scene, projector, camera, target = small_setup
+    preview.enable_preview(target, projector, projector_nodes.projected_image(projector.data))
+    shown = target.material_slots[0].material.name
+    headless.run_capture(scene, _settings(tmp_path, train_count=1, test_count=0))
+    assert preview.is_previewing(target) and target.material_slots[0].material.name == shown
+    preview.disable_preview(target)
+    assert target.material_slots[0].material.name == "sakura surface"

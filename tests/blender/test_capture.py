@@ -135,3 +135,18 @@ def test_capture_sees_the_real_surface_while_the_preview_is_on(small_setup, tmp_
     assert preview.is_previewing(target) and target.material_slots[0].material.name == shown
     preview.disable_preview(target)
     assert target.material_slots[0].material.name == "sakura surface"
+
+
+@pytest.mark.blender
+def test_import_capture_folder_accepts_a_good_set_and_names_the_bad_file(small_setup, tmp_path):
+    from lapig.lapig_addon import headless
+
+    scene = small_setup[0]
+    result = headless.run_capture(scene, _settings(tmp_path, train_count=2, test_count=0))
+    setup_dir = str(result["setup_dir"])
+    assert bpy.ops.lapig.import_capture(directory=setup_dir) == {"FINISHED"}
+    assert scene.lapig.last_capture_dir == setup_dir
+    broken = tmp_path / "data" / "setups" / "panel" / "cam" / "warp" / "train" / "img_0002.png"
+    broken.write_bytes(b"not a png")
+    with pytest.raises(RuntimeError, match="img_0002.png"):
+        bpy.ops.lapig.import_capture(directory=setup_dir)

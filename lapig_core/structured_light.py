@@ -312,4 +312,20 @@ def projector_to_camera_map(
     )
     cam_xy[..., 0] = np.where(valid, est[0] + cu0, -1.0)
     cam_xy[..., 1] = np.where(valid, est[1] + cv0, -1.0)
+    return _extend_frame_border(cam_xy, valid)
+
+
+def _extend_frame_border(cam_xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fill the outermost rows/columns of the frame where the two pixels inside are valid.
+
+    At the frame edge the samples lie on one side only, so the centroid test above rejects some
+    edge pixels; the map is locally affine, so one step of linear extrapolation is accurate there.
+    """
+    cam_xy, valid = cam_xy.copy(), valid.copy()
+    edges = [(np.s_[0, :], np.s_[1, :], np.s_[2, :]), (np.s_[-1, :], np.s_[-2, :], np.s_[-3, :]),
+             (np.s_[:, 0], np.s_[:, 1], np.s_[:, 2]), (np.s_[:, -1], np.s_[:, -2], np.s_[:, -3])]
+    for edge, inner, inner2 in edges:
+        fill = ~valid[edge] & valid[inner] & valid[inner2]
+        cam_xy[edge][fill] = 2 * cam_xy[inner][fill] - cam_xy[inner2][fill]
+        valid[edge] |= fill
     return cam_xy, valid

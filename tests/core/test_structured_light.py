@@ -300,3 +300,17 @@ def test_map_with_a_depth_discontinuity():
     assert np.percentile(err[ok], 99) < 1.5
     band = inner & (np.abs(u - cut) < 4 * gap)
     assert valid[band].mean() > 0.5  # the step does not wipe out a wide strip
+
+
+def test_frame_border_is_extended_by_linear_extrapolation():
+    from lapig_core.structured_light import _extend_frame_border
+
+    ys, xs = np.mgrid[0:20, 0:30].astype(np.float32)
+    cam = np.stack([0.5 * xs + 0.1 * ys + 3, 0.4 * ys - 0.05 * xs + 7], -1)  # an affine map
+    valid = np.ones((20, 30), bool)
+    valid[0, ::3] = valid[-1, 1::4] = valid[:, 0] = False
+    valid[5, 5] = False  # an interior hole stays a hole
+    masked = np.where(valid[..., None], cam, -1.0)
+    filled, ok = _extend_frame_border(masked, valid)
+    assert ok[0].all() and ok[-1].all() and ok[:, 0].all() and not ok[5, 5]
+    np.testing.assert_allclose(filled[ok], cam[ok], atol=1e-4)

@@ -87,7 +87,6 @@ class CaptureStudio:
         scene.world = world
         self._configure_render()
         self._saved_image = projector_nodes.projected_image(self.projector.data)
-        self._render_ambient()
 
     def _render_ambient(self, samples=32):
         """Render the room light alone, once; it is added to every projector render.
@@ -188,6 +187,8 @@ class CaptureStudio:
         frames = list(emitted_frames)
         if not frames:
             return []
+        if self.ambient_linear is None:  # lazily: a refused capture should not pay for it
+            self._render_ambient()
         return [r + self.ambient_linear for r in self._render_frames(frames)]
 
     def _render_frames(self, frames, still=False) -> list[np.ndarray]:

@@ -115,7 +115,7 @@ class CaptureStudio:
         saved = cycles.samples, cycles.filter_width
         try:
             cycles.samples, cycles.filter_width = samples, 1.0
-            self.ambient_linear = self._render_frames([], still=True)[0]
+            self.ambient_linear = self._render_frames([])[0]
         finally:
             cycles.samples, cycles.filter_width = saved
             scene.collection.objects.link(self.projector)
@@ -191,7 +191,7 @@ class CaptureStudio:
             self._render_ambient()
         return [r + self.ambient_linear for r in self._render_frames(frames)]
 
-    def _render_frames(self, frames, still=False) -> list[np.ndarray]:
+    def _render_frames(self, frames) -> list[np.ndarray]:
         self._chunk += 1
         chunk_dir = os.path.join(self.work_dir, f"chunk_{self._chunk:05d}")
         os.makedirs(chunk_dir, exist_ok=True)

@@ -8,15 +8,15 @@ import bpy
 
 from ..lapig_core.imageio import write_png
 from ..lapig_core.surfaces import make_surface
+from .compat import material_node_tree
 
 SHAPES = ("panel", "box", "statue")
 
 
 def textured_material(name, texture_path):
     mat = bpy.data.materials.new(name)
-    if getattr(mat, "node_tree", None) is None:  # Blender 4.x: materials start without nodes
-        mat.use_nodes = True
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    tree = material_node_tree(mat)
+    nodes, links = tree.nodes, tree.links
     bsdf = next(n for n in nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
     bsdf.inputs["Roughness"].default_value = 1.0  # matte, like a projection surface
     bsdf.inputs["Specular IOR Level"].default_value = 0.0

@@ -72,6 +72,11 @@ class CameraProjection:
         out[depth <= 0] = np.nan
         return out
 
+    def in_frame(self, xy) -> np.ndarray:
+        """Whether pixel coordinates (OpenCV convention) fall inside the rendered image."""
+        return (xy[:, 0] >= -0.5) & (xy[:, 0] <= self.width - 0.5) & \
+            (xy[:, 1] >= -0.5) & (xy[:, 1] <= self.height - 0.5)
+
 
 def projector_hits(bvh, projector_obj, model, pixel_xy) -> np.ndarray:
     """First surface point hit by each projector pixel ray (NaN where it hits nothing)."""
@@ -110,9 +115,7 @@ def exact_projector_to_camera(bvh, projector_obj, model, camera_proj: CameraProj
     hits = projector_hits(bvh, projector_obj, model, pixel_xy)
     seen = visible_from(bvh, camera_proj.origin, hits)
     cam = camera_proj.project(np.where(np.isfinite(hits), hits, 0.0))
-    inside = (cam[:, 0] >= -0.5) & (cam[:, 0] <= camera_proj.width - 0.5) & \
-             (cam[:, 1] >= -0.5) & (cam[:, 1] <= camera_proj.height - 0.5)
-    cam[~(seen & inside)] = np.nan
+    cam[~(seen & camera_proj.in_frame(cam))] = np.nan
     return cam.reshape(*shape, 2)
 
 
@@ -134,6 +137,5 @@ def coverage(bvh, projector_obj, model, camera_proj, target_bvh=None, grid=24) -
         lit &= on_target
     seen = visible_from(bvh, camera_proj.origin, hits) & lit
     cam = camera_proj.project(np.where(np.isfinite(hits), hits, 0.0))
-    inside = (cam[:, 0] >= -0.5) & (cam[:, 0] <= camera_proj.width - 0.5) & \
-             (cam[:, 1] >= -0.5) & (cam[:, 1] <= camera_proj.height - 0.5)
+    inside = camera_proj.in_frame(cam)
     return {"projector_on_object": float(lit.mean()), "seen_by_camera": float((seen & inside).mean())}

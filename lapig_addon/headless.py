@@ -14,9 +14,9 @@ def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camer
     demo_scene.new_empty_scene()
     target = demo_scene.add_surface_object(shape, surface, folder=folder, seed=seed)
     bpy.context.view_layer.objects.active = target
-    projector, camera, placement = rig.add_rig(bpy.context, target)
+    camera = rig.create_camera(bpy.context.scene)
     camera.lapig_camera.resolution_x, camera.lapig_camera.resolution_y = camera_resolution
-    rig.add_rig(bpy.context, target, projector, camera)  # re-fit the lens to the final aspect
+    projector, camera, _ = rig.add_rig(bpy.context, target, camera=camera)  # lens fits this aspect
     return bpy.context.scene, projector, camera, target
 
 

@@ -64,14 +64,22 @@ class Job:
         self.state, self.progress, self.message = state, progress, message
         self.finished_at = time.perf_counter()
 
-    def run_to_completion(self, on_progress: Callable[[float, str], None] | None = None,
-                          should_cancel: Callable[[], bool] | None = None):
+    def run(self, on_progress: Callable[[float, str], None] | None = None,
+            should_cancel: Callable[[], bool] | None = None) -> str:
+        """Step until finished; returns the final state (failures stay in self.error)."""
         while self.step():
             if on_progress:
                 on_progress(self.progress, self.message)
             if should_cancel and should_cancel():
                 self.cancel()
-        if self.state == "FAILED":
+        if on_progress:
+            on_progress(self.progress, self.message)
+        return self.state
+
+    def run_to_completion(self, on_progress: Callable[[float, str], None] | None = None,
+                          should_cancel: Callable[[], bool] | None = None):
+        """Like run(), but a failure raises its exception; returns the job's result."""
+        if self.run(on_progress, should_cancel) == "FAILED":
             raise self.error
         return self.result
 

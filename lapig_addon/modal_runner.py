@@ -36,7 +36,8 @@ class JobRunnerMixin:
         except (ValueError, ImportError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        _run_sync(job, context.scene.lapig)
+        settings = context.scene.lapig
+        job.run(on_progress=lambda progress, message: _show(settings, progress, message))
         return self._finish(context, job)
 
     def invoke(self, context, event):
@@ -93,8 +94,3 @@ def _show(settings, progress, message):
     settings.job_progress = progress
     settings.job_message = message
 
-
-def _run_sync(job, settings):
-    while job.step():
-        _show(settings, job.progress, job.message)
-    _show(settings, job.progress, job.message)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import bpy
 
+from .compat import material_node_tree
 from .properties import projector_model
 
 ORIGINALS_KEY = "lapig_preview_originals"
@@ -62,9 +63,7 @@ def _preview_material(original, projector, image):
         mat.name = PREVIEW_PREFIX + original.name
     else:
         mat = bpy.data.materials.new(PREVIEW_PREFIX + "(no material)")
-    if getattr(mat, "node_tree", None) is None:  # Blender 4.x materials may start without nodes
-        mat.use_nodes = True
-    tree = mat.node_tree
+    tree = material_node_tree(mat)
     tex = _projection_nodes(tree, projector, image)
     bsdf = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
     if bsdf is not None:

@@ -31,17 +31,43 @@ def _parser():
     cap.add_argument("--patterns", help="folder of your own projector images (default: generated)")
     cap.add_argument("--seed", type=int, default=0)
 
+    data = sub.add_parser("dataset", help="render the synthetic setups used for pretraining and benchmarks")
+    data.add_argument("--setups", default="pretrain",
+                      help="'pretrain', 'bench', or comma-separated setup names (default: pretrain)")
+    data.add_argument("--out", default="out/pretrain_data", help="data set root folder")
+    data.add_argument("--train", type=int, default=125)
+    data.add_argument("--test", type=int, default=20)
+    data.add_argument("--seed", type=int, default=0, help="pattern seed")
+    data.add_argument("--skip-existing", action="store_true", help="keep setups that are already complete")
+
+    pre = sub.add_parser("pretrain", help="pretrain CompenNeSt, PCNet and CompenNeSt reversed on rendered setups")
+    pre.add_argument("--data", default="out/pretrain_data", help="data set root from 'dataset'")
+    pre.add_argument("--out", default="lapig_core/weights", help="folder for the weights")
+    pre.add_argument("--iterations", type=int, default=2000)
+    pre.add_argument("--crop", type=int, default=96, help="random crop size (default 96)")
+    pre.add_argument("--only", choices=["compennest", "pcnet", "reversed"], action="append",
+                     help="train only these networks (repeatable)")
+    pre.add_argument("--seed", type=int, default=0)
+
     build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")
     build.add_argument("--out", default="dist", help="output folder (default: dist)")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
-    bench.add_argument("what", choices=["capture"], help="which benchmark")
+    bench.add_argument("what", choices=["capture", "models"], help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
-    bench.add_argument("--out", default="out/bench_capture")
+    bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
     bench.add_argument("--camera", default="480x360", help="capture resolution WxH (default 480x360)")
     bench.add_argument("--shape", default="panel", choices=["panel", "box", "statue"],
-                       help="demo object (default: panel, the demo scene)")
+                       help="capture: demo object (default: panel, the demo scene)")
+    bench.add_argument("--data", default="out/bench_data",
+                       help="models: data set root of the benchmark setups (rendered when missing)")
+    bench.add_argument("--setups", type=int, default=3, help="models: how many benchmark setups (default 3)")
+    bench.add_argument("--iterations", type=int, default=None,
+                       help="models: fine-tuning iterations per model (default: the CPU recipe's)")
+    bench.add_argument("--compensate", type=int, default=8, help="models: compensated test images per setup")
+    bench.add_argument("--no-timing", dest="timing", action="store_false",
+                       help="models: skip the fine-tuning time measurement")
     return parser
 
 

@@ -90,12 +90,48 @@ def cmd_capture(args) -> int:
 
 def cmd_bench(args) -> int:
     _ensure_registered()
-    from . import bench_capture
+    from . import bench_capture, bench_models
 
-    summary = bench_capture.run(args)
+    args.out = args.out or f"out/bench_{args.what}"
+    summary = {"capture": bench_capture, "models": bench_models}[args.what].run(args)
     if not args.json:
         for key, value in sorted(summary.items()):
             print(f"{key:36s} {value}")
+    print_json(summary)
+    return 0
+
+
+def cmd_dataset(args) -> int:
+    _ensure_registered()
+    from . import synthetic_setups as syn
+
+    if args.setups == "pretrain":
+        specs = syn.PRETRAIN_SETUPS
+    elif args.setups == "bench":
+        specs = syn.BENCH_SETUPS
+    else:
+        specs = [syn.get_spec(name.strip()) for name in args.setups.split(",") if name.strip()]
+    summary = headless.render_synthetic_setups(specs, args.out, args.train, args.test, args.seed,
+                                               skip_existing=args.skip_existing, sheet=contact_sheet)
+    print_json(summary)
+    return 0
+
+
+def cmd_pretrain(args) -> int:
+    from ..lapig_core import pretrain
+
+    names = {"compennest": ("CompenNeSt", "compensation"), "pcnet": ("PCNet", "simulation"),
+             "reversed": ("CompenNeSt", "simulation")}
+    jobs = [names[n] for n in args.only] if args.only else list(pretrain.JOBS)
+    sets = pretrain.load_setups(args.data)
+    print(f"pretraining on {len(sets)} setups: {', '.join(cs.setup for cs in sets)}", flush=True)
+    summary = {}
+    for arch, role in jobs:
+        key = f"{arch}_{role}"
+        summary[key] = pretrain.pretrain_one(sets, arch, role, args.iterations, args.out, crop=args.crop,
+                                             seed=args.seed,
+                                             on_progress=lambda p, m, k=key: print(f"{k}: {m}", flush=True))
+        print(f"{key}: {summary[key]}", flush=True)
     print_json(summary)
     return 0
 

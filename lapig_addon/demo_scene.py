@@ -5,6 +5,7 @@ import math
 import os
 
 import bpy
+import numpy as np
 
 from ..lapig_core.imageio import write_png
 from ..lapig_core.surfaces import make_surface
@@ -27,13 +28,21 @@ def textured_material(name, texture_path):
     return mat
 
 
-def add_surface_object(shape="panel", surface="sakura", folder=None, seed=0, size=512):
-    """Add a textured object to the current scene and return it; the texture PNG goes to folder."""
+def add_surface_object(shape="panel", surface="sakura", folder=None, seed=0, size=512, tint=(1.0, 1.0, 1.0),
+                       texture=None):
+    """Add a textured object to the current scene and return it; the texture PNG goes to folder.
+
+    tint multiplies the albedo (coloured, very dark or bright materials); texture, an RGB array in
+    [0,1], replaces the procedural surface (a user's image in `eval`).
+    """
     if shape not in SHAPES:
         raise ValueError(f"unknown shape '{shape}': choose one of {', '.join(SHAPES)}")
     folder = folder or bpy.app.tempdir
-    texture_path = os.path.join(folder, f"surface_{surface}_{seed}.png")
-    write_png(texture_path, make_surface(surface, size=size, seed=seed))
+    albedo = make_surface(surface, size=size, seed=seed) if texture is None else texture
+    albedo = np.clip(albedo * np.asarray(tint, np.float32), 0, 1)
+    tag = "" if tuple(tint) == (1.0, 1.0, 1.0) else "_tinted"
+    texture_path = os.path.join(folder, f"surface_{surface}_{seed}{tag}.png")
+    write_png(texture_path, albedo)
     if shape == "panel":
         bpy.ops.mesh.primitive_plane_add(size=2.0, location=(0, 0, 1.0), rotation=(math.pi / 2, 0, 0))
     elif shape == "box":

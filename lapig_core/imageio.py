@@ -119,6 +119,7 @@ def atomic_write_bytes(path, data: bytes) -> Path:
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
+        os.chmod(tmp_name, 0o644)  # mkstemp makes it private; the result is an ordinary file
         os.replace(tmp_name, path)
     except BaseException:
         with contextlib.suppress(OSError):

@@ -105,3 +105,18 @@ def ssim(pred, target) -> float:
 def evaluate(pred, target) -> dict:
     """All three metrics at once, as plain floats."""
     return {"psnr": psnr(pred, target), "rmse": rmse(pred, target), "ssim": ssim(pred, target)}
+
+
+def masked_psnr(pred, target, mask) -> float:
+    """PSNR over the pixels where mask (H, W) is true: the part of the frame the projector can change.
+
+    Full-frame figures include pixels that are black in every image (off the object), which
+    inflates them; this one does not.
+    """
+    p, t = _pair(pred, target)
+    m = torch.as_tensor(np.asarray(mask, bool))
+    if not m.any():
+        return math.nan
+    err = ((p - t) ** 2).mean(dim=1)[:, m]
+    value = float(err.mean())
+    return math.inf if value == 0 else 10.0 * math.log10(1.0 / value)

@@ -1,0 +1,48 @@
+"""Project working images onto the real (rendered) surface and capture them: the "real capture".
+
+Uses a captured setup's own exposure, camera response, ambient light and registration, so a
+compensated image is judged exactly as its training captures were taken. The rig must not have
+moved since the capture (its fingerprint is checked).
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..lapig_core import dataset as ds
+from ..lapig_core.camera_model import CameraResponse
+from ..lapig_core.registration import Registration
+from .capture_job import CaptureError, _projector_frame, check_rig
+from .capture_studio import CaptureStudio
+from .fingerprint import rig_fingerprint
+from .properties import projector_model
+
+
+def render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
+                          chunk=8, return_raw=False):
+    """Registered captures (N, S, S, 3) float32 of projecting each working image (N, S, S, 3)."""
+    check_rig(scene, projector, camera, target)
+    setup_dir = os.fspath(setup_dir)
+    meta = ds.read_setup_json(os.path.join(setup_dir, "setup.json"))
+    if meta.get("fingerprint") != rig_fingerprint(projector, camera, target):
+        raise CaptureError("the projector, camera or object changed since this setup was captured: capture again")
+    registration = Registration.load(os.path.join(setup_dir, "registration.npz"))
+    response = CameraResponse(**meta["camera"]["response"])
+    cam_w, cam_h = meta["camera"]["resolution"]
+    model = projector_model(projector)
+    centre = np.array(target.matrix_world.translation)
+    distance = float(np.linalg.norm(np.array(projector.matrix_world.translation) - centre))
+    rng = np.random.default_rng(seed)
+    registered, raw = [], []
+    images = np.asarray(images, np.float32)
+    with CaptureStudio(scene, projector, camera, cam_w, cam_h, samples=samples or meta.get("samples", 1),
+                       ambient=meta.get("ambient", 0.0), ambient_distance=distance) as studio:
+        for start in range(0, len(images), chunk):
+            frames = [_projector_frame(model, im) for im in images[start:start + chunk]]
+            for linear in studio.render(frames):
+                cap = response.capture(linear, rng)
+                raw.append(cap)
+                registered.append(registration.warp(cap))
+    registered = np.stack(registered).astype(np.float32)
+    return (registered, np.stack(raw)) if return_raw else registered

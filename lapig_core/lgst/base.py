@@ -1,0 +1,88 @@
+"""The LGST backend interface (I = f_theta(s, T)) and the registry of backends.
+
+A backend turns a surface capture s and a prompt T into the stylized target I, and exposes theta (the
+tensors PSA optimises) so that projection-consistency losses can be back-propagated into the look.
+"""
+from __future__ import annotations
+
+import torch
+
+
+class LGSTUnavailable(RuntimeError):
+    """A backend cannot run here (a package or model file is missing); the message says what to install."""
+
+
+class LGSTBackend:
+    """Interface every LGST backend implements. Call prepare() once, then forward() as often as needed."""
+
+    name: str = "base"
+
+    @classmethod
+    def availability(cls) -> tuple[bool, str]:
+        """(can it run here, why not / what it uses): cheap, loads no model."""
+        return True, ""
+
+    def prepare(self, surface: torch.Tensor, prompt: str, seed: int = 0, mix=None) -> None:
+        """surface (1,3,H,W) in [0,1]: choose the style for `prompt` (or the explicit `mix`), set up theta."""
+        raise NotImplementedError
+
+    def parameters(self) -> list[torch.Tensor]:
+        """theta: the leaf tensors (requires_grad=True) that PSA optimises."""
+        raise NotImplementedError
+
+    def forward(self) -> torch.Tensor:
+        """The target image (1,3,H,W) in [0,1], differentiable w.r.t. parameters()."""
+        raise NotImplementedError
+
+    def stylize(self, surface: torch.Tensor, prompt: str, seed: int = 0, mix=None) -> torch.Tensor:
+        """prepare + forward without building a graph (for previews)."""
+        self.prepare(surface, prompt, seed=seed, mix=mix)
+        with torch.no_grad():
+            return self.forward()
+
+    def describe(self) -> dict:
+        """What was chosen: {'backend', 'styles': [(name, weight)], 'effects': [...], ...}."""
+        raise NotImplementedError
+
+    def state(self) -> dict:
+        """A detached copy of theta, so a PSA run can keep the best one."""
+        return {"theta": [p.detach().clone() for p in self.parameters()]}
+
+    def load_state(self, state: dict) -> None:
+        """Copy a state() back into theta in place (the optimiser keeps pointing at the same tensors)."""
+        theta = state["theta"]
+        params = self.parameters()
+        if len(theta) != len(params):
+            raise ValueError(f"state has {len(theta)} tensors, the backend has {len(params)}")
+        with torch.no_grad():
+            for p, v in zip(params, theta):
+                p.copy_(v)
+
+
+BACKENDS: dict[str, type] = {}
+
+
+def register_backend(name: str, cls: type) -> None:
+    """Make `cls` (an LGSTBackend subclass) available as get_backend(name)."""
+    if not (isinstance(cls, type) and issubclass(cls, LGSTBackend)):
+        raise TypeError(f"{cls!r} is not an LGSTBackend subclass")
+    BACKENDS[name] = cls
+
+
+def get_backend(name: str, **kwargs) -> LGSTBackend:
+    """A new backend instance; ValueError naming the registered backends if `name` is unknown."""
+    if name not in BACKENDS:
+        known = ", ".join(sorted(BACKENDS)) or "(none registered)"
+        raise ValueError(f"unknown LGST backend '{name}'; registered backends: {known}")
+    return BACKENDS[name](**kwargs)
+
+
+def available_backends() -> dict[str, tuple[bool, str]]:
+    """{name: (available, reason)} for every registered backend, without loading any model."""
+    out = {}
+    for name, cls in sorted(BACKENDS.items()):
+        try:
+            out[name] = cls.availability()
+        except Exception as exc:  # a broken check must not hide the other backends
+            out[name] = (False, f"availability check failed: {exc}")
+    return out

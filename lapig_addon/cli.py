@@ -49,6 +49,15 @@ def _parser():
                      help="train only these networks (repeatable)")
     pre.add_argument("--seed", type=int, default=0)
 
+    ev = sub.add_parser("eval", help="one surface image and prompt: stylize with and without PSA, capture both")
+    ev.add_argument("--surface", required=True, help="surface texture image (PNG/JPG)")
+    ev.add_argument("--prompt", required=True, help='e.g. "Make it a stained glass artwork"')
+    ev.add_argument("--out", required=True, help="output folder (sheet.png, metrics.json)")
+    ev.add_argument("--backend", default="styletransfer", help="LGST backend (default: styletransfer)")
+    ev.add_argument("--seed", type=int, default=0)
+    ev.add_argument("--train", type=int, default=125, help="captured training pairs (default 125)")
+    ev.add_argument("--verbose", action="store_true", help="print training progress")
+
     build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")
     build.add_argument("--out", default="dist", help="output folder (default: dist)")
 

@@ -136,6 +136,16 @@ def cmd_pretrain(args) -> int:
     return 0
 
 
+def cmd_eval(args) -> int:
+    _ensure_registered()
+    from . import evaluate
+
+    summary = evaluate.run(args)
+    print(f"Look at {summary['sheet']}")
+    print_json({k: summary[k] for k in ("with_psa", "without_psa", "style_retention", "timings", "sheet")})
+    return 0
+
+
 def cmd_build(args) -> int:
     from .packaging import build_extension
 

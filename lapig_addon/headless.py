@@ -27,7 +27,11 @@ def run_capture(scene, settings: CaptureSettings, projector=None, camera=None, t
 
 
 def render_synthetic_setups(specs, out, train, test, seed=0, skip_existing=True, sheet=None) -> dict:
-    """Capture each synthetic setup into the data set root `out`; returns per-setup figures."""
+    """Capture each synthetic setup into `out/<name>`, a data set root of its own; returns figures.
+
+    Own roots because the public layout shares the projector images of a root between its setups,
+    and every setup here projects its own seeded patterns.
+    """
     import time
 
     from ..lapig_core import dataset as ds
@@ -38,13 +42,13 @@ def render_synthetic_setups(specs, out, train, test, seed=0, skip_existing=True,
     textures = ensure_dir(os.path.join(out, "textures"))
     summary = {}
     for spec in specs:
-        layout = ds.DatasetLayout(out, spec.name)
+        layout = ds.DatasetLayout(os.path.join(out, spec.name), spec.name)
         if skip_existing and layout.setup_json.exists():
             print(f"{spec.name}: already captured", flush=True)
             continue
         t = time.perf_counter()
         scene, projector, camera, target = syn.build_setup(spec, textures)
-        settings = CaptureSettings(out_dir=out, setup_name=spec.name, train_count=train, test_count=test,
+        settings = CaptureSettings(out_dir=os.path.join(out, spec.name), setup_name=spec.name, train_count=train, test_count=test,
                                    ambient=spec.ambient, seed=seed + spec.seed)
         result = run_capture(scene, settings)
         meta = result["meta"]

@@ -88,3 +88,65 @@ class Job:
         if self.started_at is None:
             return 0.0
         return (self.finished_at or time.perf_counter()) - self.started_at
+
+
+class WorkerJob(Job):
+    """A job whose heavy part (torch, numpy; never bpy) runs on a worker thread.
+
+    prepare() reads what the work needs from bpy on the main thread, work() runs on the thread and
+    reports progress through a queue, finish() writes the result back into bpy on the main thread.
+    Each step() only drains the queue, so Blender's main thread never waits for the work;
+    poll_timeout > 0 makes synchronous runs (headless, tests) wait instead of spinning.
+    """
+
+    poll_timeout = 0.05
+
+    def prepare(self):
+        return None
+
+    def work(self, inputs, report, cancel_event):
+        raise NotImplementedError
+
+    def finish(self, output):
+        return output
+
+    def steps(self):
+        import queue
+        import threading
+
+        inputs = self.prepare()
+        messages = queue.Queue()
+        self.cancel_event = threading.Event()
+        box = {}
+
+        def report(progress, message):
+            messages.put((float(progress), str(message)))
+
+        def target():
+            try:
+                box["output"] = self.work(inputs, report, self.cancel_event)
+            except BaseException as exc:  # handed to the main thread, raised there
+                box["error"] = exc
+
+        thread = threading.Thread(target=target, name=self.title, daemon=True)
+        thread.start()
+        progress, message = 0.0, "starting"
+        try:
+            while thread.is_alive() or not messages.empty():
+                try:
+                    progress, message = messages.get(timeout=self.poll_timeout) if self.poll_timeout \
+                        else messages.get_nowait()
+                    while not messages.empty():  # only the latest matters
+                        progress, message = messages.get_nowait()
+                except queue.Empty:
+                    pass
+                yield min(progress, 0.99), message
+        finally:
+            if thread.is_alive():  # cancelled: tell the worker, do not wait for it on the UI thread
+                self.cancel_event.set()
+        if "error" in box:
+            raise box["error"]
+        if self.cancel_event.is_set():
+            raise JobCancelled()
+        self.result = self.finish(box.get("output"))
+        yield 1.0, "done"

@@ -51,6 +51,7 @@ class JobRunnerMixin:
         except (ValueError, ImportError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+        self._job.poll_timeout = 0  # a worker job must never make the UI thread wait
         _active["job"] = self._job
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.05, window=context.window)

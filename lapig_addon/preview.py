@@ -57,7 +57,7 @@ def _projection_nodes(tree, projector, image):
     return tex
 
 
-def _preview_material(original, projector, image):
+def _preview_material(original, projector, image, appearance=False):
     if original is not None:
         mat = original.copy()
         mat.name = PREVIEW_PREFIX + original.name
@@ -66,7 +66,17 @@ def _preview_material(original, projector, image):
     tree = material_node_tree(mat)
     tex = _projection_nodes(tree, projector, image)
     bsdf = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
-    if bsdf is not None:
+    if appearance:
+        # an appearance (target, simulated or rendered capture) already includes the surface: show it
+        # as is, unlit, instead of multiplying the surface again
+        output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"), None)
+        if output is None:
+            output = tree.nodes.new("ShaderNodeOutputMaterial")
+        emission = tree.nodes.new("ShaderNodeEmission")
+        tree.links.new(tex.outputs["Color"], emission.inputs["Color"])
+        tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
+        emission.location = (output.location.x - 250, output.location.y - 200)
+    elif bsdf is not None:
         mix = tree.nodes.new("ShaderNodeMix")
         mix.data_type, mix.blend_type = "RGBA", "MULTIPLY"
         mix.inputs["Factor"].default_value = 1.0
@@ -136,7 +146,7 @@ def _remove_solid_mode_projection(obj):
             bpy.data.cameras.remove(lens)
 
 
-def enable_preview(obj, projector, image):
+def enable_preview(obj, projector, image, appearance=False):
     if image is None:
         raise ValueError("the projector has no image to preview")
     if obj.type != "MESH":
@@ -154,9 +164,18 @@ def enable_preview(obj, projector, image):
         fake_users.append(bool(original.use_fake_user) if original else False)
         if original is not None:
             original.use_fake_user = True
-        slot.material = _preview_material(original, projector, image)
+        slot.material = _preview_material(original, projector, image, appearance)
     obj[ORIGINALS_KEY] = originals
+    obj["lapig_preview_appearance"] = bool(appearance)
+    obj["lapig_preview_image"] = image.name
     obj["lapig_preview_fake_users"] = fake_users
+
+
+def current_preview(obj):
+    """(image, appearance) shown now, so a capture can turn the preview off and back on as it was."""
+    if not is_previewing(obj):
+        return None
+    return bpy.data.images.get(obj.get("lapig_preview_image", "")), bool(obj.get("lapig_preview_appearance"))
 
 
 def disable_preview(obj):
@@ -177,4 +196,6 @@ def disable_preview(obj):
         del obj["lapig_preview_added_slot"]
     del obj[ORIGINALS_KEY]
     obj.pop("lapig_preview_fake_users", None)
+    obj.pop("lapig_preview_appearance", None)
+    obj.pop("lapig_preview_image", None)
     _remove_solid_mode_projection(obj)

@@ -55,6 +55,37 @@ class LapigCameraSettings(bpy.types.PropertyGroup):
                          description="Sensor noise standard deviation, linear units")
 
 
+PREVIEW_MODES = [
+    ("ORIGINAL", "Original", "The object's own material"),
+    ("PROJECTION", "Projection", "The projector image cast on the object (its light times the surface)"),
+    ("TARGET", "Target", "The stylization the viewer should see"),
+    ("SIMULATED", "Simulated", "What PCNet predicts the camera sees"),
+    ("RENDERED", "Rendered", "The Cycles capture of the projection"),
+    ("COMPENSABILITY", "Problem areas", "Where the surface cannot show the target (L_ps + L_cs per pixel)"),
+]
+
+
+_BACKEND_ITEMS = []  # Blender needs the enum strings to stay referenced
+
+
+def _backend_items(self, context):
+    if not _BACKEND_ITEMS:
+        try:
+            from ..lapig_core.lgst import BACKENDS, DEFAULT_BACKEND
+
+            names = sorted(BACKENDS, key=lambda n: (n != DEFAULT_BACKEND, n))  # first item = default
+        except ImportError:  # torch missing: the panel says so; keep the default listed
+            names = []
+        _BACKEND_ITEMS.extend((n, n, f"LGST backend '{n}'") for n in (names or ["styletransfer"]))
+    return _BACKEND_ITEMS
+
+
+def _preview_mode_changed(self, context):
+    from . import result_preview
+
+    result_preview.apply_mode(context.scene, self.preview_mode, report=None)
+
+
 class LapigSceneSettings(bpy.types.PropertyGroup):
     projector: PointerProperty(name="Projector", type=bpy.types.Object,
                                poll=lambda self, obj: obj.type == "LIGHT" and obj.lapig_projector.is_projector)
@@ -78,6 +109,32 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     seed: IntProperty(name="Seed", default=0, min=0)
     last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH")
     last_capture_fingerprint: StringProperty(name="Scene fingerprint of the last capture")
+    # models
+    models_fingerprint: StringProperty(name="Rig fingerprint the models were trained for")
+    models_status: StringProperty(name="Models")
+    # stylize
+    prompt: StringProperty(name="Prompt", default="Make it a stained glass artwork",
+                           description="What the object should look like under the projection")
+    backend: EnumProperty(name="Backend", items=_backend_items,
+                          description="Language-guided style transfer that turns the prompt into a look")
+    style_override: StringProperty(name="Style mix",
+                                   description="Optional explicit mix instead of the prompt's, "
+                                               "e.g. 'black_ink_cells:0.7, teal_red_mosaic:0.3'")
+    use_psa: BoolProperty(name="Surface adaptation (PSA)", default=True,
+                          description="Adapt the look to what this surface and projector can show")
+    psa_strength: FloatProperty(name="Strength", default=0.5, min=0.05, max=0.95, subtype="FACTOR",
+                                description="How far PSA pushes the projection loss down (0.5: to half its "
+                                            "first value)")
+    style_seed: IntProperty(name="Seed", default=0, min=0)
+    result_dir: StringProperty(name="Result folder", subtype="DIR_PATH")
+    result_fingerprint: StringProperty(name="Rig fingerprint of the result")
+    result_summary: StringProperty(name="Result")
+    preview_mode: EnumProperty(name="Show", items=PREVIEW_MODES, default="ORIGINAL", update=_preview_mode_changed,
+                               description="What the object shows in the viewport")
+    # export
+    export_bit_depth: EnumProperty(name="Bit depth", items=[("8", "8 bit", ""), ("16", "16 bit", "")], default="8")
+    export_path: StringProperty(name="Export to", subtype="FILE_PATH", default="//projector_image.png")
+    crossfade_frames: IntProperty(name="Crossfade frames", default=60, min=2, max=10000)
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
     job_message: StringProperty(name="Status")
 

@@ -30,3 +30,31 @@ def location_message() -> str:
     if temporary:
         return "Unsaved file: data goes to a temporary folder (save the .blend to keep it)"
     return f"Data folder: {folder}"
+
+
+def capture_root(setup_name: str) -> str:
+    """Each object's captures get a data set root of their own: the public layout shares projector
+    images between the setups of one root, and each capture may use its own patterns."""
+    return os.path.join(data_root()[0], setup_name)
+
+
+def resolve_capture_dir(path: str) -> str:
+    """The capture folder, found again beside the .blend when the file and its data folder moved."""
+    if not path:
+        return ""
+    name = os.path.basename(os.path.normpath(bpy.path.abspath(path)))
+    return _resolve(path, os.path.join(name, "setups"))
+
+
+def resolve_result_dir(path: str) -> str:
+    return _resolve(path, "results")
+
+
+def _resolve(path: str, kind: str) -> str:
+    if not path:
+        return ""
+    absolute = bpy.path.abspath(path)
+    if os.path.isdir(absolute):
+        return absolute
+    moved = os.path.join(data_root()[0], kind, os.path.basename(os.path.normpath(absolute)))
+    return moved if os.path.isdir(moved) else ""

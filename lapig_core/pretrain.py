@@ -34,10 +34,11 @@ def autoencoder_pairs(pairs: PairSet) -> PairSet:
 
 
 def load_setups(data_root) -> list:
-    setups = sorted(p for p in (Path(data_root) / "setups").iterdir()
-                    if p.is_dir() and not p.name.endswith(".partial"))
+    """Every complete setup under data_root/<name>/setups/<name> (one root per synthetic setup)."""
+    setups = sorted(p for p in Path(data_root).glob("*/setups/*")
+                    if p.is_dir() and not p.name.endswith(".partial") and (p / "setup.json").exists())
     if not setups:
-        raise ValueError(f"no captured setups under {data_root}/setups: run 'python -m lapig_addon dataset' first")
+        raise ValueError(f"no captured setups under {data_root}: run 'python -m lapig_addon dataset' first")
     return [load_capture_set(p) for p in setups]
 
 

@@ -21,8 +21,9 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
         root, temporary = storage.data_root()
         if temporary:
             self.report({"WARNING"}, storage.location_message())
+        name = storage.setup_name_for(s.target)
         settings = CaptureSettings(
-            out_dir=root, setup_name=storage.setup_name_for(s.target), train_count=s.train_count,
+            out_dir=storage.capture_root(name), setup_name=name, train_count=s.train_count,
             test_count=s.test_count, working_size=s.working_size, gray_level=s.gray_level,
             samples=s.samples, ambient=s.ambient, seed=s.seed,
             pattern_folder=bpy.path.abspath(s.pattern_folder) if s.pattern_source == "FOLDER" else None,

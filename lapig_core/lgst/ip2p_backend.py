@@ -1,0 +1,277 @@
+"""Optional LGST backend: InstructPix2Pix (Brooks et al.) through diffusers, as in the public LAPIG code.
+
+Two paths share one loaded pipeline:
+- stylize(): the pipeline itself with the public code's settings (Euler-Ancestral, 10 steps, text guidance
+  7.5, image guidance 1.0, input at 256 px). It runs under no_grad, so it is only for previews.
+- prepare()/forward(): a few-step deterministic DDIM sampler written here from the pipeline's parts
+  (text encoder, VAE, UNet, noise schedule). theta is the prompt embedding, so PSA's gradients reach it.
+
+diffusers/transformers are imported lazily: importing lapig_core.lgst stays light, and machines without
+them (or without the weights) still get the default 'styletransfer' backend. Nothing is downloaded unless
+the caller passes allow_download=True.
+"""
+from __future__ import annotations
+
+import functools
+import importlib.util
+import os
+from pathlib import Path
+
+import torch
+import torch.utils.checkpoint
+
+from .base import LGSTBackend, LGSTUnavailable
+from .styletransfer_backend import resize
+
+DEFAULT_MODEL = "timbrooks/instruct-pix2pix"
+MODEL_ENV = "LAPIG_IP2P_MODEL"
+REQUIREMENTS = "pip install -r requirements-ip2p.txt"
+
+
+def default_model() -> str:
+    """The model id or folder used when none is given: $LAPIG_IP2P_MODEL, else the public checkpoint."""
+    return os.environ.get(MODEL_ENV, "").strip() or DEFAULT_MODEL
+
+
+def _is_local_path(model: str) -> bool:
+    """A folder rather than a Hub id ('owner/name' also contains a slash, so only clear paths count)."""
+    return (os.path.isabs(model) or model.startswith((".", "~")) or (os.sep == "\\" and "\\" in model)
+            or os.path.exists(model))
+
+
+def _missing_message(model: str, detail: str = "") -> str:
+    if _is_local_path(model):
+        where = str(Path(model).expanduser())
+        fetch = f"`hf download {DEFAULT_MODEL} --local-dir {where}`"
+    else:
+        where = f"'{model}' (Hugging Face cache)"
+        fetch = f"`hf download {model}` (or pass allow_download=True once)"
+    msg = (f"InstructPix2Pix weights not found at {where}; download them with {fetch}, set ${MODEL_ENV} "
+           f"to a local copy, or use the default 'styletransfer' backend")
+    return msg + (f" ({detail})" if detail else "")
+
+
+def model_status(model: str | None = None) -> tuple[bool, str]:
+    """(weights present locally, where / why not): file-system checks only, loads and downloads nothing."""
+    model = model or default_model()
+    for module, package in (("diffusers", "diffusers"), ("transformers", "transformers")):
+        if importlib.util.find_spec(module) is None:
+            return False, (f"InstructPix2Pix needs the '{package}' package ({REQUIREMENTS}); or use the "
+                           f"default 'styletransfer' backend")
+    if _is_local_path(model):
+        folder = Path(model).expanduser()
+        if (folder / "model_index.json").is_file():
+            return True, f"InstructPix2Pix from {folder}"
+        return False, _missing_message(model)
+    try:
+        from huggingface_hub import try_to_load_from_cache
+    except ImportError:  # pragma: no cover - diffusers depends on huggingface_hub
+        return False, _missing_message(model, "huggingface_hub is not installed")
+    cached = try_to_load_from_cache(model, "model_index.json")
+    if isinstance(cached, str):
+        return True, f"InstructPix2Pix '{model}' from the Hugging Face cache"
+    return False, _missing_message(model)
+
+
+def _pick_device(device) -> torch.device:
+    if device is None or device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    return torch.device(device)
+
+
+@functools.lru_cache(maxsize=2)
+def _load_pipeline(model: str, device: str, allow_download: bool):
+    """The frozen pipeline, shared by every backend instance in this process (loading takes seconds)."""
+    if importlib.util.find_spec("diffusers") is None or importlib.util.find_spec("transformers") is None:
+        raise LGSTUnavailable(f"InstructPix2Pix needs diffusers and transformers ({REQUIREMENTS}) or use "
+                              f"the default 'styletransfer' backend")
+    if _is_local_path(model) and not (Path(model).expanduser() / "model_index.json").is_file():
+        raise LGSTUnavailable(_missing_message(model))  # fail at once, diffusers would treat it as a Hub id
+    from diffusers import EulerAncestralDiscreteScheduler, StableDiffusionInstructPix2PixPipeline
+
+    dev = torch.device(device)
+    dtype = torch.float16 if dev.type == "cuda" else torch.float32  # fp16 is slow or unsupported on CPU
+    source = str(Path(model).expanduser()) if _is_local_path(model) else model
+    try:
+        pipe = StableDiffusionInstructPix2PixPipeline.from_pretrained(
+            source, dtype=dtype, local_files_only=not allow_download)
+    except Exception as exc:  # OSError offline/missing files, ValueError for a broken folder, ...
+        raise LGSTUnavailable(_missing_message(model, f"{type(exc).__name__}: {exc}")) from exc
+    pipe.scheduler = EulerAncestralDiscreteScheduler.from_config(pipe.scheduler.config)
+    pipe = pipe.to(dev)
+    pipe.set_progress_bar_config(disable=True)
+    for part in (pipe.unet, pipe.vae, pipe.text_encoder):
+        part.eval().requires_grad_(False)  # gradients only go to theta, the weights stay fixed
+    return pipe
+
+
+def work_shape(h: int, w: int, size: int, multiple: int) -> tuple[int, int]:
+    """(h, w) scaled so the longer side is `size`, both multiples of `multiple` (the VAE's downscale)."""
+    scale = size / max(h, w)
+    return (max(multiple, int(round(h * scale / multiple)) * multiple),
+            max(multiple, int(round(w * scale / multiple)) * multiple))
+
+
+class InstructPix2PixBackend(LGSTBackend):
+    """InstructPix2Pix edits the white-lit surface as the prompt instructs; theta = prompt embedding."""
+
+    name = "instruct-pix2pix"
+
+    def __init__(self, model: str | None = None, allow_download: bool = False, steps: int = 10,
+                 guidance: float = 7.5, image_guidance: float = 1.0, size: int = 256, psa_steps: int = 4,
+                 device=None, checkpointing: bool = False):
+        """model: Hub id or local folder (default $LAPIG_IP2P_MODEL or 'timbrooks/instruct-pix2pix').
+        allow_download: let diffusers fetch missing weights (off: never touch the network).
+        steps: Euler-Ancestral steps of stylize(); psa_steps: DDIM steps of the differentiable forward().
+        guidance / image_guidance: classifier-free guidance weights for the text and the input image.
+        size: longer side of the image the model works on (the public code uses 256).
+        checkpointing: recompute each UNet call in backward instead of storing its activations
+        (less memory for PSA on the full model, about one more forward pass of time).
+        """
+        if int(steps) < 1 or int(psa_steps) < 1:
+            raise ValueError(f"steps and psa_steps must be >= 1, got {steps} and {psa_steps}")
+        if int(size) < 8:
+            raise ValueError(f"size must be >= 8, got {size}")
+        self.model = model or default_model()
+        self.allow_download = bool(allow_download)
+        self.steps, self.psa_steps, self.size = int(steps), int(psa_steps), int(size)
+        self.guidance, self.image_guidance = float(guidance), float(image_guidance)
+        self.device = _pick_device(device)
+        self.checkpointing = bool(checkpointing)
+        self._theta: list[torch.Tensor] = []
+        self._info: dict = {}
+
+    @classmethod
+    def availability(cls) -> tuple[bool, str]:
+        return model_status(default_model())
+
+    @property
+    def pipe(self):
+        return _load_pipeline(self.model, str(self.device), self.allow_download)
+
+    # -- setup -----------------------------------------------------------------------------------
+    def _encode_text(self, text: str) -> torch.Tensor:
+        tok = self.pipe.tokenizer
+        ids = tok(text, padding="max_length", max_length=tok.model_max_length, truncation=True,
+                  return_tensors="pt").input_ids.to(self.device)
+        return self.pipe.text_encoder(ids)[0]
+
+    def prepare(self, surface, prompt, seed=0, mix=None):
+        from .prompt_mapping import validate_prompt
+
+        if surface.ndim != 4 or surface.shape[:2] != (1, 3):
+            raise ValueError(f"surface must be (1,3,H,W), got {tuple(surface.shape)}")
+        text, notes = validate_prompt(prompt)
+        if mix is not None:
+            notes.append("style mixes are ignored by InstructPix2Pix: it follows the prompt only")
+        pipe = self.pipe
+        self.surface = surface.detach().float().clamp(0, 1)
+        self.out_size = tuple(self.surface.shape[-2:])
+        self.work_size = work_shape(*self.out_size, self.size, pipe.vae_scale_factor)
+        dtype = pipe.unet.dtype
+        with torch.no_grad():
+            self._image = resize(self.surface.to(self.device), self.work_size)
+            self._uncond = self._encode_text("").to(dtype)
+            cond = self._encode_text(text)
+            # image latents as the pipeline makes them: the VAE mode, unscaled (InstructPix2Pix convention)
+            self._image_latents = pipe.vae.encode((self._image * 2 - 1).to(dtype)).latent_dist.mode()
+        gen = torch.Generator().manual_seed(int(seed))  # CPU generator: same noise on every device
+        shape = (1, pipe.vae.config.latent_channels, *self._image_latents.shape[-2:])
+        self._noise = torch.randn(shape, generator=gen).to(self.device, dtype)
+        # float32 leaf even when the UNet runs fp16, so Adam's small steps are not rounded away
+        self._theta = [cond.detach().float().clone().requires_grad_(True)]
+        self._anchor = [cond.detach().float().clone()]
+        self._seed = int(seed)
+        self._info = {"backend": self.name, "model": self.model, "prompt": text, "seed": int(seed),
+                      "steps": self.steps, "psa_steps": self.psa_steps, "guidance": self.guidance,
+                      "image_guidance": self.image_guidance, "size": list(self.work_size),
+                      "device": str(self.device), "dtype": str(dtype).replace("torch.", ""),
+                      "styles": [], "effects": [], "theta_numel": self._theta[0].numel(), "notes": notes}
+
+    def _require_prepared(self):
+        if not self._theta:
+            raise RuntimeError("call prepare(surface, prompt) first")
+
+    # -- theta -----------------------------------------------------------------------------------
+    def parameters(self):
+        self._require_prepared()
+        return list(self._theta)
+
+    def anchor(self) -> list[torch.Tensor]:
+        """theta as the prompt gave it (for a trust region / style-retention term in PSA)."""
+        self._require_prepared()
+        return [a.clone() for a in self._anchor]
+
+    def theta_distance(self) -> torch.Tensor:
+        """Mean squared relative change of the prompt embedding (differentiable)."""
+        self._require_prepared()
+        t, a = self._theta[0], self._anchor[0]
+        return ((t - a) ** 2).mean() / (a.pow(2).mean() + 1e-6)
+
+    # -- rendering -------------------------------------------------------------------------------
+    def _timesteps(self) -> list[int]:
+        # "trailing" spacing: the first step starts at the last training timestep (pure noise), which
+        # few-step DDIM needs; the pipeline's "leading" spacing would start from a partly clean latent
+        n_train = len(self.pipe.scheduler.alphas_cumprod)
+        return [int(round(n_train - i * n_train / self.psa_steps)) - 1 for i in range(self.psa_steps)]
+
+    def _eps(self, latents, t, cond):
+        """Guided noise prediction with the pipeline's three branches (text+image, image, none)."""
+        pipe, dtype = self.pipe, self.pipe.unet.dtype
+        uncond, img = self._uncond, self._image_latents
+        three = self.image_guidance != 1.0  # at weight 1 the unconditional branch cancels out exactly
+        n = 3 if three else 2
+        x = torch.cat([torch.cat([latents] * n), torch.cat([img, img, torch.zeros_like(img)][:n])], dim=1)
+        emb = torch.cat([cond.to(dtype), uncond, uncond][:n])
+        out = pipe.unet(x, t, encoder_hidden_states=emb, return_dict=False)[0].float()
+        e_text, e_img = out[0:1], out[1:2]
+        e_none = out[2:3] if three else e_img
+        return e_none + self.guidance * (e_text - e_img) + self.image_guidance * (e_img - e_none)
+
+    def forward(self):
+        """Deterministic DDIM (eta 0) from the noise fixed in prepare(); differentiable w.r.t. theta."""
+        self._require_prepared()
+        pipe = self.pipe
+        alphas = pipe.scheduler.alphas_cumprod.to(self.device, torch.float32)
+        prediction = pipe.scheduler.config.get("prediction_type", "epsilon")
+        latents = self._noise.float()
+        steps = self._timesteps()
+        for i, t in enumerate(steps):
+            a_t = alphas[t]
+            a_prev = alphas[steps[i + 1]] if i + 1 < len(steps) else torch.ones_like(a_t)
+            x_in = latents.to(pipe.unet.dtype)
+            if self.checkpointing and torch.is_grad_enabled():
+                model_out = torch.utils.checkpoint.checkpoint(self._eps, x_in, t, self._theta[0],
+                                                              use_reentrant=False)
+            else:
+                model_out = self._eps(x_in, t, self._theta[0])
+            if prediction == "v_prediction":
+                x0 = a_t.sqrt() * latents - (1 - a_t).sqrt() * model_out
+                eps = a_t.sqrt() * model_out + (1 - a_t).sqrt() * latents
+            else:
+                x0 = (latents - (1 - a_t).sqrt() * model_out) / a_t.sqrt()
+                eps = model_out
+            latents = a_prev.sqrt() * x0 + (1 - a_prev).sqrt() * eps
+        scale = pipe.vae.config.scaling_factor
+        image = pipe.vae.decode((latents / scale).to(pipe.vae.dtype), return_dict=False)[0].float()
+        image = ((image + 1) / 2).clamp(0, 1)
+        return resize(image, self.out_size).to(self.surface.device)
+
+    def stylize(self, surface, prompt, seed=0, mix=None):
+        """The pipeline with the public code's settings (Euler-Ancestral, seeded); no graph."""
+        self.prepare(surface, prompt, seed=seed, mix=mix)
+        pipe = self.pipe
+        gen = torch.Generator(device=self.device).manual_seed(int(seed))
+        with torch.no_grad():
+            out = pipe(image=self._image.to(pipe.unet.dtype), prompt_embeds=self._theta[0].detach().to(
+                pipe.unet.dtype), negative_prompt_embeds=self._uncond, num_inference_steps=self.steps,
+                guidance_scale=self.guidance, image_guidance_scale=self.image_guidance, generator=gen,
+                output_type="pt").images
+        return resize(out.float().clamp(0, 1), self.out_size).to(self.surface.device)
+
+    def describe(self):
+        self._require_prepared()
+        return dict(self._info)
+
+    def state(self):
+        return {"theta": [p.detach().clone() for p in self.parameters()], "describe": self.describe()}

@@ -1,0 +1,92 @@
+"""The projector-image pipeline on one captured setup, bpy-free.
+
+captured setup -> fine-tuned CompenNeSt + PCNet (cached next to the captures)
+              -> LGST target from the white-lit surface I+ and the prompt
+              -> with and without PSA: target, projector image, simulated capture.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import torch
+
+from . import checkpoints, metrics
+from .dataset import CaptureSet
+from .finetune import finetune, load_setup_model, save_setup_model
+from .lgst import DEFAULT_BACKEND, get_backend
+from .psa import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
+from .training_data import SurfaceTensors
+
+
+def setup_dir_of(cs: CaptureSet) -> Path:
+    return Path(cs.root) / "setups" / cs.setup if (Path(cs.root) / "setups").is_dir() else Path(cs.root)
+
+
+def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True) -> dict:
+    """Fine-tune CompenNeSt (8 pairs) and PCNet (all pairs) from the pretrained weights."""
+    out, t0 = {}, time.perf_counter()
+    for i, (arch, role) in enumerate((("CompenNeSt", "compensation"), ("PCNet", "simulation"))):
+        def progress(p, msg, i=i, arch=arch):
+            if on_progress:
+                on_progress((i + p) / 2, f"{arch}: {msg}")
+
+        model, result = finetune(cs, arch, role, on_progress=progress, cancel_event=cancel_event)
+        if result.cancelled:
+            raise InterruptedError("training cancelled")
+        if save:
+            save_setup_model(setup_dir_of(cs), model, role, cs, iterations=result.iterations,
+                             train_seconds=round(result.seconds, 2))
+        out[arch] = model
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
+def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, cancel_event=None) -> SurfaceModels:
+    """The setup's fine-tuned models: loaded when saved for this very setup, else trained now."""
+    fingerprint = cs.meta.get("fingerprint")
+    try:
+        comp, _ = load_setup_model(setup_dir_of(cs), "CompenNeSt", "compensation", fingerprint)
+        sim, _ = load_setup_model(setup_dir_of(cs), "PCNet", "simulation", fingerprint)
+    except checkpoints.CheckpointError:
+        if not train_if_missing:
+            raise
+        trained = train_models(cs, on_progress, cancel_event)
+        comp, sim = trained["CompenNeSt"], trained["PCNet"]
+    surf = SurfaceTensors.from_capture_set(cs)
+    return SurfaceModels(comp, sim, surf.s, surf.i_min, surf.i_max)
+
+
+@dataclass
+class StylizeResult:
+    without: PSAResult
+    with_psa: PSAResult | None
+    describe: dict
+    settings: PSASettings
+
+    def style_retention(self) -> dict:
+        if self.with_psa is None:
+            return {}
+        a, b = self.with_psa.target, self.without.target
+        return {"ssim": metrics.ssim(a, b), "psnr": metrics.psnr(a, b)}
+
+
+def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = DEFAULT_BACKEND, seed: int = 0,
+            mix=None, psa: bool = True, settings: PSASettings | None = None, on_progress=None, cancel_event=None,
+            backend_options: dict | None = None) -> StylizeResult:
+    """The prompt's look on this surface, and its PSA-adapted version."""
+    settings = settings or PSASettings(seed=seed)
+    lgst = get_backend(backend, **(backend_options or {}))
+    surface = SurfaceTensors.from_capture_set(cs).i_max  # LGST sees the white-lit surface (as the paper)
+    lgst.prepare(surface, prompt, seed=seed, mix=mix)
+    plain = without_psa(lgst, models)
+    adapted = None
+    if psa:
+        adapted = run_psa(lgst, models, settings, on_progress=on_progress, cancel_event=cancel_event)
+    return StylizeResult(plain, adapted, lgst.describe(), settings)
+
+
+def as_image(t: torch.Tensor):
+    """(1,3,H,W) tensor -> (H,W,3) numpy for writing and rendering."""
+    return t.detach()[0].permute(1, 2, 0).clamp(0, 1).cpu().numpy()

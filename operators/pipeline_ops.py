@@ -1,0 +1,145 @@
+"""Operators of the artist's path after the capture: train, generate, render, preview, export."""
+import os
+
+import bpy
+
+from ..lapig_addon import pipeline_jobs, result_preview, storage
+from ..lapig_addon.modal_runner import JobRunnerMixin
+from ..lapig_addon.properties import PREVIEW_MODES
+from ..lapig_core.deps import require
+
+
+class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
+    """Fine-tune the compensation and simulation networks on this setup's capture (about a minute)"""
+    bl_idname = "lapig.train_models"
+    bl_label = "Train Models"
+
+    def make_job(self, context):
+        require("torch")
+        job = pipeline_jobs.TrainModelsJob(context.scene)
+        pipeline_jobs.current_capture(context.scene)  # fail now, with the reason, not on the thread
+        return job
+
+    def on_done(self, context, job):
+        self.report({"INFO"}, context.scene.lapig.models_status)
+
+
+class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
+    """Turn the prompt into a look for this surface and compute the projector image that shows it"""
+    bl_idname = "lapig.generate"
+    bl_label = "Generate"
+
+    def make_job(self, context):
+        require("torch")
+        job = pipeline_jobs.GenerateJob(context.scene)
+        job.prepare()  # validates prompt and capture on the main thread, with a clear message
+        return job
+
+    def on_done(self, context, job):
+        if job.result:
+            self.report({"INFO"}, "Generated: " + job.result["summary_line"])
+
+
+class LAPIG_OT_render_result(JobRunnerMixin, bpy.types.Operator):
+    """Project the generated image with Cycles and capture it, to see the real result"""
+    bl_idname = "lapig.render_result"
+    bl_label = "Render Real Capture"
+
+    def make_job(self, context):
+        return pipeline_jobs.RenderResultJob(context.scene)
+
+    def on_done(self, context, job):
+        m = job.result["metrics"]
+        self.report({"INFO"}, f"Rendered capture: {m.get('rendered_psnr', float('nan')):.1f} dB against the target")
+
+
+class LAPIG_OT_preview_mode(bpy.types.Operator):
+    """Show the original material, the projection, the target, the simulated or rendered capture"""
+    bl_idname = "lapig.preview_mode"
+    bl_label = "Preview"
+    bl_options = {"REGISTER", "UNDO"}
+
+    mode: bpy.props.EnumProperty(items=PREVIEW_MODES)
+
+    def execute(self, context):
+        if not result_preview.apply_mode(context.scene, self.mode, self.report):
+            return {"CANCELLED"}
+        # keep the property in step without re-running its update callback
+        context.scene.lapig["preview_mode"] = [m[0] for m in PREVIEW_MODES].index(self.mode)
+        return {"FINISHED"}
+
+
+class LAPIG_OT_show_comparison(bpy.types.Operator):
+    """Open the with/without PSA comparison sheet in an Image Editor"""
+    bl_idname = "lapig.show_comparison"
+    bl_label = "Compare With and Without PSA"
+
+    def execute(self, context):
+        folder = storage.resolve_result_dir(context.scene.lapig.result_dir)
+        path = os.path.join(folder, "comparison.png") if folder else ""
+        if not os.path.isfile(path):
+            self.report({"ERROR"}, "Generate a projector image first")
+            return {"CANCELLED"}
+        image = bpy.data.images.load(path, check_existing=True)
+        image.reload()
+        for area in (context.screen.areas if context.screen else []):
+            if area.type == "IMAGE_EDITOR":
+                area.spaces.active.image = image
+                break
+        else:
+            self.report({"INFO"}, f"Comparison loaded as image '{image.name}': open it in an Image Editor")
+        return {"FINISHED"}
+
+
+class LAPIG_OT_export_image(bpy.types.Operator):
+    """Write the projector image at the projector's native resolution, with a JSON sidecar"""
+    bl_idname = "lapig.export_image"
+    bl_label = "Export Projector Image"
+
+    filepath: bpy.props.StringProperty(subtype="FILE_PATH")
+
+    def invoke(self, context, event):
+        self.filepath = bpy.path.abspath(context.scene.lapig.export_path)
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        from ..lapig_addon import export_result
+
+        path = self.filepath or bpy.path.abspath(context.scene.lapig.export_path)
+        try:
+            written = export_result.export_current(context.scene, path)
+        except (ValueError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Exported {written['image']}")
+        return {"FINISHED"}
+
+
+class LAPIG_OT_export_crossfade(bpy.types.Operator):
+    """Write a crossfade sequence from the look without PSA to the look with it (or from black)"""
+    bl_idname = "lapig.export_crossfade"
+    bl_label = "Export Crossfade"
+
+    directory: bpy.props.StringProperty(subtype="DIR_PATH")
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        from ..lapig_addon import export_result
+
+        try:
+            paths = export_result.export_crossfade(context.scene, self.directory)
+        except (ValueError, OSError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Wrote {len(paths)} frames to {os.path.dirname(paths[0])}")
+        return {"FINISHED"}
+
+
+CLASSES = (LAPIG_OT_train_models, LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_preview_mode,
+           LAPIG_OT_show_comparison, LAPIG_OT_export_image, LAPIG_OT_export_crossfade)
+
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -12,12 +12,13 @@ def _parser():
                                      description="LAPIG projector-image tools, headless.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    demo = sub.add_parser("demo", help="build the demo scene, capture it, and write images to look at")
+    demo = sub.add_parser("demo", help="the whole pipeline on a demo scene: capture, train, stylize, render, export")
     demo.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
     demo.add_argument("--shape", default="panel", choices=["panel", "box", "statue"])
     demo.add_argument("--surface", default="sakura")
-    demo.add_argument("--train", type=int, default=16, help="training captures (default 16)")
+    demo.add_argument("--train", type=int, default=125, help="training captures (default 125)")
     demo.add_argument("--test", type=int, default=4, help="test captures (default 4)")
+    demo.add_argument("--prompt", default="Render it in the style of a Van Gogh oil painting")
     demo.add_argument("--seed", type=int, default=0)
 
     cap = sub.add_parser("capture", help="capture the scene's projector-camera setup into a data set")
@@ -49,6 +50,30 @@ def _parser():
                      help="train only these networks (repeatable)")
     pre.add_argument("--seed", type=int, default=0)
 
+    def blend_arg(p):
+        p.add_argument("--blend", help=".blend file with a LAPIG rig (default: the open file)")
+        p.add_argument("--save", action="store_true", help="save the .blend afterwards (keeps where you were)")
+
+    tr = sub.add_parser("train", help="fine-tune CompenNeSt and PCNet on the scene's capture")
+    blend_arg(tr)
+
+    st = sub.add_parser("stylize", help="turn a prompt into a projector image for the scene's surface")
+    blend_arg(st)
+    st.add_argument("--prompt", required=True, help='e.g. "Make it a stained glass artwork"')
+    st.add_argument("--backend", default="styletransfer", help="LGST backend (default: styletransfer)")
+    st.add_argument("--mix", default="", help="explicit style mix instead of the prompt's, e.g. 'charcoal_wash:1'")
+    st.add_argument("--seed", type=int, default=0)
+    st.add_argument("--no-psa", dest="psa", action="store_false", help="skip the surface adaptation")
+    st.add_argument("--strength", type=float, default=0.5, help="PSA strength in (0,1) (default 0.5)")
+    st.add_argument("--render", action="store_true", help="also render the real capture with Cycles")
+
+    ex = sub.add_parser("export", help="write the scene's projector image for a real projector")
+    blend_arg(ex)
+    ex.add_argument("--out", required=True, help="PNG path (a JSON sidecar is written beside it)")
+    ex.add_argument("--bit-depth", type=int, choices=[8, 16], default=8)
+    ex.add_argument("--crossfade", help="also write a crossfade sequence (without -> with PSA) into this folder")
+    ex.add_argument("--frames", type=int, default=60, help="crossfade frames (default 60)")
+
     ev = sub.add_parser("eval", help="one surface image and prompt: stylize with and without PSA, capture both")
     ev.add_argument("--surface", required=True, help="surface texture image (PNG/JPG)")
     ev.add_argument("--prompt", required=True, help='e.g. "Make it a stained glass artwork"')
@@ -62,7 +87,7 @@ def _parser():
     build.add_argument("--out", default="dist", help="output folder (default: dist)")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
-    bench.add_argument("what", choices=["capture", "models"], help="which benchmark")
+    bench.add_argument("what", choices=["capture", "models", "psa", "ui"], help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
     bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
@@ -77,6 +102,14 @@ def _parser():
     bench.add_argument("--compensate", type=int, default=8, help="models: compensated test images per setup")
     bench.add_argument("--no-timing", dest="timing", action="store_false",
                        help="models: skip the fine-tuning time measurement")
+    bench.add_argument("--surfaces", type=int, default=5, help="psa: how many surfaces (default 5)")
+    bench.add_argument("--prompts", type=int, default=10, help="psa: how many prompts (default 10)")
+    bench.add_argument("--ablation-prompts", type=int, default=3,
+                       help="psa: prompts per surface that also run the loss ablation (default 3)")
+    bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
+    bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")
+    bench.add_argument("--train", type=int, default=125, help="psa: captured training pairs per surface")
+    bench.add_argument("--seed", type=int, default=0)
     return parser
 
 

@@ -106,6 +106,9 @@ class GenerateJob(WorkerJob):
         from . import result_preview
 
         s = self.scene.lapig
+        s.models_fingerprint = output["summary"].get("fingerprint") or ""  # trained on the way if missing
+        if not s.models_status:
+            s.models_status = "Fine-tuned for this capture"
         s.result_dir = output["folder"]
         s.result_fingerprint = rig_fingerprint(s.projector, s.camera, s.target) if s.projector else ""
         s.result_summary = output["summary_line"]

@@ -79,5 +79,5 @@ def apply_mode(scene, mode: str, report=None) -> bool:
 
 def _fail(report, message) -> bool:
     if report is not None:
-        report({"WARNING"}, message)
+        report({"ERROR"}, message)
     return False

@@ -7,6 +7,7 @@ weights, that reaches within 0.5 dB of the converged figure (see `bench models`)
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from . import checkpoints
@@ -23,13 +24,15 @@ MODEL_FILES = {("CompenNeSt", "compensation"): "compennest.pt", ("PCNet", "simul
 
 def cpu_recipe(arch: str, role: str, iterations: int | None = None, seed: int = 0) -> Recipe:
     paper = PAPER_RECIPES["PCNet" if role == "simulation" else "CompenNeSt"]
-    n = iterations or CPU_ITERATIONS[arch]
+    # LAPIG_FINETUNE_ITERATIONS: a quick mode for tests and rough previews
+    n = iterations or int(os.environ.get("LAPIG_FINETUNE_ITERATIONS") or 0) or CPU_ITERATIONS[arch]
     return paper.scaled(n, crop=CPU_CROP, seed=seed)
 
 
-def start_model(arch: str, role: str, from_pretrained: bool = True, seed: int = 0, working_size=None):
+def start_model(arch: str, role: str, from_pretrained: bool = True, seed: int = 0):
     if from_pretrained:
-        model, _ = checkpoints.load_pretrained(arch, role, working_size)
+        # pretrained on random crops: the weights fit any working size (the nets are convolutional)
+        model, _ = checkpoints.load_pretrained(arch, role)
         return model
     return checkpoints.new_model(arch, seed)
 
@@ -43,7 +46,7 @@ def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, rec
     train = pairs_from_capture_sets([cs], role, count=count)
     val = pairs_from_capture_sets([cs], role, split="test", count=val_count) if (val_count and cs.has_test) \
         else None
-    model = start_model(arch, role, from_pretrained, working_size=int(train.x.shape[-1]))
+    model = start_model(arch, role, from_pretrained)
     trainer = Trainer(model, train, recipe or cpu_recipe(arch, role), val_pairs=val, eval_every=eval_every,
                       report_every=min(eval_every, 10), cancel_event=cancel_event)
     result = trainer.run(on_progress)

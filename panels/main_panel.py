@@ -95,6 +95,104 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
         layout.operator("lapig.import_capture", icon="IMPORT")
 
 
-CLASSES = (LAPIG_PT_setup, LAPIG_PT_capture)
+def _job_running() -> bool:
+    job = active_job()
+    return job is not None and not job.finished
+
+
+def _progress(layout):
+    job = active_job()
+    if job is not None and not job.finished:
+        layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
+
+
+def _blocked(layout, reason):
+    """Show why the step below cannot run yet; returns True when it cannot."""
+    if reason:
+        layout.label(text=reason, icon="INFO")
+    return bool(reason)
+
+
+class LAPIG_PT_models(LapigPanel, bpy.types.Panel):
+    bl_label = "Models"
+    bl_idname = "LAPIG_PT_models"
+
+    def draw(self, context):
+        from ..lapig_addon import panel_state
+
+        layout = self.layout
+        state, reason = panel_state.models_state(context.scene)
+        layout.label(text=reason, icon=STATE_ICONS[state])
+        blocked = panel_state.models_blocker(context.scene)
+        _blocked(layout, blocked)
+        row = layout.row()
+        row.enabled = not blocked and not _job_running()
+        row.operator("lapig.train_models", icon="SHADERFX",
+                     text="Fine-tune Again" if state == "DONE" else "Train Models")
+
+
+class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
+    bl_label = "Stylize"
+    bl_idname = "LAPIG_PT_stylize"
+
+    def draw(self, context):
+        from ..lapig_addon import panel_state
+
+        layout = self.layout
+        s = context.scene.lapig
+        state, reason = panel_state.result_state(context.scene)
+        layout.label(text=reason, icon=STATE_ICONS[state])
+        layout.prop(s, "prompt", text="")
+        layout.prop(s, "backend")
+        layout.prop(s, "style_override")
+        row = layout.row(align=True)
+        row.prop(s, "use_psa")
+        sub = row.row()
+        sub.enabled = s.use_psa
+        sub.prop(s, "psa_strength")
+        layout.prop(s, "style_seed")
+        _progress(layout)
+        blocked = panel_state.generate_blocker(context.scene)
+        _blocked(layout, blocked)
+        row = layout.row()
+        row.scale_y = 1.4
+        row.enabled = not blocked and not _job_running()
+        row.operator("lapig.generate", icon="BRUSH_DATA")
+
+
+class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
+    bl_label = "Preview and Export"
+    bl_idname = "LAPIG_PT_preview_export"
+
+    def draw(self, context):
+        from ..lapig_addon import panel_state
+
+        layout = self.layout
+        s = context.scene.lapig
+        has_result = not panel_state.generate_blocker(context.scene) and bool(panel_state.result_folder(context.scene))
+        if not has_result:
+            layout.label(text="Generate a projector image first", icon="INFO")
+        if s.result_summary:
+            layout.label(text=s.result_summary)
+        col = layout.column()
+        col.enabled = s.target is not None and s.projector is not None
+        col.prop(s, "preview_mode", expand=True)
+        row = layout.row()
+        row.enabled = has_result and not _job_running()
+        row.operator("lapig.render_result", icon="RENDER_RESULT")
+        row = layout.row()
+        row.enabled = has_result
+        row.operator("lapig.show_comparison", icon="IMAGE_REFERENCE")
+        layout.separator()
+        col = layout.column()
+        col.enabled = has_result
+        col.prop(s, "export_bit_depth", expand=True)
+        col.prop(s, "export_path")
+        col.operator("lapig.export_image", icon="EXPORT")
+        col.prop(s, "crossfade_frames")
+        col.operator("lapig.export_crossfade", icon="SEQUENCE")
+
+
+CLASSES = (LAPIG_PT_setup, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize, LAPIG_PT_preview_export)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

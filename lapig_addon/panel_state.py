@@ -1,0 +1,72 @@
+"""What each panel step shows: done, stale (the scene changed) or missing, and what blocks it."""
+from __future__ import annotations
+
+import os
+
+from ..lapig_core.deps import missing_required
+from . import storage
+from .fingerprint import rig_fingerprint
+
+
+def _rig_now(s) -> str | None:
+    if s.projector is None or s.camera is None or s.target is None:
+        return None
+    return rig_fingerprint(s.projector, s.camera, s.target)
+
+
+def capture_blocker(scene) -> str:
+    s = scene.lapig
+    if s.projector is None or s.camera is None or s.target is None:
+        return "Add the projector and camera first"
+    return ""
+
+
+def _capture_ok(scene) -> str:
+    s = scene.lapig
+    blocker = capture_blocker(scene)
+    if blocker:
+        return blocker
+    if not storage.resolve_capture_dir(s.last_capture_dir):
+        return "Capture the surface first"
+    if s.last_capture_fingerprint and _rig_now(s) != s.last_capture_fingerprint:
+        return "The rig or the object moved: capture again"
+    return ""
+
+
+def models_blocker(scene) -> str:
+    missing = [d.package for d in missing_required() if d.package in ("torch",)]
+    if missing:
+        return "Install torch (see the add-on preferences)"
+    return _capture_ok(scene)
+
+
+def models_state(scene) -> tuple[str, str]:
+    s = scene.lapig
+    if not s.models_fingerprint:
+        return "MISSING", "Not trained for this capture (Generate trains them too)"
+    if s.models_fingerprint != s.last_capture_fingerprint:
+        return "STALE", "Trained for an older capture"
+    return "DONE", s.models_status or "Fine-tuned for this capture"
+
+
+def generate_blocker(scene) -> str:
+    blocker = models_blocker(scene)
+    if blocker:
+        return blocker
+    if not scene.lapig.style_override.strip() and not scene.lapig.prompt.strip():
+        return "Type a prompt"
+    return ""
+
+
+def result_folder(scene) -> str:
+    return storage.resolve_result_dir(scene.lapig.result_dir)
+
+
+def result_state(scene) -> tuple[str, str]:
+    s = scene.lapig
+    folder = result_folder(scene)
+    if not folder:
+        return "MISSING", "No projector image yet"
+    if s.result_fingerprint and _rig_now(s) not in (None, s.result_fingerprint):
+        return "STALE", "The rig moved since this result"
+    return "DONE", os.path.basename(folder)

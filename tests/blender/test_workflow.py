@@ -1,0 +1,135 @@
+"""The artist's whole path through the operators: capture, train, generate, preview, render, export."""
+import json
+import os
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+pytestmark = pytest.mark.blender
+
+
+@pytest.fixture
+def captured(small_setup, tmp_path, monkeypatch):
+    """A saved .blend with a small capture (working size 64) of the demo panel."""
+    monkeypatch.setenv("LAPIG_FINETUNE_ITERATIONS", "4")  # quick fine-tune: plumbing, not quality
+    scene = small_setup[0]
+    s = scene.lapig
+    s.train_count, s.test_count, s.working_size = 6, 0, 64
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
+    assert bpy.ops.lapig.capture() == {"FINISHED"}
+    return bpy.context.scene
+
+
+def _psa_fast(scene):
+    s = scene.lapig
+    s.prompt = "Render it in the style of a Van Gogh oil painting"
+    s.psa_strength = 0.5
+
+
+def test_whole_path_through_the_operators(captured, tmp_path):
+    from lapig.lapig_addon import panel_state, preview
+
+    scene = captured
+    s = scene.lapig
+    assert panel_state.models_state(scene)[0] == "MISSING"
+    assert bpy.ops.lapig.train_models() == {"FINISHED"}
+    assert panel_state.models_state(scene)[0] == "DONE"
+    _psa_fast(scene)
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
+    folder = s.result_dir
+    summary = json.load(open(os.path.join(folder, "result.json")))
+    assert summary["lgst"]["styles"][0][0] == "starry_blue_yellow"
+    assert summary["metrics"]["psa_iterations"] >= 1
+    for name in ("target", "projector", "simulated", "compensability", "target_nopsa", "comparison"):
+        assert os.path.isfile(os.path.join(folder, name + ".png")), name
+    # the projector now emits the compensated image
+    light_image = scene.lapig.projector.data.node_tree.nodes["LAPIG projected image"].image
+    assert light_image.name == "LAPIG projector image"
+
+    target = s.target
+    original = [slot.material.name for slot in target.material_slots]
+    for mode in ("TARGET", "SIMULATED", "COMPENSABILITY", "PROJECTION"):
+        assert bpy.ops.lapig.preview_mode(mode=mode) == {"FINISHED"}
+        assert preview.is_previewing(target)
+    with pytest.raises(RuntimeError, match="no 'rendered' image"):
+        bpy.ops.lapig.preview_mode(mode="RENDERED")
+    assert bpy.ops.lapig.render_result() == {"FINISHED"}
+    summary = json.load(open(os.path.join(folder, "result.json")))
+    assert summary["metrics"]["rendered_psnr"] > 5 and "rendered_psnr_nopsa" in summary["metrics"]
+    assert bpy.ops.lapig.preview_mode(mode="RENDERED") == {"FINISHED"}
+    assert bpy.ops.lapig.preview_mode(mode="ORIGINAL") == {"FINISHED"}
+    assert [slot.material.name for slot in target.material_slots] == original
+
+    for depth, dtype in (("8", np.uint8), ("16", np.uint16)):
+        s.export_bit_depth = depth
+        path = str(tmp_path / f"projector ü {depth}.png")
+        assert bpy.ops.lapig.export_image(filepath=path) == {"FINISHED"}
+        import cv2
+
+        data = cv2.imdecode(np.fromfile(path, np.uint8), cv2.IMREAD_UNCHANGED)
+        assert data.dtype == dtype and data.shape == (120, 160, 3)
+        side = json.load(open(path[:-4] + ".json", encoding="utf-8"))
+        assert side["prompt"] == s.prompt and side["projector"]["width"] == 160
+    s.crossfade_frames = 3
+    assert bpy.ops.lapig.export_crossfade(directory=str(tmp_path / "fade")) == {"FINISHED"}
+    assert len([f for f in os.listdir(tmp_path / "fade") if f.endswith(".png")]) == 3
+
+    # reopening the file restores where the user was
+    bpy.ops.wm.save_mainfile()
+    bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
+    s = bpy.context.scene.lapig
+    assert s.result_dir == folder and panel_state.result_state(bpy.context.scene)[0] == "DONE"
+
+
+def test_bad_input_is_refused_with_a_reason(captured, monkeypatch, tmp_path):
+    from lapig.lapig_addon import panel_state
+
+    scene = captured
+    s = scene.lapig
+    s.prompt = "   "
+    assert panel_state.generate_blocker(scene) == "Type a prompt"
+    with pytest.raises(RuntimeError, match="empty"):
+        bpy.ops.lapig.generate()
+    # missing weights: a clear message, nothing half-done
+    monkeypatch.setattr("lapig.lapig_core.checkpoints.WEIGHTS_DIR", tmp_path / "no weights")
+    s.prompt = "Make it a charcoal sketch ✏️ " + "very " * 400
+    with pytest.raises(RuntimeError, match="pretrained CompenNeSt weights are missing"):
+        bpy.ops.lapig.train_models()
+    monkeypatch.undo()
+    # the object moved: captures are stale and the next steps say so
+    s.target.location.x += 0.3
+    bpy.context.view_layer.update()
+    assert "capture again" in panel_state.generate_blocker(scene)
+    with pytest.raises(RuntimeError, match="capture again"):
+        bpy.ops.lapig.train_models()
+    with pytest.raises(RuntimeError, match="Generate a projector image first"):
+        bpy.ops.lapig.export_image(filepath=str(tmp_path / "x.png"))
+
+
+def test_no_projector(lapig_registered):
+    from lapig.lapig_addon import demo_scene, panel_state
+
+    demo_scene.new_empty_scene()
+    scene = bpy.context.scene
+    assert panel_state.generate_blocker(scene) == "Add the projector and camera first"
+    with pytest.raises(RuntimeError, match="No capture yet"):
+        bpy.ops.lapig.generate()
+
+
+def test_moved_blend_finds_its_data_again(captured, tmp_path):
+    import shutil
+
+    from lapig.lapig_addon import storage
+
+    old = bpy.data.filepath
+    new_dir = tmp_path / "moved"
+    new_dir.mkdir()
+    bpy.ops.wm.save_mainfile()
+    shutil.copytree(old[:-6] + "_lapig", str(new_dir / "wall_lapig"))
+    shutil.copy(old, new_dir / "wall.blend")
+    shutil.rmtree(old[:-6] + "_lapig")
+    bpy.ops.wm.open_mainfile(filepath=str(new_dir / "wall.blend"))
+    folder = storage.resolve_capture_dir(bpy.context.scene.lapig.last_capture_dir)
+    assert folder.startswith(str(new_dir)) and os.path.isdir(folder)

@@ -44,13 +44,14 @@ class PSAJob(WorkerJob):
 
 def drive_like_blender(job, tick=0.010, timer=0.050) -> dict:
     job.poll_timeout = 0
-    stalls, steps = [], []
+    stalls, steps, where = [], [], []
     next_timer = time.perf_counter() + timer
     expected = time.perf_counter() + tick
     while not job.finished:
         time.sleep(max(0.0, expected - time.perf_counter()))
         now = time.perf_counter()
         stalls.append(now - expected)  # the event loop woke late: the UI could not redraw
+        where.append(job.message)
         if now >= next_timer:
             t = time.perf_counter()
             job.step()
@@ -59,7 +60,8 @@ def drive_like_blender(job, tick=0.010, timer=0.050) -> dict:
         expected = time.perf_counter() + tick
     return {"max_wakeup_lateness_ms": 1000 * max(stalls), "max_step_ms": 1000 * max(steps),
             "p99_wakeup_lateness_ms": 1000 * float(np.percentile(stalls, 99)),
-            "steps": len(steps), "state": job.state}
+            "steps": len(steps), "state": job.state,
+            "worst_stalls": [(round(1000 * stalls[i], 1), where[i]) for i in np.argsort(stalls)[-3:][::-1]]}
 
 
 def run(args) -> dict:

@@ -9,9 +9,10 @@ L_style keeps the look the prompt asked for: the three PSA losses alone are mini
 target (NOTES section 1), so PSA pays for every step away from the un-adapted stylization I0
 (1 - SSIM(I, I0) plus the backend's own parameter distance when it has one).
 
-Adam on theta with the paper's schedule (lr / 5 every 50 iterations); stops when the PSA loss
-(L_pc + L_cs + L_ps, weighted) falls to `stop_ratio` x its first value, or at `max_iterations`,
-and returns the best iterate. `mode="resample"` re-does the public code's procedure instead:
+Adam on theta with the paper's schedule (lr / 5 every 50 iterations); stops when the total loss
+falls to `stop_ratio` x the first PSA loss (L_pc + L_cs + L_ps, weighted), or at `max_iterations`,
+and returns the iterate with the lowest total loss. The style term is weighted relative to the
+first PSA loss, so the same weight means the same trade-off on every surface and prompt. `mode="resample"` re-does the public code's procedure instead:
 re-sample the backend with new seeds until the loss halves, at most `max_iterations` samples.
 """
 from __future__ import annotations
@@ -38,12 +39,12 @@ class PSASettings:
     mode: str = "gradient"  # "gradient" or "resample"
     terms: tuple = LOSS_TERMS
     weights: dict = field(default_factory=lambda: {"pc": 1.0, "cs": 1.0, "ps": 1.0})
-    style_weight: float = 0.05  # L_style = (1 - SSIM(I, I0)) + theta distance
-    lr: float = 0.05
+    style_weight: float = 1.0  # L_style = (1 - SSIM(I, I0)) + theta distance, relative to the first PSA loss
+    lr: float = 0.01
     lr_step: int = 50
     lr_gamma: float = 0.2
     stop_ratio: float = 0.5
-    max_iterations: int = 40
+    max_iterations: int = 30
     seed: int = 0
 
     def to_dict(self) -> dict:
@@ -144,13 +145,14 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
         target = backend.forward()
         parts = psa_losses(target, models)
         psa = _psa_loss(parts, settings)
+        psa_value = float(psa.detach())
+        first = psa_value if first is None else first
         style = _style_loss(target, anchor, backend)
-        total = psa + settings.style_weight * style
+        # the style term is scaled by the first PSA loss, so one weight fits every prompt and surface
+        total = psa + settings.style_weight * max(first, 1e-8) * style
         if not torch.isfinite(total):
             stopped = "non-finite loss"
             break
-        psa_value = float(psa.detach())
-        first = psa_value if first is None else first
         entry = {"iteration": it, "psa_loss": psa_value, "style_loss": float(style.detach()),
                  "total": float(total.detach()), **{k: float(parts[k].detach()) for k in LOSS_TERMS}}
         history.append(entry)
@@ -159,7 +161,8 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
         if on_progress:
             on_progress(min(it / settings.max_iterations, 1.0),
                         f"PSA iteration {it}: loss {entry['psa_loss']:.5f} (first {first:.5f})")
-        if psa_value <= settings.stop_ratio * first and it > 0:
+        # the paper's rule on the total loss: style drift counts against reaching the threshold
+        if entry["total"] <= settings.stop_ratio * first and it > 0:
             stopped = "threshold"
             break
         if it == settings.max_iterations:

@@ -12,7 +12,8 @@ def _cli(*args, timeout=300):
                           text=True, timeout=timeout)
 
 
-@pytest.mark.parametrize("command", [[], ["demo"], ["capture"], ["bench"], ["build"]])
+@pytest.mark.parametrize("command", [[], ["demo"], ["capture"], ["dataset"], ["pretrain"], ["train"], ["stylize"],
+                                     ["export"], ["eval"], ["bench"], ["build"]])
 def test_every_command_has_help(command):
     proc = _cli(*command, "--help")
     assert proc.returncode == 0 and "usage:" in proc.stdout

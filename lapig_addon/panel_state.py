@@ -49,6 +49,26 @@ def models_state(scene) -> tuple[str, str]:
     return "DONE", s.models_status or "Fine-tuned for this capture"
 
 
+_AVAILABILITY: dict = {}  # backend -> (checked at, available, reason): draw() runs on every redraw
+
+
+def backend_warning(name: str) -> str:
+    """Why the chosen backend cannot run here ('' when it can); Generate then falls back."""
+    import time
+
+    checked = _AVAILABILITY.get(name)
+    if checked is None or time.monotonic() - checked[0] > 30:
+        try:
+            from ..lapig_core.lgst import BACKENDS
+
+            cls = BACKENDS.get(name)
+            ok, why = cls.availability() if cls else (False, f"unknown backend '{name}'")
+        except ImportError as exc:
+            ok, why = False, str(exc)
+        checked = _AVAILABILITY[name] = (time.monotonic(), ok, why)
+    return "" if checked[1] else checked[2]
+
+
 def generate_blocker(scene) -> str:
     blocker = models_blocker(scene)
     if blocker:

@@ -98,6 +98,8 @@ class GenerateJob(WorkerJob):
         res = stylize(cs, models, job["prompt"], backend=job["backend"], seed=job["seed"], mix=job["mix"],
                       psa=job["psa"], settings=job["settings"], cancel_event=cancel_event,
                       on_progress=lambda p, m: report(0.55 + 0.4 * p, m))
+        if cancel_event.is_set():  # cancelled: write nothing, the scene keeps its last result
+            return None
         return save_stylize_result(job, cs, models, res)
 
     def finish(self, output):

@@ -15,7 +15,7 @@ import torch
 from . import checkpoints, metrics
 from .dataset import CaptureSet
 from .finetune import finetune, load_setup_model, save_setup_model
-from .lgst import DEFAULT_BACKEND, get_backend
+from .lgst import DEFAULT_BACKEND, LGSTUnavailable, get_backend
 from .psa import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
 from .training_data import SurfaceTensors
 
@@ -77,14 +77,26 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
             backend_options: dict | None = None) -> StylizeResult:
     """The prompt's look on this surface, and its PSA-adapted version."""
     settings = settings or PSASettings(seed=seed)
-    lgst = get_backend(backend, **(backend_options or {}))
     surface = SurfaceTensors.from_capture_set(cs).i_max  # LGST sees the white-lit surface (as the paper)
-    lgst.prepare(surface, prompt, seed=seed, mix=mix)
+    lgst, fallback = get_backend(backend, **(backend_options or {})), None
+    try:
+        lgst.prepare(surface, prompt, seed=seed, mix=mix)
+    except LGSTUnavailable as exc:
+        if backend == DEFAULT_BACKEND:
+            raise
+        # e.g. InstructPix2Pix without its weights: say why, and use the offline default
+        fallback = f"'{backend}' is not available ({exc}); used '{DEFAULT_BACKEND}' instead"
+        lgst = get_backend(DEFAULT_BACKEND)
+        lgst.prepare(surface, prompt, seed=seed, mix=mix)
     plain = without_psa(lgst, models)
     adapted = None
     if psa:
         adapted = run_psa(lgst, models, settings, on_progress=on_progress, cancel_event=cancel_event)
-    return StylizeResult(plain, adapted, lgst.describe(), settings)
+    describe = lgst.describe()
+    if fallback:
+        describe["fallback"] = fallback
+        describe.setdefault("notes", []).append(fallback)
+    return StylizeResult(plain, adapted, describe, settings)
 
 
 def as_image(t: torch.Tensor):

@@ -37,6 +37,9 @@ class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
 
     def on_done(self, context, job):
         if job.result:
+            fallback = job.result["summary"]["lgst"].get("fallback")
+            if fallback:
+                self.report({"WARNING"}, fallback)
             self.report({"INFO"}, "Generated: " + job.result["summary_line"])
 
 

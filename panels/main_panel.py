@@ -144,6 +144,9 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         layout.label(text=reason, icon=STATE_ICONS[state])
         layout.prop(s, "prompt", text="")
         layout.prop(s, "backend")
+        warning = panel_state.backend_warning(s.backend)
+        if warning:
+            layout.label(text="Falls back to 'styletransfer': " + warning[:80], icon="ERROR")
         layout.prop(s, "style_override")
         row = layout.row(align=True)
         row.prop(s, "use_psa")

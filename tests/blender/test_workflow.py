@@ -133,3 +133,35 @@ def test_moved_blend_finds_its_data_again(captured, tmp_path):
     bpy.ops.wm.open_mainfile(filepath=str(new_dir / "wall.blend"))
     folder = storage.resolve_capture_dir(bpy.context.scene.lapig.last_capture_dir)
     assert folder.startswith(str(new_dir)) and os.path.isdir(folder)
+
+
+def test_cancelled_generate_changes_nothing(captured):
+    from lapig.lapig_addon import projector_nodes
+    from lapig.lapig_addon.pipeline_jobs import GenerateJob
+
+    scene = captured
+    s = scene.lapig
+    _psa_fast(scene)
+    before = (s.result_dir, projector_nodes.projected_image(s.projector.data).name)
+    job = GenerateJob(scene)
+    for _ in range(3):
+        job.step()
+    job.cancel()
+    assert job.state == "CANCELLED"
+    assert (s.result_dir, projector_nodes.projected_image(s.projector.data).name) == before
+
+
+def test_unavailable_backend_falls_back_with_a_message(captured, monkeypatch, tmp_path):
+    from lapig.lapig_addon import panel_state
+    from lapig.lapig_addon.pipeline_jobs import GenerateJob
+
+    monkeypatch.setenv("LAPIG_IP2P_MODEL", str(tmp_path / "no model here"))
+    scene = captured
+    s = scene.lapig
+    s.backend = "instruct-pix2pix"
+    panel_state._AVAILABILITY.clear()
+    assert "no model here" in panel_state.backend_warning("instruct-pix2pix") or \
+        "diffusers" in panel_state.backend_warning("instruct-pix2pix")
+    s.use_psa = False
+    out = GenerateJob(scene).run_to_completion()
+    assert "used 'styletransfer' instead" in out["summary"]["lgst"]["fallback"]

@@ -81,6 +81,7 @@ def _parser():
     ev.add_argument("--backend", default="styletransfer", help="LGST backend (default: styletransfer)")
     ev.add_argument("--seed", type=int, default=0)
     ev.add_argument("--train", type=int, default=125, help="captured training pairs (default 125)")
+    ev.add_argument("--psa-iterations", type=int, default=30, help="PSA iteration cap (default 30)")
     ev.add_argument("--verbose", action="store_true", help="print training progress")
 
     build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")

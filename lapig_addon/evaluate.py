@@ -85,7 +85,9 @@ def run(args) -> dict:
     t = time.perf_counter()
     models = surface_models(cs, on_progress=headless.print_progress if args.verbose else None)
     train_s = time.perf_counter() - t
-    result, images = evaluate_prompt(cs, models, rig_objects, setup_dir, args.prompt, args.backend, args.seed)
+    settings = PSASettings(seed=args.seed, max_iterations=args.psa_iterations)
+    result, images = evaluate_prompt(cs, models, rig_objects, setup_dir, args.prompt, args.backend, args.seed,
+                                     settings)
     sheet = comparison_sheet(cs.cam_white, images, f"'{args.prompt}' ({', '.join(n for n, _ in result['lgst'].get('styles', []))})")
     write_png(os.path.join(out, "sheet.png"), sheet)
     for name, im in (("target_without_psa", images["targets"][0]), ("target_with_psa", images["targets"][1]),

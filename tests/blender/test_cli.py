@@ -41,3 +41,31 @@ def test_headless_capture_of_a_saved_blend(lapig_registered, small_setup, tmp_pa
     # a non-ASCII object name becomes a safe folder name
     assert (tmp_path / "data" / "setups" / "Wall_n_code" / "cam" / "warp" / "train" / "img_0002.png").exists()
     assert proc.stdout.strip().splitlines()[-1].startswith("{")
+
+
+@pytest.mark.blender
+def test_eval_writes_sheet_and_metrics(tmp_path):
+    import json
+
+    import numpy as np
+
+    from lapig.lapig_core.imageio import write_png
+    from lapig.lapig_core.surfaces import make_surface
+
+    surface = tmp_path / "wood surface.png"
+    write_png(surface, make_surface("wood", size=128, seed=3))
+    env = dict(os.environ, LAPIG_FINETUNE_ITERATIONS="3")
+    proc = subprocess.run([sys.executable, "-m", "lapig_addon", "eval", "--surface", str(surface), "--prompt",
+                           "Make it a stained glass artwork", "--out", str(tmp_path / "ev"), "--train", "8",
+                           "--psa-iterations", "2"], cwd=ROOT, capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    m = json.load(open(tmp_path / "ev" / "metrics.json"))
+    for key in ("with_psa", "without_psa"):
+        assert {"psnr", "rmse", "ssim", "iterations", "seconds"} <= set(m[key])
+    assert m["with_psa"]["iterations"] <= 2 and {"ssim", "psnr"} <= set(m["style_retention"])
+    assert {"capture_s", "train_s", "psa_s", "total_s"} <= set(m["timings"])
+    assert (tmp_path / "ev" / "sheet.png").exists()
+    proc = _cli("eval", "--surface", str(tmp_path / "missing.png"), "--prompt", "x", "--out", str(tmp_path / "e2"))
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    proc = _cli("stylize", "--prompt", "  ")
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr

@@ -73,25 +73,35 @@ def simulation_table(cs, surf, mask, iterations, args) -> tuple[dict, object]:
 
 def compensation_run(spec, cs, surf, mask, pcnet, iterations, args, textures) -> tuple[dict, list]:
     count = min(args.compensate, len(cs.prj_test))
+    pairs = min(args.compensation_pairs, len(cs.prj_train))
     targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
-    model, result = finetune(cs, "CompenNeSt", "compensation",
+    model, result = finetune(cs, "CompenNeSt", "compensation", count=pairs,
                              recipe=cpu_recipe("CompenNeSt", "compensation", iterations))
     learned = to_numpy(predict(model, to_tensor(targets), surf.s))
-    classical = ClassicalModel.fit(cs.prj_train, cs.cam_train).compensate(targets)
-    simulated = to_numpy(predict(pcnet, to_tensor(learned), surf.s, surf.i_min, surf.i_max))
-    # project and capture all three for real, through the same rig
+    # the classical model on the same pairs as CompenNeSt, and on all of them
+    classical_same = ClassicalModel.fit(cs.prj_train[:max(pairs, 4)], cs.cam_train[:max(pairs, 4)]).compensate(targets)
+    classical_all = ClassicalModel.fit(cs.prj_train, cs.cam_train).compensate(targets)
+    # project and capture them all for real, through the same rig
     scene, projector, camera, target = syn.build_setup(spec, textures)
     rendered = render_working_images(scene, projector, camera, target, setup_dir_of(cs),
-                                     np.concatenate([learned, classical, targets]), seed=7)
-    ours, theirs, plain = rendered[:count], rendered[count:2 * count], rendered[2 * count:]
-    figures = {"compensated": _figures(ours, targets, mask), "classical_compensated": _figures(theirs, targets, mask),
-               "uncompensated": _figures(plain, targets, mask), "simulated": _figures(simulated, targets, mask),
-               "simulated_vs_rendered": _figures(simulated, ours, mask), "compennest_train_s": round(result.seconds, 1)}
+                                     np.concatenate([learned, classical_same, classical_all, targets]), seed=7)
+    ours, same, theirs, plain = (rendered[i * count:(i + 1) * count] for i in range(4))
+    figures = {"compensated": _figures(ours, targets, mask),
+               "classical_compensated_same_pairs": _figures(same, targets, mask),
+               "classical_compensated": _figures(theirs, targets, mask),
+               "uncompensated": _figures(plain, targets, mask), "compensation_pairs": pairs,
+               "compennest_train_s": round(result.seconds, 1)}
+    simulated = None
+    if pcnet is not None:
+        simulated = to_numpy(predict(pcnet, to_tensor(learned), surf.s, surf.i_min, surf.i_max))
+        figures["simulated"] = _figures(simulated, targets, mask)
+        figures["simulated_vs_rendered"] = _figures(simulated, ours, mask)
     row_images = []
     for i in range(min(2, count)):
         row_images += [(targets[i], "target (desired)"), (plain[i], "uncompensated capture"),
-                       (theirs[i], "classical compensated"), (ours[i], "CompenNeSt compensated"),
-                       (simulated[i], "PCNet simulated"), (learned[i], "projector image (ours)")]
+                       (theirs[i], "classical compensated"), (ours[i], "CompenNeSt compensated")]
+        row_images += [(simulated[i], "PCNet simulated")] if simulated is not None else []
+        row_images += [(learned[i], "projector image (ours)")]
     return figures, row_images
 
 
@@ -135,12 +145,17 @@ def run(args) -> dict:
     headless.render_synthetic_setups(specs, data, train=125, test=30, seed=500, skip_existing=True)
     iterations = args.iterations or CPU_ITERATIONS["PCNet"]
     per_setup, sheet = {}, []
+    if getattr(args, "timing_only", False):
+        cs = load_capture_set(DatasetLayout(os.path.join(data, specs[0].name), specs[0].name).setup_dir)
+        return {**timing_run(cs, iterations, args), "setup": specs[0].name, "iterations": iterations,
+                "cpu_threads": torch.get_num_threads(), "bench_total_s": round(time.perf_counter() - t0, 1),
+                "machine": platform.processor() or platform.machine()}
     for spec in specs:
         _log(args, f"{spec.name}:")
         cs = load_capture_set(DatasetLayout(os.path.join(data, spec.name), spec.name).setup_dir)
         surf = SurfaceTensors.from_capture_set(cs)
         mask = reachable_mask(cs.cam_black, cs.cam_white)
-        table, pcnet = simulation_table(cs, surf, mask, iterations, args)
+        table, pcnet = ({}, None) if args.compensation_only else simulation_table(cs, surf, mask, iterations, args)
         comp, images = compensation_run(spec, cs, surf, mask, pcnet, iterations, args, os.path.join(data, "textures"))
         per_setup[spec.name] = {"simulation": table, "compensation": comp, "reachable_fraction": float(mask.mean())}
         sheet += [(im, f"{spec.name}: {label}") for im, label in images]
@@ -158,19 +173,22 @@ def run(args) -> dict:
         return round(float(np.mean(values)), 4)
 
     summary = {}
-    for n in SIZES:
-        for key in ("pcnet", "compennest_reversed", "classical"):
-            for m in ("psnr", "rmse", "ssim", "psnr_masked"):
-                summary[f"{key}_{m}_{n}"] = mean(("simulation", f"{key}_{n}", m))
-    for key in ("compensated", "classical_compensated", "uncompensated", "simulated"):
+    if not args.compensation_only:
+        for n in SIZES:
+            for key in ("pcnet", "compennest_reversed", "classical"):
+                for m in ("psnr", "rmse", "ssim", "psnr_masked"):
+                    summary[f"{key}_{m}_{n}"] = mean(("simulation", f"{key}_{n}", m))
+        summary["pcnet_ahead_of_reversed_at_every_size"] = all(
+            summary[f"pcnet_psnr_{n}"] > summary[f"compennest_reversed_psnr_{n}"] for n in SIZES)
+    for key in ("compensated", "classical_compensated", "classical_compensated_same_pairs", "uncompensated") + \
+            (() if args.compensation_only else ("simulated",)):
         for m in ("psnr", "ssim", "rmse", "psnr_masked"):
             summary[f"{key}_{m}"] = mean(("compensation", key, m))
-    summary["pcnet_ahead_of_reversed_at_every_size"] = all(
-        summary[f"pcnet_psnr_{n}"] > summary[f"compennest_reversed_psnr_{n}"] for n in SIZES)
+    summary["compensation_pairs"] = args.compensation_pairs
     summary.update(timing)
     sheet_path = os.path.join(out, "models_sheet.png")
     write_png(sheet_path, labelled_grid([im for im, _ in sheet], [lb.split(": ")[1] for _, lb in sheet],
-                                        columns=6, cell=200, title="bench models: " + ", ".join(s.name for s in specs)))
+                                        columns=5 if args.compensation_only else 6, cell=200, title="bench models: " + ", ".join(s.name for s in specs)))
     summary.update({"sheet": sheet_path, "setups": [s.name for s in specs], "per_setup": per_setup,
                     "paper": PAPER, "iterations": iterations, "crop": cpu_recipe("PCNet", "simulation").crop,
                     "bench_total_s": round(time.perf_counter() - t0, 1), "cpu_threads": torch.get_num_threads(),

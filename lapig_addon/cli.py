@@ -103,6 +103,12 @@ def _parser():
     bench.add_argument("--compensate", type=int, default=8, help="models: compensated test images per setup")
     bench.add_argument("--no-timing", dest="timing", action="store_false",
                        help="models: skip the fine-tuning time measurement")
+    bench.add_argument("--compensation-pairs", type=int, default=8,
+                       help="models: pairs CompenNeSt is fine-tuned on (default 8, as the paper)")
+    bench.add_argument("--compensation-only", action="store_true",
+                       help="models: only the rendered compensation (skips the PCNet table)")
+    bench.add_argument("--timing-only", action="store_true",
+                       help="models: only the fine-tuning time measurement (on the first setup)")
     bench.add_argument("--surfaces", type=int, default=5, help="psa: how many surfaces (default 5)")
     bench.add_argument("--prompts", type=int, default=10, help="psa: how many prompts (default 10)")
     bench.add_argument("--ablation-prompts", type=int, default=3,

@@ -70,7 +70,9 @@ def run_surface(name, args, out, backend_name, prompts, ablation_prompts):
             variants = dict(ABLATIONS)
         for variant, terms in variants.items():
             backend.load_state(base_state)
-            res = run_psa(backend, models, PSASettings(terms=terms, seed=args.seed))
+            settings = PSASettings(terms=terms, seed=args.seed)
+            settings.max_iterations = args.psa_iterations or settings.max_iterations
+            res = run_psa(backend, models, settings)
             runs.append((prompt, variant, res, None))
         last = runs[-len(variants) - 1:]
         _log(args, f"  {name} / {prompt}: " + ", ".join(
@@ -155,7 +157,8 @@ def run(args) -> dict:
         "psa_seconds_max": round(max(r["seconds"] for r in all_rows if r["variant"] == "all"), 2),
         "psa_iterations_mean": avg["with_psa"]["iterations"],
         "table1": table1, "table2": table2, "paper_table1": PAPER_TABLE1, "surfaces": list(surfaces),
-        "prompts": list(prompts), "backend": args.backend, "sheets": sheets, "timings": timings,
+        "prompts": list(prompts), "backend": args.backend,
+        "psa_max_iterations": args.psa_iterations or PSASettings().max_iterations, "sheets": sheets, "timings": timings,
         "bench_total_s": round(time.perf_counter() - t0, 1), "cpu_threads": torch.get_num_threads(),
         "machine": platform.processor() or platform.machine(), "blender": bpy.app.version_string,
     }

@@ -70,13 +70,20 @@ def run(args) -> dict:
     data = os.path.abspath(args.data)
     headless.render_synthetic_setups([spec], data, train=125, test=30, seed=500, skip_existing=True)
     cs = load_capture_set(DatasetLayout(os.path.join(data, spec.name), spec.name).setup_dir)
-    job = PSAJob(cs, "Make it a stained glass artwork", args.backend, args.seed)
-    figures = drive_like_blender(job)
-    if job.state != "DONE":
-        raise RuntimeError(f"the PSA job ended {job.state}: {job.message}")
-    result = job.result
-    return {"max_main_thread_stall_ms": round(max(figures["max_wakeup_lateness_ms"], figures["max_step_ms"]), 2),
-            **{k: round(v, 2) if isinstance(v, float) else v for k, v in figures.items()},
+    runs = []
+    # twice: the first job of a session also loads the text and style models, the second finds them loaded
+    for prompt in ("Make it a stained glass artwork", "Render it in the style of a Van Gogh oil painting"):
+        job = PSAJob(cs, prompt, args.backend, args.seed)
+        figures = drive_like_blender(job)
+        if job.state != "DONE":
+            raise RuntimeError(f"the PSA job ended {job.state}: {job.message}")
+        figures["max_main_thread_stall_ms"] = max(figures["max_wakeup_lateness_ms"], figures["max_step_ms"])
+        runs.append((figures, job.result))
+    (cold, result), (warm, _) = runs
+    return {"max_main_thread_stall_ms": round(cold["max_main_thread_stall_ms"], 2),
+            "max_main_thread_stall_ms_warm": round(warm["max_main_thread_stall_ms"], 2),
+            **{k: round(v, 2) if isinstance(v, float) else v for k, v in cold.items() if k != "max_main_thread_stall_ms"},
+            "warm_worst_stalls": warm["worst_stalls"], "p99_wakeup_lateness_ms_warm": round(warm["p99_wakeup_lateness_ms"], 2),
             "psa_iterations": result.iterations, "psa_seconds": round(result.seconds, 2),
             "torch_threads": torch.get_num_threads(), "bench_total_s": round(time.perf_counter() - t0, 1),
             "machine": platform.processor() or platform.machine()}

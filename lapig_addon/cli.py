@@ -116,6 +116,7 @@ def _parser():
     bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
     bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")
     bench.add_argument("--train", type=int, default=125, help="psa: captured training pairs per surface")
+    bench.add_argument("--psa-iterations", type=int, default=None, help="psa: PSA iteration cap (default 25)")
     bench.add_argument("--seed", type=int, default=0)
     return parser
 

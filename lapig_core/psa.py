@@ -44,7 +44,7 @@ class PSASettings:
     lr_step: int = 50
     lr_gamma: float = 0.2
     stop_ratio: float = 0.5
-    max_iterations: int = 30
+    max_iterations: int = 25
     seed: int = 0
 
     def to_dict(self) -> dict:

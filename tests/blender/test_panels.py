@@ -30,6 +30,9 @@ class RecordingLayout:
     def progress(self, **kwargs):
         self.log.append(("progress", kwargs.get("text")))
 
+    def separator(self, **kwargs):
+        self.log.append(("separator", None))
+
 
 @pytest.mark.blender
 @pytest.mark.parametrize("with_rig", [False, True])
@@ -44,7 +47,15 @@ def test_panels_draw_with_and_without_a_rig(lapig_registered, small_setup, with_
         cls.draw(type("P", (), {"layout": RecordingLayout(log)})(), bpy.context)
     texts = [entry[1] for entry in log if entry[0] == "label"]
     assert any("temporary folder" in t for t in texts)  # unsaved file: the UI says so
+    # every step of the artist's path is there, in order
+    ops = [entry[1] for entry in log if entry[0] == "operator"]
+    for op in ("lapig.add_rig", "lapig.capture", "lapig.train_models", "lapig.generate", "lapig.render_result",
+               "lapig.export_image", "lapig.export_crossfade"):
+        assert op in ops
+    assert ops.index("lapig.capture") < ops.index("lapig.train_models") < ops.index("lapig.generate")
+    assert ("prop", "prompt") in log and ("prop", "use_psa") in log and ("prop", "preview_mode") in log
     if with_rig:
+        assert "Capture the surface first" in texts  # what blocks the next step is shown
         assert ("prop", "throw_ratio") in log and ("operator", "lapig.capture") in log
     else:
         assert any("Add the projector and camera first" in t for t in texts)

@@ -8,6 +8,7 @@ weights, that reaches within 0.5 dB of the converged figure (see `bench models`)
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 
 from . import checkpoints
@@ -47,7 +48,10 @@ def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, rec
     val = pairs_from_capture_sets([cs], role, split="test", count=val_count) if (val_count and cs.has_test) \
         else None
     model = start_model(arch, role, from_pretrained)
-    trainer = Trainer(model, train, recipe or cpu_recipe(arch, role), val_pairs=val, eval_every=eval_every,
+    recipe = recipe or cpu_recipe(arch, role)
+    if recipe.crop is not None and recipe.crop >= min(train.x.shape[-2:]):
+        recipe = replace(recipe, crop=None)  # small working sizes train on whole images
+    trainer = Trainer(model, train, recipe, val_pairs=val, eval_every=eval_every,
                       report_every=min(eval_every, 10), cancel_event=cancel_event)
     result = trainer.run(on_progress)
     return model, result

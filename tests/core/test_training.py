@@ -157,3 +157,12 @@ def test_pretrain_and_finetune_plumbing(tmp_path, capture_set, monkeypatch):
         monkeypatch.setattr(checkpoints, "WEIGHTS_DIR", tmp_path / "nowhere")
         finetune.start_model("CompenNeSt", "compensation")
     assert path.exists()
+
+
+def test_finetune_at_a_working_size_below_the_crop(capture_set, tmp_path, monkeypatch):
+    out = tmp_path / "weights"
+    pretrain.pretrain_one([capture_set], "PCNet", "simulation", 2, out, crop=16, warmup=0, val_count=1)
+    monkeypatch.setattr(checkpoints, "WEIGHTS_DIR", out)
+    model, result = finetune.finetune(capture_set, "PCNet", "simulation",
+                                      recipe=finetune.cpu_recipe("PCNet", "simulation", 2))  # crop 64 > 32 px
+    assert result.iterations == 2

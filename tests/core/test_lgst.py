@@ -274,3 +274,21 @@ def test_backend_from_prompt_end_to_end():
     assert y.shape == (1, 3, 32, 32) and 0.0 <= y.min() and y.max() <= 1.0
     info = lgst.describe()
     assert info["effects"] and len(info["styles"]) == 3 and info["prompt"].startswith("Transform")
+
+
+def test_embedding_in_a_helper_process_matches_in_process():
+    pytest.importorskip("sentence_transformers")
+    from lapig_core.lgst import prompt_mapping as pm
+
+    texts = ["Make it a stained glass artwork", "charcoal ✏️ sketch"]
+    local = pm.embed(texts)
+    pm.set_embedding_mode("subprocess")
+    try:
+        remote = pm.embed(texts)
+        assert pm.embed(texts[:1]).shape == (1, local.shape[1])  # the process is reused
+    finally:
+        pm.set_embedding_mode("inprocess")
+        pm.shutdown_embedding_process()
+    assert torch.allclose(local, remote, atol=1e-4)
+    with pytest.raises(ValueError, match="embedding mode"):
+        pm.set_embedding_mode("cloud")

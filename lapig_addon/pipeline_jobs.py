@@ -9,7 +9,6 @@ import datetime
 import os
 import re
 
-import bpy
 import numpy as np
 
 from ..lapig_core import metrics

@@ -59,6 +59,36 @@ class LGSTBackend:
                 p.copy_(v)
 
 
+class ThetaBackend(LGSTBackend):
+    """A backend whose theta is a list of leaf tensors kept beside a copy of their prompt-given values.
+
+    Subclasses fill self._theta and self._anchor in prepare(); PSA's style-retention term uses
+    theta_distance().
+    """
+
+    _theta: list = []
+    _anchor: list = []
+
+    def _require_prepared(self):
+        if not self._theta:
+            raise RuntimeError("call prepare(surface, prompt) first")
+
+    def parameters(self):
+        self._require_prepared()
+        return list(self._theta)
+
+    def anchor(self) -> list[torch.Tensor]:
+        """theta as the prompt gave it (for a trust region / style-retention term in PSA)."""
+        self._require_prepared()
+        return [a.clone() for a in self._anchor]
+
+    def theta_distance(self) -> torch.Tensor:
+        """Mean squared relative change of theta from the prompt's choice (differentiable)."""
+        self._require_prepared()
+        terms = [((t - a) ** 2).mean() / (a.pow(2).mean() + 1e-6) for t, a in zip(self._theta, self._anchor)]
+        return torch.stack(terms).mean()
+
+
 BACKENDS: dict[str, type] = {}
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import torch
 import torch.utils.checkpoint
 
-from .base import LGSTBackend, LGSTUnavailable
+from .base import LGSTUnavailable, ThetaBackend
 from .styletransfer_backend import resize
 
 DEFAULT_MODEL = "timbrooks/instruct-pix2pix"
@@ -112,7 +112,7 @@ def work_shape(h: int, w: int, size: int, multiple: int) -> tuple[int, int]:
             max(multiple, int(round(w * scale / multiple)) * multiple))
 
 
-class InstructPix2PixBackend(LGSTBackend):
+class InstructPix2PixBackend(ThetaBackend):
     """InstructPix2Pix edits the white-lit surface as the prompt instructs; theta = prompt embedding."""
 
     name = "instruct-pix2pix"
@@ -187,26 +187,6 @@ class InstructPix2PixBackend(LGSTBackend):
                       "image_guidance": self.image_guidance, "size": list(self.work_size),
                       "device": str(self.device), "dtype": str(dtype).replace("torch.", ""),
                       "styles": [], "effects": [], "theta_numel": self._theta[0].numel(), "notes": notes}
-
-    def _require_prepared(self):
-        if not self._theta:
-            raise RuntimeError("call prepare(surface, prompt) first")
-
-    # -- theta -----------------------------------------------------------------------------------
-    def parameters(self):
-        self._require_prepared()
-        return list(self._theta)
-
-    def anchor(self) -> list[torch.Tensor]:
-        """theta as the prompt gave it (for a trust region / style-retention term in PSA)."""
-        self._require_prepared()
-        return [a.clone() for a in self._anchor]
-
-    def theta_distance(self) -> torch.Tensor:
-        """Mean squared relative change of the prompt embedding (differentiable)."""
-        self._require_prepared()
-        t, a = self._theta[0], self._anchor[0]
-        return ((t - a) ** 2).mean() / (a.pow(2).mean() + 1e-6)
 
     # -- rendering -------------------------------------------------------------------------------
     def _timesteps(self) -> list[int]:

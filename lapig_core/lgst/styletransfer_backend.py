@@ -11,7 +11,7 @@ import importlib.util
 import torch
 import torch.nn.functional as F
 
-from .base import LGSTBackend, LGSTUnavailable
+from .base import LGSTUnavailable, ThetaBackend
 from .effects import effects_for_prompt
 
 
@@ -42,7 +42,7 @@ def stylize_mix(surface: torch.Tensor, mix, internal_size: int = 512, blend: flo
     return (1.0 - blend) * styled + blend * surface
 
 
-class StyleTransferBackend(LGSTBackend):
+class StyleTransferBackend(ThetaBackend):
     """Offline backend: MiniLM picks a style mix for the prompt, the torch style net renders it."""
 
     name = "styletransfer"
@@ -124,26 +124,6 @@ class StyleTransferBackend(LGSTBackend):
                       "effects": [e.label() for e in self._effects],
                       "internal_size": self.internal_size, "blend": self.blend,
                       "theta_numel": sum(t.numel() for t in self._theta), "notes": notes}
-
-    def _require_prepared(self):
-        if not self._theta:
-            raise RuntimeError("call prepare(surface, prompt) first")
-
-    # -- theta -----------------------------------------------------------------------------------
-    def parameters(self):
-        self._require_prepared()
-        return list(self._theta)
-
-    def anchor(self) -> list[torch.Tensor]:
-        """theta as the prompt chose it (for a trust region / style-retention term in PSA)."""
-        self._require_prepared()
-        return [a.clone() for a in self._anchor]
-
-    def theta_distance(self) -> torch.Tensor:
-        """Mean squared relative change of theta from the prompt's choice (differentiable)."""
-        self._require_prepared()
-        terms = [((t - a) ** 2).mean() / (a.pow(2).mean() + 1e-6) for t, a in zip(self._theta, self._anchor)]
-        return torch.stack(terms).mean()
 
     def _params(self) -> dict:
         it = iter(self._theta)

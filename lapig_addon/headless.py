@@ -62,7 +62,14 @@ def render_synthetic_setups(specs, out, train, test, seed=0, skip_existing=True,
     return summary
 
 
+_last_progress = {"message": None}
+
+
 def print_progress(progress, message):
+    """One line per new message (a worker job reports the same state on every poll)."""
+    if message == _last_progress["message"]:
+        return
+    _last_progress["message"] = message
     print(f"[{progress:6.1%}] {message}", flush=True)
 
 

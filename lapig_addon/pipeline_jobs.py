@@ -21,7 +21,7 @@ from . import storage
 from .capture_job import CaptureError
 from .fingerprint import rig_fingerprint
 from .jobs import Job, WorkerJob
-from .projection_render import render_working_images
+from .projection_render import iter_render_working_images
 
 
 class PipelineError(ValueError):
@@ -163,11 +163,17 @@ class RenderResultJob(Job):
         summary = read_summary(folder)
         names = [n for n in ("projector", "projector_nopsa") if os.path.isfile(os.path.join(folder, n + ".png"))]
         yield 0.1, "rendering the projection with Cycles"
+        images = np.stack([read_result_image(folder, n) for n in names])
+        # one image per step, so the UI gets a turn between renders
+        steps = iter_render_working_images(self.scene, s.projector, s.camera, s.target, capture, images, chunk=1)
         try:
-            images = np.stack([read_result_image(folder, n) for n in names])
-            captured = render_working_images(self.scene, s.projector, s.camera, s.target, capture, images)
+            for done in steps:
+                yield 0.1 + 0.8 * done, f"rendered {round(done * len(names))}/{len(names)}"
         except CaptureError as exc:
             raise PipelineError(str(exc)) from None
+        finally:
+            steps.close()
+        captured = steps.result[0]
         yield 0.9, "comparing with the targets"
         rendered = {}
         for name, cap in zip(names, captured):

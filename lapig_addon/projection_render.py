@@ -22,6 +22,34 @@ from .properties import projector_model
 def render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
                           chunk=8, return_raw=False):
     """Registered captures (N, S, S, 3) float32 of projecting each working image (N, S, S, 3)."""
+    steps = iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples, seed, chunk)
+    for _ in steps:
+        pass
+    registered, raw = steps.result
+    return (registered, raw) if return_raw else registered
+
+
+class _Steps:
+    """A generator of progress fractions that keeps its result (for the job engine's small steps)."""
+
+    def __init__(self, gen):
+        self._gen, self.result = gen, None
+
+    def __iter__(self):
+        self.result = yield from self._gen
+
+    def close(self):
+        """On a cancel: leave the capture studio now (it restores the projector and removes its scene)."""
+        self._gen.close()
+
+
+def iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
+                               chunk=8):
+    """The same work in steps: yields the fraction done after each chunk; .result = (registered, raw)."""
+    return _Steps(_render_steps(scene, projector, camera, target, setup_dir, images, samples, seed, chunk))
+
+
+def _render_steps(scene, projector, camera, target, setup_dir, images, samples, seed, chunk):
     check_rig(scene, projector, camera, target)
     setup_dir = os.fspath(setup_dir)
     meta = ds.read_setup_json(os.path.join(setup_dir, "setup.json"))
@@ -44,5 +72,5 @@ def render_working_images(scene, projector, camera, target, setup_dir, images, s
                 cap = response.capture(linear, rng)
                 raw.append(cap)
                 registered.append(registration.warp(cap))
-    registered = np.stack(registered).astype(np.float32)
-    return (registered, np.stack(raw)) if return_raw else registered
+            yield len(registered) / len(images)
+    return np.stack(registered).astype(np.float32), np.stack(raw)

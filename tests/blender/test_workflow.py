@@ -165,3 +165,23 @@ def test_unavailable_backend_falls_back_with_a_message(captured, monkeypatch, tm
     s.use_psa = False
     out = GenerateJob(scene).run_to_completion()
     assert "used 'styletransfer' instead" in out["summary"]["lgst"]["fallback"]
+
+
+def test_cancelled_render_leaves_the_scene_as_it_was(captured):
+    from lapig.lapig_addon import capture_studio, projector_nodes
+    from lapig.lapig_addon.pipeline_jobs import RenderResultJob
+
+    scene = captured
+    s = scene.lapig
+    _psa_fast(scene)
+    s.psa_strength = 0.05
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
+    image = projector_nodes.projected_image(s.projector.data).name
+    scenes = set(bpy.data.scenes.keys())
+    job = RenderResultJob(scene)
+    while job.step() and not job.message.startswith("rendered 1"):
+        pass
+    job.cancel()
+    assert job.state == "CANCELLED"
+    assert set(bpy.data.scenes.keys()) == scenes and capture_studio.STUDIO_NAME not in bpy.data.scenes
+    assert projector_nodes.projected_image(s.projector.data).name == image

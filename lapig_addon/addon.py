@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import importlib
+import os
+import sys
 
 _MODULES = (
     "..lapig_addon.properties",
@@ -19,18 +21,16 @@ def _modules():
 _registered = []
 
 
-def _embedding_mode(mode):
-    """In Blender's UI the prompt model runs in a helper process: loading it in-process holds the
-    GIL long enough to freeze the UI (bench ui). Headless runs keep it in-process."""
-    try:
-        from ..lapig_core.lgst import prompt_mapping
-    except ImportError:  # torch missing: the panels say so
-        return
-    if mode is None:
+# What lapig_core.lgst.prompt_mapping reads: in Blender's UI the prompt model runs in a helper
+# process, because loading it in-process holds the GIL long enough to freeze the UI (bench ui).
+EMBEDDING_ENV = "LAPIG_EMBEDDING"
+
+
+def _stop_embedding_process():
+    root = __package__.rpartition(".")[0]
+    prompt_mapping = sys.modules.get(root + ".lapig_core.lgst.prompt_mapping")
+    if prompt_mapping is not None:  # only if it was ever used: never import torch here
         prompt_mapping.shutdown_embedding_process()
-        prompt_mapping.set_embedding_mode("inprocess")
-    else:
-        prompt_mapping.set_embedding_mode(mode)
 
 
 def register():
@@ -40,13 +40,14 @@ def register():
         module.register()
         _registered.append(module)
     if not bpy.app.background:
-        _embedding_mode("subprocess")
+        os.environ[EMBEDDING_ENV] = "subprocess"
 
 
 def unregister():
     while _registered:
         _registered.pop().unregister()
-    _embedding_mode(None)
+    os.environ.pop(EMBEDDING_ENV, None)
+    _stop_embedding_process()
 
 
 def is_registered() -> bool:

@@ -15,7 +15,6 @@ import numpy as np
 import torch
 
 from ..lapig_core import checkpoints
-from ..lapig_core.dataset import DatasetLayout, load_capture_set
 from ..lapig_core.lgst import get_backend
 from ..lapig_core.psa import PSASettings, SurfaceModels, run_psa
 from ..lapig_core.training_data import SurfaceTensors
@@ -69,7 +68,7 @@ def run(args) -> dict:
     spec = syn.BENCH_SETUPS[0]
     data = os.path.abspath(args.data)
     headless.render_synthetic_setups([spec], data, train=125, test=30, seed=500, skip_existing=True)
-    cs = load_capture_set(DatasetLayout(os.path.join(data, spec.name), spec.name).setup_dir)
+    cs = syn.load_setup(data, spec.name)
     from ..lapig_core.lgst import prompt_mapping
 
     # as in Blender's UI (addon.register): the prompt model runs in a helper process
@@ -84,7 +83,7 @@ def run(args) -> dict:
         figures["max_main_thread_stall_ms"] = max(figures["max_wakeup_lateness_ms"], figures["max_step_ms"])
         runs.append((figures, job.result))
     prompt_mapping.shutdown_embedding_process()
-    prompt_mapping.set_embedding_mode("inprocess")
+    prompt_mapping.set_embedding_mode(None)
     (cold, result), (warm, _) = runs
     return {"max_main_thread_stall_ms": round(cold["max_main_thread_stall_ms"], 2),
             "max_main_thread_stall_ms_warm": round(warm["max_main_thread_stall_ms"], 2),

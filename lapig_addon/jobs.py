@@ -100,9 +100,16 @@ class WorkerJob(Job):
     """
 
     poll_timeout = 0.05
+    _NOT_PREPARED = object()
+    _inputs = _NOT_PREPARED
 
     def prepare(self):
         return None
+
+    def check(self):
+        """Prepare now, so an operator reports a problem before any work starts; steps() reuses it."""
+        self._inputs = self.prepare()
+        return self._inputs
 
     def work(self, inputs, report, cancel_event):
         raise NotImplementedError
@@ -114,7 +121,7 @@ class WorkerJob(Job):
         import queue
         import threading
 
-        inputs = self.prepare()
+        inputs = self.prepare() if self._inputs is self._NOT_PREPARED else self._inputs
         messages = queue.Queue()
         self.cancel_event = threading.Event()
         box = {}

@@ -3,7 +3,7 @@ import os
 
 import bpy
 
-from ..lapig_addon import pipeline_jobs, result_preview, storage
+from ..lapig_addon import result_preview, storage
 from ..lapig_addon.modal_runner import JobRunnerMixin
 from ..lapig_addon.properties import PREVIEW_MODES
 from ..lapig_core.deps import require
@@ -16,8 +16,10 @@ class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         require("torch")
+        from ..lapig_addon import pipeline_jobs  # imports torch: only once it is needed
+
         job = pipeline_jobs.TrainModelsJob(context.scene)
-        pipeline_jobs.current_capture(context.scene)  # fail now, with the reason, not on the thread
+        job.check()  # fail now, with the reason, not on the thread
         return job
 
     def on_done(self, context, job):
@@ -31,8 +33,10 @@ class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         require("torch")
+        from ..lapig_addon import pipeline_jobs  # imports torch: only once it is needed
+
         job = pipeline_jobs.GenerateJob(context.scene)
-        job.prepare()  # validates prompt and capture on the main thread, with a clear message
+        job.check()  # validates prompt and capture on the main thread, with a clear message
         return job
 
     def on_done(self, context, job):
@@ -49,6 +53,8 @@ class LAPIG_OT_render_result(JobRunnerMixin, bpy.types.Operator):
     bl_label = "Render Real Capture"
 
     def make_job(self, context):
+        from ..lapig_addon import pipeline_jobs  # imports torch: only once it is needed
+
         return pipeline_jobs.RenderResultJob(context.scene)
 
     def on_done(self, context, job):

@@ -89,14 +89,22 @@ def _load_model():
     return SentenceTransformer(str(path), device="cpu", local_files_only=True)
 
 
-_EMBEDDING = {"mode": "inprocess", "process": None, "lock": None}
+# The add-on sets LAPIG_EMBEDDING=subprocess when Blender has a UI: an environment variable, so that
+# registering the add-on does not have to import this module (and torch) to say so.
+EMBEDDING_ENV = "LAPIG_EMBEDDING"
+_EMBEDDING = {"mode": None, "process": None, "lock": None}
 
 
-def set_embedding_mode(mode: str) -> None:
-    """'inprocess' (scripts, tests, headless) or 'subprocess' (Blender's UI: keeps the GIL free)."""
-    if mode not in ("inprocess", "subprocess"):
+def set_embedding_mode(mode: str | None) -> None:
+    """'inprocess' (scripts, tests, headless) or 'subprocess' (Blender's UI: keeps the GIL free);
+    None goes back to what LAPIG_EMBEDDING says."""
+    if mode not in ("inprocess", "subprocess", None):
         raise ValueError(f"embedding mode must be 'inprocess' or 'subprocess', got {mode!r}")
     _EMBEDDING["mode"] = mode
+
+
+def embedding_mode() -> str:
+    return _EMBEDDING["mode"] or os.environ.get(EMBEDDING_ENV, "inprocess")
 
 
 def shutdown_embedding_process() -> None:
@@ -152,7 +160,7 @@ def _embed_in_subprocess(texts: list[str]) -> torch.Tensor:
 
 def embed(texts: list[str]) -> torch.Tensor:
     """Unit-length embeddings (N, 384)."""
-    if _EMBEDDING["mode"] == "subprocess":
+    if embedding_mode() == "subprocess":
         return _embed_in_subprocess(texts)
     model = _load_model()
     with torch.no_grad():

@@ -287,7 +287,7 @@ def test_embedding_in_a_helper_process_matches_in_process():
         remote = pm.embed(texts)
         assert pm.embed(texts[:1]).shape == (1, local.shape[1])  # the process is reused
     finally:
-        pm.set_embedding_mode("inprocess")
+        pm.set_embedding_mode(None)
         pm.shutdown_embedding_process()
     assert torch.allclose(local, remote, atol=1e-4)
     with pytest.raises(ValueError, match="embedding mode"):

@@ -1,0 +1,37 @@
+"""Without torch the add-on still registers, and the panels say what to install (no crash at enable)."""
+import os
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip("bpy")
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+SCRIPT = r'''
+import builtins, sys
+sys.path.insert(0, ".")
+from lapig_addon.__main__ import _load_extension_package
+import bpy
+real_import = builtins.__import__
+
+def no_torch(name, *args, **kwargs):
+    if name == "torch" or name.startswith("torch."):
+        raise ImportError("No module named 'torch'")
+    return real_import(name, *args, **kwargs)
+
+builtins.__import__ = no_torch
+_load_extension_package()
+from lapig.lapig_addon import addon, panel_state
+addon.register()
+print("blocker:", panel_state.models_blocker(bpy.context.scene))
+addon.unregister()
+print("OK")
+'''
+
+
+@pytest.mark.blender
+def test_addon_registers_without_torch():
+    proc = subprocess.run([sys.executable, "-c", SCRIPT], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0 and "OK" in proc.stdout, proc.stderr[-2000:]

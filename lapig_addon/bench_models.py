@@ -21,7 +21,6 @@ import torch
 
 from ..lapig_core import metrics
 from ..lapig_core.classical import ClassicalModel
-from ..lapig_core.dataset import DatasetLayout, load_capture_set
 from ..lapig_core.finetune import CPU_ITERATIONS, cpu_recipe, finetune
 from ..lapig_core.imageio import write_png
 from ..lapig_core.pipeline import setup_dir_of
@@ -146,21 +145,20 @@ def run(args) -> dict:
     iterations = args.iterations or CPU_ITERATIONS["PCNet"]
     per_setup, sheet = {}, []
     if getattr(args, "timing_only", False):
-        cs = load_capture_set(DatasetLayout(os.path.join(data, specs[0].name), specs[0].name).setup_dir)
+        cs = syn.load_setup(data, specs[0].name)
         return {**timing_run(cs, iterations, args), "setup": specs[0].name, "iterations": iterations,
                 "cpu_threads": torch.get_num_threads(), "bench_total_s": round(time.perf_counter() - t0, 1),
                 "machine": platform.processor() or platform.machine()}
     for spec in specs:
         _log(args, f"{spec.name}:")
-        cs = load_capture_set(DatasetLayout(os.path.join(data, spec.name), spec.name).setup_dir)
+        cs = syn.load_setup(data, spec.name)
         surf = SurfaceTensors.from_capture_set(cs)
         mask = reachable_mask(cs.cam_black, cs.cam_white)
         table, pcnet = ({}, None) if args.compensation_only else simulation_table(cs, surf, mask, iterations, args)
         comp, images = compensation_run(spec, cs, surf, mask, pcnet, iterations, args, os.path.join(data, "textures"))
         per_setup[spec.name] = {"simulation": table, "compensation": comp, "reachable_fraction": float(mask.mean())}
         sheet += [(im, f"{spec.name}: {label}") for im, label in images]
-    timing = timing_run(load_capture_set(DatasetLayout(os.path.join(data, specs[0].name), specs[0].name).setup_dir),
-                        iterations, args) \
+    timing = timing_run(syn.load_setup(data, specs[0].name), iterations, args) \
         if args.timing else {}
 
     def mean(path):

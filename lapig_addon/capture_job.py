@@ -30,7 +30,7 @@ from .jobs import Job
 from .properties import camera_response, projector_model
 
 
-def _projector_frame(model, working_image):
+def emitted_frame(model, working_image):
     """What the projector emits for a working image shown in its central square."""
     return model.emitted_8bit(frame_from_working_image(working_image, model.width, model.height))
 
@@ -155,7 +155,7 @@ class CaptureJob(Job):
             refs = pat.reference_patterns(size=s.working_size, gray_level=s.gray_level)
             ref_images = [refs["black"], refs["white"], refs["gray"]]
             t = time.perf_counter()
-            ref_linear = studio.render([_projector_frame(model, im) for im in ref_images])
+            ref_linear = studio.render([emitted_frame(model, im) for im in ref_images])
             if self.camera.lapig_camera.auto_exposure:
                 stops = auto_exposure_stops(ref_linear[1], mask=ref_linear[1].max(-1) > 1e-6)
             else:
@@ -220,7 +220,7 @@ class CaptureJob(Job):
                 ds.write_projector_images(layout, kind, group)
                 for start in range(0, len(group), s.chunk):
                     chunk = group[start:start + s.chunk]
-                    frames = [_projector_frame(model, im) for im in chunk]
+                    frames = [emitted_frame(model, im) for im in chunk]
                     for j, linear in enumerate(studio.render(frames), start=start + 1):
                         cap = response.capture(linear, rng)
                         ds.write_capture(layout, "raw", kind, j, cap)

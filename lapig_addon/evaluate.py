@@ -19,20 +19,14 @@ from ..lapig_core.imageio import atomic_write_bytes, read_image, write_png
 from ..lapig_core.pipeline import as_image, stylize, surface_models
 from ..lapig_core.psa import PSASettings
 from ..lapig_core.sheets import labelled_grid
-from . import demo_scene, headless, rig
+from . import headless
 from .capture_job import CaptureSettings
 from .projection_render import render_working_images
 
 
 def build_surface_scene(image: np.ndarray, folder: str, name: str = "surface", shape: str = "panel"):
-    import bpy
-
-    demo_scene.new_empty_scene()
-    target = demo_scene.add_surface_object(shape, name, folder=folder, texture=image)
-    bpy.context.view_layer.objects.active = target
-    camera = rig.create_camera(bpy.context.scene)
-    projector, camera, _ = rig.add_rig(bpy.context, target, camera=camera)
-    return bpy.context.scene, projector, camera, target
+    """The demo rig around an object textured with `image`."""
+    return headless.build_demo_setup(shape, name, folder=folder, texture=image)
 
 
 def capture_surface(scene, projector, camera, target, data_dir, setup="surface", train=125, test=0, seed=0):

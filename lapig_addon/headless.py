@@ -9,10 +9,14 @@ from . import demo_scene, rig
 from .capture_job import CaptureJob, CaptureSettings  # noqa
 
 
-def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camera_resolution=(480, 360)):
-    """A fresh scene with a textured object, a projector and a camera placed around it."""
+def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camera_resolution=(480, 360),
+                     tint=(1.0, 1.0, 1.0), texture=None):
+    """A fresh scene with a textured object, a projector and a camera placed around it.
+
+    tint and texture as in demo_scene.add_surface_object (texture: the user's own image).
+    """
     demo_scene.new_empty_scene()
-    target = demo_scene.add_surface_object(shape, surface, folder=folder, seed=seed)
+    target = demo_scene.add_surface_object(shape, surface, folder=folder, seed=seed, tint=tint, texture=texture)
     bpy.context.view_layer.objects.active = target
     camera = rig.create_camera(bpy.context.scene)
     camera.lapig_camera.resolution_x, camera.lapig_camera.resolution_y = camera_resolution
@@ -42,13 +46,13 @@ def render_synthetic_setups(specs, out, train, test, seed=0, skip_existing=True,
     textures = ensure_dir(os.path.join(out, "textures"))
     summary = {}
     for spec in specs:
-        layout = ds.DatasetLayout(os.path.join(out, spec.name), spec.name)
+        layout = syn.layout(out, spec.name)
         if skip_existing and layout.setup_json.exists():
             print(f"{spec.name}: already captured", flush=True)
             continue
         t = time.perf_counter()
         scene, projector, camera, target = syn.build_setup(spec, textures)
-        settings = CaptureSettings(out_dir=os.path.join(out, spec.name), setup_name=spec.name, train_count=train, test_count=test,
+        settings = CaptureSettings(out_dir=str(layout.root), setup_name=spec.name, train_count=train, test_count=test,
                                    ambient=spec.ambient, seed=seed + spec.seed)
         result = run_capture(scene, settings)
         meta = result["meta"]

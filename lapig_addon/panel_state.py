@@ -21,14 +21,27 @@ def capture_blocker(scene) -> str:
     return ""
 
 
-def _capture_ok(scene) -> str:
+def capture_status(scene) -> tuple[str, str]:
+    """('MISSING'|'STALE'|'DONE', the capture folder): the one check behind the panel, the Capture
+    step's state and the jobs that need a capture."""
     s = scene.lapig
+    folder = storage.resolve_capture_dir(s.last_capture_dir)
+    if not folder:
+        return "MISSING", ""
+    now = _rig_now(s)
+    if s.last_capture_fingerprint and now is not None and now != s.last_capture_fingerprint:
+        return "STALE", folder
+    return "DONE", folder
+
+
+def _capture_ok(scene) -> str:
     blocker = capture_blocker(scene)
     if blocker:
         return blocker
-    if not storage.resolve_capture_dir(s.last_capture_dir):
+    state, _ = capture_status(scene)
+    if state == "MISSING":
         return "Capture the surface first"
-    if s.last_capture_fingerprint and _rig_now(s) != s.last_capture_fingerprint:
+    if state == "STALE":
         return "The rig or the object moved: capture again"
     return ""
 

@@ -17,7 +17,7 @@ from ..lapig_core.lgst.prompt_mapping import validate_prompt
 from ..lapig_core.pipeline import as_image, stylize, surface_models, train_models
 from ..lapig_core.psa import PSASettings, loss_maps
 from ..lapig_core.result_files import heat_overlay, read_result_image, read_summary, write_result
-from . import storage
+from . import panel_state, storage
 from .capture_job import CaptureError
 from .fingerprint import rig_fingerprint
 from .jobs import Job, WorkerJob
@@ -30,12 +30,10 @@ class PipelineError(ValueError):
 
 def current_capture(scene) -> str:
     """The scene's capture folder, checked to exist and to match the rig as it is now."""
-    s = scene.lapig
-    folder = storage.resolve_capture_dir(s.last_capture_dir)
-    if not folder:
+    state, folder = panel_state.capture_status(scene)
+    if state == "MISSING":
         raise PipelineError("No capture yet: run Capture first")
-    if s.last_capture_fingerprint and s.projector and s.camera and s.target and \
-            rig_fingerprint(s.projector, s.camera, s.target) != s.last_capture_fingerprint:
+    if state == "STALE":
         raise PipelineError("The projector, camera or object moved since the capture: capture again")
     return folder
 

@@ -13,7 +13,7 @@ import numpy as np
 from ..lapig_core import dataset as ds
 from ..lapig_core.camera_model import CameraResponse
 from ..lapig_core.registration import Registration
-from .capture_job import CaptureError, _projector_frame, check_rig
+from .capture_job import CaptureError, check_rig, emitted_frame
 from .capture_studio import CaptureStudio
 from .fingerprint import rig_fingerprint
 from .properties import projector_model
@@ -67,7 +67,7 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
     with CaptureStudio(scene, projector, camera, cam_w, cam_h, samples=samples or meta.get("samples", 1),
                        ambient=meta.get("ambient", 0.0), ambient_distance=distance) as studio:
         for start in range(0, len(images), chunk):
-            frames = [_projector_frame(model, im) for im in images[start:start + chunk]]
+            frames = [emitted_frame(model, im) for im in images[start:start + chunk]]
             for linear in studio.render(frames):
                 cap = response.capture(linear, rng)
                 raw.append(cap)

@@ -8,13 +8,14 @@ and the Sakura texture appears only in the benchmark.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import asdict, dataclass
 
 import bpy
 import numpy as np
 from mathutils import Matrix
 
-from . import demo_scene, rig
+from . import headless
 
 
 @dataclass(frozen=True)
@@ -76,17 +77,13 @@ def orbit_rig(projector, camera, centre, orbit_deg: float, tilt_deg: float):
 
 def build_setup(spec: SetupSpec, folder: str):
     """A fresh scene for the spec: (scene, projector, camera, target)."""
-    demo_scene.new_empty_scene()
-    target = demo_scene.add_surface_object(spec.shape, spec.surface, folder=folder, seed=spec.seed,
-                                           tint=spec.tint)
-    bpy.context.view_layer.objects.active = target
-    camera = rig.create_camera(bpy.context.scene)
-    projector, camera, _ = rig.add_rig(bpy.context, target, camera=camera)
+    scene, projector, camera, target = headless.build_demo_setup(spec.shape, spec.surface, folder, spec.seed,
+                                                                 tint=spec.tint)
     projector.lapig_projector.brightness *= spec.brightness
     bpy.context.view_layer.update()
     centre = target.matrix_world @ _bounds_centre(target)
     orbit_rig(projector, camera, centre, spec.orbit_deg, spec.tilt_deg)
-    return bpy.context.scene, projector, camera, target
+    return scene, projector, camera, target
 
 
 def _bounds_centre(obj):
@@ -94,6 +91,20 @@ def _bounds_centre(obj):
 
     corners = np.array([tuple(c) for c in obj.bound_box])
     return Vector(((corners.min(0) + corners.max(0)) / 2).tolist())
+
+
+def layout(data_root, name: str):
+    """Where a synthetic setup lives: a data set root of its own, `data_root/<name>` (the public
+    layout shares projector images between the setups of a root, and each setup has its own)."""
+    from ..lapig_core.dataset import DatasetLayout
+
+    return DatasetLayout(os.path.join(data_root, name), name)
+
+
+def load_setup(data_root, name: str):
+    from ..lapig_core.dataset import load_capture_set
+
+    return load_capture_set(layout(data_root, name).setup_dir)
 
 
 def get_spec(name: str) -> SetupSpec:

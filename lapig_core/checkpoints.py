@@ -47,10 +47,6 @@ def save_checkpoint(path, model, role: str, working_size: int, fingerprint: str 
     return atomic_write_bytes(path, buf.getvalue())
 
 
-def read_header(path) -> dict:
-    return _read(path)["header"]
-
-
 def _read(path) -> dict:
     path = Path(path)
     if not path.is_file():

@@ -22,6 +22,6 @@ def _load_extension_package(name="lapig"):
 
 if __name__ == "__main__":
     _load_extension_package()
-    from lapig.lapig_addon import cli  # noqa: E402  (needs the package loaded above)
+    from lapig.lapig_addon.cli import main as cli  # noqa: E402  (needs the package loaded above)
 
     sys.exit(cli.main(sys.argv[1:]))

@@ -12,12 +12,13 @@ from pathlib import Path
 
 import torch
 
-from . import checkpoints, metrics
-from .dataset import CaptureSet
-from .finetune import finetune, load_setup_model, save_setup_model
+from .photometric import checkpoints
+from .common import metrics
+from .capture.dataset import CaptureSet
+from .photometric.finetune import finetune, load_setup_model, save_setup_model
 from .lgst import DEFAULT_BACKEND, LGSTUnavailable, get_backend
-from .psa import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
-from .training_data import SurfaceTensors
+from .psa.adaptation import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
+from .photometric.training_data import SurfaceTensors
 
 
 def setup_dir_of(cs: CaptureSet) -> Path:

@@ -1,11 +1,11 @@
 import bpy
 
-from ..lapig_addon import storage
-from ..lapig_addon.capture_job import CaptureJob, CaptureSettings, check_rig
-from ..lapig_addon.fingerprint import rig_fingerprint
-from ..lapig_addon.modal_runner import JobRunnerMixin
-from ..lapig_core.dataset import DatasetError, load_capture_set, summarize
-from ..lapig_core.deps import require
+from ..lapig_addon.blender import storage
+from ..lapig_addon.services.capture_job import CaptureJob, CaptureSettings, check_rig
+from ..lapig_addon.blender.fingerprint import rig_fingerprint
+from ..lapig_addon.blender.modal_runner import JobRunnerMixin
+from ..lapig_core.capture.dataset import DatasetError, load_capture_set, summarize
+from ..lapig_core.common.deps import require
 
 
 class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):

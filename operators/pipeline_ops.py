@@ -3,10 +3,10 @@ import os
 
 import bpy
 
-from ..lapig_addon import result_preview, storage
-from ..lapig_addon.modal_runner import JobRunnerMixin
-from ..lapig_addon.properties import PREVIEW_MODES
-from ..lapig_core.deps import require
+from ..lapig_addon.blender import result_preview, storage
+from ..lapig_addon.blender.modal_runner import JobRunnerMixin
+from ..lapig_addon.blender.properties import PREVIEW_MODES
+from ..lapig_core.common.deps import require
 
 
 class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
@@ -16,7 +16,7 @@ class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         require("torch")
-        from ..lapig_addon import pipeline_jobs  # imports torch: only once it is needed
+        from ..lapig_addon.services import pipeline_jobs  # imports torch: only once it is needed
 
         job = pipeline_jobs.TrainModelsJob(context.scene)
         job.check()  # fail now, with the reason, not on the thread
@@ -33,7 +33,7 @@ class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         require("torch")
-        from ..lapig_addon import pipeline_jobs  # imports torch: only once it is needed
+        from ..lapig_addon.services import pipeline_jobs  # imports torch: only once it is needed
 
         job = pipeline_jobs.GenerateJob(context.scene)
         job.check()  # validates prompt and capture on the main thread, with a clear message
@@ -53,7 +53,7 @@ class LAPIG_OT_render_result(JobRunnerMixin, bpy.types.Operator):
     bl_label = "Render Real Capture"
 
     def make_job(self, context):
-        from ..lapig_addon import pipeline_jobs  # imports torch: only once it is needed
+        from ..lapig_addon.services import pipeline_jobs  # imports torch: only once it is needed
 
         return pipeline_jobs.RenderResultJob(context.scene)
 
@@ -113,7 +113,7 @@ class LAPIG_OT_export_image(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def execute(self, context):
-        from ..lapig_addon import export_result
+        from ..lapig_addon.services import export_result
 
         path = self.filepath or bpy.path.abspath(context.scene.lapig.export_path)
         try:
@@ -137,7 +137,7 @@ class LAPIG_OT_export_crossfade(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def execute(self, context):
-        from ..lapig_addon import export_result
+        from ..lapig_addon.services import export_result
 
         try:
             paths = export_result.export_crossfade(context.scene, self.directory)

@@ -1,6 +1,6 @@
 import bpy
 
-from ..lapig_addon import preview, projector_nodes
+from ..lapig_addon.blender import preview, projector_nodes
 
 
 class LAPIG_OT_preview_toggle(bpy.types.Operator):

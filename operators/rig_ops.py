@@ -1,6 +1,6 @@
 import bpy
 
-from ..lapig_addon import rig
+from ..lapig_addon.blender import rig
 
 
 class LAPIG_OT_add_rig(bpy.types.Operator):

@@ -1,8 +1,8 @@
 import bpy
 
-from ..lapig_addon import storage
-from ..lapig_addon.modal_runner import active_job
-from ..lapig_core.deps import missing_required
+from ..lapig_addon.blender import storage
+from ..lapig_addon.blender.modal_runner import active_job
+from ..lapig_core.common.deps import missing_required
 from ..operators.capture_ops import capture_state
 
 STATE_ICONS = {"DONE": "CHECKMARK", "STALE": "ERROR", "MISSING": "DOT"}
@@ -56,7 +56,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             col.prop(c, "noise")
         layout.prop(s, "ambient")
         if s.target is not None:
-            from ..lapig_addon.preview import is_previewing
+            from ..lapig_addon.blender.preview import is_previewing
 
             on = is_previewing(s.target)
             layout.operator("lapig.preview_toggle", icon="HIDE_OFF" if on else "HIDE_ON",
@@ -118,7 +118,7 @@ class LAPIG_PT_models(LapigPanel, bpy.types.Panel):
     bl_idname = "LAPIG_PT_models"
 
     def draw(self, context):
-        from ..lapig_addon import panel_state
+        from ..lapig_addon.services import panel_state
 
         layout = self.layout
         state, reason = panel_state.models_state(context.scene)
@@ -136,7 +136,7 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
     bl_idname = "LAPIG_PT_stylize"
 
     def draw(self, context):
-        from ..lapig_addon import panel_state
+        from ..lapig_addon.services import panel_state
 
         layout = self.layout
         s = context.scene.lapig
@@ -168,7 +168,7 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
     bl_idname = "LAPIG_PT_preview_export"
 
     def draw(self, context):
-        from ..lapig_addon import panel_state
+        from ..lapig_addon.services import panel_state
 
         layout = self.layout
         s = context.scene.lapig

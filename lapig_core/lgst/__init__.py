@@ -7,8 +7,7 @@
 
 Importing this package loads no model; backends load theirs on first use.
 """
-from .base import (BACKENDS, LGSTBackend, LGSTUnavailable, available_backends, get_backend,
-                   register_backend)
+from .base import BACKENDS, LGSTBackend, LGSTUnavailable, available_backends, get_backend, register_backend
 from .ip2p_backend import InstructPix2PixBackend
 from .styletransfer_backend import StyleTransferBackend
 

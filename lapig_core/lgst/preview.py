@@ -51,7 +51,7 @@ def save_png(path, img: np.ndarray) -> None:
 def styles_sheet(image: np.ndarray, internal_size: int = 512, blend: float = 0.0,
                  labels: dict | None = None) -> np.ndarray:
     """All 26 styles, one-hot, on `image` (pure style: no effects)."""
-    from ..sheets import labelled_grid
+    from ..common.sheets import labelled_grid
     from .style_net import NUM_STYLES
     from .styletransfer_backend import stylize_mix
 
@@ -80,7 +80,7 @@ PAPER_PROMPTS = (
 def prompts_sheet(image: np.ndarray, prompts=PAPER_PROMPTS, backend: str = "styletransfer",
                   seed: int = 0, cell: int = 320, **backend_kwargs) -> tuple[np.ndarray, list[dict]]:
     """`image` stylized once per prompt; tiles labelled with the chosen styles. Returns (sheet, describes)."""
-    from ..sheets import labelled_grid
+    from ..common.sheets import labelled_grid
     from . import get_backend
     from .style_catalog import BY_NAME
 

@@ -5,7 +5,7 @@ bpy = pytest.importorskip("bpy")
 
 @pytest.fixture(scope="session")
 def lapig_registered():
-    from lapig.lapig_addon import addon
+    from lapig.lapig_addon.blender import addon
 
     if not addon.is_registered():
         addon.register()
@@ -16,7 +16,8 @@ def lapig_registered():
 @pytest.fixture
 def small_setup(lapig_registered, tmp_path):
     """A demo panel with a small projector and camera, so a whole capture takes a few seconds."""
-    from lapig.lapig_addon import headless, rig
+    from lapig.lapig_addon.cli import headless
+    from lapig.lapig_addon.blender import rig
 
     scene, projector, camera, target = headless.build_demo_setup("panel", "sakura", folder=str(tmp_path),
                                                                  camera_resolution=(160, 120))

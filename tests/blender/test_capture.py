@@ -6,7 +6,7 @@ import pytest
 
 
 def _settings(tmp_path, **kw):
-    from lapig.lapig_addon.capture_job import CaptureSettings
+    from lapig.lapig_addon.services.capture_job import CaptureSettings
 
     base = dict(out_dir=str(tmp_path / "data"), setup_name="panel", train_count=4, test_count=2,
                 working_size=64, chunk=8, check_grid_step=2)
@@ -32,8 +32,8 @@ def _user_state(scene):
 
 @pytest.mark.blender
 def test_capture_writes_a_registered_dataset_and_restores_the_scene(small_setup, tmp_path):
-    from lapig.lapig_addon import headless
-    from lapig.lapig_core.dataset import load_capture_set
+    from lapig.lapig_addon.cli import headless
+    from lapig.lapig_core.capture.dataset import load_capture_set
 
     scene, projector, camera, target = small_setup
     before = _user_state(scene)
@@ -61,7 +61,7 @@ def test_capture_writes_a_registered_dataset_and_restores_the_scene(small_setup,
 
 @pytest.mark.blender
 def test_cancel_in_the_middle_restores_the_scene(small_setup, tmp_path):
-    from lapig.lapig_addon.capture_job import CaptureJob
+    from lapig.lapig_addon.services.capture_job import CaptureJob
 
     scene, projector, camera, target = small_setup
     before = _user_state(scene)
@@ -80,8 +80,8 @@ def test_cancel_in_the_middle_restores_the_scene(small_setup, tmp_path):
 
 @pytest.mark.blender
 def test_object_outside_the_projector_is_refused_with_the_coverage(small_setup, tmp_path):
-    from lapig.lapig_addon import headless
-    from lapig.lapig_addon.capture_job import CaptureError
+    from lapig.lapig_addon.cli import headless
+    from lapig.lapig_addon.services.capture_job import CaptureError
 
     scene, projector, camera, target = small_setup
     before = _user_state(scene)
@@ -93,7 +93,7 @@ def test_object_outside_the_projector_is_refused_with_the_coverage(small_setup, 
 
 @pytest.mark.blender
 def test_capture_operator_reports_missing_rig(lapig_registered):
-    from lapig.lapig_addon import demo_scene
+    from lapig.lapig_addon.blender import demo_scene
 
     demo_scene.new_empty_scene()
     with pytest.raises(RuntimeError, match="No LAPIG projector"):
@@ -102,7 +102,7 @@ def test_capture_operator_reports_missing_rig(lapig_registered):
 
 @pytest.mark.blender
 def test_capture_operator_on_unsaved_file_uses_a_temporary_folder(small_setup):
-    from lapig.lapig_addon import storage
+    from lapig.lapig_addon.blender import storage
 
     scene = small_setup[0]
     s = scene.lapig
@@ -126,7 +126,8 @@ def test_capture_operator_on_unsaved_file_uses_a_temporary_folder(small_setup):
 
 @pytest.mark.blender
 def test_capture_sees_the_real_surface_while_the_preview_is_on(small_setup, tmp_path):
-    from lapig.lapig_addon import headless, preview, projector_nodes
+    from lapig.lapig_addon.cli import headless
+    from lapig.lapig_addon.blender import preview, projector_nodes
 
     scene, projector, camera, target = small_setup
     preview.enable_preview(target, projector, projector_nodes.projected_image(projector.data))
@@ -139,7 +140,7 @@ def test_capture_sees_the_real_surface_while_the_preview_is_on(small_setup, tmp_
 
 @pytest.mark.blender
 def test_import_capture_folder_accepts_a_good_set_and_names_the_bad_file(small_setup, tmp_path):
-    from lapig.lapig_addon import headless
+    from lapig.lapig_addon.cli import headless
 
     scene = small_setup[0]
     result = headless.run_capture(scene, _settings(tmp_path, train_count=2, test_count=0))

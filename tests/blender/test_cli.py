@@ -49,8 +49,8 @@ def test_eval_writes_sheet_and_metrics(tmp_path):
 
     import numpy as np
 
-    from lapig.lapig_core.imageio import write_png
-    from lapig.lapig_core.surfaces import make_surface
+    from lapig.lapig_core.common.imageio import write_png
+    from lapig.lapig_core.common.surfaces import make_surface
 
     surface = tmp_path / "wood surface.png"
     write_png(surface, make_surface("wood", size=128, seed=3))

@@ -6,8 +6,8 @@ import pytest
 @pytest.mark.blender
 @pytest.mark.parametrize("shape,min_cover", [("panel", 0.99), ("box", 0.6), ("statue", 0.45)])
 def test_add_rig_aims_at_wall_box_and_statue(lapig_registered, tmp_path, shape, min_cover):
-    from lapig.lapig_addon import demo_scene, geometry_probe as probe, rig
-    from lapig.lapig_addon.properties import projector_model
+    from lapig.lapig_addon.blender import demo_scene, geometry_probe as probe, rig
+    from lapig.lapig_addon.blender.properties import projector_model
 
     demo_scene.new_empty_scene()
     target = demo_scene.add_surface_object(shape, "wood", folder=str(tmp_path), size=64)
@@ -37,7 +37,7 @@ def test_add_rig_aims_at_wall_box_and_statue(lapig_registered, tmp_path, shape, 
 
 @pytest.mark.blender
 def test_add_rig_without_selection_reports_an_error(lapig_registered):
-    from lapig.lapig_addon import demo_scene
+    from lapig.lapig_addon.blender import demo_scene
 
     demo_scene.new_empty_scene()
     with pytest.raises(RuntimeError, match="Select the mesh"):
@@ -57,7 +57,7 @@ def test_projector_properties_rebuild_the_light_nodes(small_setup):
 
 @pytest.mark.blender
 def test_viewport_preview_is_reversible_and_keeps_user_materials(small_setup, tmp_path):
-    from lapig.lapig_addon import preview
+    from lapig.lapig_addon.blender import preview
 
     scene, projector, camera, target = small_setup
     original = target.material_slots[0].material

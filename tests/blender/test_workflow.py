@@ -29,7 +29,8 @@ def _psa_fast(scene):
 
 
 def test_whole_path_through_the_operators(captured, tmp_path):
-    from lapig.lapig_addon import panel_state, preview
+    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.blender import preview
 
     scene = captured
     s = scene.lapig
@@ -84,7 +85,7 @@ def test_whole_path_through_the_operators(captured, tmp_path):
 
 
 def test_bad_input_is_refused_with_a_reason(captured, monkeypatch, tmp_path):
-    from lapig.lapig_addon import panel_state
+    from lapig.lapig_addon.services import panel_state
 
     scene = captured
     s = scene.lapig
@@ -93,7 +94,7 @@ def test_bad_input_is_refused_with_a_reason(captured, monkeypatch, tmp_path):
     with pytest.raises(RuntimeError, match="empty"):
         bpy.ops.lapig.generate()
     # missing weights: a clear message, nothing half-done
-    monkeypatch.setattr("lapig.lapig_core.checkpoints.WEIGHTS_DIR", tmp_path / "no weights")
+    monkeypatch.setattr("lapig.lapig_core.photometric.checkpoints.WEIGHTS_DIR", tmp_path / "no weights")
     s.prompt = "Make it a charcoal sketch ✏️ " + "very " * 400
     with pytest.raises(RuntimeError, match="pretrained CompenNeSt weights are missing"):
         bpy.ops.lapig.train_models()
@@ -109,7 +110,8 @@ def test_bad_input_is_refused_with_a_reason(captured, monkeypatch, tmp_path):
 
 
 def test_no_projector(lapig_registered):
-    from lapig.lapig_addon import demo_scene, panel_state
+    from lapig.lapig_addon.blender import demo_scene
+    from lapig.lapig_addon.services import panel_state
 
     demo_scene.new_empty_scene()
     scene = bpy.context.scene
@@ -121,7 +123,7 @@ def test_no_projector(lapig_registered):
 def test_moved_blend_finds_its_data_again(captured, tmp_path):
     import shutil
 
-    from lapig.lapig_addon import storage
+    from lapig.lapig_addon.blender import storage
 
     old = bpy.data.filepath
     new_dir = tmp_path / "moved"
@@ -136,8 +138,8 @@ def test_moved_blend_finds_its_data_again(captured, tmp_path):
 
 
 def test_cancelled_generate_changes_nothing(captured):
-    from lapig.lapig_addon import projector_nodes
-    from lapig.lapig_addon.pipeline_jobs import GenerateJob
+    from lapig.lapig_addon.blender import projector_nodes
+    from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
 
     scene = captured
     s = scene.lapig
@@ -152,8 +154,8 @@ def test_cancelled_generate_changes_nothing(captured):
 
 
 def test_unavailable_backend_falls_back_with_a_message(captured, monkeypatch, tmp_path):
-    from lapig.lapig_addon import panel_state
-    from lapig.lapig_addon.pipeline_jobs import GenerateJob
+    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
 
     monkeypatch.setenv("LAPIG_IP2P_MODEL", str(tmp_path / "no model here"))
     scene = captured
@@ -168,8 +170,8 @@ def test_unavailable_backend_falls_back_with_a_message(captured, monkeypatch, tm
 
 
 def test_cancelled_render_leaves_the_scene_as_it_was(captured):
-    from lapig.lapig_addon import capture_studio, projector_nodes
-    from lapig.lapig_addon.pipeline_jobs import RenderResultJob
+    from lapig.lapig_addon.blender import capture_studio, projector_nodes
+    from lapig.lapig_addon.services.pipeline_jobs import RenderResultJob
 
     scene = captured
     s = scene.lapig

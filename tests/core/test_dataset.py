@@ -7,19 +7,10 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core import imageio
-from lapig_core.dataset import (
-    DatasetError,
-    DatasetLayout,
-    list_images,
-    load_capture_set,
-    summarize,
-    write_capture,
-    write_projector_images,
-    write_setup_json,
-)
-from lapig_core.imageio import ImageReadError, read_image, to_float, to_uint8, write_png
-from lapig_core.patterns import generate_patterns, reference_patterns
+from lapig_core.common import imageio
+from lapig_core.capture.dataset import (DatasetError, DatasetLayout, list_images, load_capture_set, summarize, write_capture, write_projector_images, write_setup_json)
+from lapig_core.common.imageio import ImageReadError, read_image, to_float, to_uint8, write_png
+from lapig_core.capture.patterns import generate_patterns, reference_patterns
 
 SIZE = 32
 

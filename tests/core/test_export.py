@@ -7,10 +7,10 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core import export
-from lapig_core.export import ExportError, crossfade_sequence, export_projector_image, projector_frame
-from lapig_core.imageio import to_uint8, to_uint16
-from lapig_core.projector_model import ProjectorModel, frame_from_working_image, square_region
+from lapig_core.export import projector_image as export
+from lapig_core.export.projector_image import (ExportError, crossfade_sequence, export_projector_image, projector_frame)
+from lapig_core.common.imageio import to_uint8, to_uint16
+from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, square_region
 
 W, H, S = 64, 48, 32  # native 64x48 projector, 32x32 working image -> 48x48 square at x=8
 

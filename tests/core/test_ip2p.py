@@ -234,8 +234,8 @@ def test_checkpointing_gives_the_same_gradient(tiny_model):
 
 
 def test_runs_inside_psa(tiny_model):
-    from lapig_core import psa
-    from lapig_core.checkpoints import new_model
+    from lapig_core.psa import adaptation as psa
+    from lapig_core.photometric.checkpoints import new_model
 
     torch.manual_seed(0)
     s = torch.rand(1, 3, 32, 32) * 0.5 + 0.25

@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from lapig_core.lgst import (LGSTBackend, StyleTransferBackend, available_backends, get_backend,
-                             register_backend)
+from lapig_core.lgst import (LGSTBackend, StyleTransferBackend, available_backends, get_backend, register_backend)
 from lapig_core.lgst import BACKENDS
 from lapig_core.lgst import prompt_mapping as pm
 from lapig_core.lgst.effects import PixelArt, effects_for_prompt, quantize_ste

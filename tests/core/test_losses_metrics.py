@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import torch
 
-from lapig_core import losses, metrics
+from lapig_core.photometric import losses
+from lapig_core.common import metrics
 
 
 def _ref_ssim(x, y):

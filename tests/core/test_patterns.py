@@ -5,14 +5,8 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.imageio import write_png
-from lapig_core.patterns import (
-    PatternFolderError,
-    generate_pattern,
-    generate_patterns,
-    load_image_folder,
-    reference_patterns,
-)
+from lapig_core.common.imageio import write_png
+from lapig_core.capture.patterns import (PatternFolderError, generate_pattern, generate_patterns, load_image_folder, reference_patterns)
 
 
 @pytest.fixture(scope="module")

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from lapig_core.camera_model import CameraResponse, auto_exposure_stops, clipped_fraction
-from lapig_core.projector_model import ProjectorModel, frame_from_working_image, square_region
+from lapig_core.optics.camera_model import CameraResponse, auto_exposure_stops, clipped_fraction
+from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, square_region
 
 
 def test_pixel_ray_round_trip_with_lens_shift():

@@ -5,8 +5,8 @@ import threading
 import pytest
 import torch
 
-from lapig_core import psa
-from lapig_core.checkpoints import new_model
+from lapig_core.psa import adaptation as psa
+from lapig_core.photometric.checkpoints import new_model
 from lapig_core.lgst.base import LGSTBackend
 
 SIZE = 32

@@ -4,9 +4,9 @@ import json
 import numpy as np
 import pytest
 
-from lapig_core import metrics
-from lapig_core.result_files import heat_overlay, read_result_image, read_summary, write_result
-from lapig_core.targets import desired_targets, reachable_mask, reachable_range
+from lapig_core.common import metrics
+from lapig_core.export.result_files import heat_overlay, read_result_image, read_summary, write_result
+from lapig_core.photometric.targets import desired_targets, reachable_mask, reachable_range
 
 
 def test_desired_targets_live_in_the_reachable_range():

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import torch
 
-from lapig_core import checkpoints, finetune, pretrain
-from lapig_core.dataset import load_capture_set
-from lapig_core.training import COMPENNEST_FINETUNE, PCNET_TRAIN, Recipe, Trainer, TrainingError, evaluate_pairs
-from lapig_core.training_data import pairs_from_capture_sets
+from lapig_core.photometric import checkpoints, finetune, pretrain
+from lapig_core.capture.dataset import load_capture_set
+from lapig_core.photometric.training import (COMPENNEST_FINETUNE, PCNET_TRAIN, Recipe, Trainer, TrainingError, evaluate_pairs)
+from lapig_core.photometric.training_data import pairs_from_capture_sets
 
 from test_dataset import make_dataset
 

@@ -9,7 +9,7 @@ pytest.importorskip("bpy")
 
 @pytest.mark.e2e
 def test_extension_builds_installs_enables_runs_and_disables(tmp_path):
-    from lapig.lapig_addon.packaging import build_extension
+    from lapig.tools.packaging import build_extension
 
     zip_path = build_extension(str(tmp_path / "dist"))
     user = tmp_path / "blender_user"

@@ -1,0 +1,59 @@
+"""Registration of everything the add-on adds to Blender, in dependency order."""
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+
+_MODULES = (
+    ".properties",
+    ".preferences",
+    "...operators",
+    "...panels",
+    "..cli.blender_command",
+)
+
+
+def _modules():
+    return [importlib.import_module(name, __package__) for name in _MODULES]
+
+
+_registered = []
+
+
+def extension_package() -> str:
+    """The extension's own package name (e.g. bl_ext.user_default.lapig): two levels above here."""
+    return __package__.rsplit(".", 2)[0]
+
+
+# What lapig_core.lgst.prompt_mapping reads: in Blender's UI the prompt model runs in a helper
+# process, because loading it in-process holds the GIL long enough to freeze the UI (bench ui).
+EMBEDDING_ENV = "LAPIG_EMBEDDING"
+
+
+def _stop_embedding_process():
+    root = extension_package()
+    prompt_mapping = sys.modules.get(root + ".lapig_core.lgst.prompt_mapping")
+    if prompt_mapping is not None:  # only if it was ever used: never import torch here
+        prompt_mapping.shutdown_embedding_process()
+
+
+def register():
+    import bpy
+
+    for module in _modules():
+        module.register()
+        _registered.append(module)
+    if not bpy.app.background:
+        os.environ[EMBEDDING_ENV] = "subprocess"
+
+
+def unregister():
+    while _registered:
+        _registered.pop().unregister()
+    os.environ.pop(EMBEDDING_ENV, None)
+    _stop_embedding_process()
+
+
+def is_registered() -> bool:
+    return bool(_registered)

@@ -1,0 +1,141 @@
+"""Exact geometry by ray casting: where projector pixels land and where the camera sees them.
+
+Used for the coverage check before a capture and as ground truth for the registration error.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+from mathutils import Vector
+from mathutils.bvhtree import BVHTree
+
+RENDERABLE = {"MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD", "VOLUME"}
+
+
+def renderable_objects(scene):
+    return [ob for ob in scene.objects if ob.type in RENDERABLE and not ob.hide_render]
+
+
+def scene_bvh(objects, depsgraph) -> BVHTree:
+    """One BVH of every object's evaluated triangles, in world space."""
+    verts, tris, offset = [], [], 0
+    for ob in objects:
+        if ob.type not in RENDERABLE:
+            continue
+        ev = ob.evaluated_get(depsgraph)
+        try:
+            mesh = ev.to_mesh()
+        except RuntimeError:
+            continue
+        if mesh is None:
+            continue
+        try:
+            mesh.calc_loop_triangles()
+            co = np.empty(len(mesh.vertices) * 3, np.float64)
+            mesh.vertices.foreach_get("co", co)
+            tri = np.empty(len(mesh.loop_triangles) * 3, np.int64)
+            mesh.loop_triangles.foreach_get("vertices", tri)
+        finally:
+            ev.to_mesh_clear()
+        m = np.array(ob.matrix_world)
+        co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+        verts.append(co)
+        tris.append(tri.reshape(-1, 3) + offset)
+        offset += len(co)
+    if not verts:
+        raise ValueError("there is nothing to render: the scene has no visible geometry")
+    return BVHTree.FromPolygons(np.concatenate(verts).tolist(), np.concatenate(tris).tolist())
+
+
+class CameraProjection:
+    """World points -> camera pixel coordinates (OpenCV convention) for a given render size."""
+
+    def __init__(self, camera_obj, scene, width, height):
+        frame = camera_obj.data.view_frame(scene=scene)  # top-right, bottom-right, bottom-left, top-left
+        tr, _, bl, _ = frame
+        self.left, self.right = bl.x, tr.x
+        self.bottom, self.top = bl.y, tr.y
+        self.plane = -tr.z
+        self.world_to_local = np.array(camera_obj.matrix_world.inverted())
+        self.origin = np.array(camera_obj.matrix_world.translation)
+        self.width, self.height = width, height
+
+    def project(self, points) -> np.ndarray:
+        p = np.asarray(points, float) @ self.world_to_local[:3, :3].T + self.world_to_local[:3, 3]
+        depth = -p[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = p[:, 0] / depth * self.plane
+            y = p[:, 1] / depth * self.plane
+        nx = (x - self.left) / (self.right - self.left)
+        ny = (y - self.bottom) / (self.top - self.bottom)
+        out = np.stack([nx * self.width - 0.5, (1 - ny) * self.height - 0.5], axis=1)
+        out[depth <= 0] = np.nan
+        return out
+
+    def in_frame(self, xy) -> np.ndarray:
+        """Whether pixel coordinates (OpenCV convention) fall inside the rendered image."""
+        return (xy[:, 0] >= -0.5) & (xy[:, 0] <= self.width - 0.5) & \
+            (xy[:, 1] >= -0.5) & (xy[:, 1] <= self.height - 0.5)
+
+
+def projector_hits(bvh, projector_obj, model, pixel_xy) -> np.ndarray:
+    """First surface point hit by each projector pixel ray (NaN where it hits nothing)."""
+    directions = model.pixel_to_direction(pixel_xy).reshape(-1, 3)
+    m = np.array(projector_obj.matrix_world)
+    rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)  # ignore any object scale
+    world_dirs = directions @ rot.T
+    origin = Vector(m[:3, 3])
+    hits = np.full((len(world_dirs), 3), np.nan)
+    for i, d in enumerate(world_dirs):
+        loc, _, _, _ = bvh.ray_cast(origin, Vector(d))
+        if loc is not None:
+            hits[i] = loc
+    return hits
+
+
+def visible_from(bvh, origin, points, tolerance=1e-3) -> np.ndarray:
+    """Whether each point is the first surface hit seen from origin (not occluded)."""
+    origin = np.asarray(origin, float)
+    visible = np.zeros(len(points), bool)
+    o = Vector(origin)
+    for i, p in enumerate(points):
+        if not np.isfinite(p).all():
+            continue
+        d = p - origin
+        dist = np.linalg.norm(d)
+        loc, _, _, hit_dist = bvh.ray_cast(o, Vector(d / dist), dist * 1.01)
+        visible[i] = loc is not None and abs(hit_dist - dist) <= tolerance * max(dist, 1.0)
+    return visible
+
+
+def exact_projector_to_camera(bvh, projector_obj, model, camera_proj: CameraProjection, pixel_xy):
+    """Ground truth camera coordinates of projector pixels; NaN where unlit, hidden or off-frame."""
+    pixel_xy = np.asarray(pixel_xy, float)
+    shape = pixel_xy.shape[:-1]
+    hits = projector_hits(bvh, projector_obj, model, pixel_xy)
+    seen = visible_from(bvh, camera_proj.origin, hits)
+    cam = camera_proj.project(np.where(np.isfinite(hits), hits, 0.0))
+    cam[~(seen & camera_proj.in_frame(cam))] = np.nan
+    return cam.reshape(*shape, 2)
+
+
+def coverage(bvh, projector_obj, model, camera_proj, target_bvh=None, grid=24) -> dict:
+    """Share of the projector's working square that lands on geometry the camera sees."""
+    from ...lapig_core.optics.projector_model import square_region
+
+    x0, y0, side = square_region(model.width, model.height)
+    t = (np.arange(grid) + 0.5) / grid * side - 0.5
+    xs, ys = np.meshgrid(x0 + t, y0 + t)
+    xy = np.stack([xs, ys], -1).reshape(-1, 2)
+    hits = projector_hits(bvh, projector_obj, model, xy)
+    lit = np.isfinite(hits).all(axis=1)
+    if target_bvh is not None:  # count only hits on the chosen surface object
+        on_target = np.zeros(len(hits), bool)
+        for i in np.flatnonzero(lit):
+            loc, _, _, dist = target_bvh.find_nearest(Vector(hits[i]), 1e-4) or (None,) * 4
+            on_target[i] = loc is not None
+        lit &= on_target
+    seen = visible_from(bvh, camera_proj.origin, hits) & lit
+    cam = camera_proj.project(np.where(np.isfinite(hits), hits, 0.0))
+    inside = camera_proj.in_frame(cam)
+    return {"projector_on_object": float(lit.mean()), "seen_by_camera": float((seen & inside).mean())}

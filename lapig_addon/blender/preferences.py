@@ -1,0 +1,51 @@
+"""Add-on preferences: which dependencies are present, and how to install the missing ones."""
+from __future__ import annotations
+
+import sys
+
+import bpy
+
+from ...lapig_core.common.deps import check_dependencies, install_command
+
+
+def _addon_package() -> str:
+    return __package__.rsplit(".", 2)[0]  # the extension package, e.g. bl_ext.user_default.lapig
+
+
+class LAPIG_OT_copy_install_command(bpy.types.Operator):
+    """Copy the pip command that installs LAPIG's missing dependencies"""
+    bl_idname = "lapig.copy_install_command"
+    bl_label = "Copy install command"
+
+    def execute(self, context):
+        target = bpy.utils.user_resource("SCRIPTS", path="modules", create=False)
+        context.window_manager.clipboard = install_command(sys.executable, target)
+        self.report({"INFO"}, "Install command copied to the clipboard")
+        return {"FINISHED"}
+
+
+class LAPIG_AP_preferences(bpy.types.AddonPreferences):
+    bl_idname = _addon_package()
+
+    def draw(self, context):
+        layout = self.layout
+        col = layout.column(align=True)
+        col.label(text="Python dependencies:")
+        deps = check_dependencies()
+        for dep in deps:
+            row = col.row()
+            icon = "CHECKMARK" if dep.present else ("ERROR" if dep.required else "INFO")
+            state = "found" if dep.present else ("missing" if dep.required else "optional, not found")
+            row.label(text=f"{dep.package}: {state}", icon=icon)
+        if any(d.required and not d.present for d in deps):
+            box = layout.box()
+            box.label(text="Install the missing packages into Blender's Python, then restart Blender:")
+            target = bpy.utils.user_resource("SCRIPTS", path="modules", create=False)
+            box.label(text=install_command(sys.executable, target))
+            box.operator(LAPIG_OT_copy_install_command.bl_idname, icon="COPYDOWN")
+            box.label(text="README.md, 'Installing the Python dependencies', explains each step.")
+
+
+CLASSES = (LAPIG_OT_copy_install_command, LAPIG_AP_preferences)
+
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

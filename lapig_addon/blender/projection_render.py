@@ -1,0 +1,76 @@
+"""Project working images onto the real (rendered) surface and capture them: the "real capture".
+
+Uses a captured setup's own exposure, camera response, ambient light and registration, so a
+compensated image is judged exactly as its training captures were taken. The rig must not have
+moved since the capture (its fingerprint is checked).
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ...lapig_core.capture import dataset as ds
+from ...lapig_core.optics.camera_model import CameraResponse
+from ...lapig_core.capture.registration import Registration
+from ..services.capture_job import CaptureError, check_rig, emitted_frame
+from .capture_studio import CaptureStudio
+from .fingerprint import rig_fingerprint
+from .properties import projector_model
+
+
+def render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
+                          chunk=8, return_raw=False):
+    """Registered captures (N, S, S, 3) float32 of projecting each working image (N, S, S, 3)."""
+    steps = iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples, seed, chunk)
+    for _ in steps:
+        pass
+    registered, raw = steps.result
+    return (registered, raw) if return_raw else registered
+
+
+class _Steps:
+    """A generator of progress fractions that keeps its result (for the job engine's small steps)."""
+
+    def __init__(self, gen):
+        self._gen, self.result = gen, None
+
+    def __iter__(self):
+        self.result = yield from self._gen
+
+    def close(self):
+        """On a cancel: leave the capture studio now (it restores the projector and removes its scene)."""
+        self._gen.close()
+
+
+def iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
+                               chunk=8):
+    """The same work in steps: yields the fraction done after each chunk; .result = (registered, raw)."""
+    return _Steps(_render_steps(scene, projector, camera, target, setup_dir, images, samples, seed, chunk))
+
+
+def _render_steps(scene, projector, camera, target, setup_dir, images, samples, seed, chunk):
+    check_rig(scene, projector, camera, target)
+    setup_dir = os.fspath(setup_dir)
+    meta = ds.read_setup_json(os.path.join(setup_dir, "setup.json"))
+    if meta.get("fingerprint") != rig_fingerprint(projector, camera, target):
+        raise CaptureError("the projector, camera or object changed since this setup was captured: capture again")
+    registration = Registration.load(os.path.join(setup_dir, "registration.npz"))
+    response = CameraResponse(**meta["camera"]["response"])
+    cam_w, cam_h = meta["camera"]["resolution"]
+    model = projector_model(projector)
+    centre = np.array(target.matrix_world.translation)
+    distance = float(np.linalg.norm(np.array(projector.matrix_world.translation) - centre))
+    rng = np.random.default_rng(seed)
+    registered, raw = [], []
+    images = np.asarray(images, np.float32)
+    with CaptureStudio(scene, projector, camera, cam_w, cam_h, samples=samples or meta.get("samples", 1),
+                       ambient=meta.get("ambient", 0.0), ambient_distance=distance) as studio:
+        for start in range(0, len(images), chunk):
+            frames = [emitted_frame(model, im) for im in images[start:start + chunk]]
+            for linear in studio.render(frames):
+                cap = response.capture(linear, rng)
+                raw.append(cap)
+                registered.append(registration.warp(cap))
+            yield len(registered) / len(images)
+    return np.stack(registered).astype(np.float32), np.stack(raw)

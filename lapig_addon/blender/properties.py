@@ -1,0 +1,170 @@
+"""Settings stored in the .blend: per projector, per camera, and per scene."""
+from __future__ import annotations
+
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
+                       StringProperty)
+
+from ...lapig_core.optics.camera_model import CameraResponse
+from ...lapig_core.optics.projector_model import ProjectorModel
+
+
+def _rebuild_projector(self, context):
+    obj = self.id_data
+    if getattr(obj, "type", None) == "LIGHT" and self.is_projector:
+        from . import projector_nodes
+        projector_nodes.build_light_tree(obj.data, projector_model(obj))
+        obj.data.energy = self.brightness
+
+
+class LapigProjectorSettings(bpy.types.PropertyGroup):
+    is_projector: BoolProperty(name="Is LAPIG projector", default=False)
+    resolution_x: IntProperty(name="Width", default=800, min=16, max=8192, update=_rebuild_projector,
+                              description="Native horizontal resolution of the projector")
+    resolution_y: IntProperty(name="Height", default=600, min=16, max=8192, update=_rebuild_projector,
+                              description="Native vertical resolution of the projector")
+    throw_ratio: FloatProperty(name="Throw ratio", default=1.5, min=0.1, max=10.0,
+                               update=_rebuild_projector,
+                               description="Projection distance divided by image width")
+    shift_x: FloatProperty(name="Lens shift X", default=0.0, min=-2.0, max=2.0, update=_rebuild_projector,
+                           description="Horizontal lens shift, in image widths")
+    shift_y: FloatProperty(name="Lens shift Y", default=0.0, min=-2.0, max=2.0, update=_rebuild_projector,
+                           description="Vertical lens shift, in image heights")
+    brightness: FloatProperty(name="Brightness", default=1000.0, min=0.0, soft_max=100000.0, unit="POWER",
+                              update=_rebuild_projector,
+                              description="Light power of full white; the camera's exposure keeps "
+                                          "white from clipping")
+    black_level: FloatProperty(name="Black level", default=0.002, min=0.0, max=0.5, precision=4,
+                               description="Light leaked by a black input, relative to white")
+    gamma: FloatProperty(name="Projector gamma", default=2.2, min=0.3, max=4.0,
+                         description="Input value to light output exponent")
+
+
+class LapigCameraSettings(bpy.types.PropertyGroup):
+    resolution_x: IntProperty(name="Width", default=480, min=16, max=8192,
+                              description="Capture width in pixels")
+    resolution_y: IntProperty(name="Height", default=360, min=16, max=8192,
+                              description="Capture height in pixels")
+    auto_exposure: BoolProperty(name="Auto exposure", default=True,
+                                description="Set the exposure from the white capture so it does not clip")
+    exposure: FloatProperty(name="Exposure", default=0.0, min=-20.0, max=20.0, unit="NONE",
+                            description="Exposure in stops when auto exposure is off")
+    response_gamma: FloatProperty(name="Response gamma", default=2.2, min=0.5, max=4.0,
+                                  description="Non-linear camera response (encoding gamma)")
+    noise: FloatProperty(name="Noise", default=0.003, min=0.0, max=0.1, precision=4,
+                         description="Sensor noise standard deviation, linear units")
+
+
+PREVIEW_MODES = [
+    ("ORIGINAL", "Original", "The object's own material"),
+    ("PROJECTION", "Projection", "The projector image cast on the object (its light times the surface)"),
+    ("TARGET", "Target", "The stylization the viewer should see"),
+    ("SIMULATED", "Simulated", "What PCNet predicts the camera sees"),
+    ("RENDERED", "Rendered", "The Cycles capture of the projection"),
+    ("COMPENSABILITY", "Problem areas", "Where the surface cannot show the target (L_ps + L_cs per pixel)"),
+]
+
+
+_BACKEND_ITEMS = []  # Blender needs the enum strings to stay referenced
+
+
+def _backend_items(self, context):
+    if not _BACKEND_ITEMS:
+        try:
+            from ...lapig_core.lgst import BACKENDS, DEFAULT_BACKEND
+
+            names = sorted(BACKENDS, key=lambda n: (n != DEFAULT_BACKEND, n))  # first item = default
+        except ImportError:  # torch missing: the panel says so; keep the default listed
+            names = []
+        _BACKEND_ITEMS.extend((n, n, f"LGST backend '{n}'") for n in (names or ["styletransfer"]))
+    return _BACKEND_ITEMS
+
+
+def _preview_mode_changed(self, context):
+    from . import result_preview
+
+    result_preview.apply_mode(context.scene, self.preview_mode, report=None)
+
+
+class LapigSceneSettings(bpy.types.PropertyGroup):
+    projector: PointerProperty(name="Projector", type=bpy.types.Object,
+                               poll=lambda self, obj: obj.type == "LIGHT" and obj.lapig_projector.is_projector)
+    camera: PointerProperty(name="Camera", type=bpy.types.Object, poll=lambda self, obj: obj.type == "CAMERA")
+    target: PointerProperty(name="Surface object", type=bpy.types.Object,
+                            poll=lambda self, obj: obj.type == "MESH")
+    ambient: FloatProperty(name="Ambient light", default=0.03, min=0.0, max=1.0, subtype="FACTOR",
+                           description="Room light on the object, as a fraction of the projector's white")
+    train_count: IntProperty(name="Training images", default=32, min=0, max=2000)
+    test_count: IntProperty(name="Test images", default=8, min=0, max=2000)
+    working_size: IntProperty(name="Working size", default=256, min=32, max=1024, step=32)
+    gray_level: FloatProperty(name="Gray level", default=0.5, min=0.05, max=0.95,
+                              description="Projector input value of the surface capture s")
+    samples: IntProperty(name="Samples", default=1, min=1, max=64,
+                         description="Cycles samples per capture (the projector light is noise-free, "
+                                     "samples only anti-alias)")
+    pattern_source: EnumProperty(name="Patterns", items=[
+        ("GENERATED", "Generated", "Varied natural-image-like patterns"),
+        ("FOLDER", "Folder", "Your own images")], default="GENERATED")
+    pattern_folder: StringProperty(name="Pattern folder", subtype="DIR_PATH")
+    seed: IntProperty(name="Seed", default=0, min=0)
+    last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH")
+    last_capture_fingerprint: StringProperty(name="Scene fingerprint of the last capture")
+    # models
+    models_fingerprint: StringProperty(name="Rig fingerprint the models were trained for")
+    models_status: StringProperty(name="Models")
+    # stylize
+    prompt: StringProperty(name="Prompt", default="Make it a stained glass artwork",
+                           description="What the object should look like under the projection")
+    backend: EnumProperty(name="Backend", items=_backend_items,
+                          description="Language-guided style transfer that turns the prompt into a look")
+    style_override: StringProperty(name="Style mix",
+                                   description="Optional explicit mix instead of the prompt's, "
+                                               "e.g. 'black_ink_cells:0.7, teal_red_mosaic:0.3'")
+    use_psa: BoolProperty(name="Surface adaptation (PSA)", default=True,
+                          description="Adapt the look to what this surface and projector can show")
+    psa_strength: FloatProperty(name="Strength", default=0.5, min=0.05, max=0.95, subtype="FACTOR",
+                                description="How far PSA pushes the projection loss down (0.5: to half its "
+                                            "first value)")
+    style_seed: IntProperty(name="Seed", default=0, min=0)
+    result_dir: StringProperty(name="Result folder", subtype="DIR_PATH")
+    result_fingerprint: StringProperty(name="Rig fingerprint of the result")
+    result_summary: StringProperty(name="Result")
+    preview_mode: EnumProperty(name="Show", items=PREVIEW_MODES, default="ORIGINAL", update=_preview_mode_changed,
+                               description="What the object shows in the viewport")
+    # export
+    export_bit_depth: EnumProperty(name="Bit depth", items=[("8", "8 bit", ""), ("16", "16 bit", "")], default="8")
+    export_path: StringProperty(name="Export to", subtype="FILE_PATH", default="//projector_image.png")
+    crossfade_frames: IntProperty(name="Crossfade frames", default=60, min=2, max=10000)
+    job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
+    job_message: StringProperty(name="Status")
+
+
+def projector_model(obj) -> ProjectorModel:
+    p = obj.lapig_projector
+    return ProjectorModel(width=p.resolution_x, height=p.resolution_y, throw_ratio=p.throw_ratio,
+                          shift_x=p.shift_x, shift_y=p.shift_y, gamma=p.gamma, black_level=p.black_level)
+
+
+def camera_response(obj, exposure_stops: float | None = None) -> CameraResponse:
+    c = obj.lapig_camera
+    stops = c.exposure if exposure_stops is None else exposure_stops
+    return CameraResponse(gamma=c.response_gamma, noise_std=c.noise, exposure_stops=stops)
+
+
+CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigSceneSettings)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    bpy.types.Object.lapig_projector = PointerProperty(type=LapigProjectorSettings)
+    bpy.types.Object.lapig_camera = PointerProperty(type=LapigCameraSettings)
+    bpy.types.Scene.lapig = PointerProperty(type=LapigSceneSettings)
+
+
+def unregister():
+    del bpy.types.Scene.lapig
+    del bpy.types.Object.lapig_camera
+    del bpy.types.Object.lapig_projector
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,113 @@
+"""Adding the projector and the camera to the scene, placed around the selected object."""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from ...lapig_core.optics.placement import place_rig
+from . import projector_nodes
+from .properties import projector_model
+
+RIG_COLLECTION = "LAPIG Rig"
+
+
+class RigError(ValueError):
+    """A problem the user can fix (nothing selected, wrong object type)."""
+
+
+def object_world_vertices(obj, depsgraph) -> tuple[np.ndarray, np.ndarray]:
+    """Evaluated world-space vertices and polygon normals of a mesh object."""
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        verts = np.empty(len(mesh.vertices) * 3, np.float64)
+        mesh.vertices.foreach_get("co", verts)
+        normals = np.empty(len(mesh.polygons) * 3, np.float64)
+        mesh.polygons.foreach_get("normal", normals)
+        areas = np.empty(len(mesh.polygons), np.float64)
+        mesh.polygons.foreach_get("area", areas)
+    finally:
+        evaluated.to_mesh_clear()
+    m = np.array(obj.matrix_world)
+    verts = verts.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    normal_matrix = np.linalg.inv(m[:3, :3]).T
+    normals = normals.reshape(-1, 3) @ normal_matrix.T
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    weighted = normals * (areas[:, None] / max(areas.sum(), 1e-12)) * len(areas)
+    return verts, weighted
+
+
+def _pose_matrix(pose) -> Matrix:
+    m = np.eye(4)
+    m[:3, :3] = pose.rotation
+    m[:3, 3] = pose.location
+    return Matrix(m.tolist())
+
+
+def _rig_collection(scene) -> bpy.types.Collection:
+    coll = bpy.data.collections.get(RIG_COLLECTION)
+    if coll is None:
+        coll = bpy.data.collections.new(RIG_COLLECTION)
+    if coll.name not in scene.collection.children:
+        scene.collection.children.link(coll)
+    return coll
+
+
+def test_card() -> bpy.types.Image:
+    """A colour grid the projector shows until there is a result, so aim and focus are visible."""
+    image = bpy.data.images.get("LAPIG test card")
+    if image is None:
+        image = bpy.data.images.new("LAPIG test card", 800, 600)
+        image.generated_type = "COLOR_GRID"
+    return image
+
+
+def create_projector(scene, name="LAPIG Projector") -> bpy.types.Object:
+    light = bpy.data.lights.new(name, "SPOT")
+    obj = bpy.data.objects.new(name, light)
+    _rig_collection(scene).objects.link(obj)
+    settings = obj.lapig_projector
+    settings.is_projector = True  # triggers no rebuild by itself: build explicitly below
+    light.energy = settings.brightness
+    projector_nodes.build_light_tree(light, projector_model(obj), image=test_card())
+    obj.show_in_front = True
+    return obj
+
+
+def create_camera(scene, name="LAPIG Camera") -> bpy.types.Object:
+    cam = bpy.data.cameras.new(name)
+    obj = bpy.data.objects.new(name, cam)
+    _rig_collection(scene).objects.link(obj)
+    cam.sensor_fit = "HORIZONTAL"
+    cam.clip_start = 0.01
+    return obj
+
+
+def add_rig(context, target=None, projector=None, camera=None):
+    """Place a projector and a camera (new ones unless given) around the target mesh."""
+    scene = context.scene
+    target = target or context.active_object
+    if target is None:
+        raise RigError("Select the object to project on first")
+    if target.type != "MESH":
+        raise RigError(f"'{target.name}' is a {target.type.lower()}, not a mesh: select the surface object")
+    depsgraph = context.evaluated_depsgraph_get()
+    verts, normals = object_world_vertices(target, depsgraph)
+    if len(verts) < 3:
+        raise RigError(f"'{target.name}' has no geometry to project on")
+    projector = projector or create_projector(scene)
+    camera = camera or create_camera(scene)
+    model = projector_model(projector)
+    cam_settings = camera.lapig_camera
+    placement = place_rig(verts, normals, throw_ratio=model.throw_ratio, aspect=model.aspect,
+                          camera_aspect=cam_settings.resolution_x / cam_settings.resolution_y)
+    projector.matrix_world = _pose_matrix(placement.projector)
+    camera.matrix_world = _pose_matrix(placement.camera)
+    camera.data.sensor_fit = "HORIZONTAL"
+    camera.data.sensor_width = placement.sensor_width_mm
+    camera.data.lens = placement.camera_lens_mm
+    camera.data.clip_end = max(camera.data.clip_end, placement.distance * 4)
+    settings = scene.lapig
+    settings.projector, settings.camera, settings.target = projector, camera, target
+    return projector, camera, placement

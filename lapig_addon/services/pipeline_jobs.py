@@ -1,0 +1,187 @@
+"""Jobs of the artist's path after the capture: train the models, generate, render the result.
+
+Training and generation run their torch work on a worker thread (jobs.WorkerJob); rendering the
+real capture is bpy work and runs on the main thread in small steps (jobs.Job).
+"""
+from __future__ import annotations
+
+import datetime
+import os
+import re
+
+import numpy as np
+
+from ...lapig_core.common import metrics
+from ...lapig_core.capture.dataset import load_capture_set
+from ...lapig_core.lgst.prompt_mapping import validate_prompt
+from ...lapig_core.pipeline import as_image, stylize, surface_models, train_models
+from ...lapig_core.psa.adaptation import PSASettings, loss_maps
+from ...lapig_core.export.result_files import heat_overlay, read_result_image, read_summary, write_result
+from . import panel_state
+from ..blender import storage
+from .capture_job import CaptureError
+from ..blender.fingerprint import rig_fingerprint
+from .jobs import Job, WorkerJob
+from ..blender.projection_render import iter_render_working_images
+
+
+class PipelineError(ValueError):
+    """A step that cannot run yet; the message says which step to do first."""
+
+
+def current_capture(scene) -> str:
+    """The scene's capture folder, checked to exist and to match the rig as it is now."""
+    state, folder = panel_state.capture_status(scene)
+    if state == "MISSING":
+        raise PipelineError("No capture yet: run Capture first")
+    if state == "STALE":
+        raise PipelineError("The projector, camera or object moved since the capture: capture again")
+    return folder
+
+
+class TrainModelsJob(WorkerJob):
+    title = "LAPIG training"
+
+    def __init__(self, scene):
+        super().__init__()
+        self.scene = scene
+
+    def prepare(self):
+        return current_capture(self.scene)
+
+    def work(self, folder, report, cancel_event):
+        cs = load_capture_set(folder)
+        trained = train_models(cs, on_progress=report, cancel_event=cancel_event)
+        return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder}
+
+    def finish(self, output):
+        s = self.scene.lapig
+        s.models_fingerprint = output["fingerprint"]
+        s.models_status = f"Fine-tuned in {output['seconds']:.0f} s"
+        return output
+
+
+def psa_settings_from(s, seed: int) -> PSASettings:
+    return PSASettings(stop_ratio=1.0 - s.psa_strength, seed=seed)
+
+
+class GenerateJob(WorkerJob):
+    """Prompt -> stylized target (with and without PSA) -> compensated projector image."""
+
+    title = "LAPIG generate"
+
+    def __init__(self, scene, result_root=None):
+        super().__init__()
+        self.scene = scene
+        self.result_root = result_root
+
+    def prepare(self):
+        s = self.scene.lapig
+        folder = current_capture(self.scene)
+        prompt, notes = validate_prompt(s.prompt) if not s.style_override.strip() else (s.prompt.strip(), [])
+        root = self.result_root or os.path.join(storage.data_root()[0], "results")
+        slug = re.sub(r"[^A-Za-z0-9]+", "_", prompt.lower()).strip("_")[:40] or "look"
+        stamp = datetime.datetime.now().strftime("%Y%m%d_%H%M%S")
+        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": s.backend,
+                "mix": s.style_override.strip() or None, "psa": s.use_psa, "seed": s.style_seed,
+                "settings": psa_settings_from(s, s.style_seed), "out": os.path.join(root, f"{stamp}_{slug}")}
+
+    def work(self, job, report, cancel_event):
+        cs = load_capture_set(job["capture"])
+        report(0.02, "loading the models")
+        models = surface_models(cs, on_progress=lambda p, m: report(0.05 + 0.45 * p, m), cancel_event=cancel_event)
+        if cancel_event.is_set():
+            return None
+        report(0.5, "stylizing")
+        res = stylize(cs, models, job["prompt"], backend=job["backend"], seed=job["seed"], mix=job["mix"],
+                      psa=job["psa"], settings=job["settings"], cancel_event=cancel_event,
+                      on_progress=lambda p, m: report(0.55 + 0.4 * p, m))
+        if cancel_event.is_set():  # cancelled: write nothing, the scene keeps its last result
+            return None
+        return save_stylize_result(job, cs, models, res)
+
+    def finish(self, output):
+        if output is None:
+            return None
+        from ..blender import result_preview
+
+        s = self.scene.lapig
+        s.models_fingerprint = output["summary"].get("fingerprint") or ""  # trained on the way if missing
+        if not s.models_status:
+            s.models_status = "Fine-tuned for this capture"
+        s.result_dir = output["folder"]
+        s.result_fingerprint = rig_fingerprint(s.projector, s.camera, s.target) if s.projector else ""
+        s.result_summary = output["summary_line"]
+        result_preview.set_projector_image(s.projector, read_result_image(output["folder"], "projector"))
+        if s.preview_mode != "ORIGINAL":
+            result_preview.apply_mode(self.scene, s.preview_mode)
+        return output
+
+
+def save_stylize_result(job: dict, cs, models, res) -> dict:
+    """Write the result folder (worker-thread safe: files only) and return a short summary."""
+    chosen = res.with_psa or res.without
+    maps = loss_maps(chosen.target, models)
+    problem = (maps["cs"] + maps["ps"]).numpy()
+    images = {"target": as_image(chosen.target), "projector": as_image(chosen.projector_image),
+              "simulated": as_image(chosen.simulated), "compensability": heat_overlay(cs.cam_white, problem),
+              "target_nopsa": as_image(res.without.target), "projector_nopsa": as_image(res.without.projector_image),
+              "simulated_nopsa": as_image(res.without.simulated)}
+    summary = {"prompt": job["prompt"], "notes": job.get("notes", []), "backend": job["backend"], "seed": job["seed"],
+               "style_mix_override": job.get("mix"), "lgst": res.describe, "psa": job["psa"],
+               "psa_settings": res.settings.to_dict(), "capture": job["capture"],
+               "fingerprint": cs.meta.get("fingerprint"),
+               "metrics": {"simulated_psnr": metrics.psnr(images["simulated"], images["target"]),
+                           "simulated_psnr_nopsa": metrics.psnr(images["simulated_nopsa"], images["target_nopsa"]),
+                           "psa_iterations": res.with_psa.iterations if res.with_psa else 0,
+                           "psa_seconds": round(res.with_psa.seconds, 2) if res.with_psa else 0.0,
+                           "problem_area_fraction": float((problem > 1e-3).mean()),
+                           **({"style_retention_" + k: v for k, v in res.style_retention().items()})},
+               "created": datetime.datetime.now().isoformat(timespec="seconds")}
+    write_result(job["out"], images, summary)
+    styles = ", ".join(f"{n} {w:.2f}" for n, w in res.describe.get("styles", [])[:3])
+    line = f"{styles or job['backend']}; simulated {summary['metrics']['simulated_psnr']:.1f} dB"
+    return {"folder": job["out"], "summary": summary, "summary_line": line}
+
+
+class RenderResultJob(Job):
+    """Project the result's projector images with Cycles and capture them: the 'real capture'."""
+
+    title = "LAPIG render result"
+
+    def __init__(self, scene):
+        super().__init__()
+        self.scene = scene
+
+    def steps(self):
+        s = self.scene.lapig
+        folder = storage.resolve_result_dir(s.result_dir)
+        if not folder:
+            raise PipelineError("Generate a projector image first")
+        capture = current_capture(self.scene)
+        summary = read_summary(folder)
+        names = [n for n in ("projector", "projector_nopsa") if os.path.isfile(os.path.join(folder, n + ".png"))]
+        yield 0.1, "rendering the projection with Cycles"
+        images = np.stack([read_result_image(folder, n) for n in names])
+        # one image per step, so the UI gets a turn between renders
+        steps = iter_render_working_images(self.scene, s.projector, s.camera, s.target, capture, images, chunk=1)
+        try:
+            for done in steps:
+                yield 0.1 + 0.8 * done, f"rendered {round(done * len(names))}/{len(names)}"
+        except CaptureError as exc:
+            raise PipelineError(str(exc)) from None
+        finally:
+            steps.close()
+        captured = steps.result[0]
+        yield 0.9, "comparing with the targets"
+        rendered = {}
+        for name, cap in zip(names, captured):
+            suffix = name[len("projector"):]
+            rendered["rendered" + suffix] = cap
+            target = read_result_image(folder, "target" + suffix)
+            summary["metrics"]["rendered_psnr" + suffix] = metrics.psnr(cap, target)
+            summary["metrics"]["rendered_ssim" + suffix] = metrics.ssim(cap, target)
+        images = {n: read_result_image(folder, n) for n in ("target", "target_nopsa", "simulated", "simulated_nopsa")
+                  if os.path.isfile(os.path.join(folder, n + ".png"))}
+        write_result(folder, {**images, **rendered}, summary)
+        self.result = summary

@@ -1,0 +1,476 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Export of finished projector images: native-resolution PNGs, JSON sidecars, crossfades.
+
+The optimiser works on a small square working image (e.g. 256x256) that covers the central
+square of the projector frame (see projector_model.frame_from_working_image). What a user loads
+into a real projector is the full native frame, so this module upscales the working image
+into that square with a smooth filter, writes 8- or 16-bit PNGs, and records next to each
+image how it was made (a JSON sidecar), so a result can be reproduced or traced later.
+
+Every file is written to a temporary name in the target folder and renamed into place only
+once complete: a full disk or a crash never leaves a truncated PNG, or a PNG without its
+sidecar. Paths go through Python's file API and cv2.imencode (never cv2.imwrite), so
+non-ASCII names work on every platform.
+
+No bpy here: the Blender operators call this module, and the tests run it without Blender.
+"""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import datetime as _dt
+import errno
+import json
+import math
+import os
+import platform
+import sys
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..common.imageio import to_float, to_uint8, to_uint16
+from ..optics.projector_model import square_region
+
+__all__ = [
+    "ExportError",
+    "projector_frame",
+    "export_projector_image",
+    "crossfade_sequence",
+    "UPSCALE_METHODS",
+    "EASES",
+]
+
+# Centre-aligned kernels, the same pixel-centre convention as the INTER_LINEAR resize in
+# frame_from_working_image, so every method puts the image at the same sub-pixel position.
+UPSCALE_METHODS = {
+    "lanczos": cv2.INTER_LANCZOS4,
+    "cubic": cv2.INTER_CUBIC,
+    # INTER_NEAREST maps dst -> floor(dst * scale), which shifts the image by up to half a
+    # source pixel; NEAREST_EXACT maps pixel centres like the other kernels.
+    "nearest": getattr(cv2, "INTER_NEAREST_EXACT", cv2.INTER_NEAREST),
+}
+EASES = ("linear", "smooth")
+
+# Arrays in the metadata longer than this are summarised in the sidecar rather than listed:
+# a sidecar describes an image, it is not meant to carry one.
+MAX_LISTED_ARRAY = 4096
+
+_DISK_FULL_ERRNOS = {errno.ENOSPC} | ({errno.EDQUOT} if hasattr(errno, "EDQUOT") else set())
+
+
+class ExportError(ValueError):
+    """An export that cannot be done, with a message the user can act on."""
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+def _check_size(width, height) -> tuple[int, int]:
+    for label, value in (("width", width), ("height", height)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ExportError(f"projector {label} must be a positive whole number of pixels, got {value!r}")
+    return int(width), int(height)
+
+
+def _check_bit_depth(bit_depth) -> int:
+    if isinstance(bit_depth, (bool, np.bool_)) or bit_depth not in (8, 16):
+        raise ExportError(f"bit depth must be 8 or 16, got {bit_depth!r}")
+    return int(bit_depth)
+
+
+def _as_rgb_float(image, what: str) -> np.ndarray:
+    """Any (H, W), (H, W, 1) or (H, W, 3) uint8/uint16/float array -> float32 RGB in [0, 1]."""
+    try:
+        img = np.asarray(image)
+    except Exception as exc:  # ragged lists and the like
+        raise ExportError(f"{what} is not an image array: {exc}") from exc
+    if img.ndim == 3 and img.shape[2] == 1:
+        img = img[:, :, 0]
+    if not (img.ndim == 2 or (img.ndim == 3 and img.shape[2] == 3)):
+        raise ExportError(f"{what} must be an (H, W) or (H, W, 3) image array, got shape {img.shape}")
+    if img.shape[0] < 1 or img.shape[1] < 1:
+        raise ExportError(f"{what} is empty (shape {img.shape})")
+    try:
+        img = to_float(img)  # NaN -> 0, clipped to [0, 1]
+    except TypeError as exc:
+        raise ExportError(f"{what}: {exc}") from exc
+    if img.ndim == 2:
+        img = np.repeat(img[:, :, None], 3, axis=2)
+    return img
+
+
+# ----------------------------------------------------------------------------- the frame
+
+
+def projector_frame(working_image, width: int, height: int, upscale: str = "lanczos") -> np.ndarray:
+    """The native (height, width, 3) float32 frame for a square working image.
+
+    The working image fills the central square (side min(width, height), placed by
+    projector_model.square_region, exactly as frame_from_working_image does) and the rest is
+    black, so the exported frame lines up with the registered capture pixel for pixel.
+    Lanczos/cubic give a smooth upscale without the blur of bilinear; their overshoot at hard
+    edges is clipped to [0, 1]. A working image larger than the square is area-averaged, as
+    any interpolating kernel would alias when shrinking.
+    """
+    width, height = _check_size(width, height)
+    if upscale not in UPSCALE_METHODS:
+        raise ExportError(f"upscale must be one of {sorted(UPSCALE_METHODS)}, got {upscale!r}")
+    img = _as_rgb_float(working_image, "working image")
+    if img.shape[0] != img.shape[1]:
+        raise ExportError(f"working image must be square, got {img.shape[1]}x{img.shape[0]} pixels")
+    x0, y0, side = square_region(width, height)
+    if side == img.shape[0]:
+        square = img
+    else:
+        interp = UPSCALE_METHODS[upscale] if side > img.shape[0] else cv2.INTER_AREA
+        square = cv2.resize(img, (side, side), interpolation=interp)
+    frame = np.zeros((height, width, 3), np.float32)
+    frame[y0:y0 + side, x0:x0 + side] = np.clip(square, 0.0, 1.0)
+    return frame
+
+
+def _native(image, width: int, height: int, upscale: str, what: str) -> tuple[np.ndarray, bool]:
+    """An image already at native size is used as is; a square one is treated as a working image."""
+    img = _as_rgb_float(image, what)
+    if img.shape[:2] == (height, width):
+        return img, False
+    if img.shape[0] != img.shape[1]:
+        raise ExportError(
+            f"{what} must be a square working image or a {width}x{height} projector frame, "
+            f"got {img.shape[1]}x{img.shape[0]} pixels"
+        )
+    return projector_frame(img, width, height, upscale), True
+
+
+def _encode_png(frame: np.ndarray, bit_depth: int, name: str) -> bytes:
+    pixels = to_uint8(frame) if bit_depth == 8 else to_uint16(frame)
+    ok, encoded = cv2.imencode(".png", np.ascontiguousarray(pixels[:, :, ::-1]))  # RGB -> BGR
+    if not ok:
+        raise ExportError(f"OpenCV could not encode {name} as a PNG")
+    return encoded.tobytes()
+
+
+# ----------------------------------------------------------------------------- JSON
+
+
+def _jsonable(obj):
+    """Metadata -> plain JSON types: numpy scalars/arrays converted, NaN/inf -> null."""
+    if obj is None or isinstance(obj, (str, bool)):
+        return obj
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    if isinstance(obj, (complex, np.complexfloating)):
+        return [_jsonable(obj.real), _jsonable(obj.imag)]
+    if isinstance(obj, np.ndarray):
+        if obj.size > MAX_LISTED_ARRAY:
+            summary = {"shape": list(obj.shape), "dtype": str(obj.dtype)}
+            if np.issubdtype(obj.dtype, np.number) and not np.issubdtype(obj.dtype, np.complexfloating):
+                with np.errstate(all="ignore"), _warnings_off():
+                    summary.update(min=_jsonable(np.nanmin(obj)), max=_jsonable(np.nanmax(obj)),
+                                   mean=_jsonable(np.nanmean(obj)))
+            return summary
+        return _jsonable(obj.tolist())
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, set, frozenset)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    if isinstance(obj, (_dt.datetime, _dt.date)):
+        return obj.isoformat()
+    if isinstance(obj, bytes):
+        return obj.decode("utf-8", "replace")
+    if hasattr(obj, "to_dict") and callable(obj.to_dict):  # ProjectorModel and friends
+        return _jsonable(obj.to_dict())
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return _jsonable(dataclasses.asdict(obj))
+    if isinstance(obj, np.generic):
+        return _jsonable(obj.item())
+    return str(obj)  # a sidecar is a record for people: never fail an export over a label
+
+
+@contextlib.contextmanager
+def _warnings_off():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slices
+        yield
+
+
+def _software(lapig_version) -> dict:
+    """Versions of what made the image, so a result can be traced to its environment."""
+    info = {
+        "lapig": str(lapig_version) if lapig_version is not None else "unknown",
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "opencv": cv2.__version__,
+    }
+    torch = sys.modules.get("torch")
+    if torch is not None and hasattr(torch, "__version__"):
+        info["torch"] = str(torch.__version__)
+    else:  # read the installed version without paying for `import torch`
+        try:
+            from importlib import metadata
+
+            info["torch"] = metadata.version("torch")
+        except Exception:
+            pass
+    return info
+
+
+def _utc_now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+def _sidecar_bytes(caller: dict | None, own: dict) -> bytes:
+    """Caller's metadata plus this module's keys; dict values under the same key are merged."""
+    if caller is not None and not isinstance(caller, dict):
+        raise ExportError(f"metadata must be a dict, got {type(caller).__name__}")
+    data = _jsonable(dict(caller or {}))
+    for key, value in own.items():
+        value = _jsonable(value)
+        if isinstance(data.get(key), dict) and isinstance(value, dict):
+            value = {**data[key], **value}
+        data[key] = value
+    return (json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n").encode("utf-8")
+
+
+# ----------------------------------------------------------------------------- atomic files
+
+
+def _write_all(handle, data: bytes) -> None:
+    """The actual write, kept separate so tests can simulate a full disk here."""
+    handle.write(data)
+
+
+def _check_folder(folder: Path) -> None:
+    if not folder.exists():
+        raise ExportError(f"output folder does not exist: {folder}")
+    if not folder.is_dir():
+        raise ExportError(f"output folder is not a folder: {folder}")
+
+
+def _write_error(exc: OSError, target: Path) -> ExportError:
+    if isinstance(exc, PermissionError):
+        return ExportError(f"cannot write to folder {target.parent}: permission denied")
+    if getattr(exc, "errno", None) in _DISK_FULL_ERRNOS:
+        return ExportError(f"could not write {target.name} to {target.parent}: the disk may be full ({exc})")
+    return ExportError(
+        f"could not write {target.name} to {target.parent}: {exc} (the disk may be full or the drive gone)"
+    )
+
+
+def _write_temp(target: Path, data: bytes) -> Path:
+    """Write data to a hidden temporary file beside target; removed again on any failure."""
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    except OSError as exc:
+        raise _write_error(exc, target) from exc
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            _write_all(handle, data)  # ENOSPC surfaces here or at close
+        os.chmod(tmp_name, 0o644)  # mkstemp makes it private; the result is an ordinary file
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp_name)
+        if isinstance(exc, OSError):
+            raise _write_error(exc, target) from exc
+        raise
+    return Path(tmp_name)
+
+
+def _commit(files: list[tuple[Path, bytes]]) -> list[Path]:
+    """Write every file to a temp name first, then rename them all into place.
+
+    Nothing appears under a final name until every byte of every file is on disk; a failure
+    before that leaves no file behind. Renames go in the given order, so put the file that
+    signals "done" (the image) last; if a rename fails, the ones already done are undone.
+    """
+    temps: list[Path] = []
+    done: list[Path] = []
+    try:
+        for target, data in files:
+            temps.append(_write_temp(target, data))
+        for (target, _), tmp in zip(files, temps):
+            try:
+                os.replace(tmp, target)
+            except OSError as exc:
+                raise _write_error(exc, target) from exc
+            done.append(target)
+    except BaseException:
+        for path in temps + done:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+        raise
+    return done
+
+
+def _png_path(out_path) -> Path:
+    try:
+        path = Path(os.fspath(out_path))
+    except TypeError as exc:
+        raise ExportError(f"output path must be a path or string, got {type(out_path).__name__}") from exc
+    if not path.name:
+        raise ExportError(f"output path has no file name: {out_path!r}")
+    if path.suffix.lower() != ".png":
+        path = path.with_name(path.name + ".png")
+    return path
+
+
+# ----------------------------------------------------------------------------- public API
+
+
+def export_projector_image(out_path, working_image, width: int, height: int, bit_depth: int = 8,
+                           metadata: dict | None = None, *, upscale: str = "lanczos",
+                           lapig_version: str | None = None) -> dict:
+    """Write the native-resolution projector PNG and its JSON sidecar `<name>.json`.
+
+    ``.png`` is appended to a path that lacks it. The folder must exist (a missing one is
+    more likely a typo or an unplugged drive than a wish to create it). The sidecar holds
+    ``metadata`` (prompt, backend, seed, settings, metrics, projector/camera parameters...)
+    plus ``software``, ``image`` and ``created``, which this function fills in itself.
+    Both files are written to temp names first and renamed only when both are complete.
+    Returns {"image": Path, "sidecar": Path}. Raises ExportError.
+    """
+    bit_depth = _check_bit_depth(bit_depth)
+    width, height = _check_size(width, height)
+    png_path = _png_path(out_path)
+    json_path = png_path.with_suffix(".json")
+    _check_folder(png_path.parent)
+    if png_path.is_dir():
+        raise ExportError(f"output path is a folder, not a file name: {png_path}")
+
+    working = _as_rgb_float(working_image, "working image")
+    frame = projector_frame(working, width, height, upscale)
+    x0, y0, side = square_region(width, height)
+    own = {
+        "software": _software(lapig_version),
+        "image": {
+            "file": png_path.name,
+            "width": width,
+            "height": height,
+            "bit_depth": bit_depth,
+            "channels": "RGB",
+            "working_size": int(working.shape[0]),
+            "upscale": upscale,
+            # where the working square lies in the native frame; rows from the top
+            "placement": {"x": x0, "y": y0, "width": side, "height": side},
+        },
+        "created": _utc_now(),
+    }
+    sidecar = _sidecar_bytes(metadata, own)
+    png = _encode_png(frame, bit_depth, png_path.name)
+    _commit([(json_path, sidecar), (png_path, png)])  # image last: its appearance means done
+    return {"image": png_path, "sidecar": json_path}
+
+
+def _ease(t: float, ease: str) -> float:
+    # smoothstep: zero slope at both ends, so the fade starts and lands without a jolt
+    return t if ease == "linear" else t * t * (3.0 - 2.0 * t)
+
+
+def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: int, height: int,
+                       bit_depth: int = 8, ease: str = "linear", name: str = "crossfade",
+                       gamma: float = 2.2, upscale: str = "lanczos", metadata: dict | None = None,
+                       source_labels: tuple[str, str] | None = None,
+                       lapig_version: str | None = None) -> list[Path]:
+    """Write `name_0001.png` ... `name_NNNN.png` blending image_a into image_b, plus `name.json`.
+
+    Each image is either a square working image (upscaled like projector_frame) or an already
+    native (height, width) frame. The blend is done in the projector's linear light: values
+    are raised to ``gamma`` (the projector's transfer, ProjectorModel.gamma), mixed, and taken
+    back with 1/gamma. Mixing the encoded values instead would not mix the light: halfway
+    between red and green it would emit (0.5^2.2 ~ 0.22) of each, a visible dip in brightness
+    mid-fade, whereas mixing light behaves like a real dissolve between two projectors with
+    constant total output. (The projector's black level is an affine term and cancels out.)
+    ``out_dir`` is created if its parent exists. Frames written before a failure are removed;
+    the sidecar is written last. Returns the frame paths in order. Raises ExportError.
+    """
+    bit_depth = _check_bit_depth(bit_depth)
+    width, height = _check_size(width, height)
+    if isinstance(frames, (bool, np.bool_)) or not isinstance(frames, (int, np.integer)) or frames < 2:
+        raise ExportError(f"a crossfade needs at least 2 frames, got {frames!r}")
+    frames = int(frames)
+    if ease not in EASES:
+        raise ExportError(f"ease must be one of {list(EASES)}, got {ease!r}")
+    try:
+        gamma = float(gamma)
+    except (TypeError, ValueError) as exc:
+        raise ExportError(f"gamma must be a number, got {gamma!r}") from exc
+    if not (math.isfinite(gamma) and gamma > 0):
+        raise ExportError(f"gamma must be a positive number, got {gamma}")
+    if (not isinstance(name, str) or not name.strip() or name in (".", "..")
+            or any(sep in name for sep in ("/", "\\", os.sep))):
+        raise ExportError(f"sequence name must be a plain file name without folders, got {name!r}")
+    if upscale not in UPSCALE_METHODS:
+        raise ExportError(f"upscale must be one of {sorted(UPSCALE_METHODS)}, got {upscale!r}")
+
+    folder = Path(os.fspath(out_dir))
+    if not folder.exists():
+        _check_folder(folder.parent)
+        try:
+            folder.mkdir()
+        except OSError as exc:
+            raise ExportError(f"cannot create output folder {folder}: {exc}") from exc
+    _check_folder(folder)
+
+    frame_a, upscaled_a = _native(image_a, width, height, upscale, "image A")
+    frame_b, upscaled_b = _native(image_b, width, height, upscale, "image B")
+    lin_a = np.power(frame_a, np.float32(gamma))
+    lin_b = np.power(frame_b, np.float32(gamma))
+    del frame_a, frame_b
+
+    digits = max(4, len(str(frames)))
+    paths = [folder / f"{name}_{i:0{digits}d}.png" for i in range(1, frames + 1)]
+    weights = [_ease(i / (frames - 1), ease) for i in range(frames)]
+    labels = list(source_labels) if source_labels is not None else ["A", "B"]
+    if len(labels) != 2:
+        raise ExportError(f"source_labels must name 2 sources, got {len(labels)}")
+    own = {
+        "software": _software(lapig_version),
+        "crossfade": {
+            "frames": frames,
+            "ease": ease,
+            "gamma": gamma,
+            "blend": "linear light: ((1-w)*a^gamma + w*b^gamma)^(1/gamma)",
+            "weights": weights,
+            "files": [p.name for p in paths],
+        },
+        "sources": [
+            {"label": labels[0], "input_size": list(np.shape(image_a)[:2]), "upscaled": upscaled_a},
+            {"label": labels[1], "input_size": list(np.shape(image_b)[:2]), "upscaled": upscaled_b},
+        ],
+        "image": {"width": width, "height": height, "bit_depth": bit_depth, "channels": "RGB",
+                  "upscale": upscale},
+        "created": _utc_now(),
+    }
+    sidecar = _sidecar_bytes(metadata, own)
+
+    written: list[Path] = []
+    inv = np.float32(1.0 / gamma)
+    try:
+        for path, w in zip(paths, weights):
+            if w == 0.0:
+                mixed = lin_a
+            elif w == 1.0:
+                mixed = lin_b
+            else:
+                mixed = lin_a * np.float32(1.0 - w) + lin_b * np.float32(w)
+            frame = np.power(mixed, inv)
+            written += _commit([(path, _encode_png(frame, bit_depth, path.name))])
+        _commit([(folder / f"{name}.json", sidecar)])
+    except BaseException:
+        for path in written:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+        raise
+    return written

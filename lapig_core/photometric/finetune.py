@@ -1,0 +1,70 @@
+"""Per-setup fine-tuning of the photometric models from the shipped pretrained weights.
+
+The paper's recipes (training.PAPER_RECIPES) take minutes on a GPU. On a 2-core CPU we keep
+their structure (batch 8, Adam 1e-3, weight decay 1e-4, the same loss switch and lr step at the
+same fractions) but train on random 64 px crops for fewer iterations: starting from pretrained
+weights, that reaches within 0.5 dB of the converged figure (see `bench models`).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+from pathlib import Path
+
+from . import checkpoints
+from ..capture.dataset import CaptureSet
+from .training import PAPER_RECIPES, Recipe, Trainer
+from .training_data import pairs_from_capture_sets
+
+COMPENSATION_PAIRS = 8  # the paper fine-tunes CompenNeSt on 8 pairs
+CPU_ITERATIONS = {"CompenNeSt": 300, "PCNet": 300}
+CPU_CROP = 64
+MODEL_FILES = {("CompenNeSt", "compensation"): "compennest.pt", ("PCNet", "simulation"): "pcnet.pt",
+               ("CompenNeSt", "simulation"): "compennest_reversed.pt"}
+
+
+def cpu_recipe(arch: str, role: str, iterations: int | None = None, seed: int = 0) -> Recipe:
+    paper = PAPER_RECIPES["PCNet" if role == "simulation" else "CompenNeSt"]
+    # LAPIG_FINETUNE_ITERATIONS: a quick mode for tests and rough previews
+    n = iterations or int(os.environ.get("LAPIG_FINETUNE_ITERATIONS") or 0) or CPU_ITERATIONS[arch]
+    return paper.scaled(n, crop=CPU_CROP, seed=seed)
+
+
+def start_model(arch: str, role: str, from_pretrained: bool = True, seed: int = 0):
+    if from_pretrained:
+        # pretrained on random crops: the weights fit any working size (the nets are convolutional)
+        model, _ = checkpoints.load_pretrained(arch, role)
+        return model
+    return checkpoints.new_model(arch, seed)
+
+
+def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, recipe: Recipe | None = None,
+             from_pretrained: bool = True, val_count: int | None = None, eval_every: int = 50,
+             on_progress=None, cancel_event=None):
+    """(model, TrainResult) fitted to one setup on its first `count` training pairs."""
+    if count is None:
+        count = COMPENSATION_PAIRS if role == "compensation" else len(cs.prj_train)
+    train = pairs_from_capture_sets([cs], role, count=count)
+    val = pairs_from_capture_sets([cs], role, split="test", count=val_count) if (val_count and cs.has_test) \
+        else None
+    model = start_model(arch, role, from_pretrained)
+    recipe = recipe or cpu_recipe(arch, role)
+    if recipe.crop is not None and recipe.crop >= min(train.x.shape[-2:]):
+        recipe = replace(recipe, crop=None)  # small working sizes train on whole images
+    trainer = Trainer(model, train, recipe, val_pairs=val, eval_every=eval_every,
+                      report_every=min(eval_every, 10), cancel_event=cancel_event)
+    result = trainer.run(on_progress)
+    return model, result
+
+
+def save_setup_model(setup_dir, model, role: str, cs: CaptureSet, **extra) -> Path:
+    """Save next to the captures, stamped with the setup's fingerprint."""
+    path = Path(setup_dir) / "models" / MODEL_FILES[(model.ARCH_NAME, role)]
+    return checkpoints.save_checkpoint(path, model, role, cs.image_size[0], cs.meta.get("fingerprint"), **extra)
+
+
+def load_setup_model(setup_dir, arch: str, role: str, fingerprint: str | None = None):
+    path = Path(setup_dir) / "models" / MODEL_FILES[(arch, role)]
+    if not path.is_file():
+        raise checkpoints.CheckpointError(f"no fine-tuned {arch} for this setup yet: train the models first")
+    return checkpoints.load_checkpoint(path, arch=arch, role=role, fingerprint=fingerprint)

@@ -1,0 +1,102 @@
+"""Training losses (torch, differentiable, NCHW images in [0, 1]).
+
+Photometric losses of the training recipes, and the PSA (projector saturation
+aware) losses:
+  L_pc  projection_consistency_loss: simulated capture vs target (MSE)
+  L_cs  compensation_saturation_loss: pre-clamp projector image outside [0,1]
+  L_ps  physical_saturation_loss: target outside the reachable [I-, I+] range
+
+SSIM uses pytorch-msssim's `ssim` (data_range=1, win 11, sigma 1.5, K=(0.01,
+0.03)): separable Gaussian window, per channel, valid convolution (no padding),
+mean of the map -- identical to metrics.ssim_torch. If the package is missing
+we fall back to metrics.ssim_torch.
+"""
+import torch
+from torch.nn import functional as F
+
+from ..common.metrics import SSIM_K, SSIM_SIGMA, SSIM_WIN_SIZE, ssim_torch
+
+try:
+    from pytorch_msssim import ssim as _msssim_ssim
+except ImportError:  # optional dependency; own implementation is equivalent
+    _msssim_ssim = None
+
+LOSS_NAMES = ("l1", "l1+ssim", "l1+l2", "l1+l2+ssim")
+
+
+def l1(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    return F.l1_loss(pred, target)
+
+
+def l2(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    return F.mse_loss(pred, target)
+
+
+def ssim(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    h, w = pred.shape[-2:]
+    if min(h, w) < SSIM_WIN_SIZE:
+        # pytorch-msssim would silently skip the blur on short axes.
+        raise ValueError(f"SSIM needs images at least {SSIM_WIN_SIZE}px, got {h}x{w}")
+    if _msssim_ssim is not None:
+        return _msssim_ssim(pred, target, data_range=1.0, size_average=True,
+                            win_size=SSIM_WIN_SIZE, win_sigma=SSIM_SIGMA, K=SSIM_K)
+    return ssim_torch(pred, target)
+
+
+def ssim_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    return 1.0 - ssim(pred, target)
+
+
+_TERMS = {"l1": l1, "l2": l2, "ssim": ssim_loss}
+
+
+def photometric_loss(name: str, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Unit-weighted sum of the '+'-joined terms in `name`, e.g. 'l1+l2+ssim'."""
+    terms = [t.strip() for t in name.lower().split("+")]
+    unknown = [t for t in terms if t not in _TERMS]
+    if unknown or not terms:
+        raise ValueError(f"unknown loss {name!r}; use one of {LOSS_NAMES}")
+    return sum(_TERMS[t](pred, target) for t in terms)
+
+
+# -- PSA losses ---------------------------------------------------------------
+
+def projection_consistency_loss(simulated: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """L_pc: MSE between the simulated capture pi_hat(pi_dagger(target)) and target."""
+    return F.mse_loss(simulated, target)
+
+
+def compensation_saturation_map(raw: torch.Tensor) -> torch.Tensor:
+    """Per-pixel L_cs, (B,1,H,W): squared distance of raw outside [0, 1].
+
+    A squared hinge: zero inside the range, gradient 2*violation outside on
+    either side, continuous at the bounds (no kink, unlike |.|), and on the
+    same quadratic scale as the MSE terms it is summed with.
+    """
+    return (F.relu(raw - 1.0) ** 2 + F.relu(-raw) ** 2).mean(dim=1, keepdim=True)
+
+
+def compensation_saturation_loss(raw: torch.Tensor) -> torch.Tensor:
+    """L_cs on the pre-ReLU/clamp compensation output, mean over pixels and channels."""
+    return compensation_saturation_map(raw).mean()
+
+
+def _bound(v, like: torch.Tensor, default: float) -> torch.Tensor:
+    return torch.as_tensor(default if v is None else v, dtype=like.dtype, device=like.device)
+
+
+def physical_saturation_map(target: torch.Tensor, i_min=None, i_max=None) -> torch.Tensor:
+    """Per-pixel L_ps, (B,1,H,W): squared distance of target outside [i_min, i_max].
+
+    Bounds are per-pixel tensors (I- / I+ captures) or scalars; None = 0 / 1.
+    minimum/maximum (not clamp) so tensor bounds broadcast and the gradient of
+    the difference reaches `target` where it is out of range.
+    """
+    clipped = torch.minimum(torch.maximum(target, _bound(i_min, target, 0.0)),
+                            _bound(i_max, target, 1.0))
+    return ((clipped - target) ** 2).mean(dim=1, keepdim=True)
+
+
+def physical_saturation_loss(target: torch.Tensor, i_min=None, i_max=None) -> torch.Tensor:
+    """L_ps = MSE(clamp(target, i_min, i_max), target), mean over pixels and channels."""
+    return physical_saturation_map(target, i_min, i_max).mean()

@@ -1,0 +1,198 @@
+"""Training loop for CompenNeSt and PCNet: the paper's recipes, deterministic, cancellable.
+
+`Trainer.steps()` is a generator of (progress, message), so the same loop runs to completion in a
+script, is stepped by the add-on's job engine, or runs on a worker thread. A cancel (closing the
+generator, or a threading.Event) stops it between iterations with the weights of the last step.
+"""
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import dataclass, field, replace
+
+import torch
+
+from . import losses
+from ..common import metrics
+from .training_data import PairSet
+
+
+class TrainingError(RuntimeError):
+    """Training cannot go on (diverged, bad data); the message says what to do."""
+
+
+@dataclass(frozen=True)
+class Recipe:
+    iterations: int
+    batch_size: int = 8
+    lr: float = 1e-3
+    weight_decay: float = 1e-4
+    lr_steps: tuple = ()  # iterations where lr is multiplied by lr_gamma
+    lr_gamma: float = 0.2
+    loss_schedule: tuple = ((0, "l1"),)  # (first iteration, loss name), ascending
+    crop: int | None = None  # random square crops: the nets are fully convolutional
+    seed: int = 0
+
+    def loss_at(self, iteration: int) -> str:
+        name = self.loss_schedule[0][1]
+        for start, loss_name in self.loss_schedule:
+            if iteration >= start:
+                name = loss_name
+        return name
+
+    def scaled(self, iterations: int, **changes) -> "Recipe":
+        """The same recipe over fewer (or more) iterations: milestones scale with it."""
+        f = iterations / self.iterations
+        return replace(self, iterations=iterations,
+                       lr_steps=tuple(int(round(s * f)) for s in self.lr_steps),
+                       loss_schedule=tuple((int(round(s * f)), n) for s, n in self.loss_schedule), **changes)
+
+
+# The paper's recipes (NOTES section 2).
+COMPENNEST_FINETUNE = Recipe(800, loss_schedule=((0, "l1"), (200, "l1+ssim")))
+PCNET_TRAIN = Recipe(1500, lr_steps=(1000,), loss_schedule=((0, "l1+l2"), (600, "l1+l2+ssim")))
+PAPER_RECIPES = {"CompenNeSt": COMPENNEST_FINETUNE, "PCNet": PCNET_TRAIN}
+
+
+def apply_model(model, x, s, i_min=None, i_max=None):
+    """Run either architecture on a batch: PCNet takes the capture bounds, CompenNeSt does not."""
+    if getattr(model, "ARCH_NAME", "") == "PCNet":
+        return model(x, s, i_min, i_max)
+    return model(x, s)
+
+
+def predict(model, pairs_x, s, i_min=None, i_max=None, batch_size=8) -> torch.Tensor:
+    """Inference in batches (one surface s for all of x)."""
+    model.eval()
+    out = []
+    with torch.no_grad():
+        for start in range(0, len(pairs_x), batch_size):
+            xb = pairs_x[start:start + batch_size]
+            out.append(apply_model(model, xb, s.expand(len(xb), -1, -1, -1), i_min, i_max))
+    return torch.cat(out)
+
+
+def evaluate_pairs(model, pairs: PairSet, batch_size=8, per_pixel_bounds=True) -> dict:
+    """PSNR / RMSE / SSIM of the model's output against the pairs' targets, all setups together."""
+    preds = []
+    for k, surf in enumerate(pairs.surfaces):
+        sel = (pairs.setup_index == k).nonzero().flatten()
+        if len(sel) == 0:
+            continue
+        lo, hi = (surf.i_min, surf.i_max) if per_pixel_bounds else (None, None)
+        preds.append((predict(model, pairs.x[sel], surf.s, lo, hi, batch_size), pairs.y[sel]))
+    pred = torch.cat([p for p, _ in preds])
+    target = torch.cat([t for _, t in preds])
+    return metrics.evaluate(pred, target)
+
+
+@dataclass
+class TrainResult:
+    iterations: int = 0
+    seconds: float = 0.0  # training time, validation excluded
+    history: list = field(default_factory=list)  # dicts: iteration, loss, [val psnr/rmse/ssim]
+    nan_recoveries: int = 0
+    cancelled: bool = False
+
+    @property
+    def final(self) -> dict:
+        return self.history[-1] if self.history else {}
+
+
+class Trainer:
+    def __init__(self, model, pairs: PairSet, recipe: Recipe, val_pairs: PairSet | None = None,
+                 eval_every: int = 100, report_every: int = 10, cancel_event=None, max_nan_recoveries=3):
+        if len(pairs) == 0:
+            raise TrainingError("no training pairs")
+        h, w = pairs.x.shape[-2:]
+        crop = recipe.crop
+        if crop is not None and (crop > min(h, w) or crop % 4):
+            raise TrainingError(f"crop {crop} must be a multiple of 4 and at most the image size {h}x{w}")
+        if h % 4 or w % 4:
+            raise TrainingError(f"image size {h}x{w} must be a multiple of 4 for these networks")
+        self.model, self.pairs, self.recipe, self.val_pairs = model, pairs, recipe, val_pairs
+        self.eval_every, self.report_every = eval_every, report_every
+        self.cancel_event, self.max_nan_recoveries = cancel_event, max_nan_recoveries
+        self.result = TrainResult()
+        # scalar capture bounds while training (NOTES: PCNet clamps to global min/max then)
+        self._y_min, self._y_max = float(pairs.y.min()), float(pairs.y.max())
+
+    def _sample(self, gen: torch.Generator):
+        r = self.recipe
+        idx = torch.randint(len(self.pairs), (min(r.batch_size, len(self.pairs)),), generator=gen)
+        x, s, y = self.pairs.batch(idx)
+        if r.crop is not None:
+            h, w = x.shape[-2:]
+            top = int(torch.randint(0, h - r.crop + 1, (1,), generator=gen)) // 4 * 4
+            left = int(torch.randint(0, w - r.crop + 1, (1,), generator=gen)) // 4 * 4
+            sl = (Ellipsis, slice(top, top + r.crop), slice(left, left + r.crop))
+            x, s, y = x[sl], s[sl], y[sl]
+        return x, s, y
+
+    def _cancelled(self) -> bool:
+        return self.cancel_event is not None and self.cancel_event.is_set()
+
+    def steps(self):
+        r, res = self.recipe, self.result
+        torch.manual_seed(r.seed)
+        gen = torch.Generator().manual_seed(r.seed)
+        opt = torch.optim.Adam(self.model.parameters(), lr=r.lr, weight_decay=r.weight_decay)
+        good_state = copy.deepcopy(self.model.state_dict())
+        t0 = time.perf_counter()
+        eval_time = 0.0  # validation is bookkeeping: train_seconds leaves it out
+        running = None
+        it = 0
+        while it < r.iterations:
+            if self._cancelled():
+                res.cancelled = True
+                break
+            lr = r.lr * r.lr_gamma ** sum(it >= s for s in r.lr_steps) * 0.5 ** res.nan_recoveries
+            for group in opt.param_groups:
+                group["lr"] = lr
+            self.model.train()
+            x, s, y = self._sample(gen)
+            pred = apply_model(self.model, x, s, self._y_min, self._y_max)
+            loss = losses.photometric_loss(r.loss_at(it), pred, y)
+            if not torch.isfinite(loss):
+                self._recover(opt, good_state, it)
+                continue
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            it += 1
+            value = float(loss.detach())
+            running = value if running is None else 0.9 * running + 0.1 * value
+            if it % 50 == 0:
+                good_state = copy.deepcopy(self.model.state_dict())
+            if it % self.report_every == 0 or it == r.iterations:
+                entry = {"iteration": it, "loss": round(running, 5), "lr": lr,
+                         "train_seconds": round(time.perf_counter() - t0 - eval_time, 3)}
+                if self.val_pairs is not None and (it % self.eval_every == 0 or it == r.iterations):
+                    te = time.perf_counter()
+                    entry.update({"val_" + k: v for k, v in evaluate_pairs(self.model, self.val_pairs).items()})
+                    eval_time += time.perf_counter() - te
+                res.history.append(entry)
+                res.iterations, res.seconds = it, time.perf_counter() - t0 - eval_time
+                msg = f"iteration {it}/{r.iterations}, loss {running:.4f}"
+                if "val_psnr" in entry:
+                    msg += f", validation {entry['val_psnr']:.2f} dB"
+                yield it / r.iterations, msg
+        res.iterations, res.seconds = it, time.perf_counter() - t0 - eval_time
+        self.model.eval()
+
+    def _recover(self, opt, good_state, it):
+        """A NaN/inf loss: go back to the last good weights with half the learning rate."""
+        self.result.nan_recoveries += 1
+        if self.result.nan_recoveries > self.max_nan_recoveries:
+            raise TrainingError(f"training diverged (non-finite loss at iteration {it}) "
+                                f"{self.max_nan_recoveries} times: check the captures for NaN, "
+                                f"or lower the learning rate")
+        self.model.load_state_dict(good_state)
+        opt.state.clear()
+
+    def run(self, on_progress=None) -> TrainResult:
+        for progress, message in self.steps():
+            if on_progress:
+                on_progress(progress, message)
+        return self.result
+

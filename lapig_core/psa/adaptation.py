@@ -1,0 +1,224 @@
+"""Projection surface adaptation (PSA): make the stylization compensable by gradient descent on theta.
+
+    I   = f_theta(s, T)            the backend's stylized target (differentiable in theta)
+    I*  = pi_dagger(I, s)           compensation (CompenNeSt), pre-clamp output kept for L_cs
+    I^  = pi_hat(I*, s)             simulated capture (PCNet), clamped to [I-, I+]
+    L   = w_pc L_pc + w_cs L_cs + w_ps L_ps + w_style L_style
+
+L_style keeps the look the prompt asked for: the three PSA losses alone are minimised by a bland
+target (NOTES section 1), so PSA pays for every step away from the un-adapted stylization I0
+(1 - SSIM(I, I0) plus the backend's own parameter distance when it has one).
+
+Adam on theta with the paper's schedule (lr / 5 every 50 iterations); stops when the total loss
+falls to `stop_ratio` x the first PSA loss (L_pc + L_cs + L_ps, weighted), or at `max_iterations`,
+and returns the iterate with the lowest total loss. The style term is weighted relative to the
+first PSA loss, so the same weight means the same trade-off on every surface and prompt. `mode="resample"` re-does the public code's procedure instead:
+re-sample the backend with new seeds until the loss halves, at most `max_iterations` samples.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+
+import torch
+
+from ..photometric import losses
+
+LOSS_TERMS = ("pc", "cs", "ps")
+ABLATIONS = {  # name -> active PSA terms (the paper's Table 2)
+    "L_pc": ("pc",), "L_cs": ("cs",), "L_ps": ("ps",), "L_ps+L_cs": ("ps", "cs"), "all": ("pc", "cs", "ps"),
+}
+
+
+class PSACancelled(Exception):
+    pass
+
+
+@dataclass
+class PSASettings:
+    mode: str = "gradient"  # "gradient" or "resample"
+    terms: tuple = LOSS_TERMS
+    weights: dict = field(default_factory=lambda: {"pc": 1.0, "cs": 1.0, "ps": 1.0})
+    style_weight: float = 1.0  # L_style = (1 - SSIM(I, I0)) + theta distance, relative to the first PSA loss
+    lr: float = 0.01
+    lr_step: int = 50
+    lr_gamma: float = 0.2
+    stop_ratio: float = 0.5
+    max_iterations: int = 25
+    seed: int = 0
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["terms"] = list(self.terms)
+        return d
+
+
+@dataclass
+class PSAResult:
+    target: torch.Tensor  # I of the best iterate (1,3,H,W)
+    projector_image: torch.Tensor  # its compensation I*
+    simulated: torch.Tensor  # pi_hat(I*)
+    initial_target: torch.Tensor  # I0, the un-adapted stylization
+    iterations: int
+    seconds: float
+    history: list
+    best_iteration: int
+    stopped: str  # "threshold", "max_iterations", "cancelled"
+    state: dict = None  # the backend's best theta
+
+
+@dataclass
+class SurfaceModels:
+    """The fine-tuned networks of one setup and its reference captures (1,3,H,W)."""
+
+    compensator: torch.nn.Module  # CompenNeSt
+    simulator: torch.nn.Module  # PCNet
+    s: torch.Tensor
+    i_min: torch.Tensor
+    i_max: torch.Tensor
+
+    def __post_init__(self):
+        for net in (self.compensator, self.simulator):
+            net.eval()
+            for p in net.parameters():
+                p.requires_grad_(False)  # only theta learns
+        self.compensator.cache_surface(self.s)
+
+    def compensate(self, target, return_raw=False):
+        return self.compensator(target, self.s, return_raw=return_raw)
+
+    def simulate(self, projector_image):
+        return self.simulator(projector_image, self.s, self.i_min, self.i_max)
+
+
+def psa_losses(target, models: SurfaceModels) -> dict:
+    """All three PSA losses of a target (tensors, differentiable), plus I* and I^."""
+    comp, raw = models.compensate(target, return_raw=True)
+    sim = models.simulate(comp)
+    return {"pc": losses.projection_consistency_loss(sim, target),
+            "cs": losses.compensation_saturation_loss(raw),
+            "ps": losses.physical_saturation_loss(target, models.i_min, models.i_max),
+            "comp": comp, "sim": sim}
+
+
+def loss_maps(target, models: SurfaceModels) -> dict:
+    """Per-pixel L_cs and L_ps (H, W): where the surface cannot show this target."""
+    with torch.no_grad():
+        _, raw = models.compensate(target, return_raw=True)
+        return {"cs": losses.compensation_saturation_map(raw)[0, 0],
+                "ps": losses.physical_saturation_map(target, models.i_min, models.i_max)[0, 0]}
+
+
+def _psa_loss(parts, settings) -> torch.Tensor:
+    return sum(settings.weights.get(t, 1.0) * parts[t] for t in settings.terms)
+
+
+def _style_loss(target, anchor, backend) -> torch.Tensor:
+    value = losses.ssim_loss(target, anchor)
+    distance = getattr(backend, "theta_distance", None)
+    return value + (distance() if distance is not None else 0.0)
+
+
+def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None, on_progress=None,
+            cancel_event=None) -> PSAResult:
+    """Adapt a prepared backend (backend.prepare(surface, prompt) already called) to the surface."""
+    settings = settings or PSASettings()
+    unknown = set(settings.terms) - set(LOSS_TERMS)
+    if unknown or not settings.terms:
+        raise ValueError(f"PSA terms must be a non-empty subset of {LOSS_TERMS}, got {settings.terms}")
+    if settings.mode == "resample":
+        return _run_resample(backend, models, settings, on_progress, cancel_event)
+    if settings.mode != "gradient":
+        raise ValueError(f"unknown PSA mode '{settings.mode}': use 'gradient' or 'resample'")
+    torch.manual_seed(settings.seed)
+    t0 = time.perf_counter()
+    theta = backend.parameters()
+    opt = torch.optim.Adam(theta, lr=settings.lr)
+    sched = torch.optim.lr_scheduler.StepLR(opt, settings.lr_step, settings.lr_gamma)
+    with torch.no_grad():
+        anchor = backend.forward().detach()
+    history, best, first, stopped = [], None, None, "max_iterations"
+    for it in range(settings.max_iterations + 1):
+        if cancel_event is not None and cancel_event.is_set():
+            stopped = "cancelled"
+            break
+        target = backend.forward()
+        parts = psa_losses(target, models)
+        psa = _psa_loss(parts, settings)
+        psa_value = float(psa.detach())
+        first = psa_value if first is None else first
+        style = _style_loss(target, anchor, backend)
+        # the style term is scaled by the first PSA loss, so one weight fits every prompt and surface
+        total = psa + settings.style_weight * max(first, 1e-8) * style
+        if not torch.isfinite(total):
+            stopped = "non-finite loss"
+            break
+        entry = {"iteration": it, "psa_loss": psa_value, "style_loss": float(style.detach()),
+                 "total": float(total.detach()), **{k: float(parts[k].detach()) for k in LOSS_TERMS}}
+        history.append(entry)
+        if best is None or entry["total"] < best[0]["total"]:
+            best = (entry, backend.state(), target.detach(), parts["comp"].detach(), parts["sim"].detach())
+        if on_progress:
+            on_progress(min(it / settings.max_iterations, 1.0),
+                        f"PSA iteration {it}: loss {entry['psa_loss']:.5f} (first {first:.5f})")
+        # the paper's rule on the total loss: style drift counts against reaching the threshold
+        if entry["total"] <= settings.stop_ratio * first and it > 0:
+            stopped = "threshold"
+            break
+        if it == settings.max_iterations:
+            break
+        opt.zero_grad(set_to_none=True)
+        total.backward()
+        opt.step()
+        sched.step()
+    entry, state, target, comp, sim = best
+    backend.load_state(state)
+    return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,
+                     history=history, best_iteration=entry["iteration"], stopped=stopped, state=state)
+
+
+def _run_resample(backend, models, settings, on_progress, cancel_event) -> PSAResult:
+    """The public code's PSA: new seeds until the loss is at most stop_ratio x the first sample's.
+
+    Unlike the public code it returns the best sample seen, not the last one.
+    """
+    t0 = time.perf_counter()
+    surface, prompt = getattr(backend, "surface", None), backend.describe().get("prompt", "")
+    history, best, first, stopped, anchor = [], None, None, "max_iterations", None
+    for k in range(settings.max_iterations + 1):
+        if cancel_event is not None and cancel_event.is_set():
+            stopped = "cancelled"
+            break
+        if k > 0:
+            backend.prepare(surface, prompt, seed=settings.seed + k)
+        with torch.no_grad():
+            target = backend.forward()
+            anchor = target if anchor is None else anchor
+            parts = psa_losses(target, models)
+            psa = float(_psa_loss(parts, settings))
+        first = psa if first is None else first
+        history.append({"iteration": k, "psa_loss": psa, **{t: float(parts[t]) for t in LOSS_TERMS}})
+        if best is None or psa < best[0]:
+            best = (psa, k, backend.state(), target, parts["comp"], parts["sim"])
+        if on_progress:
+            on_progress(min(k / settings.max_iterations, 1.0), f"PSA sample {k}: loss {psa:.5f}")
+        if psa <= settings.stop_ratio * first and k > 0:
+            stopped = "threshold"
+            break
+    _, k_best, state, target, comp, sim = best
+    if k_best != len(history) - 1:
+        backend.prepare(surface, prompt, seed=settings.seed + k_best)
+    return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,
+                     history=history, best_iteration=k_best, stopped=stopped, state=state)
+
+
+def without_psa(backend, models: SurfaceModels) -> PSAResult:
+    """The un-adapted stylization and its compensation, in the same shape as a PSA result."""
+    t0 = time.perf_counter()
+    with torch.no_grad():
+        target = backend.forward()
+        parts = psa_losses(target, models)
+    entry = {"iteration": 0, "psa_loss": float(sum(parts[t] for t in LOSS_TERMS)),
+             **{t: float(parts[t]) for t in LOSS_TERMS}}
+    return PSAResult(target, parts["comp"], parts["sim"], target, 0, time.perf_counter() - t0, [entry], 0,
+                     "not run", backend.state())

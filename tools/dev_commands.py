@@ -1,0 +1,152 @@
+"""Developer commands of `python -m lapig_addon`: benchmarks, data sets, pretraining, evaluation, build.
+
+They live outside the shipped extension (tools/ is excluded from the zip); the CLI adds them when
+this package is importable, i.e. in a source checkout.
+"""
+from __future__ import annotations
+
+import os
+
+from ..lapig_addon.blender import addon
+from ..lapig_addon.cli.commands import contact_sheet
+from ..lapig_addon.cli.output import print_json
+
+
+def _ensure_registered():
+    if not addon.is_registered():
+        addon.register()
+
+
+def add_parsers(sub):
+    data = sub.add_parser("dataset", help="render the synthetic setups used for pretraining and benchmarks")
+    data.add_argument("--setups", default="pretrain",
+                      help="'pretrain', 'bench', or comma-separated setup names (default: pretrain)")
+    data.add_argument("--out", default="out/pretrain_data", help="data set root folder")
+    data.add_argument("--train", type=int, default=125)
+    data.add_argument("--test", type=int, default=20)
+    data.add_argument("--seed", type=int, default=0, help="pattern seed")
+    data.add_argument("--skip-existing", action="store_true", help="keep setups that are already complete")
+
+    pre = sub.add_parser("pretrain", help="pretrain CompenNeSt, PCNet and CompenNeSt reversed on rendered setups")
+    pre.add_argument("--data", default="out/pretrain_data", help="data set root from 'dataset'")
+    pre.add_argument("--out", default="lapig_core/photometric/weights", help="folder for the weights")
+    pre.add_argument("--iterations", type=int, default=2000)
+    pre.add_argument("--crop", type=int, default=96, help="random crop size (default 96)")
+    pre.add_argument("--only", choices=["compennest", "pcnet", "reversed"], action="append",
+                     help="train only these networks (repeatable)")
+    pre.add_argument("--seed", type=int, default=0)
+
+    ev = sub.add_parser("eval", help="one surface image and prompt: stylize with and without PSA, capture both")
+    ev.add_argument("--surface", required=True, help="surface texture image (PNG/JPG)")
+    ev.add_argument("--prompt", required=True, help='e.g. "Make it a stained glass artwork"')
+    ev.add_argument("--out", required=True, help="output folder (sheet.png, metrics.json)")
+    ev.add_argument("--backend", default="styletransfer", help="LGST backend (default: styletransfer)")
+    ev.add_argument("--seed", type=int, default=0)
+    ev.add_argument("--train", type=int, default=125, help="captured training pairs (default 125)")
+    ev.add_argument("--psa-iterations", type=int, default=30, help="PSA iteration cap (default 30)")
+    ev.add_argument("--verbose", action="store_true", help="print training progress")
+
+    build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")
+    build.add_argument("--out", default="dist", help="output folder (default: dist)")
+
+    bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
+    bench.add_argument("what", choices=["capture", "models", "psa", "ui"], help="which benchmark")
+    bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
+    bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
+    bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
+    bench.add_argument("--camera", default="480x360", help="capture resolution WxH (default 480x360)")
+    bench.add_argument("--shape", default="panel", choices=["panel", "box", "statue"],
+                       help="capture: demo object (default: panel, the demo scene)")
+    bench.add_argument("--data", default="out/bench_data",
+                       help="models: data set root of the benchmark setups (rendered when missing)")
+    bench.add_argument("--setups", type=int, default=3, help="models: how many benchmark setups (default 3)")
+    bench.add_argument("--iterations", type=int, default=None,
+                       help="models: fine-tuning iterations per model (default: the CPU recipe's)")
+    bench.add_argument("--compensate", type=int, default=8, help="models: compensated test images per setup")
+    bench.add_argument("--no-timing", dest="timing", action="store_false",
+                       help="models: skip the fine-tuning time measurement")
+    bench.add_argument("--compensation-pairs", type=int, default=8,
+                       help="models: pairs CompenNeSt is fine-tuned on (default 8, as the paper)")
+    bench.add_argument("--compensation-only", action="store_true",
+                       help="models: only the rendered compensation (skips the PCNet table)")
+    bench.add_argument("--timing-only", action="store_true",
+                       help="models: only the fine-tuning time measurement (on the first setup)")
+    bench.add_argument("--surfaces", type=int, default=5, help="psa: how many surfaces (default 5)")
+    bench.add_argument("--prompts", type=int, default=10, help="psa: how many prompts (default 10)")
+    bench.add_argument("--ablation-prompts", type=int, default=3,
+                       help="psa: prompts per surface that also run the loss ablation (default 3)")
+    bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
+    bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")
+    bench.add_argument("--train", type=int, default=125, help="psa: captured training pairs per surface")
+    bench.add_argument("--psa-iterations", type=int, default=None, help="psa: PSA iteration cap (default 25)")
+    bench.add_argument("--seed", type=int, default=0)
+    for name, func in (("dataset", cmd_dataset), ("pretrain", cmd_pretrain), ("eval", cmd_eval),
+                       ("build", cmd_build), ("bench", cmd_bench)):
+        sub.choices[name].set_defaults(func=func)
+
+
+def cmd_bench(args) -> int:
+    _ensure_registered()
+    from .bench import bench_capture, bench_models, bench_psa, bench_ui
+
+    args.out = args.out or f"out/bench_{args.what}"
+    modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui}
+    summary = modules[args.what].run(args)
+    if not args.json:
+        for key, value in sorted(summary.items()):
+            print(f"{key:36s} {value}")
+    print_json(summary)
+    return 0
+
+
+def cmd_dataset(args) -> int:
+    _ensure_registered()
+    from . import synthetic_setups as syn
+
+    if args.setups == "pretrain":
+        specs = syn.PRETRAIN_SETUPS
+    elif args.setups == "bench":
+        specs = syn.BENCH_SETUPS
+    else:
+        specs = [syn.get_spec(name.strip()) for name in args.setups.split(",") if name.strip()]
+    summary = syn.render_synthetic_setups(specs, args.out, args.train, args.test, args.seed,
+                                          skip_existing=args.skip_existing, sheet=contact_sheet)
+    print_json(summary)
+    return 0
+
+
+def cmd_pretrain(args) -> int:
+    from ..lapig_core.photometric import pretrain
+
+    names = {"compennest": ("CompenNeSt", "compensation"), "pcnet": ("PCNet", "simulation"),
+             "reversed": ("CompenNeSt", "simulation")}
+    jobs = [names[n] for n in args.only] if args.only else list(pretrain.JOBS)
+    sets = pretrain.load_setups(args.data)
+    print(f"pretraining on {len(sets)} setups: {', '.join(cs.setup for cs in sets)}", flush=True)
+    summary = {}
+    for arch, role in jobs:
+        key = f"{arch}_{role}"
+        summary[key] = pretrain.pretrain_one(sets, arch, role, args.iterations, args.out, crop=args.crop,
+                                             seed=args.seed,
+                                             on_progress=lambda p, m, k=key: print(f"{k}: {m}", flush=True))
+        print(f"{key}: {summary[key]}", flush=True)
+    print_json(summary)
+    return 0
+
+
+def cmd_eval(args) -> int:
+    _ensure_registered()
+    from . import evaluate
+
+    summary = evaluate.run(args)
+    print(f"Look at {summary['sheet']}")
+    print_json({k: summary[k] for k in ("with_psa", "without_psa", "style_retention", "timings", "sheet")})
+    return 0
+
+
+def cmd_build(args) -> int:
+    from .packaging import build_extension
+
+    path = build_extension(os.path.abspath(args.out))
+    print(f"built and validated {path}")
+    return 0

@@ -30,10 +30,6 @@ ABLATIONS = {  # name -> active PSA terms (the paper's Table 2)
 }
 
 
-class PSACancelled(Exception):
-    pass
-
-
 @dataclass
 class PSASettings:
     mode: str = "gradient"  # "gradient" or "resample"

@@ -23,7 +23,8 @@ def no_torch(name, *args, **kwargs):
 
 builtins.__import__ = no_torch
 _load_extension_package()
-from lapig.lapig_addon import addon, panel_state
+from lapig.lapig_addon.blender import addon
+from lapig.lapig_addon.services import panel_state
 addon.register()
 print("blocker:", panel_state.models_blocker(bpy.context.scene))
 addon.unregister()

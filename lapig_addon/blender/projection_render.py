@@ -13,16 +13,18 @@ import numpy as np
 from ...lapig_core.capture import dataset as ds
 from ...lapig_core.optics.camera_model import CameraResponse
 from ...lapig_core.capture.registration import Registration
-from ..services.capture_job import CaptureError, check_rig, emitted_frame
+from ..services.capture_job import CaptureError, check_rig
 from .capture_studio import CaptureStudio
 from .fingerprint import rig_fingerprint
 from .properties import projector_model
 
 
 def render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
-                          chunk=8, return_raw=False):
-    """Registered captures (N, S, S, 3) float32 of projecting each working image (N, S, S, 3)."""
-    steps = iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples, seed, chunk)
+                          chunk=8, return_raw=False, bit_depth=8):
+    """Registered captures (N, S, S, 3) float32 of projecting each working image (N, S, S, 3),
+    sent to the projector as bit_depth frames (ProjectorModel.frame_light, like the exported file)."""
+    steps = iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples, seed, chunk,
+                                       bit_depth)
     for _ in steps:
         pass
     registered, raw = steps.result
@@ -44,12 +46,13 @@ class _Steps:
 
 
 def iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
-                               chunk=8):
+                               chunk=8, bit_depth=8):
     """The same work in steps: yields the fraction done after each chunk; .result = (registered, raw)."""
-    return _Steps(_render_steps(scene, projector, camera, target, setup_dir, images, samples, seed, chunk))
+    return _Steps(_render_steps(scene, projector, camera, target, setup_dir, images, samples, seed, chunk,
+                                bit_depth))
 
 
-def _render_steps(scene, projector, camera, target, setup_dir, images, samples, seed, chunk):
+def _render_steps(scene, projector, camera, target, setup_dir, images, samples, seed, chunk, bit_depth):
     check_rig(scene, projector, camera, target)
     setup_dir = os.fspath(setup_dir)
     meta = ds.read_setup_json(os.path.join(setup_dir, "setup.json"))
@@ -67,7 +70,7 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
     with CaptureStudio(scene, projector, camera, cam_w, cam_h, samples=samples or meta.get("samples", 1),
                        ambient=meta.get("ambient", 0.0), ambient_distance=distance) as studio:
         for start in range(0, len(images), chunk):
-            frames = [emitted_frame(model, im) for im in images[start:start + chunk]]
+            frames = [model.frame_light(im, bit_depth) for im in images[start:start + chunk]]
             for linear in studio.render(frames):
                 cap = response.capture(linear, rng)
                 raw.append(cap)

@@ -86,6 +86,16 @@ def _preview_mode_changed(self, context):
     result_preview.apply_mode(context.scene, self.preview_mode, report=None)
 
 
+def _export_bit_depth_changed(self, context):
+    """The light emits what the export would write, so it follows the bit depth."""
+    from . import result_preview
+
+    try:
+        result_preview.show_result_on_projector(self.id_data)  # the scene these settings belong to
+    except (OSError, ValueError):  # result gone or unreadable: the light keeps its image
+        pass
+
+
 class LapigSceneSettings(bpy.types.PropertyGroup):
     projector: PointerProperty(name="Projector", type=bpy.types.Object,
                                poll=lambda self, obj: obj.type == "LIGHT" and obj.lapig_projector.is_projector)
@@ -132,7 +142,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     preview_mode: EnumProperty(name="Show", items=PREVIEW_MODES, default="ORIGINAL", update=_preview_mode_changed,
                                description="What the object shows in the viewport")
     # export
-    export_bit_depth: EnumProperty(name="Bit depth", items=[("8", "8 bit", ""), ("16", "16 bit", "")], default="8")
+    export_bit_depth: EnumProperty(name="Bit depth", items=[("8", "8 bit", ""), ("16", "16 bit", "")], default="8",
+                                   update=_export_bit_depth_changed)
     export_path: StringProperty(name="Export to", subtype="FILE_PATH", default="//projector_image.png")
     crossfade_frames: IntProperty(name="Crossfade frames", default=60, min=2, max=10000)
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")

@@ -1,8 +1,9 @@
 """Show a stylization result on the object and on the projector, reversibly.
 
-The projector light gets the compensated image (as emitted light, so Cycles renders the real
-projection); the object's material is switched between its original and a result image cast from
-the projector (preview.py keeps the original safe).
+The projector light gets the compensated image as the light of the file Export writes (same
+placement, same rounding at the scene's export bit depth), so Cycles renders the projection a real
+projector would show; the object's material is switched between its original and a result image
+cast from the projector (preview.py keeps the original safe).
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import numpy as np
 
 from ...lapig_core.optics.projector_model import frame_from_working_image
 from ...lapig_core.export.result_files import read_result_image
-from . import preview, projector_nodes
+from . import preview, projector_nodes, storage
 from .properties import projector_model
 
 IMAGE_PREFIX = "LAPIG "
@@ -39,13 +40,22 @@ def frame_image(name: str, pixels: np.ndarray, non_color: bool = True) -> bpy.ty
     return image
 
 
-def set_projector_image(projector, working_image: np.ndarray) -> bpy.types.Image:
-    """Put a working-size projector image on the light, as the light it emits (gamma, black level)."""
-    model = projector_model(projector)
-    emitted = model.emitted(frame_from_working_image(working_image, model.width, model.height))
-    image = frame_image(IMAGE_PREFIX + "projector image", emitted)
+def set_projector_image(projector, working_image: np.ndarray, bit_depth: int) -> bpy.types.Image:
+    """Put a working-size projector image on the light, as the light it emits when sent as a
+    bit_depth file (placement, rounding, gamma, black level)."""
+    light = projector_model(projector).frame_light(working_image, bit_depth)
+    image = frame_image(IMAGE_PREFIX + "projector image", light)
     projector_nodes.set_projected_image(projector.data, image)
     return image
+
+
+def show_result_on_projector(scene) -> bpy.types.Image | None:
+    """The light emits the scene's result projector image at the export bit depth; None without one."""
+    s = scene.lapig
+    folder = storage.resolve_result_dir(s.result_dir)
+    if not folder or s.projector is None:
+        return None
+    return set_projector_image(s.projector, read_result_image(folder, "projector"), int(s.export_bit_depth))
 
 
 def _appearance_image(scene, kind: str) -> bpy.types.Image:

@@ -1,4 +1,8 @@
-"""Export the current result for a real projector: native-resolution PNG plus a JSON sidecar."""
+"""Export the current result for a real projector: native-resolution PNG plus a JSON sidecar.
+
+The file holds the pixels the projector light shows (result_preview.show_result_on_projector):
+both place and round the stored result with lapig_core's one frame function.
+"""
 from __future__ import annotations
 
 import os
@@ -6,7 +10,7 @@ import os
 import bpy
 
 from ...lapig_core.export import projector_image as export
-from ...lapig_core.export.result_files import read_result_image, read_summary
+from ...lapig_core.export.result_files import read_result_image, read_summary, stored_bit_depth
 from ..blender import storage
 from ..blender.properties import projector_model
 
@@ -33,7 +37,7 @@ def _result_folder(scene) -> str:
     return folder
 
 
-def metadata(scene, summary: dict) -> dict:
+def metadata(scene, folder: str, summary: dict) -> dict:
     s = scene.lapig
     p, c = s.projector.lapig_projector, s.camera.lapig_camera if s.camera else None
     return {"prompt": summary.get("prompt"), "backend": summary.get("backend"), "seed": summary.get("seed"),
@@ -44,6 +48,8 @@ def metadata(scene, summary: dict) -> dict:
             "camera": None if c is None else {"resolution": [c.resolution_x, c.resolution_y],
                                               "response_gamma": c.response_gamma, "lens_mm": s.camera.data.lens},
             "surface_object": s.target.name if s.target else None,
+            # 8 for results stored before results were 16-bit: a 16-bit file then holds 8 bits of data
+            "result_bit_depth": stored_bit_depth(folder, "projector"),
             "software_blender": bpy.app.version_string}
 
 
@@ -53,7 +59,7 @@ def export_current(scene, path: str) -> dict:
     model = projector_model(scene.lapig.projector)
     return export.export_projector_image(path, read_result_image(folder, "projector"), model.width, model.height,
                                          bit_depth=int(scene.lapig.export_bit_depth),
-                                         metadata=metadata(scene, summary), lapig_version=addon_version())
+                                         metadata=metadata(scene, folder, summary), lapig_version=addon_version())
 
 
 def export_crossfade(scene, directory: str) -> list:
@@ -70,5 +76,5 @@ def export_crossfade(scene, directory: str) -> list:
     return export.crossfade_sequence(bpy.path.abspath(directory), a, b, frames=scene.lapig.crossfade_frames,
                                      width=model.width, height=model.height,
                                      bit_depth=int(scene.lapig.export_bit_depth), ease="smooth", gamma=model.gamma,
-                                     metadata=metadata(scene, summary), source_labels=labels,
+                                     metadata=metadata(scene, folder, summary), source_labels=labels,
                                      lapig_version=addon_version())

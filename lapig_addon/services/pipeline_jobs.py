@@ -112,7 +112,7 @@ class GenerateJob(WorkerJob):
         s.result_dir = output["folder"]
         s.result_fingerprint = rig_fingerprint(s.projector, s.camera, s.target) if s.projector else ""
         s.result_summary = output["summary_line"]
-        result_preview.set_projector_image(s.projector, read_result_image(output["folder"], "projector"))
+        result_preview.show_result_on_projector(self.scene)  # the stored image, as Export will write it
         if s.preview_mode != "ORIGINAL":
             result_preview.apply_mode(self.scene, s.preview_mode)
         return output
@@ -163,8 +163,11 @@ class RenderResultJob(Job):
         names = [n for n in ("projector", "projector_nopsa") if os.path.isfile(os.path.join(folder, n + ".png"))]
         yield 0.1, "rendering the projection with Cycles"
         images = np.stack([read_result_image(folder, n) for n in names])
-        # one image per step, so the UI gets a turn between renders
-        steps = iter_render_working_images(self.scene, s.projector, s.camera, s.target, capture, images, chunk=1)
+        # one image per step, so the UI gets a turn between renders; the frames are the light of
+        # the files Export writes at the scene's bit depth
+        bit_depth = int(s.export_bit_depth)
+        steps = iter_render_working_images(self.scene, s.projector, s.camera, s.target, capture, images, chunk=1,
+                                           bit_depth=bit_depth)
         try:
             for done in steps:
                 yield 0.1 + 0.8 * done, f"rendered {round(done * len(names))}/{len(names)}"
@@ -181,7 +184,6 @@ class RenderResultJob(Job):
             target = read_result_image(folder, "target" + suffix)
             summary["metrics"]["rendered_psnr" + suffix] = metrics.psnr(cap, target)
             summary["metrics"]["rendered_ssim" + suffix] = metrics.ssim(cap, target)
-        images = {n: read_result_image(folder, n) for n in ("target", "target_nopsa", "simulated", "simulated_nopsa")
-                  if os.path.isfile(os.path.join(folder, n + ".png"))}
-        write_result(folder, {**images, **rendered}, summary)
+        summary["rendered_bit_depth"] = bit_depth
+        write_result(folder, rendered, summary)
         self.result = summary

@@ -35,7 +35,7 @@ def to_float(img: np.ndarray) -> np.ndarray:
         return img.astype(np.float32)
     if np.issubdtype(img.dtype, np.floating):
         out = np.nan_to_num(img.astype(np.float32), nan=0.0, posinf=1.0, neginf=0.0)
-        return np.clip(out, 0.0, 1.0, out=out)
+        return np.clip(out, 0.0, 1.0)  # not in place: a 0-d input comes back as a scalar
     raise TypeError(f"unsupported pixel type {img.dtype}; expected uint8, uint16 or float")
 
 
@@ -57,6 +57,13 @@ def to_uint16(img: np.ndarray) -> np.ndarray:
     if img.dtype == np.uint8:
         return img.astype(np.uint16) * np.uint16(257)
     return (to_float(img).astype(np.float64) * 65535.0 + 0.5).astype(np.uint16)
+
+
+def to_bit_depth(img: np.ndarray, bit_depth: int) -> np.ndarray:
+    """The pixels an 8- or 16-bit image file holds for ``img`` (to_uint8 or to_uint16)."""
+    if bit_depth not in (8, 16):
+        raise ValueError(f"bit_depth must be 8 or 16, got {bit_depth}")
+    return to_uint8(img) if bit_depth == 8 else to_uint16(img)
 
 
 def _to_rgb(img: np.ndarray) -> np.ndarray:
@@ -134,12 +141,10 @@ def write_png(path, img: np.ndarray, bit_depth: int = 8) -> Path:
     Accepts float [0, 1] (clipped), uint8 or uint16 pixels. Parent folders are
     created; the write is atomic (see atomic_write_bytes).
     """
-    if bit_depth not in (8, 16):
-        raise ValueError(f"bit_depth must be 8 or 16, got {bit_depth}")
     img = np.asarray(img)
     if not (img.ndim == 2 or (img.ndim == 3 and img.shape[2] in (1, 3))):
         raise ValueError(f"expected an (H, W) or (H, W, 3) image, got shape {img.shape}")
-    pixels = to_uint8(img) if bit_depth == 8 else to_uint16(img)
+    pixels = to_bit_depth(img, bit_depth)
     if pixels.ndim == 3 and pixels.shape[2] == 3:
         pixels = pixels[:, :, ::-1]
     ok, encoded = cv2.imencode(".png", np.ascontiguousarray(pixels))

@@ -2,10 +2,11 @@
 """Export of finished projector images: native-resolution PNGs, JSON sidecars, crossfades.
 
 The optimiser works on a small square working image (e.g. 256x256) that covers the central
-square of the projector frame (see projector_model.frame_from_working_image). What a user loads
-into a real projector is the full native frame, so this module upscales the working image
-into that square with a smooth filter, writes 8- or 16-bit PNGs, and records next to each
-image how it was made (a JSON sidecar), so a result can be reproduced or traced later.
+square of the projector frame. What a user loads into a real projector is the full native frame:
+this module writes the pixels of projector_model.quantised_frame, the same placement and rounding
+the Blender light, Render Real Capture and the capture patterns use, so the file is exactly the
+image that was rendered and checked. It writes 8- or 16-bit PNGs and records next to each image
+how it was made (a JSON sidecar), so a result can be reproduced or traced later.
 
 Every file is written to a temporary name in the target folder and renamed into place only
 once complete: a full disk or a crash never leaves a truncated PNG, or a PNG without its
@@ -31,27 +32,17 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..common.imageio import to_float, to_uint8, to_uint16
-from ..optics.projector_model import square_region
+from ..common.imageio import to_bit_depth, to_float
+from ..common.resample import SAME_SIZE, resampling
+from ..optics.projector_model import frame_from_working_image, quantised_frame, square_region
 
 __all__ = [
     "ExportError",
-    "projector_frame",
     "export_projector_image",
     "crossfade_sequence",
-    "UPSCALE_METHODS",
     "EASES",
 ]
 
-# Centre-aligned kernels, the same pixel-centre convention as the INTER_LINEAR resize in
-# frame_from_working_image, so every method puts the image at the same sub-pixel position.
-UPSCALE_METHODS = {
-    "lanczos": cv2.INTER_LANCZOS4,
-    "cubic": cv2.INTER_CUBIC,
-    # INTER_NEAREST maps dst -> floor(dst * scale), which shifts the image by up to half a
-    # source pixel; NEAREST_EXACT maps pixel centres like the other kernels.
-    "nearest": getattr(cv2, "INTER_NEAREST_EXACT", cv2.INTER_NEAREST),
-}
 EASES = ("linear", "smooth")
 
 # Arrays in the metadata longer than this are summarised in the sidecar rather than listed:
@@ -105,48 +96,30 @@ def _as_rgb_float(image, what: str) -> np.ndarray:
 # ----------------------------------------------------------------------------- the frame
 
 
-def projector_frame(working_image, width: int, height: int, upscale: str = "lanczos") -> np.ndarray:
-    """The native (height, width, 3) float32 frame for a square working image.
-
-    The working image fills the central square (side min(width, height), placed by
-    projector_model.square_region, exactly as frame_from_working_image does) and the rest is
-    black, so the exported frame lines up with the registered capture pixel for pixel.
-    Lanczos/cubic give a smooth upscale without the blur of bilinear; their overshoot at hard
-    edges is clipped to [0, 1]. A working image larger than the square is area-averaged, as
-    any interpolating kernel would alias when shrinking.
-    """
-    width, height = _check_size(width, height)
-    if upscale not in UPSCALE_METHODS:
-        raise ExportError(f"upscale must be one of {sorted(UPSCALE_METHODS)}, got {upscale!r}")
-    img = _as_rgb_float(working_image, "working image")
+def _working(image, what: str) -> np.ndarray:
+    img = _as_rgb_float(image, what)
     if img.shape[0] != img.shape[1]:
-        raise ExportError(f"working image must be square, got {img.shape[1]}x{img.shape[0]} pixels")
-    x0, y0, side = square_region(width, height)
-    if side == img.shape[0]:
-        square = img
-    else:
-        interp = UPSCALE_METHODS[upscale] if side > img.shape[0] else cv2.INTER_AREA
-        square = cv2.resize(img, (side, side), interpolation=interp)
-    frame = np.zeros((height, width, 3), np.float32)
-    frame[y0:y0 + side, x0:x0 + side] = np.clip(square, 0.0, 1.0)
-    return frame
+        raise ExportError(f"{what} must be square, got {img.shape[1]}x{img.shape[0]} pixels")
+    return img
 
 
-def _native(image, width: int, height: int, upscale: str, what: str) -> tuple[np.ndarray, bool]:
-    """An image already at native size is used as is; a square one is treated as a working image."""
+def _native(image, width: int, height: int, what: str) -> tuple[np.ndarray, str]:
+    """(frame, how it was resampled): an image already at native size is used as is, a square one
+    is placed as a working image."""
     img = _as_rgb_float(image, what)
     if img.shape[:2] == (height, width):
-        return img, False
+        return img, SAME_SIZE
     if img.shape[0] != img.shape[1]:
         raise ExportError(
             f"{what} must be a square working image or a {width}x{height} projector frame, "
             f"got {img.shape[1]}x{img.shape[0]} pixels"
         )
-    return projector_frame(img, width, height, upscale), True
+    side = square_region(width, height)[2]
+    return frame_from_working_image(img, width, height), resampling(img.shape[0], side)
 
 
-def _encode_png(frame: np.ndarray, bit_depth: int, name: str) -> bytes:
-    pixels = to_uint8(frame) if bit_depth == 8 else to_uint16(frame)
+def _encode_png(pixels: np.ndarray, name: str) -> bytes:
+    """uint8/uint16 RGB pixels -> PNG bytes of the same bit depth."""
     ok, encoded = cv2.imencode(".png", np.ascontiguousarray(pixels[:, :, ::-1]))  # RGB -> BGR
     if not ok:
         raise ExportError(f"OpenCV could not encode {name} as a PNG")
@@ -330,8 +303,7 @@ def _png_path(out_path) -> Path:
 
 
 def export_projector_image(out_path, working_image, width: int, height: int, bit_depth: int = 8,
-                           metadata: dict | None = None, *, upscale: str = "lanczos",
-                           lapig_version: str | None = None) -> dict:
+                           metadata: dict | None = None, *, lapig_version: str | None = None) -> dict:
     """Write the native-resolution projector PNG and its JSON sidecar `<name>.json`.
 
     ``.png`` is appended to a path that lacks it. The folder must exist (a missing one is
@@ -349,8 +321,8 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
     if png_path.is_dir():
         raise ExportError(f"output path is a folder, not a file name: {png_path}")
 
-    working = _as_rgb_float(working_image, "working image")
-    frame = projector_frame(working, width, height, upscale)
+    working = _working(working_image, "working image")
+    pixels = quantised_frame(working, width, height, bit_depth)
     x0, y0, side = square_region(width, height)
     own = {
         "software": _software(lapig_version),
@@ -361,14 +333,14 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
             "bit_depth": bit_depth,
             "channels": "RGB",
             "working_size": int(working.shape[0]),
-            "upscale": upscale,
+            "resampling": resampling(working.shape[0], side),
             # where the working square lies in the native frame; rows from the top
             "placement": {"x": x0, "y": y0, "width": side, "height": side},
         },
         "created": _utc_now(),
     }
     sidecar = _sidecar_bytes(metadata, own)
-    png = _encode_png(frame, bit_depth, png_path.name)
+    png = _encode_png(pixels, png_path.name)
     _commit([(json_path, sidecar), (png_path, png)])  # image last: its appearance means done
     return {"image": png_path, "sidecar": json_path}
 
@@ -380,18 +352,19 @@ def _ease(t: float, ease: str) -> float:
 
 def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: int, height: int,
                        bit_depth: int = 8, ease: str = "linear", name: str = "crossfade",
-                       gamma: float = 2.2, upscale: str = "lanczos", metadata: dict | None = None,
+                       gamma: float = 2.2, metadata: dict | None = None,
                        source_labels: tuple[str, str] | None = None,
                        lapig_version: str | None = None) -> list[Path]:
     """Write `name_0001.png` ... `name_NNNN.png` blending image_a into image_b, plus `name.json`.
 
-    Each image is either a square working image (upscaled like projector_frame) or an already
-    native (height, width) frame. The blend is done in the projector's linear light: values
-    are raised to ``gamma`` (the projector's transfer, ProjectorModel.gamma), mixed, and taken
-    back with 1/gamma. Mixing the encoded values instead would not mix the light: halfway
-    between red and green it would emit (0.5^2.2 ~ 0.22) of each, a visible dip in brightness
-    mid-fade, whereas mixing light behaves like a real dissolve between two projectors with
-    constant total output. (The projector's black level is an affine term and cancels out.)
+    Each image is either a square working image (placed like export_projector_image does) or an
+    already native (height, width) frame; the first and last frames are those images' exports.
+    The blend is done in the projector's linear light: values are raised to ``gamma`` (the
+    projector's transfer, ProjectorModel.gamma), mixed, and taken back with 1/gamma. Mixing the
+    encoded values instead would not mix the light: halfway between red and green it would emit
+    (0.5^2.2 ~ 0.22) of each, a visible dip in brightness mid-fade, whereas mixing light behaves
+    like a real dissolve between two projectors with constant total output. (The projector's
+    black level is an affine term and cancels out.)
     ``out_dir`` is created if its parent exists. Frames written before a failure are removed;
     the sidecar is written last. Returns the frame paths in order. Raises ExportError.
     """
@@ -411,8 +384,6 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
     if (not isinstance(name, str) or not name.strip() or name in (".", "..")
             or any(sep in name for sep in ("/", "\\", os.sep))):
         raise ExportError(f"sequence name must be a plain file name without folders, got {name!r}")
-    if upscale not in UPSCALE_METHODS:
-        raise ExportError(f"upscale must be one of {sorted(UPSCALE_METHODS)}, got {upscale!r}")
 
     folder = Path(os.fspath(out_dir))
     if not folder.exists():
@@ -423,11 +394,10 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
             raise ExportError(f"cannot create output folder {folder}: {exc}") from exc
     _check_folder(folder)
 
-    frame_a, upscaled_a = _native(image_a, width, height, upscale, "image A")
-    frame_b, upscaled_b = _native(image_b, width, height, upscale, "image B")
+    frame_a, resampled_a = _native(image_a, width, height, "image A")
+    frame_b, resampled_b = _native(image_b, width, height, "image B")
     lin_a = np.power(frame_a, np.float32(gamma))
     lin_b = np.power(frame_b, np.float32(gamma))
-    del frame_a, frame_b
 
     digits = max(4, len(str(frames)))
     paths = [folder / f"{name}_{i:0{digits}d}.png" for i in range(1, frames + 1)]
@@ -446,11 +416,10 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
             "files": [p.name for p in paths],
         },
         "sources": [
-            {"label": labels[0], "input_size": list(np.shape(image_a)[:2]), "upscaled": upscaled_a},
-            {"label": labels[1], "input_size": list(np.shape(image_b)[:2]), "upscaled": upscaled_b},
+            {"label": labels[0], "input_size": list(np.shape(image_a)[:2]), "resampling": resampled_a},
+            {"label": labels[1], "input_size": list(np.shape(image_b)[:2]), "resampling": resampled_b},
         ],
-        "image": {"width": width, "height": height, "bit_depth": bit_depth, "channels": "RGB",
-                  "upscale": upscale},
+        "image": {"width": width, "height": height, "bit_depth": bit_depth, "channels": "RGB"},
         "created": _utc_now(),
     }
     sidecar = _sidecar_bytes(metadata, own)
@@ -459,14 +428,13 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
     inv = np.float32(1.0 / gamma)
     try:
         for path, w in zip(paths, weights):
-            if w == 0.0:
-                mixed = lin_a
+            if w == 0.0:  # the end frames are the images themselves, not a gamma round trip
+                frame = frame_a
             elif w == 1.0:
-                mixed = lin_b
+                frame = frame_b
             else:
-                mixed = lin_a * np.float32(1.0 - w) + lin_b * np.float32(w)
-            frame = np.power(mixed, inv)
-            written += _commit([(path, _encode_png(frame, bit_depth, path.name))])
+                frame = np.power(lin_a * np.float32(1.0 - w) + lin_b * np.float32(w), inv)
+            written += _commit([(path, _encode_png(to_bit_depth(frame, bit_depth), path.name))])
         _commit([(folder / f"{name}.json", sidecar)])
     except BaseException:
         for path in written:

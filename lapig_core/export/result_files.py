@@ -1,12 +1,17 @@
 """A stylization result on disk: the images the add-on previews and exports, and a JSON summary.
 
+The images are 16-bit PNGs: float results kept to 1/65535 (half a level of error at most, and a
+16-bit PNG read and written again is unchanged), so the exported projector file, the Blender light
+and Render Real Capture all start from the optimiser's values, not from 8-bit copies of them.
+Folders written before this hold 8-bit PNGs; they are read as they are (stored_bit_depth tells).
+
 Folder layout (working size, projector-registered):
   target.png / target_nopsa.png          what the viewer should see, with and without PSA
   projector.png / projector_nopsa.png    the compensated projector images (working square)
   simulated.png / simulated_nopsa.png    PCNet's prediction of the capture
   rendered.png / rendered_nopsa.png      the Cycles capture of the projection (when rendered)
   compensability.png                     L_ps + L_cs per pixel over the surface, as a heat map
-  comparison.png                         with and without PSA side by side
+  comparison.png                         with and without PSA side by side (8-bit, for people)
   result.json                            prompt, backend, styles, PSA settings, metrics
 """
 from __future__ import annotations
@@ -20,6 +25,10 @@ from ..common.imageio import atomic_write_bytes, read_image, write_png
 from ..common.sheets import labelled_grid
 
 IMAGES = ("target", "projector", "simulated", "rendered", "compensability")
+BIT_DEPTH = 16
+COMPARISON = (("target_nopsa", "target without PSA"), ("simulated_nopsa", "simulated without PSA"),
+              ("rendered_nopsa", "rendered without PSA"), ("target", "target with PSA"),
+              ("simulated", "simulated with PSA"), ("rendered", "rendered with PSA"))
 
 
 def heat_overlay(surface: np.ndarray, values: np.ndarray, scale: float | None = None) -> np.ndarray:
@@ -34,16 +43,15 @@ def heat_overlay(surface: np.ndarray, values: np.ndarray, scale: float | None = 
 
 
 def write_result(folder, images: dict, summary: dict) -> Path:
-    """images: name -> (H, W, 3) in [0,1] (names from IMAGES, with '_nopsa' variants)."""
+    """Write images into a result folder (new, or adding to one), then its comparison sheet and
+    result.json. images: name -> (H, W, 3) in [0,1] (names from IMAGES, with '_nopsa' variants)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     for name, img in images.items():
-        write_png(folder / f"{name}.png", img)
-    tiles = [(images.get(n), lab) for n, lab in (
-        ("target_nopsa", "target without PSA"), ("simulated_nopsa", "simulated without PSA"),
-        ("rendered_nopsa", "rendered without PSA"), ("target", "target with PSA"),
-        ("simulated", "simulated with PSA"), ("rendered", "rendered with PSA"))]
-    tiles = [(im, lab) for im, lab in tiles if im is not None]
+        write_png(folder / f"{name}.png", img, bit_depth=BIT_DEPTH)
+    # the sheet shows every image the folder now holds, the ones written before included
+    tiles = [(images[n] if n in images else read_result_image(folder, n), lab) for n, lab in COMPARISON
+             if (folder / f"{n}.png").is_file()]
     if tiles:
         cols = 3 if len(tiles) == 6 else 2
         write_png(folder / "comparison.png", labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles],
@@ -67,8 +75,22 @@ def read_summary(folder) -> dict:
     return json.loads(path.read_text(encoding="utf-8"))
 
 
-def read_result_image(folder, name: str) -> np.ndarray:
+def _image_path(folder, name: str) -> Path:
     path = Path(folder) / f"{name}.png"
     if not path.is_file():
         raise FileNotFoundError(f"the result has no '{name}' image ({path.name}): generate or render it first")
-    return read_image(path)
+    return path
+
+
+def read_result_image(folder, name: str) -> np.ndarray:
+    """A result image as float32 RGB in [0, 1], from a 16-bit (or an older 8-bit) PNG."""
+    return read_image(_image_path(folder, name))
+
+
+def stored_bit_depth(folder, name: str) -> int:
+    """Bits per channel of a stored result image (8 in folders written before 16-bit results)."""
+    with open(_image_path(folder, name), "rb") as f:
+        header = f.read(25)  # PNG signature (8), IHDR length and type (8), width, height, bit depth
+    if len(header) < 25 or header[:8] != b"\x89PNG\r\n\x1a\n":
+        raise OSError(f"{name}.png in {folder} is not a PNG file")
+    return header[24]

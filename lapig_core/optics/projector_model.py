@@ -14,6 +14,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..common.imageio import to_bit_depth, to_float
+from ..common.resample import resize_square
+
 
 @dataclass(frozen=True)
 class ProjectorModel:
@@ -86,19 +89,21 @@ class ProjectorModel:
         return float(np.arctan(hx)), float(np.arctan(hy))
 
     def emitted(self, image: np.ndarray) -> np.ndarray:
-        """Input image values in [0,1] -> relative emitted light (gamma, then black-level leak)."""
-        x = np.clip(np.asarray(image, dtype=np.float32), 0.0, 1.0)
+        """Input values (float in [0,1], or uint8/uint16 file pixels) -> relative emitted light
+        (gamma, then black-level leak)."""
+        x = to_float(image)
         return self.black_level + (1.0 - self.black_level) * np.power(x, self.gamma)
 
     def emitted_8bit(self, image) -> np.ndarray:
-        """Like emitted(), for the 8-bit frame a real projector receives: quantise, then a lookup."""
-        img = np.asarray(image)
-        if img.dtype != np.uint8:
-            img = np.round(np.clip(img, 0.0, 1.0) * 255.0).astype(np.uint8)
+        """emitted() of the 8-bit frame a real projector receives, by lookup (fast for captures)."""
+        img = to_bit_depth(image, 8)
         if img.ndim == 2:
             img = np.repeat(img[..., None], 3, axis=-1)
-        lut = self.emitted(np.arange(256, dtype=np.float32) / 255.0).astype(np.float32)
-        return lut[img]
+        return self.emitted(np.arange(256, dtype=np.uint8))[img]
+
+    def frame_light(self, working_image: np.ndarray, bit_depth: int) -> np.ndarray:
+        """The light emitted for a working image sent to the projector as a bit_depth file."""
+        return self.emitted(quantised_frame(working_image, self.width, self.height, bit_depth))
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -114,15 +119,21 @@ def frame_from_working_image(image: np.ndarray, width: int, height: int) -> np.n
     """Place a square working image in the central square of a native frame, black elsewhere.
 
     The working (e.g. 256x256) projector image covers the central square of the projector frame,
-    so the registered capture (crop of that square) lines up with it pixel for pixel.
+    so the registered capture (crop of that square) lines up with it pixel for pixel. This is the
+    one placement of every frame the projector shows: capture patterns, the Blender light, Render
+    Real Capture and the exported file (resampling: lapig_core.common.resample). Values are
+    clipped to [0, 1] (NaN -> 0) and stay there.
     """
-    import cv2
-
     x0, y0, side = square_region(width, height)
-    img = np.asarray(image, dtype=np.float32)
+    img = to_float(image)
     if img.ndim == 2:
         img = np.repeat(img[..., None], 3, axis=-1)
     frame = np.zeros((height, width, 3), np.float32)
-    interp = cv2.INTER_LINEAR if side >= img.shape[0] else cv2.INTER_AREA
-    frame[y0:y0 + side, x0:x0 + side] = cv2.resize(img, (side, side), interpolation=interp)
+    frame[y0:y0 + side, x0:x0 + side] = resize_square(img, side)
     return frame
+
+
+def quantised_frame(image: np.ndarray, width: int, height: int, bit_depth: int) -> np.ndarray:
+    """The native frame as the projector receives it: placed, then rounded to a uint8/uint16 file's
+    levels. The exported PNG holds exactly these pixels and the Blender light emits their light."""
+    return to_bit_depth(frame_from_working_image(image, width, height), bit_depth)

@@ -22,6 +22,17 @@ def captured(small_setup, tmp_path, monkeypatch):
     return bpy.context.scene
 
 
+def _light_pixels(projector) -> np.ndarray:
+    """The relative light the projector's image datablock holds, rows from the top."""
+    from lapig.lapig_addon.blender import projector_nodes
+
+    image = projector_nodes.projected_image(projector.data)
+    w, h = image.size
+    rgba = np.empty(w * h * 4, np.float32)
+    image.pixels.foreach_get(rgba)
+    return rgba.reshape(h, w, 4)[::-1, :, :3]
+
+
 def _psa_fast(scene):
     s = scene.lapig
     s.prompt = "Render it in the style of a Van Gogh oil painting"
@@ -48,6 +59,7 @@ def test_whole_path_through_the_operators(captured, tmp_path):
     # the projector now emits the compensated image
     light_image = scene.lapig.projector.data.node_tree.nodes["LAPIG projected image"].image
     assert light_image.name == "LAPIG projector image"
+    generated_light = _light_pixels(s.projector).copy()
 
     target = s.target
     original = [slot.material.name for slot in target.material_slots]
@@ -63,6 +75,9 @@ def test_whole_path_through_the_operators(captured, tmp_path):
     assert bpy.ops.lapig.preview_mode(mode="ORIGINAL") == {"FINISHED"}
     assert [slot.material.name for slot in target.material_slots] == original
 
+    from lapig.lapig_addon.blender.properties import projector_model
+
+    model = projector_model(s.projector)
     for depth, dtype in (("8", np.uint8), ("16", np.uint16)):
         s.export_bit_depth = depth
         path = str(tmp_path / f"projector ü {depth}.png")
@@ -71,8 +86,13 @@ def test_whole_path_through_the_operators(captured, tmp_path):
 
         data = cv2.imdecode(np.fromfile(path, np.uint8), cv2.IMREAD_UNCHANGED)
         assert data.dtype == dtype and data.shape == (120, 160, 3)
+        # what Cycles projects is the light of exactly the exported pixels
+        np.testing.assert_allclose(_light_pixels(s.projector), model.emitted(data[:, :, ::-1]), rtol=0, atol=1e-6)
+        if depth == "8":  # the scene's default, so the light Generate set
+            np.testing.assert_array_equal(generated_light, _light_pixels(s.projector))
         side = json.load(open(path[:-4] + ".json", encoding="utf-8"))
         assert side["prompt"] == s.prompt and side["projector"]["width"] == 160
+        assert side["result_bit_depth"] == 16
     s.crossfade_frames = 3
     assert bpy.ops.lapig.export_crossfade(directory=str(tmp_path / "fade")) == {"FINISHED"}
     assert len([f for f in os.listdir(tmp_path / "fade") if f.endswith(".png")]) == 3

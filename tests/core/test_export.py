@@ -1,5 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Export of projector images: placement, PNG bit depths, sidecars, atomic writes, crossfades."""
+"""Export of projector images: the placed frame's pixels, PNG bit depths, sidecars, atomic writes, crossfades.
+
+The placement and its resampling are tested in test_projector_frame.py; here, that the file holds
+exactly its pixels and that the light Blender emits is those pixels' light.
+"""
 import datetime as dt
 import json
 
@@ -8,9 +12,11 @@ import numpy as np
 import pytest
 
 from lapig_core.export import projector_image as export
-from lapig_core.export.projector_image import (ExportError, crossfade_sequence, export_projector_image, projector_frame)
-from lapig_core.common.imageio import to_uint8, to_uint16
-from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, square_region
+from lapig_core.export.projector_image import ExportError, crossfade_sequence, export_projector_image
+from lapig_core.export.result_files import read_result_image, stored_bit_depth, write_result
+from lapig_core.common.imageio import to_bit_depth, to_float, to_uint8, to_uint16, write_png
+from lapig_core.common.resample import SAME_SIZE, UPSCALE
+from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, quantised_frame
 
 W, H, S = 64, 48, 32  # native 64x48 projector, 32x32 working image -> 48x48 square at x=8
 
@@ -30,61 +36,70 @@ def _files(folder):
     return sorted(p.name for p in folder.iterdir())
 
 
-# ----------------------------------------------------------------------------- placement
+def _gradient(size):
+    """A smooth two-colour gradient with far more than 256 levels, and its extremes."""
+    t = np.linspace(0.0, 1.0, size, dtype=np.float64)
+    img = np.stack([np.add.outer(t, t) / 2, np.add.outer(t, 1 - t) / 2, np.outer(t, t) ** 0.5], -1)
+    return img.astype(np.float32)
 
 
-def test_nearest_frame_matches_frame_from_working_image_placement():
-    img = _working()
-    ours = projector_frame(img, W, H, upscale="nearest")
-    ref = frame_from_working_image(img, W, H)
-    assert ours.shape == ref.shape == (H, W, 3) and ours.dtype == np.float32
-    x0, y0, side = square_region(W, H)
-    assert (x0, y0, side) == (8, 0, 48)
-    # black exactly where the reference is black (the sides), picture exactly where it is not
-    np.testing.assert_array_equal(ours[:, :x0], 0)
-    np.testing.assert_array_equal(ours[:, x0 + side:], 0)
-    np.testing.assert_array_equal(ref[:, :x0], 0)
-    np.testing.assert_array_equal(ref[:, x0 + side:], 0)
-    # nearest samples the working pixel whose centre is nearest: same centre mapping as cv2 linear
-    idx = np.floor((np.arange(side) + 0.5) * S / side).astype(int)
-    np.testing.assert_array_equal(ours[y0:y0 + side, x0:x0 + side], img[idx][:, idx])
-    # a flat image gives the very same frame
-    flat = np.full((S, S, 3), 0.3, np.float32)
-    np.testing.assert_allclose(projector_frame(flat, W, H, "nearest"), frame_from_working_image(flat, W, H),
-                               atol=1e-6)
+# ----------------------------------------------------------------------------- exact pixels
 
 
-def test_integer_upscale_replicates_pixels_and_portrait_frame_centres_vertically():
-    img = _working(1)
-    frame = projector_frame(img, 96, 64, "nearest")  # side 64 = 2x, x0 = 16
-    np.testing.assert_array_equal(frame[:, 16:80], np.repeat(np.repeat(img, 2, 0), 2, 1))
-    tall = projector_frame(img, 48, 64, "cubic")  # portrait: square at y0 = 8
-    assert tall.shape == (64, 48, 3)
-    np.testing.assert_array_equal(tall[:8], 0)
-    np.testing.assert_array_equal(tall[56:], 0)
-    assert tall[8:56].max() > 0
+def test_16bit_export_without_resampling_keeps_the_float_values(tmp_path):
+    img = _gradient(300)  # working image at the native square's size: placed, not resampled
+    out = export_projector_image(tmp_path / "g", img, 400, 300, bit_depth=16)
+    raw = _read(out["image"])[:, :, ::-1]
+    assert len(np.unique(raw)) > 5000  # not 8-bit data in a 16-bit file (no resampling made levels)
+    error = np.abs(raw[:, 50:350] / 65535.0 - img).max()
+    assert error <= 2 / 65535, error
+    np.testing.assert_array_equal(raw[:, :50], 0)
+    assert json.loads(out["sidecar"].read_text())["image"]["resampling"] == SAME_SIZE
 
 
-@pytest.mark.parametrize("upscale", ["lanczos", "cubic"])
-def test_smooth_upscale_has_no_subpixel_shift_and_stays_in_range(upscale):
-    # a linear ramp: any centre-aligned kernel reproduces it, so ours agrees with the bilinear
-    # reference away from the borders; a half-pixel shift would show as a ~1/64 offset
-    ramp = np.linspace(0.1, 0.9, S, dtype=np.float32)
-    img = np.stack([np.add.outer(ramp, ramp) / 2] * 3, axis=-1)
-    ours = projector_frame(img, W, H, upscale)
-    ref = frame_from_working_image(img, W, H)
-    np.testing.assert_allclose(ours[6:-6, 14:-14], ref[6:-6, 14:-14], atol=2e-3)
-    # hard edges make Lanczos/cubic overshoot: the frame is clipped to [0, 1]
-    checker = (np.indices((S, S)).sum(0) % 2).astype(np.float32)
-    frame = projector_frame(checker, W, H, upscale)
-    assert frame.min() >= 0.0 and frame.max() <= 1.0
+def test_stored_result_exports_its_float_values_at_16_bits(tmp_path):
+    img = _gradient(300)
+    folder = write_result(tmp_path / "r", {"projector": img}, {"prompt": "gradient"})
+    assert stored_bit_depth(folder, "projector") == 16
+    stored = read_result_image(folder, "projector")
+    assert np.abs(stored - img).max() <= 0.5 / 65535 + 1e-7
+    out = export_projector_image(tmp_path / "x", stored, 400, 300, bit_depth=16)
+    error = np.abs(_read(out["image"])[:, 50:350, ::-1] / 65535.0 - img).max()
+    assert error <= 2 / 65535, error
+    # reading and writing a result again changes nothing (Render Real Capture adds to a folder)
+    before = (folder / "projector.png").read_bytes()
+    write_png(folder / "projector.png", stored, bit_depth=16)
+    assert (folder / "projector.png").read_bytes() == before
 
 
-def test_larger_working_image_is_area_averaged():
-    img = _working(2, size=96)
-    frame = projector_frame(img, W, H)
-    expected = cv2.resize(img, (48, 48), interpolation=cv2.INTER_AREA)
-    np.testing.assert_allclose(frame[:, 8:56], np.clip(expected, 0, 1), atol=1e-6)
+@pytest.mark.parametrize("bit_depth", [8, 16])
+def test_exported_file_is_the_placed_frame_and_the_light_is_its_light(tmp_path, bit_depth):
+    model = ProjectorModel(W, H, gamma=2.4, black_level=0.01)
+    folder = write_result(tmp_path / "r", {"projector": _working(7)}, {})
+    result = read_result_image(folder, "projector")  # what export, light and render all start from
+    out = export_projector_image(tmp_path / "p", result, W, H, bit_depth=bit_depth)
+    decoded = _read(out["image"])[:, :, ::-1]
+    np.testing.assert_array_equal(decoded, to_bit_depth(frame_from_working_image(result, W, H), bit_depth))
+    np.testing.assert_array_equal(decoded, quantised_frame(result, W, H, bit_depth))
+    # the Blender light (result_preview.set_projector_image) and Render Real Capture emit this
+    np.testing.assert_array_equal(model.frame_light(result, bit_depth), model.emitted(decoded))
+    np.testing.assert_array_equal(model.emitted(decoded), model.emitted(to_float(decoded)))
+    assert json.loads(out["sidecar"].read_text())["image"]["resampling"] == UPSCALE
+
+
+def test_old_8bit_result_folder_is_read_as_it_is(tmp_path):
+    folder = tmp_path / "old"
+    img = _working(8)
+    write_png(folder / "projector.png", img)  # results before 16-bit storage
+    (folder / "result.json").write_text("{}")
+    assert stored_bit_depth(folder, "projector") == 8
+    stored = read_result_image(folder, "projector")
+    np.testing.assert_allclose(stored, to_uint8(img) / 255.0, atol=1e-7)
+    out = export_projector_image(tmp_path / "x", stored, W, H, bit_depth=16)
+    np.testing.assert_array_equal(_read(out["image"])[:, :, ::-1], quantised_frame(stored, W, H, 16))
+    (folder / "projector.png").write_bytes(b"not a png at all, 25 bytes or more")
+    with pytest.raises(OSError, match="not a PNG"):
+        stored_bit_depth(folder, "projector")
 
 
 # ----------------------------------------------------------------------------- PNG + sidecar
@@ -98,7 +113,7 @@ def test_png_round_trip(tmp_path, bit_depth, dtype, conv):
     assert out == {"image": tmp_path / "frame.png", "sidecar": tmp_path / "frame.json"}
     raw = _read(out["image"])
     assert raw.dtype == dtype and raw.shape == (H, W, 3)
-    expected = conv(projector_frame(img, W, H))
+    expected = conv(frame_from_working_image(img, W, H))
     np.testing.assert_array_equal(raw[:, :, ::-1], expected)  # file is BGR, we speak RGB
     np.testing.assert_array_equal(raw[:, :8], 0)
     assert _files(tmp_path) == ["frame.json", "frame.png"]  # no temp files left
@@ -141,7 +156,7 @@ def test_sidecar_content_and_numpy_conversion(tmp_path):
     assert sw["numpy"] == np.__version__ and sw["opencv"] == cv2.__version__ and "python" in sw
     assert side["image"] == {
         "file": "out.png", "width": W, "height": H, "bit_depth": 16, "channels": "RGB",
-        "working_size": S, "upscale": "lanczos",
+        "working_size": S, "resampling": UPSCALE,
         "placement": {"x": 8, "y": 0, "width": 48, "height": 48},
     }
     created = dt.datetime.fromisoformat(side["created"].replace("Z", "+00:00"))
@@ -171,14 +186,12 @@ def test_non_ascii_path(tmp_path):
     ({"working_image": np.zeros((32, 16, 3))}, "must be square"),
     ({"width": 0}, "width"),
     ({"metadata": [1, 2]}, "metadata must be a dict"),
-    ({"upscale": "bilinear"}, "upscale"),
 ])
 def test_bad_inputs_raise_export_error(tmp_path, kwargs, message):
     args = {"out_path": tmp_path / "x.png", "working_image": _working(), "width": W, "height": H,
             "bit_depth": 8, "metadata": {}, **kwargs}
-    upscale = args.pop("upscale", "lanczos")
     with pytest.raises(ExportError, match=message):
-        export_projector_image(**args, upscale=upscale)
+        export_projector_image(**args)
     assert _files(tmp_path) == []
     assert issubclass(ExportError, ValueError)
 
@@ -242,9 +255,10 @@ def test_crossfade_endpoints_middle_and_sidecar(tmp_path):
                                source_labels=("statue", "marble"), metadata={"seed": np.int64(3)})
     assert [p.name for p in paths] == [f"fade_000{i}.png" for i in range(1, 6)]
     frames = [_read(p)[:, :, ::-1].astype(np.int32) for p in paths]
-    fa = to_uint8(projector_frame(a, W, H)).astype(np.int32)
-    fb = to_uint8(projector_frame(b, W, H)).astype(np.int32)
-    assert np.abs(frames[0] - fa).max() <= 1 and np.abs(frames[-1] - fb).max() <= 1
+    fa = quantised_frame(a, W, H, 8).astype(np.int32)
+    fb = quantised_frame(b, W, H, 8).astype(np.int32)
+    np.testing.assert_array_equal(frames[0], fa)  # the ends are the images' exports, bit for bit
+    np.testing.assert_array_equal(frames[-1], fb)
     mid = frames[2]
     assert (mid >= np.minimum(fa, fb) - 1).all() and (mid <= np.maximum(fa, fb) + 1).all()
     # halfway in projector light, not in pixel values
@@ -257,7 +271,7 @@ def test_crossfade_endpoints_middle_and_sidecar(tmp_path):
     assert cf["frames"] == 5 and cf["ease"] == "linear" and cf["gamma"] == 2.2
     assert cf["weights"] == [0.0, 0.25, 0.5, 0.75, 1.0] and cf["files"][0] == "fade_0001.png"
     assert [s["label"] for s in side["sources"]] == ["statue", "marble"]
-    assert side["sources"][0] == {"label": "statue", "input_size": [S, S], "upscaled": True}
+    assert side["sources"][0] == {"label": "statue", "input_size": [S, S], "resampling": UPSCALE}
     assert side["seed"] == 3 and "created" in side and "software" in side
     assert _files(tmp_path / "seq") == ["fade.json"] + [p.name for p in paths]
 
@@ -276,7 +290,7 @@ def test_crossfade_smooth_ease_is_monotonic_and_native_frames_pass_through(tmp_p
     ease = 3 * np.linspace(0, 1, 9) ** 2 - 2 * np.linspace(0, 1, 9) ** 3
     np.testing.assert_allclose(light, ease, atol=1e-4)
     side = json.loads((tmp_path / "crossfade.json").read_text(encoding="utf-8"))
-    assert side["sources"][0]["upscaled"] is False and side["crossfade"]["ease"] == "smooth"
+    assert side["sources"][0]["resampling"] == SAME_SIZE and side["crossfade"]["ease"] == "smooth"
 
 
 def test_crossfade_validation_and_cleanup(tmp_path, monkeypatch):

@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 
 from lapig_core.common import metrics
-from lapig_core.export.result_files import heat_overlay, read_result_image, read_summary, write_result
+from lapig_core.common.imageio import read_image
+from lapig_core.export.result_files import (heat_overlay, read_result_image, read_summary, stored_bit_depth,
+                                            write_result)
 from lapig_core.photometric.targets import desired_targets, reachable_mask, reachable_range
 
 
@@ -51,3 +53,19 @@ def test_result_folder_round_trip(tmp_path):
         read_result_image(folder, "rendered")
     with pytest.raises(FileNotFoundError, match="generate one first"):
         read_summary(tmp_path / "none")
+
+
+def test_render_adds_its_images_to_a_result_and_leaves_the_others_alone(tmp_path):
+    rng = np.random.default_rng(1)
+    images = {n: rng.random((32, 32, 3)).astype(np.float32)
+              for n in ("target", "target_nopsa", "simulated", "simulated_nopsa", "projector")}
+    folder = write_result(tmp_path / "r", images, {"prompt": "p"})
+    assert all(stored_bit_depth(folder, n) == 16 for n in images)  # float results, stored losslessly
+    before = {n: (folder / f"{n}.png").read_bytes() for n in images}
+    assert read_image(folder / "comparison.png").shape[1] == 2 * 256
+    write_result(folder, {"rendered": images["target"], "rendered_nopsa": images["target"]},
+                 {"prompt": "p", "metrics": {"rendered_psnr": 30.0}})
+    assert {n: (folder / f"{n}.png").read_bytes() for n in images} == before
+    assert read_summary(folder)["metrics"]["rendered_psnr"] == 30.0
+    assert read_image(folder / "comparison.png").shape[1] == 3 * 256  # the sheet shows the renders too
+    assert stored_bit_depth(folder, "comparison") == 8  # a sheet for people

@@ -3,8 +3,10 @@ from __future__ import annotations
 
 import glob
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -19,12 +21,32 @@ def blender_ext_cli() -> str:
     return found[0]
 
 
+def tracked_files(root: str = ROOT) -> list[str]:
+    """The files git tracks (as they are in the working tree): a stray .blend, its data folder or
+    an output left in the checkout must never reach the zip."""
+    try:
+        listed = subprocess.run(["git", "-C", root, "ls-files", "-z", "--cached"], check=True,
+                                capture_output=True).stdout
+    except (OSError, subprocess.CalledProcessError) as exc:
+        raise OSError(f"the extension is built from the files git tracks, and {root} is not a git "
+                      f"checkout ({exc})") from None
+    names = [n for n in listed.decode("utf-8").split("\0") if n]
+    return [n for n in names if os.path.isfile(os.path.join(root, n))]  # deleted but not committed: skip
+
+
 def build_extension(out_dir: str) -> str:
-    """Build the zip from the repository root into out_dir, validate it, return its path."""
+    """Build the zip from the git-tracked files into out_dir, validate it, return its path.
+
+    The manifest's [build] paths_exclude_pattern still applies (tests, tools, benchmark weights)."""
     os.makedirs(out_dir, exist_ok=True)
     cli = blender_ext_cli()
-    subprocess.run([sys.executable, cli, "build", "--source-dir", ROOT, "--output-dir", out_dir],
-                   check=True, capture_output=True, text=True)
+    with tempfile.TemporaryDirectory(prefix="lapig_build_") as staging:
+        for name in tracked_files():
+            target = os.path.join(staging, name)
+            os.makedirs(os.path.dirname(target), exist_ok=True)
+            shutil.copy2(os.path.join(ROOT, name), target)
+        subprocess.run([sys.executable, cli, "build", "--source-dir", staging, "--output-dir", out_dir],
+                       check=True, capture_output=True, text=True)
     zips = sorted(glob.glob(os.path.join(out_dir, "lapig-*.zip")), key=os.path.getmtime)
     if not zips:
         raise OSError(f"the extension build wrote no zip into {out_dir}")

@@ -21,3 +21,22 @@ def test_extension_builds_installs_enables_runs_and_disables(tmp_path):
     proc = subprocess.run([sys.executable, script, zip_path, str(work)], env=env, capture_output=True,
                           text=True, timeout=600)
     assert proc.returncode == 0 and "E2E OK" in proc.stdout, proc.stdout[-3000:] + proc.stderr[-3000:]
+
+
+def test_zip_holds_only_tracked_files_of_the_extension(tmp_path):
+    """Stray files in the checkout, tests, tools and benchmark-only weights stay out of the zip."""
+    import zipfile
+
+    from lapig.tools.packaging import ROOT, build_extension, tracked_files
+
+    stray = os.path.join(ROOT, "lapig_core", "stray_untracked_test_file.py")
+    with open(stray, "w") as f:
+        f.write("# not tracked by git\n")
+    try:
+        assert "lapig_core/stray_untracked_test_file.py" not in tracked_files()
+        names = zipfile.ZipFile(build_extension(str(tmp_path / "dist"))).namelist()
+    finally:
+        os.remove(stray)
+    assert "blender_manifest.toml" in names and "lapig_core/photometric/weights/pcnet_pretrained.pt" in names
+    assert not [n for n in names if n.startswith(("tests/", "tools/", "benchmarks/", "scripts/"))]
+    assert not [n for n in names if "stray_untracked" in n or n.endswith((".blend", "_reversed_pretrained.pt"))]

@@ -92,9 +92,7 @@ class ProjectorModel:
 
     def emitted_8bit(self, image) -> np.ndarray:
         """Like emitted(), for the 8-bit frame a real projector receives: quantise, then a lookup."""
-        img = np.asarray(image)
-        if img.dtype != np.uint8:
-            img = np.round(np.clip(img, 0.0, 1.0) * 255.0).astype(np.uint8)
+        img = frame_8bit(image)
         if img.ndim == 2:
             img = np.repeat(img[..., None], 3, axis=-1)
         lut = self.emitted(np.arange(256, dtype=np.float32) / 255.0).astype(np.float32)
@@ -102,6 +100,14 @@ class ProjectorModel:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+def frame_8bit(image) -> np.ndarray:
+    """Image values in [0,1] (clipped) -> the uint8 values a projector receives; uint8 as is."""
+    img = np.asarray(image)
+    if img.dtype == np.uint8:
+        return img
+    return np.round(np.clip(img, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
 def square_region(width: int, height: int) -> tuple[int, int, int]:

@@ -50,7 +50,7 @@ class CaptureStudio:
         self.width, self.height, self.samples = width, height, samples
         self.ambient, self.ambient_distance = ambient, ambient_distance
         self._own_dir = work_dir is None
-        self.work_dir = work_dir or tempfile.mkdtemp(prefix="lapig_render_")
+        self.work_dir = work_dir  # a temporary folder of its own when None, made on __enter__
         self.scene = None
         self.ambient_linear = None
         self._image = None
@@ -70,6 +70,8 @@ class CaptureStudio:
         self.close()
 
     def _build(self):
+        if self._own_dir:
+            self.work_dir = tempfile.mkdtemp(prefix="lapig_render_")
         self._had_render_result = any(i.type == "RENDER_RESULT" for i in bpy.data.images)
         scene = bpy.data.scenes.new(STUDIO_NAME)
         self.scene = scene
@@ -160,6 +162,14 @@ class CaptureStudio:
         scene.view_settings.gamma = 1.0
 
     def close(self):
+        try:
+            self._restore()
+        finally:  # even when the user's objects are gone (a new file loaded mid-capture)
+            if self._own_dir and self.work_dir is not None:
+                shutil.rmtree(self.work_dir, ignore_errors=True)
+                self.work_dir = None
+
+    def _restore(self):
         if self.projector is not None and self.projector.data and self.projector.data.node_tree:
             try:
                 projector_nodes.set_projected_image(self.projector.data, self._saved_image)
@@ -177,8 +187,6 @@ class CaptureStudio:
         if not getattr(self, "_had_render_result", True):  # rendering made one: take it away again
             for image in [i for i in bpy.data.images if i.type == "RENDER_RESULT"]:
                 bpy.data.images.remove(image)
-        if self._own_dir:
-            shutil.rmtree(self.work_dir, ignore_errors=True)
 
     # -- rendering -------------------------------------------------------------------------
     def render(self, emitted_frames) -> list[np.ndarray]:

@@ -139,3 +139,30 @@ def coverage(bvh, projector_obj, model, camera_proj, target_bvh=None, grid=24) -
     cam = camera_proj.project(np.where(np.isfinite(hits), hits, 0.0))
     inside = camera_proj.in_frame(cam)
     return {"projector_on_object": float(lit.mean()), "seen_by_camera": float((seen & inside).mean())}
+
+
+class RigGeometry:
+    """The exact geometry of a rig for the capture sequence's checks (its GeometryChecks hooks).
+
+    ``render_scene`` is the scene the camera renders in (its resolution decides the camera's
+    frame); the BVHs are built on first use, from the evaluated scene.
+    """
+
+    def __init__(self, scene, projector_obj, camera_obj, target_obj, model, render_scene, width, height):
+        self.scene, self.projector, self.target, self.model = scene, projector_obj, target_obj, model
+        self.camera_proj = CameraProjection(camera_obj, render_scene, width, height)
+        self._bvh = self._target_bvh = None
+
+    def _bvhs(self):
+        if self._bvh is None:
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+            self._bvh = scene_bvh(renderable_objects(self.scene), depsgraph)
+            self._target_bvh = scene_bvh([self.target], depsgraph)
+        return self._bvh, self._target_bvh
+
+    def coverage(self) -> dict:
+        bvh, target_bvh = self._bvhs()
+        return coverage(bvh, self.projector, self.model, self.camera_proj, target_bvh)
+
+    def exact_projector_to_camera(self, pixel_xy) -> np.ndarray:
+        return exact_projector_to_camera(self._bvhs()[0], self.projector, self.model, self.camera_proj, pixel_xy)

@@ -22,10 +22,14 @@ Reference order, in prj/ref and cam/*/ref:
     img_0001  black projection (I-, the surface under ambient light only)
     img_0002  white projection (I+, full projector output)
     img_0003  uniform gray projection (s); its level is setup.json "gray_level"
+
+A setup captured here records a digest of the shared prj/{ref,train,test} images in setup.json
+("projector_images_sha256"); the loader refuses the setup when prj/ no longer holds them.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 from dataclasses import dataclass, field
@@ -43,6 +47,7 @@ PRJ_SETUP_KINDS = ("sl", "cmp")
 STAGES = ("raw", "warp")
 REF_BLACK, REF_WHITE, REF_GRAY = 1, 2, 3  # 1-based indices in the ref folders
 SETUP_JSON = "setup.json"
+PRJ_DIGEST_KEY = "projector_images_sha256"
 
 _IMAGE_NAME = re.compile(r"^img_(\d{4,})\.png$")
 
@@ -195,6 +200,28 @@ def list_images(folder) -> list[Path]:
     return [numbered[i] for i in sorted(numbered)]
 
 
+def projector_images_digest(root) -> str:
+    """SHA-256 over the names and bytes of <root>/prj/{ref,train,test}/img_*.png; a missing
+    folder counts as empty."""
+    digest = hashlib.sha256()
+    for kind in PRJ_KINDS:
+        folder = Path(root) / "prj" / kind
+        for path in list_images(folder) if folder.is_dir() else []:
+            digest.update(f"{kind}/{path.name}\0".encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _check_projector_images(meta: dict, layout: DatasetLayout) -> None:
+    expected = meta.get(PRJ_DIGEST_KEY)
+    if expected is not None and expected != projector_images_digest(layout.root):
+        raise DatasetError(
+            f"the projector images in {layout.root / 'prj'} are not the ones setup '{layout.setup}' "
+            "was captured with (another capture replaced them, or one was interrupted while it was "
+            "being saved): capture this setup again"
+        )
+
+
 @dataclass
 class CaptureSet:
     """Projector inputs and registered camera captures of one setup, float32 RGB in [0, 1]."""
@@ -307,6 +334,7 @@ def load_capture_set(path, size: int | None = None) -> CaptureSet:
     layout = _resolve_setup(Path(path))
     _require_dir(layout.setup_dir, "setup")
     meta = read_setup_json(layout.setup_json)
+    _check_projector_images(meta, layout)
 
     prj_train_dir = _require_dir(layout.prj_dir("train"), "projector training images")
     cam_train_dir = _require_dir(layout.cam_warp_dir("train"), "warped training captures")

@@ -109,6 +109,7 @@ class ProjectorModel:
         return asdict(self)
 
 
+
 def square_region(width: int, height: int) -> tuple[int, int, int]:
     """(x0, y0, side) of the central square of a width x height frame, in whole pixels."""
     side = min(width, height)

@@ -79,6 +79,47 @@ def test_cancel_in_the_middle_restores_the_scene(small_setup, tmp_path):
 
 
 @pytest.mark.blender
+def test_cycles_device_shows_and_grabs_what_it_captures_in_batches(small_setup):
+    from lapig.lapig_addon.blender.cycles_device import CyclesCaptureDevice
+
+    scene, projector, camera, target = small_setup
+    left = np.zeros((120, 160, 3), np.uint8)
+    left[:, :80] = 255
+    frames = [left, 255 - left]
+    with CyclesCaptureDevice(scene, projector, camera, target, seed=3) as device:
+        info = device.describe()
+        batch = device.capture(frames)
+    with CyclesCaptureDevice(scene, projector, camera, target, seed=3) as device:
+        singles = []
+        for frame in frames:
+            device.show(frame)
+            singles.append(device.grab())
+    assert info.projector_size == (160, 120) and info.camera_size == (160, 120)
+    assert all(a.dtype == np.uint8 and a.shape == (120, 160, 3) for a in batch)
+    assert all(np.array_equal(a, b) for a, b in zip(batch, singles))  # same light, same noise
+    assert np.abs(batch[0].astype(int) - batch[1]).mean() > 20  # each half lights its own part
+
+
+@pytest.mark.blender
+def test_studio_leaves_no_temporary_folder_even_when_the_scene_cannot_be_restored(small_setup, tmp_path,
+                                                                                monkeypatch):
+    import tempfile
+
+    from lapig.lapig_addon.blender.capture_studio import CaptureStudio
+
+    scene, projector, camera, _ = small_setup
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # /tmp is shared with other runs
+    studio = CaptureStudio(scene, projector, camera, 160, 120)
+    assert not list(tmp_path.glob("lapig_render_*"))  # nothing on disk before it opens
+    studio.__enter__()
+    assert list(tmp_path.glob("lapig_render_*"))
+    bpy.data.objects.remove(projector)  # e.g. another file loaded in the middle of a capture
+    with pytest.raises(ReferenceError):
+        studio.close()
+    assert not list(tmp_path.glob("lapig_render_*"))
+
+
+@pytest.mark.blender
 def test_object_outside_the_projector_is_refused_with_the_coverage(small_setup, tmp_path):
     from lapig.lapig_addon.cli import headless
     from lapig.lapig_addon.services.capture_job import CaptureError

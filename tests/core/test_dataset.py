@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from lapig_core.common import imageio
-from lapig_core.capture.dataset import (DatasetError, DatasetLayout, list_images, load_capture_set, summarize, write_capture, write_projector_images, write_setup_json)
+from lapig_core.capture.dataset import (PRJ_DIGEST_KEY, DatasetError, DatasetLayout, list_images, load_capture_set, projector_images_digest, summarize, write_capture, write_projector_images, write_setup_json)
 from lapig_core.common.imageio import ImageReadError, read_image, to_float, to_uint8, write_png
 from lapig_core.capture.patterns import generate_patterns, reference_patterns
 
@@ -233,3 +233,14 @@ def test_error_bad_setup_json(tmp_path):
     layout.setup_json.write_text(json.dumps({"gray_level": 3}))
     with pytest.raises(DatasetError, match="gray_level"):
         load_capture_set(tmp_path)
+
+
+def test_projector_images_that_changed_since_the_capture_are_refused(tmp_path):
+    layout, _, _ = make_dataset(tmp_path)
+    write_setup_json(layout, {"gray_level": 0.5, PRJ_DIGEST_KEY: projector_images_digest(tmp_path)})
+    assert load_capture_set(tmp_path).setup == "desk"
+    write_png(layout.image_path(layout.prj_dir("train"), 2), np.zeros((SIZE, SIZE, 3)))  # another capture's
+    with pytest.raises(DatasetError, match="not the ones setup 'desk' was captured with"):
+        load_capture_set(tmp_path)
+    write_setup_json(layout, {"gray_level": 0.5})  # public data sets record no digest: trusted
+    assert load_capture_set(tmp_path).setup == "desk"

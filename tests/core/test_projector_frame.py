@@ -104,7 +104,7 @@ def test_quantised_frame_is_the_frame_rounded_and_the_light_is_its_light(bit_dep
 
 
 def test_capture_frames_are_the_8bit_light():
-    # capture_job.emitted_frame: model.emitted_8bit(frame_from_working_image(...)), a lookup
+    # the device's 8-bit lookup and the light of the quantised frame agree
     model = ProjectorModel(W, H)
     img = _working(6)
     np.testing.assert_array_equal(model.emitted_8bit(frame_from_working_image(img, W, H)), model.frame_light(img, 8))

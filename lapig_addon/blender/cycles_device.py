@@ -1,0 +1,78 @@
+"""The Cycles capture studio as a capture device: a virtual projector and camera.
+
+The projector's light transfer (gamma, black level) turns each 8-bit frame into the relative
+light the studio's spot light emits; Cycles renders linear light in batches (an image sequence
+per capture() call), and the camera response (exposure, noise, 8 bits) makes the saved image.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ...lapig_core.capture.device import CaptureDevice, DeviceInfo
+from ...lapig_core.capture.sequence import GeometryChecks
+from ...lapig_core.optics.camera_model import auto_exposure_stops
+from .capture_studio import CaptureStudio
+from .geometry_probe import RigGeometry
+from .properties import camera_response, projector_model
+
+
+class CyclesCaptureDevice(CaptureDevice):
+    def __init__(self, scene, projector, camera, target, samples=1, ambient=0.03, seed=0):
+        self.scene, self.projector, self.camera, self.target = scene, projector, camera, target
+        # an evaluation brings matrix_world up to date after a script moved the rig
+        bpy.context.evaluated_depsgraph_get()
+        self.model = projector_model(projector)
+        self.width, self.height = camera.lapig_camera.resolution_x, camera.lapig_camera.resolution_y
+        self.response = camera_response(camera)  # its fixed exposure, until lock_exposure
+        self.rng = np.random.default_rng(seed)  # the camera's sensor noise
+        self.samples, self.ambient = samples, ambient
+        distance = float(np.linalg.norm(np.array(projector.matrix_world.translation)
+                                        - np.array(target.matrix_world.translation)))
+        self.studio = CaptureStudio(scene, projector, camera, self.width, self.height, samples=samples,
+                                    ambient=ambient, ambient_distance=distance)
+        self._shown = None
+
+    def __enter__(self):
+        self.studio.__enter__()
+        return self
+
+    def close(self):
+        self.studio.close()
+
+    def describe(self) -> DeviceInfo:
+        return DeviceInfo("Blender Cycles", (self.model.width, self.model.height), (self.width, self.height), {
+            "projector": self.model.to_dict(),
+            "camera": {"resolution": [self.width, self.height], "response": self.response.to_dict(),
+                       "lens_mm": self.camera.data.lens, "auto_exposure": self.camera.lapig_camera.auto_exposure},
+            "ambient": self.ambient,
+            "samples": self.samples,
+            "blender": bpy.app.version_string,
+        })
+
+    def geometry_checks(self) -> GeometryChecks:
+        """Coverage and exact registration by ray casting the scene (needs the open studio)."""
+        rig = RigGeometry(self.scene, self.projector, self.camera, self.target, self.model, self.studio.scene,
+                          self.width, self.height)
+        return GeometryChecks(surface=f"'{self.target.name}'",
+                              aim_hint="aim the projector and the camera at the object, "
+                                       "or use 'Add projector and camera'",
+                              coverage=rig.coverage, exact_projector_to_camera=rig.exact_projector_to_camera)
+
+    def lock_exposure(self, white_frame):
+        """Auto exposure: the camera's setting, from a linear render of the white frame."""
+        if self.camera.lapig_camera.auto_exposure:
+            linear = self.studio.render([self.model.emitted_8bit(white_frame)])[0]
+            stops = auto_exposure_stops(linear, mask=linear.max(-1) > 1e-6)
+            self.response = camera_response(self.camera, stops)
+
+    def show(self, frame):
+        self._shown = frame
+
+    def grab(self):
+        return self.capture([self._shown])[0]
+
+    def capture(self, frames):
+        """One Cycles animation render for the whole batch."""
+        linear = self.studio.render([self.model.emitted_8bit(frame) for frame in frames])
+        return [self.response.capture(x, self.rng) for x in linear]

@@ -7,12 +7,12 @@ Imports happen inside register() so that the bpy-free library (lapig_core) and t
 
 
 def register():
-    from .lapig_addon import addon
+    from .lapig_addon.blender import addon
 
     addon.register()
 
 
 def unregister():
-    from .lapig_addon import addon
+    from .lapig_addon.blender import addon
 
     addon.unregister()

@@ -15,7 +15,7 @@ import torch
 from .photometric import checkpoints
 from .common import metrics
 from .capture.dataset import CaptureSet
-from .photometric.finetune import finetune, load_setup_model, save_setup_model
+from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
 from .lgst import DEFAULT_BACKEND, LGSTUnavailable, get_backend
 from .psa.adaptation import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
 from .photometric.training_data import SurfaceTensors
@@ -25,15 +25,20 @@ def setup_dir_of(cs: CaptureSet) -> Path:
     return Path(cs.root) / "setups" / cs.setup if (Path(cs.root) / "setups").is_dir() else Path(cs.root)
 
 
-def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True) -> dict:
-    """Fine-tune CompenNeSt (8 pairs) and PCNet (all pairs) from the pretrained weights."""
+def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
+                 iterations: int | None = None) -> dict:
+    """Fine-tune CompenNeSt (8 pairs) and PCNet (all pairs) from the pretrained weights.
+
+    iterations: per network (default: the CPU recipe's); fewer give a rough, quick fine-tune.
+    """
     out, t0 = {}, time.perf_counter()
     for i, (arch, role) in enumerate((("CompenNeSt", "compensation"), ("PCNet", "simulation"))):
         def progress(p, msg, i=i, arch=arch):
             if on_progress:
                 on_progress((i + p) / 2, f"{arch}: {msg}")
 
-        model, result = finetune(cs, arch, role, on_progress=progress, cancel_event=cancel_event)
+        model, result = finetune(cs, arch, role, recipe=cpu_recipe(arch, role, iterations), on_progress=progress,
+                                 cancel_event=cancel_event)
         if result.cancelled:
             raise InterruptedError("training cancelled")
         if save:
@@ -44,8 +49,10 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True)
     return out
 
 
-def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, cancel_event=None) -> SurfaceModels:
-    """The setup's fine-tuned models: loaded when saved for this very setup, else trained now."""
+def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, cancel_event=None,
+                   iterations: int | None = None) -> SurfaceModels:
+    """The setup's fine-tuned models: loaded when saved for this very setup, else trained now
+    (with `iterations` as in train_models)."""
     fingerprint = cs.meta.get("fingerprint")
     try:
         comp, _ = load_setup_model(setup_dir_of(cs), "CompenNeSt", "compensation", fingerprint)
@@ -53,7 +60,7 @@ def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, canc
     except checkpoints.CheckpointError:
         if not train_if_missing:
             raise
-        trained = train_models(cs, on_progress, cancel_event)
+        trained = train_models(cs, on_progress, cancel_event, iterations=iterations)
         comp, sim = trained["CompenNeSt"], trained["PCNet"]
     surf = SurfaceTensors.from_capture_set(cs)
     return SurfaceModels(comp, sim, surf.s, surf.i_min, surf.i_max)

@@ -3,7 +3,7 @@ import os
 
 import bpy
 
-from ..lapig_addon.blender import result_preview, storage
+from ..lapig_addon.blender import result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_core.common.deps import require
@@ -18,12 +18,13 @@ class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
         require("torch")
         from ..lapig_addon.services import pipeline_jobs  # imports torch: only once it is needed
 
-        job = pipeline_jobs.TrainModelsJob(context.scene)
+        scene = context.scene
+        job = pipeline_jobs.TrainModelsJob(scene, scene_state.finetune_iterations(scene))
         job.check()  # fail now, with the reason, not on the thread
         return job
 
     def on_done(self, context, job):
-        self.report({"INFO"}, context.scene.lapig.models_status)
+        self.report({"INFO"}, scene_state.read(context.scene).models_status)
 
 
 class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
@@ -35,7 +36,9 @@ class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
         require("torch")
         from ..lapig_addon.services import pipeline_jobs  # imports torch: only once it is needed
 
-        job = pipeline_jobs.GenerateJob(context.scene)
+        scene = context.scene
+        job = pipeline_jobs.GenerateJob(scene, scene_state.generate_request(scene),
+                                        scene_state.finetune_iterations(scene))
         job.check()  # validates prompt and capture on the main thread, with a clear message
         return job
 
@@ -73,8 +76,7 @@ class LAPIG_OT_preview_mode(bpy.types.Operator):
     def execute(self, context):
         if not result_preview.apply_mode(context.scene, self.mode, self.report):
             return {"CANCELLED"}
-        # keep the property in step without re-running its update callback
-        context.scene.lapig["preview_mode"] = [m[0] for m in PREVIEW_MODES].index(self.mode)
+        scene_state.record_preview_mode(context.scene, self.mode)
         return {"FINISHED"}
 
 
@@ -84,7 +86,7 @@ class LAPIG_OT_show_comparison(bpy.types.Operator):
     bl_label = "Compare With and Without PSA"
 
     def execute(self, context):
-        folder = storage.resolve_result_dir(context.scene.lapig.result_dir)
+        folder = scene_state.read(context.scene).result_dir
         path = os.path.join(folder, "comparison.png") if folder else ""
         if not os.path.isfile(path):
             self.report({"ERROR"}, "Generate a projector image first")
@@ -108,16 +110,16 @@ class LAPIG_OT_export_image(bpy.types.Operator):
     filepath: bpy.props.StringProperty(subtype="FILE_PATH")
 
     def invoke(self, context, event):
-        self.filepath = bpy.path.abspath(context.scene.lapig.export_path)
+        self.filepath = scene_state.export_settings(context.scene).path
         context.window_manager.fileselect_add(self)
         return {"RUNNING_MODAL"}
 
     def execute(self, context):
         from ..lapig_addon.services import export_result
 
-        path = self.filepath or bpy.path.abspath(context.scene.lapig.export_path)
+        settings = scene_state.export_settings(context.scene, path=self.filepath or None)
         try:
-            written = export_result.export_current(context.scene, path)
+            written = export_result.export_current(context.scene, settings)
         except (ValueError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -140,7 +142,8 @@ class LAPIG_OT_export_crossfade(bpy.types.Operator):
         from ..lapig_addon.services import export_result
 
         try:
-            paths = export_result.export_crossfade(context.scene, self.directory)
+            paths = export_result.export_crossfade(context.scene, self.directory,
+                                                   scene_state.export_settings(context.scene))
         except (ValueError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}

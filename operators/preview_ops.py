@@ -1,6 +1,7 @@
 import bpy
 
-from ..lapig_addon.blender import preview, projector_nodes
+from ..lapig_addon.blender import preview, projector_nodes, scene_state
+from ..lapig_addon.services.panel_state import rig_blocker
 
 
 class LAPIG_OT_preview_toggle(bpy.types.Operator):
@@ -10,16 +11,17 @@ class LAPIG_OT_preview_toggle(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        s = context.scene.lapig
-        if s.target is None or s.projector is None:
-            self.report({"ERROR"}, "Add the projector and camera first")
+        blocker = rig_blocker(scene_state.read_rig(context.scene))
+        if blocker:
+            self.report({"ERROR"}, blocker)
             return {"CANCELLED"}
-        if preview.is_previewing(s.target):
-            preview.disable_preview(s.target)
-            self.report({"INFO"}, f"'{s.target.name}' shows its own materials again")
+        projector, _, target = scene_state.rig_objects(context.scene)
+        if preview.is_previewing(target):
+            preview.disable_preview(target)
+            self.report({"INFO"}, f"'{target.name}' shows its own materials again")
             return {"FINISHED"}
         try:
-            preview.enable_preview(s.target, s.projector, projector_nodes.projected_image(s.projector.data))
+            preview.enable_preview(target, projector, projector_nodes.projected_image(projector.data))
         except ValueError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}

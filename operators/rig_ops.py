@@ -1,6 +1,6 @@
 import bpy
 
-from ..lapig_addon.blender import rig
+from ..lapig_addon.blender import rig, scene_state
 
 
 class LAPIG_OT_add_rig(bpy.types.Operator):
@@ -10,14 +10,14 @@ class LAPIG_OT_add_rig(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        settings = context.scene.lapig
+        projector, camera, _ = scene_state.rig_objects(context.scene)  # moved, not duplicated, if there
         target = context.active_object if context.active_object and context.active_object.select_get() \
             else None
         if target is None or target.type != "MESH":
             self.report({"ERROR"}, "Select the mesh object to project on first")
             return {"CANCELLED"}
         try:
-            projector, camera, placement = rig.add_rig(context, target, settings.projector, settings.camera)
+            projector, camera, placement = rig.add_rig(context, target, projector, camera)
         except (rig.RigError, ValueError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}

@@ -1,9 +1,9 @@
 import bpy
 
-from ..lapig_addon.blender import storage
+from ..lapig_addon.blender import scene_state, storage
 from ..lapig_addon.blender.modal_runner import active_job
+from ..lapig_addon.services import panel_state
 from ..lapig_core.common.deps import missing_required
-from ..operators.capture_ops import capture_state
 
 STATE_ICONS = {"DONE": "CHECKMARK", "STALE": "ERROR", "MISSING": "DOT"}
 
@@ -70,8 +70,9 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         s = context.scene.lapig
-        state, reason = capture_state(context.scene)
-        layout.label(text=reason, icon=STATE_ICONS[state])
+        state = scene_state.read(context.scene)
+        status = panel_state.capture_status(state)
+        layout.label(text=status.text, icon=STATE_ICONS[status.state])
         col = layout.column(align=True)
         col.prop(s, "train_count")
         col.prop(s, "test_count")
@@ -87,11 +88,10 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
         if job is not None and not job.finished:
             layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
         row = layout.row()
-        ready = s.projector is not None and s.camera is not None and s.target is not None
-        row.enabled = ready and not missing_required() and (job is None or job.finished)
+        blocked = panel_state.rig_blocker(state.rig)
+        row.enabled = not blocked and not missing_required() and (job is None or job.finished)
         row.operator("lapig.capture", icon="RENDER_STILL")
-        if not ready:
-            layout.label(text="Add the projector and camera first", icon="INFO")
+        _blocked(layout, blocked)
         layout.operator("lapig.import_capture", icon="IMPORT")
 
 
@@ -118,17 +118,17 @@ class LAPIG_PT_models(LapigPanel, bpy.types.Panel):
     bl_idname = "LAPIG_PT_models"
 
     def draw(self, context):
-        from ..lapig_addon.services import panel_state
-
         layout = self.layout
-        state, reason = panel_state.models_state(context.scene)
-        layout.label(text=reason, icon=STATE_ICONS[state])
-        blocked = panel_state.models_blocker(context.scene)
+        state = scene_state.read(context.scene)
+        status = panel_state.models_status(state)
+        layout.label(text=status.text, icon=STATE_ICONS[status.state])
+        layout.prop(context.scene.lapig, "finetune_iterations")
+        blocked = panel_state.models_blocker(state)
         _blocked(layout, blocked)
         row = layout.row()
         row.enabled = not blocked and not _job_running()
         row.operator("lapig.train_models", icon="SHADERFX",
-                     text="Fine-tune Again" if state == "DONE" else "Train Models")
+                     text="Fine-tune Again" if status.state == "DONE" else "Train Models")
 
 
 class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
@@ -136,15 +136,14 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
     bl_idname = "LAPIG_PT_stylize"
 
     def draw(self, context):
-        from ..lapig_addon.services import panel_state
-
         layout = self.layout
         s = context.scene.lapig
-        state, reason = panel_state.result_state(context.scene)
-        layout.label(text=reason, icon=STATE_ICONS[state])
+        state, request = scene_state.read(context.scene), scene_state.generate_request(context.scene)
+        status = panel_state.result_status(state)
+        layout.label(text=status.text, icon=STATE_ICONS[status.state])
         layout.prop(s, "prompt", text="")
         layout.prop(s, "backend")
-        warning = panel_state.backend_warning(s.backend)
+        warning = panel_state.backend_warning(request)
         if warning:
             layout.label(text="Falls back to 'styletransfer': " + warning[:80], icon="ERROR")
         layout.prop(s, "style_override")
@@ -155,7 +154,7 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         sub.prop(s, "psa_strength")
         layout.prop(s, "style_seed")
         _progress(layout)
-        blocked = panel_state.generate_blocker(context.scene)
+        blocked = panel_state.generate_blocker(state, request)
         _blocked(layout, blocked)
         row = layout.row()
         row.scale_y = 1.4
@@ -168,20 +167,20 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
     bl_idname = "LAPIG_PT_preview_export"
 
     def draw(self, context):
-        from ..lapig_addon.services import panel_state
-
         layout = self.layout
         s = context.scene.lapig
-        has_result = not panel_state.generate_blocker(context.scene) and bool(panel_state.result_folder(context.scene))
-        if not has_result:
-            layout.label(text="Generate a projector image first", icon="INFO")
+        state = scene_state.read(context.scene)
+        blocked = panel_state.result_blocker(state)
+        has_result = not blocked
+        _blocked(layout, blocked)
         if s.result_summary:
             layout.label(text=s.result_summary)
         col = layout.column()
-        col.enabled = s.target is not None and s.projector is not None
+        col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)
         row = layout.row()
-        row.enabled = has_result and not _job_running()
+        # rendering also needs torch and the capture the result was made on
+        row.enabled = has_result and not panel_state.models_blocker(state) and not _job_running()
         row.operator("lapig.render_result", icon="RENDER_RESULT")
         row = layout.row()
         row.enabled = has_result

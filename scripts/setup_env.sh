@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Create .venv (Python 3.11, as bpy 5.0.1 needs) with the pinned packages of requirements.txt.
 # Idempotent: a second run only checks that everything is installed.
+# Usage: bash scripts/setup_env.sh [/path/to/python3.11]   (default: python3.11 or python3 on PATH)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-PY="${LAPIG_PYTHON:-}"
+PY="${1:-}"
 if [ -z "$PY" ]; then
   for candidate in python3.11 python3; do
     if command -v "$candidate" >/dev/null 2>&1 && \
@@ -14,7 +15,7 @@ if [ -z "$PY" ]; then
   done
 fi
 if [ -z "$PY" ]; then
-  echo "error: Python 3.11 is needed (bpy 5.0.1 is built for it); set LAPIG_PYTHON=/path/to/python3.11" >&2
+  echo "error: Python 3.11 is needed (bpy 5.0.1 is built for it); run: bash scripts/setup_env.sh /path/to/python3.11" >&2
   exit 1
 fi
 

@@ -44,6 +44,8 @@ def add_parsers(sub):
     ev.add_argument("--seed", type=int, default=0)
     ev.add_argument("--train", type=int, default=125, help="captured training pairs (default 125)")
     ev.add_argument("--psa-iterations", type=int, default=30, help="PSA iteration cap (default 30)")
+    ev.add_argument("--iterations", type=int, default=None,
+                    help="fine-tuning iterations per network (default: the CPU recipe's); fewer: rough but quick")
     ev.add_argument("--verbose", action="store_true", help="print training progress")
 
     build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")

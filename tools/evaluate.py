@@ -19,9 +19,9 @@ from ..lapig_core.common.imageio import atomic_write_bytes, read_image, write_pn
 from ..lapig_core.pipeline import as_image, stylize, surface_models
 from ..lapig_core.psa.adaptation import PSASettings
 from ..lapig_core.common.sheets import labelled_grid
-from ..lapig_addon.cli import headless
-from ..lapig_addon.services.capture_job import CaptureSettings
+from ..lapig_addon.blender import scene_state
 from ..lapig_addon.blender.projection_render import render_working_images
+from ..lapig_addon.cli import headless
 
 
 def build_surface_scene(image: np.ndarray, folder: str, name: str = "surface", shape: str = "panel"):
@@ -30,7 +30,8 @@ def build_surface_scene(image: np.ndarray, folder: str, name: str = "surface", s
 
 
 def capture_surface(scene, projector, camera, target, data_dir, setup="surface", train=125, test=0, seed=0):
-    settings = CaptureSettings(out_dir=data_dir, setup_name=setup, train_count=train, test_count=test, seed=seed)
+    settings = scene_state.capture_settings(scene, out_dir=data_dir, setup_name=setup, train_count=train,
+                                            test_count=test, seed=seed)
     result = headless.run_capture(scene, settings, projector, camera, target)
     return result["setup_dir"]
 
@@ -77,7 +78,8 @@ def run(args) -> dict:
     capture_s = time.perf_counter() - t
     cs = load_capture_set(setup_dir)
     t = time.perf_counter()
-    models = surface_models(cs, on_progress=headless.print_progress if args.verbose else None)
+    models = surface_models(cs, on_progress=headless.print_progress if args.verbose else None,
+                            iterations=args.iterations)
     train_s = time.perf_counter() - t
     settings = PSASettings(seed=args.seed, max_iterations=args.psa_iterations)
     result, images = evaluate_prompt(cs, models, rig_objects, setup_dir, args.prompt, args.backend, args.seed,

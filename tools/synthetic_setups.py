@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
+from ..lapig_addon.blender import scene_state
 from ..lapig_addon.cli import headless
 
 
@@ -134,9 +135,9 @@ def render_synthetic_setups(specs, out, train, test, seed=0, skip_existing=True,
             continue
         t = time.perf_counter()
         scene, projector, camera, target = build_setup(spec, textures)
-        settings = headless.CaptureSettings(out_dir=str(setup_layout.root), setup_name=spec.name,
-                                            train_count=train, test_count=test,
-                                            ambient=spec.ambient, seed=seed + spec.seed)
+        settings = scene_state.capture_settings(scene, out_dir=str(setup_layout.root), setup_name=spec.name,
+                                                train_count=train, test_count=test, ambient=spec.ambient,
+                                                seed=seed + spec.seed)
         result = headless.run_capture(scene, settings)
         meta = result["meta"]
         meta["synthetic_setup"] = spec.to_dict()

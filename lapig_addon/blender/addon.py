@@ -2,8 +2,9 @@
 from __future__ import annotations
 
 import importlib
-import os
 import sys
+
+from ...lapig_core.common.embedding_mode import DEFAULT_MODE, set_embedding_mode
 
 _MODULES = (
     ".properties",
@@ -26,11 +27,6 @@ def extension_package() -> str:
     return __package__.rsplit(".", 2)[0]
 
 
-# What lapig_core.lgst.prompt_mapping reads: in Blender's UI the prompt model runs in a helper
-# process, because loading it in-process holds the GIL long enough to freeze the UI (bench ui).
-EMBEDDING_ENV = "LAPIG_EMBEDDING"
-
-
 def _stop_embedding_process():
     root = extension_package()
     prompt_mapping = sys.modules.get(root + ".lapig_core.lgst.prompt_mapping")
@@ -44,14 +40,14 @@ def register():
     for module in _modules():
         module.register()
         _registered.append(module)
-    if not bpy.app.background:
-        os.environ[EMBEDDING_ENV] = "subprocess"
+    if not bpy.app.background:  # a UI to keep responsive: the prompt model runs in a helper process
+        set_embedding_mode("subprocess")
 
 
 def unregister():
     while _registered:
         _registered.pop().unregister()
-    os.environ.pop(EMBEDDING_ENV, None)
+    set_embedding_mode(DEFAULT_MODE)
     _stop_embedding_process()
 
 

@@ -14,7 +14,7 @@ from ...lapig_core.capture.sequence import GeometryChecks
 from ...lapig_core.optics.camera_model import auto_exposure_stops
 from .capture_studio import CaptureStudio
 from .geometry_probe import RigGeometry
-from .properties import camera_response, projector_model
+from .scene_state import camera_settings, projector_model
 
 
 class CyclesCaptureDevice(CaptureDevice):
@@ -23,8 +23,9 @@ class CyclesCaptureDevice(CaptureDevice):
         # an evaluation brings matrix_world up to date after a script moved the rig
         bpy.context.evaluated_depsgraph_get()
         self.model = projector_model(projector)
-        self.width, self.height = camera.lapig_camera.resolution_x, camera.lapig_camera.resolution_y
-        self.response = camera_response(camera)  # its fixed exposure, until lock_exposure
+        self.camera_settings = camera_settings(camera)
+        self.width, self.height = self.camera_settings.width, self.camera_settings.height
+        self.response = self.camera_settings.response()  # its fixed exposure, until lock_exposure
         self.rng = np.random.default_rng(seed)  # the camera's sensor noise
         self.samples, self.ambient = samples, ambient
         distance = float(np.linalg.norm(np.array(projector.matrix_world.translation)
@@ -44,7 +45,7 @@ class CyclesCaptureDevice(CaptureDevice):
         return DeviceInfo("Blender Cycles", (self.model.width, self.model.height), (self.width, self.height), {
             "projector": self.model.to_dict(),
             "camera": {"resolution": [self.width, self.height], "response": self.response.to_dict(),
-                       "lens_mm": self.camera.data.lens, "auto_exposure": self.camera.lapig_camera.auto_exposure},
+                       "lens_mm": self.camera.data.lens, "auto_exposure": self.camera_settings.auto_exposure},
             "ambient": self.ambient,
             "samples": self.samples,
             "blender": bpy.app.version_string,
@@ -61,10 +62,10 @@ class CyclesCaptureDevice(CaptureDevice):
 
     def lock_exposure(self, white_frame):
         """Auto exposure: the camera's setting, from a linear render of the white frame."""
-        if self.camera.lapig_camera.auto_exposure:
+        if self.camera_settings.auto_exposure:
             linear = self.studio.render([self.model.emitted_8bit(white_frame)])[0]
             stops = auto_exposure_stops(linear, mask=linear.max(-1) > 1e-6)
-            self.response = camera_response(self.camera, stops)
+            self.response = self.camera_settings.response(stops)
 
     def show(self, frame):
         self._shown = frame

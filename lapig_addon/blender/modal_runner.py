@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import bpy
 
+from . import scene_state
+
 _active = {"job": None}
 
 
@@ -36,8 +38,8 @@ class JobRunnerMixin:
         except (ValueError, ImportError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        settings = context.scene.lapig
-        job.run(on_progress=lambda progress, message: _show(settings, progress, message))
+        scene = context.scene
+        job.run(on_progress=lambda progress, message: scene_state.record_job_progress(scene, progress, message))
         return self._finish(context, job)
 
     def invoke(self, context, event):
@@ -65,7 +67,7 @@ class JobRunnerMixin:
             job.cancel()
         elif event.type == "TIMER":
             job.step()
-            _show(context.scene.lapig, job.progress, job.message)
+            scene_state.record_job_progress(context.scene, job.progress, job.message)
             context.window_manager.progress_update(int(job.progress * 1000))
             context.workspace.status_text_set(f"{job.title}: {job.message} ({job.progress:.0%}) - Esc to cancel")
             for area in context.screen.areas:
@@ -89,9 +91,3 @@ class JobRunnerMixin:
         else:
             self.report({"ERROR"}, f"{job.title} failed: {job.message}")
         return {"CANCELLED"}
-
-
-def _show(settings, progress, message):
-    settings.job_progress = progress
-    settings.job_message = message
-

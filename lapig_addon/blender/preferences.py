@@ -27,8 +27,14 @@ class LAPIG_OT_copy_install_command(bpy.types.Operator):
 class LAPIG_AP_preferences(bpy.types.AddonPreferences):
     bl_idname = _addon_package()
 
+    ip2p_model: bpy.props.StringProperty(
+        name="InstructPix2Pix weights", subtype="DIR_PATH",
+        description="Folder with the InstructPix2Pix weights for the 'instruct-pix2pix' backend "
+                    "(empty: the public checkpoint, if it is in the Hugging Face cache)")
+
     def draw(self, context):
         layout = self.layout
+        layout.prop(self, "ip2p_model")
         col = layout.column(align=True)
         col.label(text="Python dependencies:")
         deps = check_dependencies()
@@ -44,6 +50,13 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
             box.label(text=install_command(sys.executable, target))
             box.operator(LAPIG_OT_copy_install_command.bl_idname, icon="COPYDOWN")
             box.label(text="README.md, 'Installing the Python dependencies', explains each step.")
+
+
+def ip2p_model() -> str:
+    """The InstructPix2Pix weights folder from the preferences ('' when unset, or when the add-on is
+    registered without being enabled, as in the bpy module)."""
+    addon = bpy.context.preferences.addons.get(_addon_package())
+    return bpy.path.abspath(addon.preferences.ip2p_model) if addon and addon.preferences else ""
 
 
 CLASSES = (LAPIG_OT_copy_install_command, LAPIG_AP_preferences)

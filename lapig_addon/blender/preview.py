@@ -11,7 +11,7 @@ from __future__ import annotations
 import bpy
 
 from .compat import material_node_tree
-from .properties import projector_model
+from .scene_state import projector_model
 
 ORIGINALS_KEY = "lapig_preview_originals"
 PREVIEW_PREFIX = "LAPIG preview: "

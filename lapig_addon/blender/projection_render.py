@@ -16,7 +16,7 @@ from ...lapig_core.capture.registration import Registration
 from ..services.capture_job import CaptureError, check_rig
 from .capture_studio import CaptureStudio
 from .fingerprint import rig_fingerprint
-from .properties import projector_model
+from .scene_state import projector_model
 
 
 def render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,

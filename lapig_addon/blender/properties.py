@@ -5,14 +5,14 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from ...lapig_core.optics.camera_model import CameraResponse
-from ...lapig_core.optics.projector_model import ProjectorModel
+from .scene_state import projector_model
 
 
 def _rebuild_projector(self, context):
     obj = self.id_data
     if getattr(obj, "type", None) == "LIGHT" and self.is_projector:
         from . import projector_nodes
+
         projector_nodes.build_light_tree(obj.data, projector_model(obj))
         obj.data.energy = self.brightness
 
@@ -120,6 +120,9 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH")
     last_capture_fingerprint: StringProperty(name="Scene fingerprint of the last capture")
     # models
+    finetune_iterations: IntProperty(name="Iterations", default=0, min=0, max=100000,
+                                     description="Fine-tuning iterations per network; 0 for the standard "
+                                                 "recipe, fewer for a rough but quick fine-tune")
     models_fingerprint: StringProperty(name="Rig fingerprint the models were trained for")
     models_status: StringProperty(name="Models")
     # stylize
@@ -148,18 +151,6 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     crossfade_frames: IntProperty(name="Crossfade frames", default=60, min=2, max=10000)
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
     job_message: StringProperty(name="Status")
-
-
-def projector_model(obj) -> ProjectorModel:
-    p = obj.lapig_projector
-    return ProjectorModel(width=p.resolution_x, height=p.resolution_y, throw_ratio=p.throw_ratio,
-                          shift_x=p.shift_x, shift_y=p.shift_y, gamma=p.gamma, black_level=p.black_level)
-
-
-def camera_response(obj, exposure_stops: float | None = None) -> CameraResponse:
-    c = obj.lapig_camera
-    stops = c.exposure if exposure_stops is None else exposure_stops
-    return CameraResponse(gamma=c.response_gamma, noise_std=c.noise, exposure_stops=stops)
 
 
 CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigSceneSettings)

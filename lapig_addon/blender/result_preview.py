@@ -7,15 +7,14 @@ cast from the projector (preview.py keeps the original safe).
 """
 from __future__ import annotations
 
-import os
-
 import bpy
 import numpy as np
 
 from ...lapig_core.optics.projector_model import frame_from_working_image
 from ...lapig_core.export.result_files import read_result_image
-from . import preview, projector_nodes, storage
-from .properties import projector_model
+from ..services.panel_state import preview_blocker
+from . import preview, projector_nodes, scene_state
+from .scene_state import projector_model
 
 IMAGE_PREFIX = "LAPIG "
 MODE_IMAGES = {"TARGET": "target", "SIMULATED": "simulated", "RENDERED": "rendered",
@@ -51,27 +50,28 @@ def set_projector_image(projector, working_image: np.ndarray, bit_depth: int) ->
 
 def show_result_on_projector(scene) -> bpy.types.Image | None:
     """The light emits the scene's result projector image at the export bit depth; None without one."""
-    s = scene.lapig
-    folder = storage.resolve_result_dir(s.result_dir)
-    if not folder or s.projector is None:
+    folder = scene_state.read(scene).result_dir
+    projector = scene_state.rig_objects(scene)[0]
+    if not folder or projector is None:
         return None
-    return set_projector_image(s.projector, read_result_image(folder, "projector"), int(s.export_bit_depth))
+    return set_projector_image(projector, read_result_image(folder, "projector"),
+                               scene_state.export_settings(scene).bit_depth)
 
 
-def _appearance_image(scene, kind: str) -> bpy.types.Image:
-    s = scene.lapig
-    model = projector_model(s.projector)
-    img = read_result_image(bpy.path.abspath(s.result_dir), kind)
+def _appearance_image(projector, result_dir: str, kind: str) -> bpy.types.Image:
+    model = projector_model(projector)
+    img = read_result_image(result_dir, kind)
     # appearances are in the same central-square layout as the projector image
     return frame_image(IMAGE_PREFIX + kind, frame_from_working_image(img, model.width, model.height))
 
 
 def apply_mode(scene, mode: str, report=None) -> bool:
     """Switch the object's look; False (and a report) when the mode cannot be shown yet."""
-    s = scene.lapig
-    target, projector = s.target, s.projector
-    if target is None or projector is None:
-        return _fail(report, "Add the projector and camera first")
+    state = scene_state.read(scene)
+    blocker = preview_blocker(state, mode)
+    if blocker:
+        return _fail(report, blocker)
+    projector, _, target = scene_state.rig_objects(scene)
     try:
         if mode == "ORIGINAL":
             preview.disable_preview(target)
@@ -79,9 +79,8 @@ def apply_mode(scene, mode: str, report=None) -> bool:
             image = projector_nodes.projected_image(projector.data)
             preview.enable_preview(target, projector, image, appearance=False)
         else:
-            if not s.result_dir or not os.path.isdir(bpy.path.abspath(s.result_dir)):
-                return _fail(report, "Generate a projector image first")
-            preview.enable_preview(target, projector, _appearance_image(scene, MODE_IMAGES[mode]), appearance=True)
+            image = _appearance_image(projector, state.result_dir, MODE_IMAGES[mode])
+            preview.enable_preview(target, projector, image, appearance=True)
     except (OSError, ValueError) as exc:
         return _fail(report, str(exc))
     return True

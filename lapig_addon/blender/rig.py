@@ -7,7 +7,8 @@ from mathutils import Matrix
 
 from ...lapig_core.optics.placement import place_rig
 from . import projector_nodes
-from .properties import projector_model
+from . import scene_state
+from .scene_state import camera_settings, projector_model
 
 RIG_COLLECTION = "LAPIG Rig"
 
@@ -98,16 +99,14 @@ def add_rig(context, target=None, projector=None, camera=None):
         raise RigError(f"'{target.name}' has no geometry to project on")
     projector = projector or create_projector(scene)
     camera = camera or create_camera(scene)
-    model = projector_model(projector)
-    cam_settings = camera.lapig_camera
+    model, cam = projector_model(projector), camera_settings(camera)
     placement = place_rig(verts, normals, throw_ratio=model.throw_ratio, aspect=model.aspect,
-                          camera_aspect=cam_settings.resolution_x / cam_settings.resolution_y)
+                          camera_aspect=cam.width / cam.height)
     projector.matrix_world = _pose_matrix(placement.projector)
     camera.matrix_world = _pose_matrix(placement.camera)
     camera.data.sensor_fit = "HORIZONTAL"
     camera.data.sensor_width = placement.sensor_width_mm
     camera.data.lens = placement.camera_lens_mm
     camera.data.clip_end = max(camera.data.clip_end, placement.distance * 4)
-    settings = scene.lapig
-    settings.projector, settings.camera, settings.target = projector, camera, target
+    scene_state.record_rig(scene, projector, camera, target)
     return projector, camera, placement

@@ -19,9 +19,9 @@ def data_root() -> tuple[str, bool]:
     return os.path.join(tempfile.gettempdir(), f"lapig_unsaved_{os.getpid()}"), True
 
 
-def setup_name_for(target) -> str:
+def setup_name_for(object_name: str) -> str:
     """A file-system-safe setup folder name from the surface object's name."""
-    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", target.name).strip("._") or "setup"
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", object_name).strip("._") or "setup"
     return name[:64]
 
 

@@ -11,9 +11,9 @@ import numpy as np
 from ...lapig_core.capture import dataset as ds
 from ...lapig_core.common.imageio import read_image, write_png
 from ...lapig_core.common.sheets import labelled_grid
-from ..blender import addon, storage
+from ..blender import addon, result_preview, scene_state
+from ..services.panel_state import rig_blocker
 from . import headless
-from ..services.capture_job import CaptureSettings
 from .output import print_json
 
 
@@ -37,27 +37,27 @@ def cmd_demo(args) -> int:
     blend_path = os.path.join(out, "demo.blend")
     bpy.ops.wm.save_as_mainfile(filepath=blend_path)  # data then lives beside it, in demo_lapig/
     scene = bpy.context.scene
-    name = storage.setup_name_for(target)
-    settings = CaptureSettings(out_dir=storage.capture_root(name), setup_name=name, train_count=args.train,
-                               test_count=args.test, seed=args.seed)
+    settings = scene_state.capture_settings(scene, train_count=args.train, test_count=args.test, seed=args.seed)
     t = time.perf_counter()
     result = headless.run_capture(scene, settings, progress=headless.print_progress)
     timings["capture_s"] = round(time.perf_counter() - t, 2)
-    scene.lapig.last_capture_dir = str(result["setup_dir"])
-    scene.lapig.last_capture_fingerprint = result["meta"]["fingerprint"]
+    scene_state.record_capture(scene, result["setup_dir"], result["meta"]["fingerprint"])
     write_png(os.path.join(out, "contact_sheet.png"), contact_sheet(result["setup_dir"]))
     t = time.perf_counter()
-    TrainModelsJob(scene).run_to_completion(on_progress=headless.print_progress)
+    TrainModelsJob(scene, args.iterations).run_to_completion(on_progress=headless.print_progress)
     timings["train_s"] = round(time.perf_counter() - t, 2)
-    scene.lapig.prompt = args.prompt
+    request = scene_state.generate_request(scene, prompt=args.prompt)
+    scene_state.write_stylize_settings(scene, request)  # demo.blend then opens on the prompt of its result
     t = time.perf_counter()
-    generated = GenerateJob(scene).run_to_completion(on_progress=headless.print_progress)
+    generated = GenerateJob(scene, request, args.iterations).run_to_completion(on_progress=headless.print_progress)
     timings["stylize_s"] = round(time.perf_counter() - t, 2)
     t = time.perf_counter()
     rendered = RenderResultJob(scene).run_to_completion()
     timings["render_s"] = round(time.perf_counter() - t, 2)
-    exported = export_result.export_current(scene, os.path.join(out, "projector_image.png"))
-    scene.lapig.preview_mode = "TARGET"
+    exported = export_result.export_current(
+        scene, scene_state.export_settings(scene, path=os.path.join(out, "projector_image.png")))
+    if result_preview.apply_mode(scene, "TARGET"):
+        scene_state.record_preview_mode(scene, "TARGET")
     bpy.ops.wm.save_mainfile()
     sheet_path = os.path.join(out, "comparison.png")
     shutil.copyfile(os.path.join(generated["folder"], "comparison.png"), sheet_path)
@@ -99,46 +99,34 @@ def contact_sheet(setup_dir) -> np.ndarray:
     return labelled_grid(images, labels, columns=6, cell=220, title=f"LAPIG capture set: {layout.setup}")
 
 
-def cmd_capture(args) -> int:
+def _open_scene(args):
+    """The scene of --blend (else the open file), checked to hold a complete rig."""
     _ensure_registered()
     if args.blend:
         if not os.path.isfile(args.blend):
             raise ValueError(f"no such .blend file: {args.blend}")
-        bpy.ops.wm.open_mainfile(filepath=args.blend)
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.blend))
     scene = bpy.context.scene
-    s = scene.lapig
-    if s.target is None:
-        raise ValueError("the scene has no LAPIG rig: add the projector and camera first (or run 'demo')")
-    settings = CaptureSettings(out_dir=os.path.abspath(args.out),
-                               setup_name=args.setup or storage.setup_name_for(s.target),
-                               train_count=args.train, test_count=args.test, working_size=args.size,
-                               samples=args.samples, pattern_folder=args.patterns, seed=args.seed)
+    blocker = rig_blocker(scene_state.read_rig(scene))
+    if blocker:
+        raise ValueError(f"{blocker} (or run 'demo')")
+    return scene
+
+
+def cmd_capture(args) -> int:
+    scene = _open_scene(args)
+    settings = scene_state.capture_settings(
+        scene, out_dir=os.path.abspath(args.out), setup_name=args.setup, train_count=args.train,
+        test_count=args.test, working_size=args.size, samples=args.samples,
+        pattern_folder=os.path.abspath(args.patterns) if args.patterns else None, seed=args.seed)
     result = headless.run_capture(scene, settings, progress=headless.print_progress)
     print_json({"setup_dir": str(result["setup_dir"]), **result["meta"]["registration"],
                 "valid_fraction": result["meta"]["valid_fraction"]})
     return 0
 
 
-
-
-
-
-
-
-def _open_scene(args):
-    _ensure_registered()
-    if getattr(args, "blend", None):
-        if not os.path.isfile(args.blend):
-            raise ValueError(f"no such .blend file: {args.blend}")
-        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.blend))
-    scene = bpy.context.scene
-    if scene.lapig.target is None:
-        raise ValueError("the scene has no LAPIG rig: add the projector and camera first (or run 'demo')")
-    return scene
-
-
 def _save_if_asked(args):
-    if getattr(args, "save", False):
+    if args.save:
         if not bpy.data.filepath:
             raise ValueError("--save needs a .blend opened with --blend")
         bpy.ops.wm.save_mainfile()
@@ -148,7 +136,7 @@ def cmd_train(args) -> int:
     from ..services.pipeline_jobs import TrainModelsJob
 
     scene = _open_scene(args)
-    out = TrainModelsJob(scene).run_to_completion(on_progress=headless.print_progress)
+    out = TrainModelsJob(scene, _iterations(args, scene)).run_to_completion(on_progress=headless.print_progress)
     _save_if_asked(args)
     print_json({"capture": out["folder"], "train_s": round(out["seconds"], 2)})
     return 0
@@ -158,12 +146,11 @@ def cmd_stylize(args) -> int:
     from ..services.pipeline_jobs import GenerateJob, RenderResultJob
 
     scene = _open_scene(args)
-    s = scene.lapig
-    s.prompt, s.backend, s.style_override, s.style_seed = args.prompt, args.backend, args.mix, args.seed
-    if not 0.0 < args.strength < 1.0:
-        raise ValueError("--strength must be between 0 and 1")
-    s.use_psa, s.psa_strength = args.psa, args.strength
-    out = GenerateJob(scene).run_to_completion(on_progress=headless.print_progress)
+    request = scene_state.generate_request(scene, prompt=args.prompt, backend=args.backend, mix=args.mix,
+                                           psa=args.psa, strength=args.strength, seed=args.seed,
+                                           ip2p_model=args.ip2p_model)
+    job = GenerateJob(scene, request, _iterations(args, scene))
+    out = job.run_to_completion(on_progress=headless.print_progress)
     summary = dict(out["summary"]["metrics"])
     if args.render:
         summary.update(RenderResultJob(scene).run_to_completion()["metrics"])
@@ -177,15 +164,17 @@ def cmd_export(args) -> int:
     from ..services import export_result
 
     scene = _open_scene(args)
-    scene.lapig.export_bit_depth = str(args.bit_depth)
-    written = export_result.export_current(scene, os.path.abspath(args.out))
+    settings = scene_state.export_settings(scene, path=os.path.abspath(args.out), bit_depth=args.bit_depth,
+                                           crossfade_frames=args.frames)
+    written = export_result.export_current(scene, settings)
     summary = {k: str(v) for k, v in written.items()}
     if args.crossfade:
-        scene.lapig.crossfade_frames = args.frames
-        frames = export_result.export_crossfade(scene, os.path.abspath(args.crossfade))
+        frames = export_result.export_crossfade(scene, os.path.abspath(args.crossfade), settings)
         summary["crossfade_frames"] = len(frames)
     print_json(summary)
     return 0
 
 
-
+def _iterations(args, scene) -> int | None:
+    """Fine-tuning iterations per network: --iterations, else the scene's setting."""
+    return args.iterations if args.iterations is not None else scene_state.finetune_iterations(scene)

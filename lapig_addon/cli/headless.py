@@ -5,8 +5,8 @@ import os
 
 import bpy
 
-from ..blender import demo_scene, rig
-from ..services.capture_job import CaptureJob, CaptureSettings  # noqa: F401 (re-exported)
+from ..blender import demo_scene, rig, scene_state
+from ..services.capture_job import CaptureJob, CaptureSettings
 from .output import print_progress  # noqa: F401 (re-exported)
 
 
@@ -26,13 +26,10 @@ def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camer
 
 
 def run_capture(scene, settings: CaptureSettings, projector=None, camera=None, target=None, progress=None):
-    lp = scene.lapig
-    job = CaptureJob(scene, projector or lp.projector, camera or lp.camera, target or lp.target, settings)
+    """Capture the given rig objects (None: the scene's own) to completion."""
+    own = scene_state.rig_objects(scene)
+    job = CaptureJob(scene, projector or own[0], camera or own[1], target or own[2], settings)
     return job.run_to_completion(on_progress=progress)
-
-
-
-
 
 
 def ensure_dir(path):

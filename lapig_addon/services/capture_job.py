@@ -12,18 +12,15 @@ from ..blender import preview, projector_nodes
 from ..blender.cycles_device import CyclesCaptureDevice
 from ..blender.fingerprint import rig_fingerprint
 from .jobs import Job
+from ..blender.scene_state import read_rig
+from .panel_state import rig_blocker
 
 
-def check_rig(scene, projector, camera, target):
-    if projector is None or projector.type != "LIGHT" or not projector.lapig_projector.is_projector:
-        raise CaptureError("No LAPIG projector: use 'Add projector and camera' first")
-    if camera is None or camera.type != "CAMERA":
-        raise CaptureError("No capture camera: use 'Add projector and camera' first")
-    if target is None or target.type != "MESH":
-        raise CaptureError("No surface object: select the mesh to project on")
-    for ob in (projector, camera, target):
-        if ob.name not in scene.objects:
-            raise CaptureError(f"'{ob.name}' is not in the scene '{scene.name}'")
+def check_rig(scene, projector=None, camera=None, target=None):
+    """CaptureError unless the rig of these objects (None: the scene's own) can be captured."""
+    blocker = rig_blocker(read_rig(scene, projector, camera, target))
+    if blocker:
+        raise CaptureError(blocker)
 
 
 class CaptureJob(Job):

@@ -11,8 +11,10 @@ import bpy
 
 from ...lapig_core.export import projector_image as export
 from ...lapig_core.export.result_files import read_result_image, read_summary, stored_bit_depth
-from ..blender import storage
-from ..blender.properties import projector_model
+from ..blender import scene_state
+from ..blender.scene_state import projector_model
+from .panel_state import result_blocker
+from .state import ExportSettings
 
 
 def addon_version() -> str:
@@ -29,52 +31,45 @@ def addon_version() -> str:
 
 
 def _result_folder(scene) -> str:
-    folder = storage.resolve_result_dir(scene.lapig.result_dir)
-    if not folder:
-        raise ValueError("Generate a projector image first")
-    if scene.lapig.projector is None:
-        raise ValueError("The scene has no LAPIG projector")
-    return folder
+    state = scene_state.read(scene)
+    blocker = result_blocker(state)
+    if blocker:
+        raise ValueError(blocker)
+    return state.result_dir
 
 
 def metadata(scene, folder: str, summary: dict) -> dict:
-    s = scene.lapig
-    p, c = s.projector.lapig_projector, s.camera.lapig_camera if s.camera else None
     return {"prompt": summary.get("prompt"), "backend": summary.get("backend"), "seed": summary.get("seed"),
             "styles": summary.get("lgst", {}).get("styles"), "psa": summary.get("psa"),
             "psa_settings": summary.get("psa_settings"), "metrics": summary.get("metrics"),
-            "projector": {**projector_model(s.projector).to_dict(), "brightness_w": p.brightness,
-                          "object": s.projector.name},
-            "camera": None if c is None else {"resolution": [c.resolution_x, c.resolution_y],
-                                              "response_gamma": c.response_gamma, "lens_mm": s.camera.data.lens},
-            "surface_object": s.target.name if s.target else None,
+            **scene_state.rig_metadata(scene),
             # 8 for results stored before results were 16-bit: a 16-bit file then holds 8 bits of data
             "result_bit_depth": stored_bit_depth(folder, "projector"),
             "software_blender": bpy.app.version_string}
 
 
-def export_current(scene, path: str) -> dict:
+def export_current(scene, settings: ExportSettings) -> dict:
     folder = _result_folder(scene)
     summary = read_summary(folder)
-    model = projector_model(scene.lapig.projector)
-    return export.export_projector_image(path, read_result_image(folder, "projector"), model.width, model.height,
-                                         bit_depth=int(scene.lapig.export_bit_depth),
+    model = projector_model(scene_state.rig_objects(scene)[0])
+    return export.export_projector_image(settings.path, read_result_image(folder, "projector"), model.width,
+                                         model.height, bit_depth=settings.bit_depth,
                                          metadata=metadata(scene, folder, summary), lapig_version=addon_version())
 
 
-def export_crossfade(scene, directory: str) -> list:
+def export_crossfade(scene, directory: str, settings: ExportSettings) -> list:
     folder = _result_folder(scene)
     if not directory:
         raise ValueError("Choose a folder for the crossfade frames")
     summary = read_summary(folder)
-    model = projector_model(scene.lapig.projector)
+    model = projector_model(scene_state.rig_objects(scene)[0])
     b = read_result_image(folder, "projector")
     try:
         a, labels = read_result_image(folder, "projector_nopsa"), ["without PSA", "with PSA"]
     except FileNotFoundError:
         a, labels = b * 0, ["black", "with PSA"]
-    return export.crossfade_sequence(bpy.path.abspath(directory), a, b, frames=scene.lapig.crossfade_frames,
+    return export.crossfade_sequence(bpy.path.abspath(directory), a, b, frames=settings.crossfade_frames,
                                      width=model.width, height=model.height,
-                                     bit_depth=int(scene.lapig.export_bit_depth), ease="smooth", gamma=model.gamma,
+                                     bit_depth=settings.bit_depth, ease="smooth", gamma=model.gamma,
                                      metadata=metadata(scene, folder, summary), source_labels=labels,
                                      lapig_version=addon_version())

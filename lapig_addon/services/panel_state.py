@@ -1,105 +1,106 @@
-"""What each panel step shows: done, stale (the scene changed) or missing, and what blocks it."""
+"""What each step shows (done, stale or missing) and what blocks it: the one check of each, behind
+the panels, the operators and the jobs. Plain values in (services/state.py), no bpy."""
 from __future__ import annotations
 
 import os
+import time
+from dataclasses import dataclass
 
 from ...lapig_core.common.deps import missing_required
-from ..blender import storage
-from ..blender.fingerprint import rig_fingerprint
+from .state import GenerateRequest, Rig, SceneState
+
+NEEDS_NO_RESULT = ("ORIGINAL", "PROJECTION")  # preview modes that show no generated image
 
 
-def _rig_now(s) -> str | None:
-    if s.projector is None or s.camera is None or s.target is None:
-        return None
-    return rig_fingerprint(s.projector, s.camera, s.target)
+@dataclass(frozen=True)
+class StepStatus:
+    state: str  # 'MISSING', 'STALE' or 'DONE'
+    text: str  # what the panel shows beside the state's icon
 
 
-def capture_blocker(scene) -> str:
-    s = scene.lapig
-    if s.projector is None or s.camera is None or s.target is None:
+def rig_blocker(rig: Rig) -> str:
+    """Why the rig cannot be captured, rendered or previewed ('' when it can)."""
+    if rig.projector is None or rig.camera is None:
         return "Add the projector and camera first"
+    if rig.target is None:
+        return "Choose the surface object (the mesh to project on)"
+    if rig.outside_scene:
+        return f"'{rig.outside_scene[0]}' is not in the scene '{rig.scene}'"
     return ""
 
 
-def capture_status(scene) -> tuple[str, str]:
-    """('MISSING'|'STALE'|'DONE', the capture folder): the one check behind the panel, the Capture
-    step's state and the jobs that need a capture."""
-    s = scene.lapig
-    folder = storage.resolve_capture_dir(s.last_capture_dir)
-    if not folder:
-        return "MISSING", ""
-    now = _rig_now(s)
-    if s.last_capture_fingerprint and now is not None and now != s.last_capture_fingerprint:
-        return "STALE", folder
-    return "DONE", folder
+def capture_status(state: SceneState) -> StepStatus:
+    if not state.capture_dir:
+        return StepStatus("MISSING", "No capture yet")
+    if state.capture_fingerprint and state.rig.fingerprint and state.rig.fingerprint != state.capture_fingerprint:
+        return StepStatus("STALE", "The rig or the object changed since the capture")
+    return StepStatus("DONE", state.capture_dir)
 
 
-def _capture_ok(scene) -> str:
-    blocker = capture_blocker(scene)
+def capture_blocker(state: SceneState) -> str:
+    """Why the steps after the capture cannot use it yet ('' when they can)."""
+    blocker = rig_blocker(state.rig)
     if blocker:
         return blocker
-    state, _ = capture_status(scene)
-    if state == "MISSING":
+    status = capture_status(state).state
+    if status == "MISSING":
         return "Capture the surface first"
-    if state == "STALE":
+    if status == "STALE":
         return "The rig or the object moved: capture again"
     return ""
 
 
-def models_blocker(scene) -> str:
-    missing = [d.package for d in missing_required() if d.package in ("torch",)]
-    if missing:
+def models_blocker(state: SceneState) -> str:
+    if any(d.package == "torch" for d in missing_required()):
         return "Install torch (see the add-on preferences)"
-    return _capture_ok(scene)
+    return capture_blocker(state)
 
 
-def models_state(scene) -> tuple[str, str]:
-    s = scene.lapig
-    if not s.models_fingerprint:
-        return "MISSING", "Not trained for this capture (Generate trains them too)"
-    if s.models_fingerprint != s.last_capture_fingerprint:
-        return "STALE", "Trained for an older capture"
-    return "DONE", s.models_status or "Fine-tuned for this capture"
+def models_status(state: SceneState) -> StepStatus:
+    if not state.models_fingerprint:
+        return StepStatus("MISSING", "Not trained for this capture (Generate trains them too)")
+    if state.models_fingerprint != state.capture_fingerprint:
+        return StepStatus("STALE", "Trained for an older capture")
+    return StepStatus("DONE", state.models_status or "Fine-tuned for this capture")
 
 
-_AVAILABILITY: dict = {}  # backend -> (checked at, available, reason): draw() runs on every redraw
+_AVAILABILITY: dict = {}  # (backend, options) -> (checked at, available, reason): draw() runs on every redraw
 
 
-def backend_warning(name: str) -> str:
-    """Why the chosen backend cannot run here ('' when it can); Generate then falls back."""
-    import time
-
-    checked = _AVAILABILITY.get(name)
+def backend_warning(request: GenerateRequest) -> str:
+    """Why the request's backend cannot run here ('' when it can); Generate then falls back."""
+    options = request.backend_options()
+    key = (request.backend, tuple(sorted(options.items())))
+    checked = _AVAILABILITY.get(key)
     if checked is None or time.monotonic() - checked[0] > 30:
         try:
             from ...lapig_core.lgst import BACKENDS
 
-            cls = BACKENDS.get(name)
-            ok, why = cls.availability() if cls else (False, f"unknown backend '{name}'")
+            cls = BACKENDS.get(request.backend)
+            ok, why = cls.availability(**options) if cls else (False, f"unknown backend '{request.backend}'")
         except ImportError as exc:
             ok, why = False, str(exc)
-        checked = _AVAILABILITY[name] = (time.monotonic(), ok, why)
+        checked = _AVAILABILITY[key] = (time.monotonic(), ok, why)
     return "" if checked[1] else checked[2]
 
 
-def generate_blocker(scene) -> str:
-    blocker = models_blocker(scene)
-    if blocker:
-        return blocker
-    if not scene.lapig.style_override.strip() and not scene.lapig.prompt.strip():
-        return "Type a prompt"
-    return ""
+def generate_blocker(state: SceneState, request: GenerateRequest) -> str:
+    return models_blocker(state) or request.problem()
 
 
-def result_folder(scene) -> str:
-    return storage.resolve_result_dir(scene.lapig.result_dir)
+def result_status(state: SceneState) -> StepStatus:
+    if not state.result_dir:
+        return StepStatus("MISSING", "No projector image yet")
+    if state.result_fingerprint and state.rig.fingerprint not in ("", state.result_fingerprint):
+        return StepStatus("STALE", "The rig moved since this result")
+    return StepStatus("DONE", os.path.basename(state.result_dir))
 
 
-def result_state(scene) -> tuple[str, str]:
-    s = scene.lapig
-    folder = result_folder(scene)
-    if not folder:
-        return "MISSING", "No projector image yet"
-    if s.result_fingerprint and _rig_now(s) not in (None, s.result_fingerprint):
-        return "STALE", "The rig moved since this result"
-    return "DONE", os.path.basename(folder)
+def result_blocker(state: SceneState) -> str:
+    """Why the result cannot be rendered, compared or exported ('' when it can)."""
+    return rig_blocker(state.rig) or ("" if state.result_dir else "Generate a projector image first")
+
+
+def preview_blocker(state: SceneState, mode: str) -> str:
+    """Why the object cannot show preview `mode` yet ('' when it can)."""
+    return rig_blocker(state.rig) if mode in NEEDS_NO_RESULT else result_blocker(state)

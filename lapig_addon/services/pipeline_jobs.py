@@ -18,51 +18,48 @@ from ...lapig_core.pipeline import as_image, stylize, surface_models, train_mode
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
 from ...lapig_core.export.result_files import heat_overlay, read_result_image, read_summary, write_result
 from . import panel_state
-from ..blender import storage
+from ..blender import scene_state, storage
 from .capture_job import CaptureError
-from ..blender.fingerprint import rig_fingerprint
 from .jobs import Job, WorkerJob
 from ..blender.projection_render import iter_render_working_images
+from .state import GenerateRequest, SceneState
 
 
 class PipelineError(ValueError):
     """A step that cannot run yet; the message says which step to do first."""
 
 
-def current_capture(scene) -> str:
+def current_capture(state: SceneState) -> str:
     """The scene's capture folder, checked to exist and to match the rig as it is now."""
-    state, folder = panel_state.capture_status(scene)
-    if state == "MISSING":
-        raise PipelineError("No capture yet: run Capture first")
-    if state == "STALE":
-        raise PipelineError("The projector, camera or object moved since the capture: capture again")
-    return folder
+    blocker = panel_state.capture_blocker(state)
+    if blocker:
+        raise PipelineError(blocker)
+    return state.capture_dir
 
 
 class TrainModelsJob(WorkerJob):
     title = "LAPIG training"
 
-    def __init__(self, scene):
+    def __init__(self, scene, iterations: int | None = None):
+        """iterations: fine-tuning iterations per network (None: the standard recipe)."""
         super().__init__()
-        self.scene = scene
+        self.scene, self.iterations = scene, iterations
 
     def prepare(self):
-        return current_capture(self.scene)
+        return current_capture(scene_state.read(self.scene))
 
     def work(self, folder, report, cancel_event):
         cs = load_capture_set(folder)
-        trained = train_models(cs, on_progress=report, cancel_event=cancel_event)
+        trained = train_models(cs, on_progress=report, cancel_event=cancel_event, iterations=self.iterations)
         return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder}
 
     def finish(self, output):
-        s = self.scene.lapig
-        s.models_fingerprint = output["fingerprint"]
-        s.models_status = f"Fine-tuned in {output['seconds']:.0f} s"
+        scene_state.record_models(self.scene, output["fingerprint"], f"Fine-tuned in {output['seconds']:.0f} s")
         return output
 
 
-def psa_settings_from(s, seed: int) -> PSASettings:
-    return PSASettings(stop_ratio=1.0 - s.psa_strength, seed=seed)
+def psa_settings_from(request: GenerateRequest) -> PSASettings:
+    return PSASettings(stop_ratio=1.0 - request.strength, seed=request.seed)
 
 
 class GenerateJob(WorkerJob):
@@ -70,32 +67,39 @@ class GenerateJob(WorkerJob):
 
     title = "LAPIG generate"
 
-    def __init__(self, scene, result_root=None):
+    def __init__(self, scene, request: GenerateRequest, iterations: int | None = None, result_root=None):
+        """iterations: as TrainModelsJob's, for models trained on the way."""
         super().__init__()
-        self.scene = scene
+        self.scene, self.request, self.iterations = scene, request, iterations
         self.result_root = result_root
 
     def prepare(self):
-        s = self.scene.lapig
-        folder = current_capture(self.scene)
-        prompt, notes = validate_prompt(s.prompt) if not s.style_override.strip() else (s.prompt.strip(), [])
+        r = self.request
+        folder = current_capture(scene_state.read(self.scene))
+        mix = r.mix.strip()
+        # before r.problem(): an empty prompt is refused here with the longer reason
+        prompt, notes = validate_prompt(r.prompt) if not mix else (r.prompt.strip(), [])
+        problem = r.problem()
+        if problem:
+            raise PipelineError(problem)
         root = self.result_root or os.path.join(storage.data_root()[0], "results")
         slug = re.sub(r"[^A-Za-z0-9]+", "_", prompt.lower()).strip("_")[:40] or "look"
         stamp = datetime.datetime.now().strftime("%Y%m%d_%H%M%S")
-        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": s.backend,
-                "mix": s.style_override.strip() or None, "psa": s.use_psa, "seed": s.style_seed,
-                "settings": psa_settings_from(s, s.style_seed), "out": os.path.join(root, f"{stamp}_{slug}")}
+        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": r.backend,
+                "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
+                "settings": psa_settings_from(r), "out": os.path.join(root, f"{stamp}_{slug}")}
 
     def work(self, job, report, cancel_event):
         cs = load_capture_set(job["capture"])
         report(0.02, "loading the models")
-        models = surface_models(cs, on_progress=lambda p, m: report(0.05 + 0.45 * p, m), cancel_event=cancel_event)
+        models = surface_models(cs, on_progress=lambda p, m: report(0.05 + 0.45 * p, m), cancel_event=cancel_event,
+                                iterations=self.iterations)
         if cancel_event.is_set():
             return None
         report(0.5, "stylizing")
         res = stylize(cs, models, job["prompt"], backend=job["backend"], seed=job["seed"], mix=job["mix"],
                       psa=job["psa"], settings=job["settings"], cancel_event=cancel_event,
-                      on_progress=lambda p, m: report(0.55 + 0.4 * p, m))
+                      on_progress=lambda p, m: report(0.55 + 0.4 * p, m), backend_options=job["backend_options"])
         if cancel_event.is_set():  # cancelled: write nothing, the scene keeps its last result
             return None
         return save_stylize_result(job, cs, models, res)
@@ -105,16 +109,12 @@ class GenerateJob(WorkerJob):
             return None
         from ..blender import result_preview
 
-        s = self.scene.lapig
-        s.models_fingerprint = output["summary"].get("fingerprint") or ""  # trained on the way if missing
-        if not s.models_status:
-            s.models_status = "Fine-tuned for this capture"
-        s.result_dir = output["folder"]
-        s.result_fingerprint = rig_fingerprint(s.projector, s.camera, s.target) if s.projector else ""
-        s.result_summary = output["summary_line"]
+        scene_state.record_models(self.scene, output["summary"].get("fingerprint") or "")  # trained on the way
+        scene_state.record_result(self.scene, output["folder"], output["summary_line"])
         result_preview.show_result_on_projector(self.scene)  # the stored image, as Export will write it
-        if s.preview_mode != "ORIGINAL":
-            result_preview.apply_mode(self.scene, s.preview_mode)
+        mode = scene_state.read(self.scene).preview_mode
+        if mode != "ORIGINAL":
+            result_preview.apply_mode(self.scene, mode)
         return output
 
 
@@ -154,20 +154,20 @@ class RenderResultJob(Job):
         self.scene = scene
 
     def steps(self):
-        s = self.scene.lapig
-        folder = storage.resolve_result_dir(s.result_dir)
-        if not folder:
-            raise PipelineError("Generate a projector image first")
-        capture = current_capture(self.scene)
+        state = scene_state.read(self.scene)
+        blocker = panel_state.result_blocker(state)
+        if blocker:
+            raise PipelineError(blocker)
+        folder, capture = state.result_dir, current_capture(state)
         summary = read_summary(folder)
         names = [n for n in ("projector", "projector_nopsa") if os.path.isfile(os.path.join(folder, n + ".png"))]
         yield 0.1, "rendering the projection with Cycles"
         images = np.stack([read_result_image(folder, n) for n in names])
         # one image per step, so the UI gets a turn between renders; the frames are the light of
         # the files Export writes at the scene's bit depth
-        bit_depth = int(s.export_bit_depth)
-        steps = iter_render_working_images(self.scene, s.projector, s.camera, s.target, capture, images, chunk=1,
-                                           bit_depth=bit_depth)
+        bit_depth = scene_state.export_settings(self.scene).bit_depth
+        steps = iter_render_working_images(self.scene, *scene_state.rig_objects(self.scene), capture, images,
+                                           chunk=1, bit_depth=bit_depth)
         try:
             for done in steps:
                 yield 0.1 + 0.8 * done, f"rendered {round(done * len(names))}/{len(names)}"

@@ -18,8 +18,9 @@ class LGSTBackend:
     name: str = "base"
 
     @classmethod
-    def availability(cls) -> tuple[bool, str]:
-        """(can it run here, why not / what it uses): cheap, loads no model."""
+    def availability(cls, **options) -> tuple[bool, str]:
+        """(can it run here, why not / what it uses): cheap, loads no model. options: the constructor's
+        (some say where the model is)."""
         return True, ""
 
     def prepare(self, surface: torch.Tensor, prompt: str, seed: int = 0, mix=None) -> None:

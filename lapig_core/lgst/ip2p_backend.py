@@ -23,14 +23,8 @@ import torch.utils.checkpoint
 from .base import LGSTUnavailable, ThetaBackend
 from .styletransfer_backend import resize
 
-DEFAULT_MODEL = "timbrooks/instruct-pix2pix"
-MODEL_ENV = "LAPIG_IP2P_MODEL"
+DEFAULT_MODEL = "timbrooks/instruct-pix2pix"  # the public checkpoint, when no model is given
 REQUIREMENTS = "pip install -r requirements-ip2p.txt"
-
-
-def default_model() -> str:
-    """The model id or folder used when none is given: $LAPIG_IP2P_MODEL, else the public checkpoint."""
-    return os.environ.get(MODEL_ENV, "").strip() or DEFAULT_MODEL
 
 
 def _is_local_path(model: str) -> bool:
@@ -46,14 +40,15 @@ def _missing_message(model: str, detail: str = "") -> str:
     else:
         where = f"'{model}' (Hugging Face cache)"
         fetch = f"`hf download {model}` (or pass allow_download=True once)"
-    msg = (f"InstructPix2Pix weights not found at {where}; download them with {fetch}, set ${MODEL_ENV} "
-           f"to a local copy, or use the default 'styletransfer' backend")
+    msg = (f"InstructPix2Pix weights not found at {where}; download them with {fetch} and choose that folder "
+           f"as the InstructPix2Pix weights (add-on preferences, or `stylize --ip2p-model`), or use the default "
+           f"'styletransfer' backend")
     return msg + (f" ({detail})" if detail else "")
 
 
 def model_status(model: str | None = None) -> tuple[bool, str]:
     """(weights present locally, where / why not): file-system checks only, loads and downloads nothing."""
-    model = model or default_model()
+    model = model or DEFAULT_MODEL
     for module, package in (("diffusers", "diffusers"), ("transformers", "transformers")):
         if importlib.util.find_spec(module) is None:
             return False, (f"InstructPix2Pix needs the '{package}' package ({REQUIREMENTS}); or use the "
@@ -120,7 +115,7 @@ class InstructPix2PixBackend(ThetaBackend):
     def __init__(self, model: str | None = None, allow_download: bool = False, steps: int = 10,
                  guidance: float = 7.5, image_guidance: float = 1.0, size: int = 256, psa_steps: int = 4,
                  device=None, checkpointing: bool = False):
-        """model: Hub id or local folder (default $LAPIG_IP2P_MODEL or 'timbrooks/instruct-pix2pix').
+        """model: Hub id or local folder (default: 'timbrooks/instruct-pix2pix' in the Hugging Face cache).
         allow_download: let diffusers fetch missing weights (off: never touch the network).
         steps: Euler-Ancestral steps of stylize(); psa_steps: DDIM steps of the differentiable forward().
         guidance / image_guidance: classifier-free guidance weights for the text and the input image.
@@ -132,7 +127,7 @@ class InstructPix2PixBackend(ThetaBackend):
             raise ValueError(f"steps and psa_steps must be >= 1, got {steps} and {psa_steps}")
         if int(size) < 8:
             raise ValueError(f"size must be >= 8, got {size}")
-        self.model = model or default_model()
+        self.model = model or DEFAULT_MODEL
         self.allow_download = bool(allow_download)
         self.steps, self.psa_steps, self.size = int(steps), int(psa_steps), int(size)
         self.guidance, self.image_guidance = float(guidance), float(image_guidance)
@@ -142,8 +137,8 @@ class InstructPix2PixBackend(ThetaBackend):
         self._info: dict = {}
 
     @classmethod
-    def availability(cls) -> tuple[bool, str]:
-        return model_status(default_model())
+    def availability(cls, model: str | None = None, **options) -> tuple[bool, str]:
+        return model_status(model)
 
     @property
     def pipe(self):

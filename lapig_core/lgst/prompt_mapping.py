@@ -14,6 +14,7 @@ import unicodedata
 
 import torch
 
+from ..common.embedding_mode import embedding_mode
 from .base import LGSTUnavailable
 from .style_catalog import BY_NAME, NAMES, STYLES
 
@@ -89,22 +90,7 @@ def _load_model():
     return SentenceTransformer(str(path), device="cpu", local_files_only=True)
 
 
-# The add-on sets LAPIG_EMBEDDING=subprocess when Blender has a UI: an environment variable, so that
-# registering the add-on does not have to import this module (and torch) to say so.
-EMBEDDING_ENV = "LAPIG_EMBEDDING"
-_EMBEDDING = {"mode": None, "process": None, "lock": None}
-
-
-def set_embedding_mode(mode: str | None) -> None:
-    """'inprocess' (scripts, tests, headless) or 'subprocess' (Blender's UI: keeps the GIL free);
-    None goes back to what LAPIG_EMBEDDING says."""
-    if mode not in ("inprocess", "subprocess", None):
-        raise ValueError(f"embedding mode must be 'inprocess' or 'subprocess', got {mode!r}")
-    _EMBEDDING["mode"] = mode
-
-
-def embedding_mode() -> str:
-    return _EMBEDDING["mode"] or os.environ.get(EMBEDDING_ENV, "inprocess")
+_EMBEDDING = {"process": None, "lock": None}
 
 
 def shutdown_embedding_process() -> None:

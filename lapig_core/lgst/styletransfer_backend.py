@@ -62,7 +62,7 @@ class StyleTransferBackend(ThetaBackend):
         self._info: dict = {}
 
     @classmethod
-    def availability(cls) -> tuple[bool, str]:
+    def availability(cls, **options) -> tuple[bool, str]:
         from .style_net import model_path
 
         try:

@@ -18,8 +18,7 @@ from ..common.imageio import atomic_write_bytes
 
 FORMAT = "lapig-checkpoint"
 VERSION = 1
-# LAPIG_WEIGHTS_DIR points at another set of pretrained weights (e.g. ones you pretrained yourself)
-WEIGHTS_DIR = Path(os.environ.get("LAPIG_WEIGHTS_DIR") or Path(__file__).resolve().parent / "weights")
+WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"  # the pretrained weights shipped with the extension
 PRETRAINED = {  # (arch, role) -> file shipped with the extension
     ("CompenNeSt", "compensation"): "compennest_pretrained.pt",
     ("PCNet", "simulation"): "pcnet_pretrained.pt",
@@ -85,16 +84,17 @@ def load_checkpoint(path, arch: str | None = None, role: str | None = None, work
     return model, h
 
 
-def pretrained_path(arch: str, role: str) -> Path:
+def pretrained_path(arch: str, role: str, weights_dir=None) -> Path:
+    """weights_dir: another set of pretrained weights (e.g. ones you pretrained yourself); default: the shipped."""
     try:
-        return WEIGHTS_DIR / PRETRAINED[(arch, role)]
+        return Path(weights_dir or WEIGHTS_DIR) / PRETRAINED[(arch, role)]
     except KeyError:
         raise CheckpointError(f"no pretrained weights for {arch} ({role})") from None
 
 
-def load_pretrained(arch: str, role: str, working_size: int | None = None):
-    """The shipped pretrained model, or a clear error when its file is missing."""
-    path = pretrained_path(arch, role)
+def load_pretrained(arch: str, role: str, working_size: int | None = None, weights_dir=None):
+    """The pretrained model (shipped, or from weights_dir), or a clear error when its file is missing."""
+    path = pretrained_path(arch, role, weights_dir)
     if not path.is_file():
         raise CheckpointError(f"the pretrained {arch} weights are missing ({path}); reinstall the extension "
                               f"or train from scratch")

@@ -7,7 +7,6 @@ weights, that reaches within 0.5 dB of the converged figure (see `bench models`)
 """
 from __future__ import annotations
 
-import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -24,30 +23,30 @@ MODEL_FILES = {("CompenNeSt", "compensation"): "compennest.pt", ("PCNet", "simul
 
 
 def cpu_recipe(arch: str, role: str, iterations: int | None = None, seed: int = 0) -> Recipe:
+    """The paper's recipe at CPU scale; fewer iterations give a rough, quick fine-tune (tests, previews)."""
     paper = PAPER_RECIPES["PCNet" if role == "simulation" else "CompenNeSt"]
-    # LAPIG_FINETUNE_ITERATIONS: a quick mode for tests and rough previews
-    n = iterations or int(os.environ.get("LAPIG_FINETUNE_ITERATIONS") or 0) or CPU_ITERATIONS[arch]
-    return paper.scaled(n, crop=CPU_CROP, seed=seed)
+    return paper.scaled(iterations or CPU_ITERATIONS[arch], crop=CPU_CROP, seed=seed)
 
 
-def start_model(arch: str, role: str, from_pretrained: bool = True, seed: int = 0):
+def start_model(arch: str, role: str, from_pretrained: bool = True, seed: int = 0, weights_dir=None):
+    """weights_dir: where the pretrained weights are (default: the shipped ones)."""
     if from_pretrained:
         # pretrained on random crops: the weights fit any working size (the nets are convolutional)
-        model, _ = checkpoints.load_pretrained(arch, role)
+        model, _ = checkpoints.load_pretrained(arch, role, weights_dir=weights_dir)
         return model
     return checkpoints.new_model(arch, seed)
 
 
 def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, recipe: Recipe | None = None,
              from_pretrained: bool = True, val_count: int | None = None, eval_every: int = 50,
-             on_progress=None, cancel_event=None):
+             on_progress=None, cancel_event=None, weights_dir=None):
     """(model, TrainResult) fitted to one setup on its first `count` training pairs."""
     if count is None:
         count = COMPENSATION_PAIRS if role == "compensation" else len(cs.prj_train)
     train = pairs_from_capture_sets([cs], role, count=count)
     val = pairs_from_capture_sets([cs], role, split="test", count=val_count) if (val_count and cs.has_test) \
         else None
-    model = start_model(arch, role, from_pretrained)
+    model = start_model(arch, role, from_pretrained, weights_dir=weights_dir)
     recipe = recipe or cpu_recipe(arch, role)
     if recipe.crop is not None and recipe.crop >= min(train.x.shape[-2:]):
         recipe = replace(recipe, crop=None)  # small working sizes train on whole images

@@ -133,17 +133,32 @@ def test_object_outside_the_projector_is_refused_with_the_coverage(small_setup, 
 
 
 @pytest.mark.blender
+def test_capture_settings_are_the_scenes_with_the_callers_overrides(small_setup, tmp_path):
+    from lapig.lapig_addon.blender import scene_state
+
+    scene = small_setup[0]
+    scene.lapig.ambient, scene.lapig.gray_level, scene.lapig.train_count = 0.12, 0.4, 20
+    settings = scene_state.capture_settings(scene, out_dir=str(tmp_path), train_count=2, seed=None)
+    assert (settings.out_dir, settings.train_count, settings.test_count) == (str(tmp_path), 2, 8)
+    assert settings.ambient == pytest.approx(0.12) and settings.gray_level == pytest.approx(0.4)
+    assert settings.setup_name == "LAPIG_demo_panel" and settings.pattern_folder is None
+
+
+@pytest.mark.blender
 def test_capture_operator_reports_missing_rig(lapig_registered):
     from lapig.lapig_addon.blender import demo_scene
 
     demo_scene.new_empty_scene()
-    with pytest.raises(RuntimeError, match="No LAPIG projector"):
+    with pytest.raises(RuntimeError, match="Add the projector and camera first"):
         bpy.ops.lapig.capture()
 
 
 @pytest.mark.blender
 def test_capture_operator_on_unsaved_file_uses_a_temporary_folder(small_setup):
-    from lapig.lapig_addon.blender import storage
+    import shutil
+
+    from lapig.lapig_addon.blender import scene_state, storage
+    from lapig.lapig_addon.services.panel_state import capture_status
 
     scene = small_setup[0]
     s = scene.lapig
@@ -153,16 +168,13 @@ def test_capture_operator_on_unsaved_file_uses_a_temporary_folder(small_setup):
     try:
         assert bpy.ops.lapig.capture() == {"FINISHED"}
         assert s.last_capture_dir.startswith(folder)
+        assert capture_status(scene_state.read(scene)).state == "DONE"
+        small_setup[3].location.x += 0.1  # the object moved: the capture is stale
+        bpy.context.view_layer.update()  # as any redraw does in the UI
+        assert capture_status(scene_state.read(scene)).state == "STALE"
     finally:
-        import shutil
-
         shutil.rmtree(folder, ignore_errors=True)
-    from lapig.operators.capture_ops import capture_state
-
-    assert capture_state(scene)[0] == "DONE"
-    small_setup[3].location.x += 0.1  # the object moved: the capture is stale
-    bpy.context.view_layer.update()  # as any redraw does in the UI
-    assert capture_state(scene)[0] == "STALE"
+    assert capture_status(scene_state.read(scene)).state == "MISSING"  # its folder is gone
 
 
 @pytest.mark.blender

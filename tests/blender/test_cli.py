@@ -1,3 +1,4 @@
+import json
 import os
 import subprocess
 import sys
@@ -33,20 +34,24 @@ def test_headless_capture_of_a_saved_blend(lapig_registered, small_setup, tmp_pa
     import bpy
 
     blend = str(tmp_path / "rig.blend")
-    bpy.context.scene.lapig.target.name = "Wall ünïcode"
+    s = bpy.context.scene.lapig
+    s.target.name = "Wall ünïcode"
+    s.ambient, s.gray_level = 0.06, 0.45  # the scene's room and references, which the command keeps
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     proc = _cli("capture", "--blend", blend, "--out", str(tmp_path / "data"), "--train", "2", "--test", "1",
                 "--size", "32")
     assert proc.returncode == 0, proc.stderr[-2000:]
     # a non-ASCII object name becomes a safe folder name
-    assert (tmp_path / "data" / "setups" / "Wall_n_code" / "cam" / "warp" / "train" / "img_0002.png").exists()
+    setup = tmp_path / "data" / "setups" / "Wall_n_code"
+    assert (setup / "cam" / "warp" / "train" / "img_0002.png").exists()
     assert proc.stdout.strip().splitlines()[-1].startswith("{")
+    meta = json.loads((setup / "setup.json").read_text())
+    assert meta["ambient"] == pytest.approx(0.06) and meta["gray_level"] == pytest.approx(0.45)
+    assert meta["counts"]["train"] == 2 and meta["working_size"] == 32
 
 
 @pytest.mark.blender
 def test_eval_writes_sheet_and_metrics(tmp_path):
-    import json
-
     import numpy as np
 
     from lapig.lapig_core.common.imageio import write_png
@@ -54,10 +59,8 @@ def test_eval_writes_sheet_and_metrics(tmp_path):
 
     surface = tmp_path / "wood surface.png"
     write_png(surface, make_surface("wood", size=128, seed=3))
-    env = dict(os.environ, LAPIG_FINETUNE_ITERATIONS="3")
-    proc = subprocess.run([sys.executable, "-m", "lapig_addon", "eval", "--surface", str(surface), "--prompt",
-                           "Make it a stained glass artwork", "--out", str(tmp_path / "ev"), "--train", "8",
-                           "--psa-iterations", "2"], cwd=ROOT, capture_output=True, text=True, timeout=600, env=env)
+    proc = _cli("eval", "--surface", str(surface), "--prompt", "Make it a stained glass artwork", "--out",
+                str(tmp_path / "ev"), "--train", "8", "--iterations", "3", "--psa-iterations", "2", timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     m = json.load(open(tmp_path / "ev" / "metrics.json"))
     for key in ("with_psa", "without_psa"):

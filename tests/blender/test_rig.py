@@ -7,7 +7,7 @@ import pytest
 @pytest.mark.parametrize("shape,min_cover", [("panel", 0.99), ("box", 0.6), ("statue", 0.45)])
 def test_add_rig_aims_at_wall_box_and_statue(lapig_registered, tmp_path, shape, min_cover):
     from lapig.lapig_addon.blender import demo_scene, geometry_probe as probe, rig
-    from lapig.lapig_addon.blender.properties import projector_model
+    from lapig.lapig_addon.blender.scene_state import projector_model
 
     demo_scene.new_empty_scene()
     target = demo_scene.add_surface_object(shape, "wood", folder=str(tmp_path), size=64)

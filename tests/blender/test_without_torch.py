@@ -23,10 +23,10 @@ def no_torch(name, *args, **kwargs):
 
 builtins.__import__ = no_torch
 _load_extension_package()
-from lapig.lapig_addon.blender import addon
+from lapig.lapig_addon.blender import addon, scene_state
 from lapig.lapig_addon.services import panel_state
 addon.register()
-print("blocker:", panel_state.models_blocker(bpy.context.scene))
+print("blocker:", panel_state.models_blocker(scene_state.read(bpy.context.scene)))
 addon.unregister()
 print("OK")
 '''

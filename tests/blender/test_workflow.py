@@ -11,12 +11,12 @@ pytestmark = pytest.mark.blender
 
 
 @pytest.fixture
-def captured(small_setup, tmp_path, monkeypatch):
+def captured(small_setup, tmp_path):
     """A saved .blend with a small capture (working size 64) of the demo panel."""
-    monkeypatch.setenv("LAPIG_FINETUNE_ITERATIONS", "4")  # quick fine-tune: plumbing, not quality
     scene = small_setup[0]
     s = scene.lapig
     s.train_count, s.test_count, s.working_size = 6, 0, 64
+    s.finetune_iterations = 4  # quick fine-tune: plumbing, not quality
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
     assert bpy.ops.lapig.capture() == {"FINISHED"}
     return bpy.context.scene
@@ -41,13 +41,13 @@ def _psa_fast(scene):
 
 def test_whole_path_through_the_operators(captured, tmp_path):
     from lapig.lapig_addon.services import panel_state
-    from lapig.lapig_addon.blender import preview
+    from lapig.lapig_addon.blender import preview, scene_state
 
     scene = captured
     s = scene.lapig
-    assert panel_state.models_state(scene)[0] == "MISSING"
+    assert panel_state.models_status(scene_state.read(scene)).state == "MISSING"
     assert bpy.ops.lapig.train_models() == {"FINISHED"}
-    assert panel_state.models_state(scene)[0] == "DONE"
+    assert panel_state.models_status(scene_state.read(scene)).state == "DONE"
     _psa_fast(scene)
     assert bpy.ops.lapig.generate() == {"FINISHED"}
     folder = s.result_dir
@@ -101,16 +101,21 @@ def test_whole_path_through_the_operators(captured, tmp_path):
     bpy.ops.wm.save_mainfile()
     bpy.ops.wm.open_mainfile(filepath=bpy.data.filepath)
     s = bpy.context.scene.lapig
-    assert s.result_dir == folder and panel_state.result_state(bpy.context.scene)[0] == "DONE"
+    assert s.result_dir == folder and panel_state.result_status(scene_state.read(bpy.context.scene)).state == "DONE"
+
+
+def _generate_blocker(scene):
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.services import panel_state
+
+    return panel_state.generate_blocker(scene_state.read(scene), scene_state.generate_request(scene))
 
 
 def test_bad_input_is_refused_with_a_reason(captured, monkeypatch, tmp_path):
-    from lapig.lapig_addon.services import panel_state
-
     scene = captured
     s = scene.lapig
     s.prompt = "   "
-    assert panel_state.generate_blocker(scene) == "Type a prompt"
+    assert _generate_blocker(scene) == "Type a prompt"
     with pytest.raises(RuntimeError, match="empty"):
         bpy.ops.lapig.generate()
     # missing weights: a clear message, nothing half-done
@@ -122,7 +127,7 @@ def test_bad_input_is_refused_with_a_reason(captured, monkeypatch, tmp_path):
     # the object moved: captures are stale and the next steps say so
     s.target.location.x += 0.3
     bpy.context.view_layer.update()
-    assert "capture again" in panel_state.generate_blocker(scene)
+    assert "capture again" in _generate_blocker(scene)
     with pytest.raises(RuntimeError, match="capture again"):
         bpy.ops.lapig.train_models()
     with pytest.raises(RuntimeError, match="Generate a projector image first"):
@@ -131,12 +136,11 @@ def test_bad_input_is_refused_with_a_reason(captured, monkeypatch, tmp_path):
 
 def test_no_projector(lapig_registered):
     from lapig.lapig_addon.blender import demo_scene
-    from lapig.lapig_addon.services import panel_state
 
     demo_scene.new_empty_scene()
     scene = bpy.context.scene
-    assert panel_state.generate_blocker(scene) == "Add the projector and camera first"
-    with pytest.raises(RuntimeError, match="No capture yet"):
+    assert _generate_blocker(scene) == "Add the projector and camera first"
+    with pytest.raises(RuntimeError, match="Add the projector and camera first"):
         bpy.ops.lapig.generate()
 
 
@@ -158,14 +162,14 @@ def test_moved_blend_finds_its_data_again(captured, tmp_path):
 
 
 def test_cancelled_generate_changes_nothing(captured):
-    from lapig.lapig_addon.blender import projector_nodes
+    from lapig.lapig_addon.blender import projector_nodes, scene_state
     from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
 
     scene = captured
     s = scene.lapig
     _psa_fast(scene)
     before = (s.result_dir, projector_nodes.projected_image(s.projector.data).name)
-    job = GenerateJob(scene)
+    job = GenerateJob(scene, scene_state.generate_request(scene), scene_state.finetune_iterations(scene))
     for _ in range(3):
         job.step()
     job.cancel()
@@ -173,19 +177,17 @@ def test_cancelled_generate_changes_nothing(captured):
     assert (s.result_dir, projector_nodes.projected_image(s.projector.data).name) == before
 
 
-def test_unavailable_backend_falls_back_with_a_message(captured, monkeypatch, tmp_path):
+def test_unavailable_backend_falls_back_with_a_message(captured, tmp_path):
+    from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.services import panel_state
     from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
 
-    monkeypatch.setenv("LAPIG_IP2P_MODEL", str(tmp_path / "no model here"))
     scene = captured
-    s = scene.lapig
-    s.backend = "instruct-pix2pix"
-    panel_state._AVAILABILITY.clear()
-    assert "no model here" in panel_state.backend_warning("instruct-pix2pix") or \
-        "diffusers" in panel_state.backend_warning("instruct-pix2pix")
-    s.use_psa = False
-    out = GenerateJob(scene).run_to_completion()
+    request = scene_state.generate_request(scene, backend="instruct-pix2pix", psa=False,
+                                           ip2p_model=str(tmp_path / "no model here"))
+    warning = panel_state.backend_warning(request)
+    assert "no model here" in warning or "diffusers" in warning
+    out = GenerateJob(scene, request, scene_state.finetune_iterations(scene)).run_to_completion()
     assert "used 'styletransfer' instead" in out["summary"]["lgst"]["fallback"]
 
 

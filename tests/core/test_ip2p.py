@@ -13,7 +13,7 @@ import warnings
 import pytest
 import torch
 
-from lapig_core.lgst import BACKENDS, LGSTUnavailable, available_backends, get_backend
+from lapig_core.lgst import BACKENDS, LGSTUnavailable, get_backend
 from lapig_core.lgst import ip2p_backend as ip2p
 
 PROMPT = "Make it a Claymation"
@@ -100,13 +100,11 @@ def test_registered_and_import_stays_light():
     assert out.stdout.strip() == "False", "importing lapig_core.lgst must not import diffusers/transformers"
 
 
-def test_missing_folder_unavailable_with_clear_message(tmp_path, monkeypatch):
+def test_missing_folder_unavailable_with_clear_message(tmp_path):
     missing = tmp_path / "no_weights_here"
-    monkeypatch.setenv(ip2p.MODEL_ENV, str(missing))
-    ok, why = ip2p.InstructPix2PixBackend.availability()
-    assert ok is False and available_backends()["instruct-pix2pix"] == (ok, why)
-    assert "styletransfer" in why
-    backend = get_backend("instruct-pix2pix")  # the env variable picks the model
+    ok, why = ip2p.InstructPix2PixBackend.availability(model=str(missing))
+    assert ok is False and "styletransfer" in why
+    backend = get_backend("instruct-pix2pix", model=str(missing))
     assert backend.model == str(missing)
     with pytest.raises(LGSTUnavailable) as err:
         backend.prepare(_surface(), PROMPT)
@@ -143,9 +141,8 @@ def test_uncached_hub_id_fails_offline_without_download(monkeypatch):
 
 
 # -- the tiny pipeline, loaded through the backend ----------------------------------------------
-def test_available_and_describe(tiny_model, monkeypatch):
-    monkeypatch.setenv(ip2p.MODEL_ENV, tiny_model)
-    ok, why = ip2p.InstructPix2PixBackend.availability()
+def test_available_and_describe(tiny_model):
+    ok, why = ip2p.InstructPix2PixBackend.availability(model=tiny_model)
     assert ok and tiny_model in why
     backend = _backend(tiny_model)
     backend.prepare(_surface(), PROMPT, seed=3)

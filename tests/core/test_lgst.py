@@ -277,17 +277,18 @@ def test_backend_from_prompt_end_to_end():
 
 def test_embedding_in_a_helper_process_matches_in_process():
     pytest.importorskip("sentence_transformers")
+    from lapig_core.common.embedding_mode import set_embedding_mode
     from lapig_core.lgst import prompt_mapping as pm
 
     texts = ["Make it a stained glass artwork", "charcoal ✏️ sketch"]
     local = pm.embed(texts)
-    pm.set_embedding_mode("subprocess")
+    set_embedding_mode("subprocess")
     try:
         remote = pm.embed(texts)
         assert pm.embed(texts[:1]).shape == (1, local.shape[1])  # the process is reused
     finally:
-        pm.set_embedding_mode(None)
+        set_embedding_mode("inprocess")
         pm.shutdown_embedding_process()
     assert torch.allclose(local, remote, atol=1e-4)
     with pytest.raises(ValueError, match="embedding mode"):
-        pm.set_embedding_mode("cloud")
+        set_embedding_mode("cloud")

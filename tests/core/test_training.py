@@ -139,30 +139,27 @@ def test_shipped_pretrained_weights_load_and_are_small():
         assert checkpoints.file_size_mb(path) < 10
 
 
-def test_pretrain_and_finetune_plumbing(tmp_path, capture_set, monkeypatch):
+def test_pretrain_and_finetune_plumbing(tmp_path, capture_set):
     sets = [capture_set, capture_set]
     out = tmp_path / "weights"
     summary = pretrain.pretrain_one(sets, "PCNet", "simulation", 4, out, crop=16, warmup=0, val_count=2)
     assert summary["pairs"] == 16 and (out / "pcnet_pretrained.pt").exists()
     pretrain.pretrain_one(sets, "CompenNeSt", "compensation", 4, out, crop=16, warmup=2, val_count=2)
-    monkeypatch.setattr(checkpoints, "WEIGHTS_DIR", out)
     model, result = finetune.finetune(capture_set, "CompenNeSt", "compensation",
                                       recipe=finetune.cpu_recipe("CompenNeSt", "compensation", 4).__class__(
-                                          4, batch_size=4, crop=16), val_count=2, eval_every=2)
+                                          4, batch_size=4, crop=16), val_count=2, eval_every=2, weights_dir=out)
     assert result.iterations == 4 and "val_psnr" in result.history[-1]
     path = finetune.save_setup_model(tmp_path / "setup", model, "compensation", capture_set)
     finetune.load_setup_model(tmp_path / "setup", "CompenNeSt", "compensation",
                               fingerprint=capture_set.meta.get("fingerprint"))
     with pytest.raises(checkpoints.CheckpointError, match="pretrained CompenNeSt"):
-        monkeypatch.setattr(checkpoints, "WEIGHTS_DIR", tmp_path / "nowhere")
-        finetune.start_model("CompenNeSt", "compensation")
+        finetune.start_model("CompenNeSt", "compensation", weights_dir=tmp_path / "nowhere")
     assert path.exists()
 
 
-def test_finetune_at_a_working_size_below_the_crop(capture_set, tmp_path, monkeypatch):
+def test_finetune_at_a_working_size_below_the_crop(capture_set, tmp_path):
     out = tmp_path / "weights"
     pretrain.pretrain_one([capture_set], "PCNet", "simulation", 2, out, crop=16, warmup=0, val_count=1)
-    monkeypatch.setattr(checkpoints, "WEIGHTS_DIR", out)
-    model, result = finetune.finetune(capture_set, "PCNet", "simulation",
+    model, result = finetune.finetune(capture_set, "PCNet", "simulation", weights_dir=out,
                                       recipe=finetune.cpu_recipe("PCNet", "simulation", 2))  # crop 64 > 32 px
     assert result.iterations == 2

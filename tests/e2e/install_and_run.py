@@ -31,14 +31,13 @@ s = bpy.context.scene.lapig
 s.projector.lapig_projector.resolution_x, s.projector.lapig_projector.resolution_y = 128, 96
 s.camera.lapig_camera.resolution_x, s.camera.lapig_camera.resolution_y = 128, 96
 s.train_count, s.test_count, s.working_size = 6, 1, 32
+s.finetune_iterations = 3  # plumbing, not quality
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(work, "e2e.blend"))
 assert bpy.ops.lapig.capture() == {"FINISHED"}
 assert s.last_capture_dir.startswith(os.path.join(work, "e2e_lapig")), s.last_capture_dir
 assert os.path.isfile(os.path.join(s.last_capture_dir, "cam", "warp", "train", "img_0002.png"))
 
 # the rest of the pipeline, with the weights shipped inside the zip
-os.environ["LAPIG_FINETUNE_ITERATIONS"] = "3"  # plumbing, not quality
-os.environ.pop("LAPIG_WEIGHTS_DIR", None)
 assert bpy.ops.lapig.train_models() == {"FINISHED"}
 s.prompt = "Turn into an oil pastel drawing"
 assert bpy.ops.lapig.generate() == {"FINISHED"}

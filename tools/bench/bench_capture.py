@@ -12,8 +12,8 @@ import time
 
 import bpy
 
+from ...lapig_addon.blender import scene_state
 from ...lapig_addon.cli import headless
-from ...lapig_addon.services.capture_job import CaptureSettings
 
 
 def run(args) -> dict:
@@ -28,13 +28,13 @@ def run(args) -> dict:
     scene, projector, camera, target = headless.build_demo_setup(args.shape, "sakura", folder=out,
                                                                  camera_resolution=(cam_w, cam_h))
     count = max(2, args.patterns)
-    settings = CaptureSettings(out_dir=os.path.join(out, "dataset"), setup_name="bench",
-                               train_count=count - count // 5, test_count=count // 5)
+    settings = scene_state.capture_settings(scene, out_dir=os.path.join(out, "dataset"), setup_name="bench",
+                                            train_count=count - count // 5, test_count=count // 5)
     progress = None if args.json else headless.print_progress
     result = headless.run_capture(scene, settings, progress=progress)
     meta = result["meta"]
     timings = meta["timings"]
-    cam = camera.lapig_camera
+    model, cam = scene_state.projector_model(projector), scene_state.camera_settings(camera)
     return {
         "captures_per_second": round(timings["pattern_count"] / timings["patterns_s"], 3),
         "pattern_captures": timings["pattern_count"],
@@ -47,8 +47,8 @@ def run(args) -> dict:
         "registration_build_s": round(timings["registration_build_s"], 3),
         "capture_total_s": timings["total_s"],
         "bench_total_s": round(time.perf_counter() - t0, 2),
-        "projector_resolution": f"{projector.lapig_projector.resolution_x}x{projector.lapig_projector.resolution_y}",
-        "camera_resolution": f"{cam.resolution_x}x{cam.resolution_y}",
+        "projector_resolution": f"{model.width}x{model.height}",
+        "camera_resolution": f"{cam.width}x{cam.height}",
         "samples": settings.samples,
         "shape": args.shape,
         "cpu_threads": os.cpu_count(),

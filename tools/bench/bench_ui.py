@@ -69,10 +69,11 @@ def run(args) -> dict:
     data = os.path.abspath(args.data)
     headless.render_synthetic_setups([spec], data, train=125, test=30, seed=500, skip_existing=True)
     cs = syn.load_setup(data, spec.name)
+    from ...lapig_core.common.embedding_mode import set_embedding_mode
     from ...lapig_core.lgst import prompt_mapping
 
     # as in Blender's UI (addon.register): the prompt model runs in a helper process
-    prompt_mapping.set_embedding_mode("subprocess")
+    set_embedding_mode("subprocess")
     runs = []
     # twice: the first job of a session also loads the text and style models, the second finds them loaded
     for prompt in ("Make it a stained glass artwork", "Render it in the style of a Van Gogh oil painting"):
@@ -83,7 +84,7 @@ def run(args) -> dict:
         figures["max_main_thread_stall_ms"] = max(figures["max_wakeup_lateness_ms"], figures["max_step_ms"])
         runs.append((figures, job.result))
     prompt_mapping.shutdown_embedding_process()
-    prompt_mapping.set_embedding_mode(None)
+    set_embedding_mode("inprocess")
     (cold, result), (warm, _) = runs
     return {"max_main_thread_stall_ms": round(cold["max_main_thread_stall_ms"], 2),
             "max_main_thread_stall_ms_warm": round(warm["max_main_thread_stall_ms"], 2),

@@ -1,0 +1,149 @@
+"""The one reader and writer of scene.lapig and of the projector and camera settings.
+
+It turns them into the plain values of services/state.py, which everything else decides on, and
+records what the jobs produced. Each builder takes explicit overrides (None: the scene's value), so
+the command line passes its arguments without writing them into the scene.
+"""
+from __future__ import annotations
+
+import bpy
+
+from ...lapig_core.capture.settings import CaptureSettings
+from ...lapig_core.optics.camera_model import CameraResponse
+from ...lapig_core.optics.projector_model import ProjectorModel
+from ..services.state import (CameraSettings, ExportSettings, GenerateRequest, Rig, SceneState,
+                              overridden)
+from . import preferences, storage
+from .fingerprint import rig_fingerprint
+
+
+def projector_model(obj) -> ProjectorModel:
+    p = obj.lapig_projector
+    return ProjectorModel(width=p.resolution_x, height=p.resolution_y, throw_ratio=p.throw_ratio,
+                          shift_x=p.shift_x, shift_y=p.shift_y, gamma=p.gamma, black_level=p.black_level)
+
+
+def camera_settings(obj) -> CameraSettings:
+    c = obj.lapig_camera
+    return CameraSettings(width=c.resolution_x, height=c.resolution_y, auto_exposure=c.auto_exposure,
+                          exposure=c.exposure, response_gamma=c.response_gamma, noise=c.noise)
+
+
+def camera_response(obj, exposure_stops: float | None = None) -> CameraResponse:
+    return camera_settings(obj).response(exposure_stops)
+
+
+def rig_objects(scene) -> tuple:
+    """(projector, camera, surface object) as the scene names them; None where one is not set."""
+    s = scene.lapig
+    return s.projector, s.camera, s.target
+
+
+def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
+    """The rig of the given objects (None: the scene's own), checked for what each must be."""
+    own = rig_objects(scene)
+    projector, camera, target = projector or own[0], camera or own[1], target or own[2]
+    if projector is not None and not (projector.type == "LIGHT" and projector.lapig_projector.is_projector):
+        projector = None
+    if camera is not None and camera.type != "CAMERA":
+        camera = None
+    if target is not None and target.type != "MESH":
+        target = None
+    objects = [ob for ob in (projector, camera, target) if ob is not None]
+    return Rig(projector=projector.name if projector else None, camera=camera.name if camera else None,
+               target=target.name if target else None, scene=scene.name,
+               outside_scene=tuple(ob.name for ob in objects if ob.name not in scene.objects),
+               fingerprint=rig_fingerprint(projector, camera, target) if len(objects) == 3 else "")
+
+
+def read(scene) -> SceneState:
+    s = scene.lapig
+    return SceneState(rig=read_rig(scene), capture_dir=storage.resolve_capture_dir(s.last_capture_dir),
+                      capture_fingerprint=s.last_capture_fingerprint, models_fingerprint=s.models_fingerprint,
+                      models_status=s.models_status, result_dir=storage.resolve_result_dir(s.result_dir),
+                      result_fingerprint=s.result_fingerprint, preview_mode=s.preview_mode)
+
+
+def capture_settings(scene, **overrides) -> CaptureSettings:
+    """The one builder of CaptureSettings: the scene's Capture settings, then the caller's overrides
+    (any CaptureSettings field)."""
+    s = scene.lapig
+    name = storage.setup_name_for(s.target.name if s.target else "")
+    settings = CaptureSettings(
+        out_dir=storage.capture_root(name), setup_name=name, train_count=s.train_count, test_count=s.test_count,
+        working_size=s.working_size, gray_level=s.gray_level, samples=s.samples, ambient=s.ambient, seed=s.seed,
+        pattern_folder=bpy.path.abspath(s.pattern_folder) if s.pattern_source == "FOLDER" else None,
+        chunk=8 if bpy.app.background else 2)  # small chunks keep the UI responsive
+    return overridden(settings, **overrides)
+
+
+def generate_request(scene, **overrides) -> GenerateRequest:
+    s = scene.lapig
+    request = GenerateRequest(prompt=s.prompt, backend=s.backend, mix=s.style_override, psa=s.use_psa,
+                              strength=s.psa_strength, seed=s.style_seed, ip2p_model=preferences.ip2p_model())
+    return overridden(request, **overrides)
+
+
+def export_settings(scene, **overrides) -> ExportSettings:
+    s = scene.lapig
+    settings = ExportSettings(path=bpy.path.abspath(s.export_path), bit_depth=int(s.export_bit_depth),
+                              crossfade_frames=s.crossfade_frames)
+    return overridden(settings, **overrides)
+
+
+def finetune_iterations(scene) -> int | None:
+    """Fine-tuning iterations per network; None for the standard recipe."""
+    return scene.lapig.finetune_iterations or None
+
+
+def rig_metadata(scene) -> dict:
+    """The rig as an exported image's sidecar describes it."""
+    projector, camera, target = rig_objects(scene)
+    cam = camera_settings(camera) if camera else None
+    return {"projector": {**projector_model(projector).to_dict(), "brightness_w": projector.lapig_projector.brightness,
+                          "object": projector.name},
+            "camera": None if cam is None else {"resolution": [cam.width, cam.height],
+                                                "response_gamma": cam.response_gamma, "lens_mm": camera.data.lens},
+            "surface_object": target.name if target else None}
+
+
+def record_rig(scene, projector, camera, target):
+    s = scene.lapig
+    s.projector, s.camera, s.target = projector, camera, target
+
+
+def record_capture(scene, folder, fingerprint: str):
+    """fingerprint: the rig's at the capture; '' for one captured elsewhere (tied to no rig here)."""
+    s = scene.lapig
+    s.last_capture_dir, s.last_capture_fingerprint = str(folder), fingerprint
+
+
+def record_models(scene, fingerprint: str, status: str | None = None):
+    """status: how they were trained; None keeps the scene's."""
+    s = scene.lapig
+    s.models_fingerprint = fingerprint
+    if status is not None:
+        s.models_status = status
+
+
+def record_result(scene, folder, summary_line: str):
+    s = scene.lapig
+    s.result_dir, s.result_fingerprint, s.result_summary = str(folder), read_rig(scene).fingerprint, summary_line
+
+
+def record_preview_mode(scene, mode: str):
+    """What the object shows, already applied: set without re-running the property's update callback."""
+    s = scene.lapig
+    s["preview_mode"] = s.bl_rna.properties["preview_mode"].enum_items[mode].value
+
+
+def record_job_progress(scene, progress: float, message: str):
+    s = scene.lapig
+    s.job_progress, s.job_message = progress, message
+
+
+def write_stylize_settings(scene, request: GenerateRequest):
+    """Set the Stylize panel to a request (a scene built for it, such as the demo's, then shows it)."""
+    s = scene.lapig
+    s.prompt, s.backend, s.style_override = request.prompt, request.backend, request.mix
+    s.use_psa, s.psa_strength, s.style_seed = request.psa, request.strength, request.seed

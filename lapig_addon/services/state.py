@@ -1,0 +1,93 @@
+"""The add-on's settings and progress as plain values: what the panels and the jobs decide on.
+
+blender/scene_state.py reads them from scene.lapig and the projector and camera objects (and writes
+the jobs' results back); nothing here imports bpy, so the decisions are tested without Blender
+(tests/addon).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from ...lapig_core.optics.camera_model import CameraResponse
+
+IP2P_BACKEND = "instruct-pix2pix"  # lapig_core.lgst's name for it (not imported here: it needs torch)
+
+
+def overridden(settings, **overrides):
+    """`settings` with the caller's explicit values; None means 'not given', so the scene's value stays."""
+    return replace(settings, **{name: value for name, value in overrides.items() if value is not None})
+
+
+@dataclass(frozen=True)
+class CameraSettings:
+    """A capture camera's LAPIG settings (obj.lapig_camera)."""
+    width: int
+    height: int
+    auto_exposure: bool
+    exposure: float  # stops, when auto exposure is off
+    response_gamma: float
+    noise: float
+
+    def response(self, exposure_stops: float | None = None) -> CameraResponse:
+        """The camera's response at `exposure_stops` (default: its manual exposure)."""
+        stops = self.exposure if exposure_stops is None else exposure_stops
+        return CameraResponse(gamma=self.response_gamma, noise_std=self.noise, exposure_stops=stops)
+
+
+@dataclass(frozen=True)
+class Rig:
+    """The scene's projector, camera and surface object, by name: None where one is not set, or is not a
+    LAPIG projector, a camera or a mesh."""
+    projector: str | None = None
+    camera: str | None = None
+    target: str | None = None
+    scene: str = ""
+    outside_scene: tuple[str, ...] = ()  # rig objects that are not linked into the scene
+    fingerprint: str = ""  # of the whole rig as it is now (blender/fingerprint.py); '' while incomplete
+
+
+@dataclass(frozen=True)
+class SceneState:
+    """The rig and what the steps left in the scene, read at one moment."""
+    rig: Rig = Rig()
+    capture_dir: str = ""  # the last capture, found again beside a moved .blend; '' when it is gone
+    capture_fingerprint: str = ""  # the rig's fingerprint when it was captured; '' for an imported capture
+    models_fingerprint: str = ""  # the capture fingerprint the models were fine-tuned for
+    models_status: str = ""
+    result_dir: str = ""  # the last generated result, found again like the capture
+    result_fingerprint: str = ""  # the rig's fingerprint when the result was made
+    preview_mode: str = "ORIGINAL"
+
+
+@dataclass(frozen=True)
+class GenerateRequest:
+    """What Generate turns into a look: the Stylize panel's settings, or the command line's."""
+    prompt: str
+    backend: str
+    mix: str  # an explicit style mix instead of the prompt's; '' for the prompt's own
+    psa: bool
+    strength: float  # how far PSA pushes the projection loss down, in (0, 1)
+    seed: int
+    ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
+
+    def problem(self) -> str:
+        """Why Generate cannot run with this request ('' when it can)."""
+        if not self.prompt.strip() and not self.mix.strip():
+            return "Type a prompt"
+        if not 0.0 < self.strength < 1.0:
+            return f"The PSA strength must be between 0 and 1, got {self.strength}"
+        if self.seed < 0:
+            return f"The seed must not be negative, got {self.seed}"
+        return ""
+
+    def backend_options(self) -> dict:
+        """Options for the LGST backend (and its availability check): where its model is."""
+        return {"model": self.ip2p_model} if self.backend == IP2P_BACKEND and self.ip2p_model else {}
+
+
+@dataclass(frozen=True)
+class ExportSettings:
+    """How the projector image is exported: the Preview and Export panel's settings, or the command line's."""
+    path: str  # the PNG to write (a JSON sidecar goes beside it)
+    bit_depth: int  # 8 or 16
+    crossfade_frames: int

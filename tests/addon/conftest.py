@@ -1,0 +1,31 @@
+"""The add-on's logic without Blender: each test imports it afresh with bpy blocked.
+
+With sys.modules['bpy'] = None any import of bpy, direct or through another module, raises
+ImportError, so a passing test also proves that the modules it uses do not need bpy. The block
+lasts one test: the Cycles tests of the same session still find bpy and the modules they loaded.
+"""
+import importlib
+import sys
+
+import pytest
+
+ADDON = "lapig.lapig_addon"
+
+
+@pytest.fixture(autouse=True)
+def bpy_blocked(monkeypatch):
+    for name in [n for n in sys.modules if n == "bpy" or n.startswith(("bpy.", ADDON))]:
+        monkeypatch.delitem(sys.modules, name)  # restored after the test
+    monkeypatch.setitem(sys.modules, "bpy", None)
+    package = importlib.import_module("lapig")
+    monkeypatch.setattr(package, "lapig_addon", getattr(package, "lapig_addon", None), raising=False)
+
+
+@pytest.fixture
+def state():
+    return importlib.import_module(ADDON + ".services.state")
+
+
+@pytest.fixture
+def panel_state():
+    return importlib.import_module(ADDON + ".services.panel_state")

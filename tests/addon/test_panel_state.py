@@ -1,0 +1,101 @@
+"""What each step shows and what blocks it, from plain scene states."""
+import pytest
+
+
+@pytest.fixture
+def rig(state):
+    return state.Rig(projector="Projector", camera="Camera", target="Wall", scene="Scene", fingerprint="rig-1")
+
+
+@pytest.fixture
+def captured(state, rig):
+    """A scene captured with the rig as it is now."""
+    return state.SceneState(rig=rig, capture_dir="/data/Wall/setups/Wall", capture_fingerprint="rig-1")
+
+
+@pytest.fixture
+def with_torch(panel_state, monkeypatch):
+    monkeypatch.setattr(panel_state, "missing_required", lambda: [])
+
+
+def test_rig_blockers(state, panel_state, rig):
+    assert panel_state.rig_blocker(state.Rig()) == "Add the projector and camera first"
+    assert panel_state.rig_blocker(state.Rig(projector="Projector", target="Wall")) == \
+        "Add the projector and camera first"
+    assert "surface object" in panel_state.rig_blocker(state.Rig(projector="Projector", camera="Camera"))
+    outside = state.Rig(projector="Projector", camera="Camera", target="Wall", scene="Scene",
+                        outside_scene=("Wall",))
+    assert panel_state.rig_blocker(outside) == "'Wall' is not in the scene 'Scene'"
+    assert panel_state.rig_blocker(rig) == ""
+
+
+def test_capture_missing_done_and_stale_after_the_rig_moved(state, panel_state, rig, captured):
+    missing = state.SceneState(rig=rig)
+    assert panel_state.capture_status(missing) == panel_state.StepStatus("MISSING", "No capture yet")
+    assert panel_state.capture_blocker(missing) == "Capture the surface first"
+    assert panel_state.capture_status(captured) == panel_state.StepStatus("DONE", captured.capture_dir)
+    assert panel_state.capture_blocker(captured) == ""
+    moved = state.SceneState(rig=state.Rig(projector="Projector", camera="Camera", target="Wall",
+                                           fingerprint="rig-2"),
+                             capture_dir=captured.capture_dir, capture_fingerprint="rig-1")
+    assert panel_state.capture_status(moved).state == "STALE"
+    assert panel_state.capture_blocker(moved) == "The rig or the object moved: capture again"
+
+
+def test_imported_capture_is_never_stale_but_still_needs_a_rig(state, panel_state, rig):
+    imported = state.SceneState(rig=rig, capture_dir="/elsewhere/setups/real", capture_fingerprint="")
+    assert panel_state.capture_status(imported).state == "DONE"
+    no_rig = state.SceneState(capture_dir="/elsewhere/setups/real")
+    assert panel_state.capture_status(no_rig).state == "DONE"
+    assert panel_state.capture_blocker(no_rig) == "Add the projector and camera first"
+
+
+def test_models_missing_stale_done(state, panel_state, captured):
+    assert panel_state.models_status(captured).state == "MISSING"
+    older = state.SceneState(rig=captured.rig, capture_dir=captured.capture_dir, capture_fingerprint="rig-1",
+                             models_fingerprint="rig-0")
+    assert panel_state.models_status(older) == panel_state.StepStatus("STALE", "Trained for an older capture")
+    trained = state.SceneState(rig=captured.rig, capture_dir=captured.capture_dir, capture_fingerprint="rig-1",
+                               models_fingerprint="rig-1", models_status="Fine-tuned in 41 s")
+    assert panel_state.models_status(trained) == panel_state.StepStatus("DONE", "Fine-tuned in 41 s")
+
+
+def test_models_wait_for_torch_then_for_the_capture(state, panel_state, captured, rig, monkeypatch):
+    monkeypatch.setattr(panel_state, "missing_required", lambda: [type("Dep", (), {"package": "torch"})()])
+    assert panel_state.models_blocker(captured) == "Install torch (see the add-on preferences)"
+    monkeypatch.setattr(panel_state, "missing_required", lambda: [])
+    assert panel_state.models_blocker(state.SceneState(rig=rig)) == "Capture the surface first"
+    assert panel_state.models_blocker(captured) == ""
+
+
+def _request(state, **kw):
+    return state.GenerateRequest(**{"prompt": "Make it a stained glass artwork", "backend": "styletransfer",
+                                    "mix": "", "psa": True, "strength": 0.5, "seed": 0, **kw})
+
+
+def test_generate_waits_for_the_capture_then_for_a_prompt(state, panel_state, captured, with_torch):
+    assert panel_state.generate_blocker(state.SceneState(), _request(state)) == "Add the projector and camera first"
+    assert panel_state.generate_blocker(captured, _request(state, prompt="  ")) == "Type a prompt"
+    assert panel_state.generate_blocker(captured, _request(state, prompt="", mix="charcoal_wash:1")) == ""
+    assert panel_state.generate_blocker(captured, _request(state)) == ""
+
+
+def test_result_missing_done_and_stale_after_the_rig_moved(state, panel_state, rig):
+    assert panel_state.result_status(state.SceneState(rig=rig)).state == "MISSING"
+    assert panel_state.result_blocker(state.SceneState(rig=rig)) == "Generate a projector image first"
+    done = state.SceneState(rig=rig, result_dir="/data/results/20260101_120000_stained_glass",
+                            result_fingerprint="rig-1")
+    assert panel_state.result_status(done) == panel_state.StepStatus("DONE", "20260101_120000_stained_glass")
+    assert panel_state.result_blocker(done) == ""
+    moved = state.SceneState(rig=state.Rig(projector="Projector", camera="Camera", target="Wall",
+                                           fingerprint="rig-2"),
+                             result_dir=done.result_dir, result_fingerprint="rig-1")
+    assert panel_state.result_status(moved) == panel_state.StepStatus("STALE", "The rig moved since this result")
+
+
+def test_preview_modes_need_a_rig_and_the_result_views_a_result(state, panel_state, rig):
+    no_result = state.SceneState(rig=rig)
+    assert panel_state.preview_blocker(no_result, "ORIGINAL") == ""
+    assert panel_state.preview_blocker(no_result, "PROJECTION") == ""
+    assert panel_state.preview_blocker(no_result, "TARGET") == "Generate a projector image first"
+    assert panel_state.preview_blocker(state.SceneState(), "ORIGINAL") == "Add the projector and camera first"

@@ -1,0 +1,71 @@
+"""Scene settings plus explicit overrides (the command line's), and the generate request's checks."""
+import pytest
+
+
+@pytest.fixture
+def scene_capture(state):
+    """The Capture panel of a scene whose ambient light and gray level are not the defaults."""
+    from lapig_core.capture.settings import CaptureSettings
+
+    return CaptureSettings(out_dir="/data/Wall", setup_name="Wall", train_count=32, test_count=8,
+                           working_size=256, gray_level=0.4, samples=1, ambient=0.12, seed=0,
+                           pattern_folder=None, chunk=8)
+
+
+def test_overrides_replace_what_is_given_and_keep_the_scene_for_the_rest(state, scene_capture):
+    # as `capture --out DIR --train 2 --size 32`: the other arguments are None
+    options = state.overridden(scene_capture, out_dir="/out", setup_name=None, train_count=2, test_count=None,
+                               working_size=32, samples=None, pattern_folder=None, seed=None)
+    assert (options.out_dir, options.setup_name, options.train_count, options.working_size) == ("/out", "Wall", 2, 32)
+    assert options.ambient == 0.12 and options.gray_level == 0.4  # the scene's room and references
+    assert options.test_count == 8 and options.pattern_folder is None
+    assert scene_capture.train_count == 32  # the scene's own values are untouched
+    with pytest.raises(TypeError):
+        state.overridden(scene_capture, gray=0.5)  # a misspelt setting is an error, not ignored
+
+
+def _request(state, **kw):
+    return state.GenerateRequest(**{"prompt": "Make it a stained glass artwork", "backend": "styletransfer",
+                                    "mix": "", "psa": True, "strength": 0.5, "seed": 0, **kw})
+
+
+def test_generate_request_from_the_scene_and_the_command_line(state):
+    scene = _request(state, backend="instruct-pix2pix", psa=False, seed=3)
+    cli = state.overridden(scene, prompt="Render it as charcoal", backend=None, mix=None, psa=None, strength=0.3,
+                           seed=None, ip2p_model=None)
+    assert cli == _request(state, prompt="Render it as charcoal", backend="instruct-pix2pix", psa=False,
+                           strength=0.3, seed=3)
+
+
+@pytest.mark.parametrize("change, problem", [
+    ({}, ""),
+    ({"prompt": "   "}, "Type a prompt"),
+    ({"prompt": "", "mix": "charcoal_wash:1"}, ""),
+    ({"strength": 0.0}, "PSA strength must be between 0 and 1"),
+    ({"strength": 1.0}, "PSA strength must be between 0 and 1"),
+    ({"seed": -1}, "seed must not be negative"),
+])
+def test_generate_request_problems(state, change, problem):
+    found = _request(state, **change).problem()
+    assert (problem in found) if problem else found == ""
+
+
+def test_only_instruct_pix2pix_gets_the_weights_folder(state):
+    assert _request(state, backend="instruct-pix2pix", ip2p_model="/models/ip2p").backend_options() == \
+        {"model": "/models/ip2p"}
+    assert _request(state, backend="instruct-pix2pix").backend_options() == {}
+    assert _request(state, ip2p_model="/models/ip2p").backend_options() == {}  # styletransfer takes no model
+
+
+def test_export_settings_overrides(state):
+    scene = state.ExportSettings(path="/blend/projector_image.png", bit_depth=8, crossfade_frames=60)
+    assert state.overridden(scene, path="/out/p.png", bit_depth=16, crossfade_frames=None) == \
+        state.ExportSettings(path="/out/p.png", bit_depth=16, crossfade_frames=60)
+
+
+def test_camera_response_uses_the_manual_exposure_unless_given(state):
+    camera = state.CameraSettings(width=480, height=360, auto_exposure=False, exposure=-1.5, response_gamma=2.0,
+                                  noise=0.01)
+    assert camera.response().exposure_stops == -1.5
+    response = camera.response(0.75)
+    assert (response.exposure_stops, response.gamma, response.noise_std) == (0.75, 2.0, 0.01)

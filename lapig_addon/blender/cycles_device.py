@@ -11,21 +11,25 @@ import numpy as np
 
 from ...lapig_core.capture.device import CaptureDevice, DeviceInfo
 from ...lapig_core.capture.sequence import GeometryChecks
-from ...lapig_core.optics.camera_model import auto_exposure_stops
+from ...lapig_core.optics.camera_model import CameraResponse, auto_exposure_stops
 from .capture_studio import CaptureStudio
 from .geometry_probe import RigGeometry
 from .scene_state import camera_settings, projector_model
 
 
 class CyclesCaptureDevice(CaptureDevice):
-    def __init__(self, scene, projector, camera, target, samples=1, ambient=0.03, seed=0):
+    def __init__(self, scene, projector, camera, target, samples=1, ambient=0.03, seed=0,
+                 response: CameraResponse | None = None, camera_size: tuple[int, int] | None = None):
+        """response, camera_size: a setup's recorded camera (Render Real Capture judges a projection
+        as that setup's captures were taken); None: the camera's own settings."""
         self.scene, self.projector, self.camera, self.target = scene, projector, camera, target
         # an evaluation brings matrix_world up to date after a script moved the rig
         bpy.context.evaluated_depsgraph_get()
         self.model = projector_model(projector)
         self.camera_settings = camera_settings(camera)
-        self.width, self.height = self.camera_settings.width, self.camera_settings.height
-        self.response = self.camera_settings.response()  # its fixed exposure, until lock_exposure
+        self.width, self.height = camera_size or (self.camera_settings.width, self.camera_settings.height)
+        # the camera's exposure stays fixed, until lock_exposure
+        self.response = response or self.camera_settings.response()
         self.rng = np.random.default_rng(seed)  # the camera's sensor noise
         self.samples, self.ambient = samples, ambient
         distance = float(np.linalg.norm(np.array(projector.matrix_world.translation)
@@ -74,6 +78,8 @@ class CyclesCaptureDevice(CaptureDevice):
         return self.capture([self._shown])[0]
 
     def capture(self, frames):
-        """One Cycles animation render for the whole batch."""
-        linear = self.studio.render([self.model.emitted_8bit(frame) for frame in frames])
+        """One Cycles animation render for the whole batch (uint8 frames, or uint16 ones where the
+        exported file is 16-bit)."""
+        linear = self.studio.render([self.model.emitted_8bit(f) if f.dtype == np.uint8 else self.model.emitted(f)
+                                     for f in frames])
         return [self.response.capture(x, self.rng) for x in linear]

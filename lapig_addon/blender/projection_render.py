@@ -13,8 +13,9 @@ import numpy as np
 from ...lapig_core.capture import dataset as ds
 from ...lapig_core.optics.camera_model import CameraResponse
 from ...lapig_core.capture.registration import Registration
+from ...lapig_core.optics.projector_model import quantised_frame
 from ..services.capture_job import CaptureError, check_rig
-from .capture_studio import CaptureStudio
+from .cycles_device import CyclesCaptureDevice
 from .fingerprint import rig_fingerprint
 from .scene_state import projector_model
 
@@ -59,20 +60,17 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
     if meta.get("fingerprint") != rig_fingerprint(projector, camera, target):
         raise CaptureError("the projector, camera or object changed since this setup was captured: capture again")
     registration = Registration.load(os.path.join(setup_dir, "registration.npz"))
-    response = CameraResponse(**meta["camera"]["response"])
-    cam_w, cam_h = meta["camera"]["resolution"]
     model = projector_model(projector)
-    centre = np.array(target.matrix_world.translation)
-    distance = float(np.linalg.norm(np.array(projector.matrix_world.translation) - centre))
-    rng = np.random.default_rng(seed)
     registered, raw = [], []
     images = np.asarray(images, np.float32)
-    with CaptureStudio(scene, projector, camera, cam_w, cam_h, samples=samples or meta.get("samples", 1),
-                       ambient=meta.get("ambient", 0.0), ambient_distance=distance) as studio:
+    with CyclesCaptureDevice(scene, projector, camera, target, samples=samples or meta.get("samples", 1),
+                             ambient=meta.get("ambient", 0.0), seed=seed,
+                             response=CameraResponse(**meta["camera"]["response"]),
+                             camera_size=tuple(meta["camera"]["resolution"])) as device:
         for start in range(0, len(images), chunk):
-            frames = [model.frame_light(im, bit_depth) for im in images[start:start + chunk]]
-            for linear in studio.render(frames):
-                cap = response.capture(linear, rng)
+            # the frames of the files Export writes at this bit depth
+            frames = [quantised_frame(im, model.width, model.height, bit_depth) for im in images[start:start + chunk]]
+            for cap in device.capture(frames):
                 raw.append(cap)
                 registered.append(registration.warp(cap))
             yield len(registered) / len(images)

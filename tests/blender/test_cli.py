@@ -52,7 +52,6 @@ def test_headless_capture_of_a_saved_blend(lapig_registered, small_setup, tmp_pa
 
 @pytest.mark.blender
 def test_eval_writes_sheet_and_metrics(tmp_path):
-    import numpy as np
 
     from lapig.lapig_core.common.imageio import write_png
     from lapig.lapig_core.common.surfaces import make_surface

@@ -2,7 +2,6 @@
 """Training loop, checkpoints and pretraining plumbing at 32 px (seconds, not minutes)."""
 import threading
 
-import numpy as np
 import pytest
 import torch
 

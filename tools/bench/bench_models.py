@@ -28,7 +28,6 @@ from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.photometric.targets import desired_targets, reachable_mask
 from ...lapig_core.photometric.training import predict
 from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
-from ...lapig_addon.cli import headless
 from .. import synthetic_setups as syn
 from ...lapig_addon.blender.projection_render import render_working_images
 
@@ -141,7 +140,7 @@ def run(args) -> dict:
     os.makedirs(out, exist_ok=True)
     data = os.path.abspath(args.data)
     specs = syn.BENCH_SETUPS[:args.setups]
-    headless.render_synthetic_setups(specs, data, train=125, test=30, seed=500, skip_existing=True)
+    syn.render_synthetic_setups(specs, data, train=125, test=30, seed=500, skip_existing=True)
     iterations = args.iterations or CPU_ITERATIONS["PCNet"]
     per_setup, sheet = {}, []
     if getattr(args, "timing_only", False):

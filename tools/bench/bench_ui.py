@@ -18,7 +18,6 @@ from ...lapig_core.photometric import checkpoints
 from ...lapig_core.lgst import get_backend
 from ...lapig_core.psa.adaptation import PSASettings, SurfaceModels, run_psa
 from ...lapig_core.photometric.training_data import SurfaceTensors
-from ...lapig_addon.cli import headless
 from .. import synthetic_setups as syn
 from ...lapig_addon.services.jobs import WorkerJob
 
@@ -67,7 +66,7 @@ def run(args) -> dict:
     t0 = time.perf_counter()
     spec = syn.BENCH_SETUPS[0]
     data = os.path.abspath(args.data)
-    headless.render_synthetic_setups([spec], data, train=125, test=30, seed=500, skip_existing=True)
+    syn.render_synthetic_setups([spec], data, train=125, test=30, seed=500, skip_existing=True)
     cs = syn.load_setup(data, spec.name)
     from ...lapig_core.common.embedding_mode import set_embedding_mode
     from ...lapig_core.lgst import prompt_mapping

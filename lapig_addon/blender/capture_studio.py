@@ -14,6 +14,7 @@ import tempfile
 import bpy
 import numpy as np
 
+from ...lapig_core.common.scratch import ScratchFolder
 from . import projector_nodes
 from .geometry_probe import renderable_objects
 
@@ -49,8 +50,8 @@ class CaptureStudio:
         self.projector, self.camera = projector, camera
         self.width, self.height, self.samples = width, height, samples
         self.ambient, self.ambient_distance = ambient, ambient_distance
-        self._own_dir = work_dir is None
         self.work_dir = work_dir  # a temporary folder of its own when None, made on __enter__
+        self._scratch = None
         self.scene = None
         self.ambient_linear = None
         self._image = None
@@ -70,8 +71,9 @@ class CaptureStudio:
         self.close()
 
     def _build(self):
-        if self._own_dir:
-            self.work_dir = tempfile.mkdtemp(prefix="lapig_render_")
+        if self.work_dir is None:  # locked while it renders; the next studio removes one a kill left
+            self._scratch = ScratchFolder(tempfile.gettempdir(), "lapig_render_")
+            self.work_dir = str(self._scratch.path)
         self._had_render_result = any(i.type == "RENDER_RESULT" for i in bpy.data.images)
         scene = bpy.data.scenes.new(STUDIO_NAME)
         self.scene = scene
@@ -165,9 +167,9 @@ class CaptureStudio:
         try:
             self._restore()
         finally:  # even when the user's objects are gone (a new file loaded mid-capture)
-            if self._own_dir and self.work_dir is not None:
-                shutil.rmtree(self.work_dir, ignore_errors=True)
-                self.work_dir = None
+            if self._scratch is not None:
+                self._scratch.remove()
+                self._scratch, self.work_dir = None, None
 
     def _restore(self):
         if self.projector is not None and self.projector.data and self.projector.data.node_tree:

@@ -1,4 +1,8 @@
 """Differences between the Blender versions the extension supports (4.2 to 5.0)."""
+import bpy
+
+# options of a path property that stores '//' paths relative to the .blend (a warning from 4.5 on without)
+RELATIVE_PATH_OPTIONS = {"PATH_SUPPORTS_BLEND_RELATIVE"} if bpy.app.version >= (4, 5, 0) else set()
 
 
 def material_node_tree(material):

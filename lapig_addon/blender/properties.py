@@ -5,6 +5,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
+from .compat import RELATIVE_PATH_OPTIONS
 from .scene_state import projector_model
 
 
@@ -117,7 +118,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
         ("FOLDER", "Folder", "Your own images")], default="GENERATED")
     pattern_folder: StringProperty(name="Pattern folder", subtype="DIR_PATH")
     seed: IntProperty(name="Seed", default=0, min=0)
-    last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH")
+    last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     last_capture_fingerprint: StringProperty(name="Scene fingerprint of the last capture")
     # models
     finetune_iterations: IntProperty(name="Iterations", default=0, min=0, max=100000,
@@ -139,7 +140,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                                 description="How far PSA pushes the projection loss down (0.5: to half its "
                                             "first value)")
     style_seed: IntProperty(name="Seed", default=0, min=0)
-    result_dir: StringProperty(name="Result folder", subtype="DIR_PATH")
+    result_dir: StringProperty(name="Result folder", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     result_fingerprint: StringProperty(name="Rig fingerprint of the result")
     result_summary: StringProperty(name="Result")
     preview_mode: EnumProperty(name="Show", items=PREVIEW_MODES, default="ORIGINAL", update=_preview_mode_changed,

@@ -115,7 +115,7 @@ def record_rig(scene, projector, camera, target):
 def record_capture(scene, folder, fingerprint: str):
     """fingerprint: the rig's at the capture; '' for one captured elsewhere (tied to no rig here)."""
     s = scene.lapig
-    s.last_capture_dir, s.last_capture_fingerprint = str(folder), fingerprint
+    s.last_capture_dir, s.last_capture_fingerprint = storage.stored_path(folder), fingerprint
 
 
 def record_models(scene, fingerprint: str, status: str | None = None):
@@ -128,7 +128,8 @@ def record_models(scene, fingerprint: str, status: str | None = None):
 
 def record_result(scene, folder, summary_line: str):
     s = scene.lapig
-    s.result_dir, s.result_fingerprint, s.result_summary = str(folder), read_rig(scene).fingerprint, summary_line
+    s.result_dir, s.result_summary = storage.stored_path(folder), summary_line
+    s.result_fingerprint = read_rig(scene).fingerprint
 
 
 def record_preview_mode(scene, mode: str):

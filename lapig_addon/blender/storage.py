@@ -38,23 +38,45 @@ def capture_root(setup_name: str) -> str:
     return os.path.join(data_root()[0], setup_name)
 
 
+def stored_path(folder) -> str:
+    """How the scene records a data folder: relative to the .blend ('//...') when it lies in the
+    data folder beside it, so that a copy of the project uses the copy of its data; else absolute."""
+    folder = os.path.abspath(folder)
+    root, temporary = data_root()
+    return bpy.path.relpath(folder) if not temporary and _inside(folder, os.path.abspath(root)) else folder
+
+
+def _inside(folder: str, root: str) -> bool:
+    try:
+        return os.path.commonpath([folder, root]) == root
+    except ValueError:  # another drive
+        return False
+
+
 def resolve_capture_dir(path: str) -> str:
     """The capture folder, found again beside the .blend when the file and its data folder moved."""
     if not path:
         return ""
     name = os.path.basename(os.path.normpath(bpy.path.abspath(path)))
-    return _resolve(path, os.path.join(name, "setups"))
+    return _resolve(path, (name, "setups", name))
 
 
 def resolve_result_dir(path: str) -> str:
-    return _resolve(path, "results")
-
-
-def _resolve(path: str, kind: str) -> str:
     if not path:
         return ""
-    absolute = bpy.path.abspath(path)
-    if os.path.isdir(absolute):
-        return absolute
-    moved = os.path.join(data_root()[0], kind, os.path.basename(os.path.normpath(absolute)))
-    return moved if os.path.isdir(moved) else ""
+    return _resolve(path, ("results", os.path.basename(os.path.normpath(bpy.path.abspath(path)))))
+
+
+def _resolve(path: str, in_data_root: tuple) -> str:
+    """The folder `path` names, or the one of the same name in the data folder beside this .blend.
+    The one beside wins over an absolute path into another data folder (a file saved before paths
+    were relative, then copied with its data): the copy must not write into the original."""
+    absolute = os.path.normpath(bpy.path.abspath(path))
+    beside = os.path.join(data_root()[0], *in_data_root)
+    candidates = [absolute, beside]
+    its_data_root = absolute
+    for _ in in_data_root:
+        its_data_root = os.path.dirname(its_data_root)
+    if not path.startswith("//") and its_data_root.endswith(FOLDER_SUFFIX):
+        candidates.reverse()
+    return next((folder for folder in candidates if os.path.isdir(folder)), "")

@@ -45,7 +45,7 @@ class CaptureJob(Job):
                 rig_meta = {"fingerprint": rig_fingerprint(self.projector, self.camera, self.target),
                             "objects": {"projector": self.projector.name, "camera": self.camera.name,
                                         "target": self.target.name}}
-                self.result = yield from run_capture(device, s, device.geometry_checks(), rig_meta)
+                self.result = yield from run_capture(device, s, device.geometry_checks(), rig_meta, self.title)
         finally:
             if previewing:
                 image, appearance = previewing

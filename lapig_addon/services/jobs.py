@@ -93,8 +93,9 @@ class Job:
 class WorkerJob(Job):
     """A job whose heavy part (torch, numpy; never bpy) runs on a worker thread.
 
-    prepare() reads what the work needs from bpy on the main thread, work() runs on the thread and
-    reports progress through a queue, finish() writes the result back into bpy on the main thread.
+    prepare() reads what the work needs from bpy on the main thread, hold() then takes the locks of
+    the folders it writes (released when the work stops), work() runs on the thread and reports
+    progress through a queue, finish() writes the result back into bpy on the main thread.
     Each step() only drains the queue, so Blender's main thread never waits for the work;
     poll_timeout > 0 makes synchronous runs (headless, tests) wait instead of spinning.
     """
@@ -111,6 +112,10 @@ class WorkerJob(Job):
         self._inputs = self.prepare()
         return self._inputs
 
+    def hold(self, inputs):
+        """Take the locks the work needs (an object with release(), or None); refuse by raising."""
+        return None
+
     def work(self, inputs, report, cancel_event):
         raise NotImplementedError
 
@@ -125,6 +130,8 @@ class WorkerJob(Job):
         messages = queue.Queue()
         self.cancel_event = threading.Event()
         box = {}
+        held = self.hold(inputs)
+        release = held.release if held is not None else (lambda: None)
 
         def report(progress, message):
             messages.put((float(progress), str(message)))
@@ -134,9 +141,15 @@ class WorkerJob(Job):
                 box["output"] = self.work(inputs, report, self.cancel_event)
             except BaseException as exc:  # handed to the main thread, raised there
                 box["error"] = exc
+            finally:  # when the work has stopped, not when a cancel stops waiting for it
+                release()
 
         thread = threading.Thread(target=target, name=self.title, daemon=True)
-        thread.start()
+        try:
+            thread.start()
+        except BaseException:
+            release()
+            raise
         progress, message = 0.0, "starting"
         try:
             while thread.is_alive() or not messages.empty():

@@ -7,16 +7,17 @@ from __future__ import annotations
 
 import datetime
 import os
-import re
 
 import numpy as np
 
 from ...lapig_core.common import metrics
-from ...lapig_core.capture.dataset import load_capture_set
+from ...lapig_core.capture.dataset import load_capture_set, resolve_setup
+from ...lapig_core.capture.staging import hold_root
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.pipeline import as_image, stylize, surface_models, train_models
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
-from ...lapig_core.export.result_files import heat_overlay, read_result_image, read_summary, write_result
+from ...lapig_core.export.result_files import (folder_name, heat_overlay, read_result_image, read_summary,
+                                                write_new_result, write_result)
 from . import panel_state
 from ..blender import scene_state, storage
 from .capture_job import CaptureError
@@ -37,6 +38,12 @@ def current_capture(state: SceneState) -> str:
     return state.capture_dir
 
 
+def hold_capture(folder: str, title: str):
+    """The lock of the capture's data set root, where the models are written and which a capture
+    must not replace meanwhile."""
+    return hold_root(resolve_setup(folder).root, title)
+
+
 class TrainModelsJob(WorkerJob):
     title = "LAPIG training"
 
@@ -47,6 +54,9 @@ class TrainModelsJob(WorkerJob):
 
     def prepare(self):
         return current_capture(scene_state.read(self.scene))
+
+    def hold(self, folder):
+        return hold_capture(folder, self.title)
 
     def work(self, folder, report, cancel_event):
         cs = load_capture_set(folder)
@@ -82,12 +92,14 @@ class GenerateJob(WorkerJob):
         problem = r.problem()
         if problem:
             raise PipelineError(problem)
-        root = self.result_root or os.path.join(storage.data_root()[0], "results")
-        slug = re.sub(r"[^A-Za-z0-9]+", "_", prompt.lower()).strip("_")[:40] or "look"
-        stamp = datetime.datetime.now().strftime("%Y%m%d_%H%M%S")
         return {"capture": folder, "prompt": prompt, "notes": notes, "backend": r.backend,
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
-                "settings": psa_settings_from(r), "out": os.path.join(root, f"{stamp}_{slug}")}
+                "settings": psa_settings_from(r),
+                "results": self.result_root or os.path.join(storage.data_root()[0], "results"),
+                "name": folder_name(prompt or mix, datetime.datetime.now())}
+
+    def hold(self, job):
+        return hold_capture(job["capture"], self.title)
 
     def work(self, job, report, cancel_event):
         cs = load_capture_set(job["capture"])
@@ -138,10 +150,10 @@ def save_stylize_result(job: dict, cs, models, res) -> dict:
                            "problem_area_fraction": float((problem > 1e-3).mean()),
                            **({"style_retention_" + k: v for k, v in res.style_retention().items()})},
                "created": datetime.datetime.now().isoformat(timespec="seconds")}
-    write_result(job["out"], images, summary)
+    folder = str(write_new_result(job["results"], job["name"], images, summary))
     styles = ", ".join(f"{n} {w:.2f}" for n, w in res.describe.get("styles", [])[:3])
     line = f"{styles or job['backend']}; simulated {summary['metrics']['simulated_psnr']:.1f} dB"
-    return {"folder": job["out"], "summary": summary, "summary_line": line}
+    return {"folder": folder, "summary": summary, "summary_line": line}
 
 
 class RenderResultJob(Job):

@@ -248,8 +248,9 @@ class CaptureSet:
         return len(self.cam_test) > 0 and len(self.cam_test) == len(self.prj_test)
 
 
-def _resolve_setup(path: Path) -> DatasetLayout:
-    """Accept a dataset root holding exactly one setup, or a setup folder."""
+def resolve_setup(path) -> DatasetLayout:
+    """The setup of a dataset root holding exactly one, or of a setup folder."""
+    path = Path(path)
     if not path.is_dir():
         raise DatasetError(f"capture set folder not found: {path}")
     if (path / "setups").is_dir():
@@ -331,7 +332,7 @@ def load_capture_set(path, size: int | None = None) -> CaptureSet:
     With ``size`` every image is resized to size x size; without it all images
     must already share one size. Any problem raises DatasetError.
     """
-    layout = _resolve_setup(Path(path))
+    layout = resolve_setup(path)
     _require_dir(layout.setup_dir, "setup")
     meta = read_setup_json(layout.setup_json)
     _check_projector_images(meta, layout)

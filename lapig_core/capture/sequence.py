@@ -61,19 +61,19 @@ def native_frame(working_image: np.ndarray, width: int, height: int) -> np.ndarr
 
 
 def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryChecks = GeometryChecks(),
-                extra_meta: dict | None = None):
+                extra_meta: dict | None = None, holder: str = "a LAPIG capture"):
     """Capture through ``device`` into settings.out_dir/setups/<setup_name>; ``extra_meta`` joins
-    setup.json. A generator: see the module docstring."""
+    setup.json; ``holder`` names the job in the message that refuses another one into the same
+    root meanwhile. A generator: see the module docstring."""
     t0 = time.perf_counter()
     width, height = device.describe().projector_size
     refs = pat.reference_patterns(size=s.working_size, gray_level=s.gray_level)
     images = pattern_images(s)
     shown = {"ref": [refs["black"], refs["white"], refs["gray"]],
              "train": images[:s.train_count], "test": images[s.train_count:]}
-    staged = StagedCapture(ds.DatasetLayout(s.out_dir, s.setup_name))
-    if not staged.owns_projector_images:
-        check_shared_patterns(staged.final, shown, staged.others)
-    try:
+    with StagedCapture(ds.DatasetLayout(s.out_dir, s.setup_name), holder) as staged:
+        if not staged.owns_projector_images:
+            check_shared_patterns(staged.final, shown, staged.others)
         yield 0.01, "preparing the capture"
         cover = _check_coverage(checks, s.min_coverage)
         yield 0.03, ("" if cover is None else f"coverage {cover['projector_on_object']:.0%}: ") + \
@@ -144,8 +144,6 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
         meta["timings"]["total_s"] = round(time.perf_counter() - t0, 3)
         ds.write_setup_json(layout, meta)
         staged.commit()
-    finally:
-        staged.discard()
     yield 1.0, "capture complete"
     return {"setup_dir": staged.final.setup_dir, "meta": meta}
 

@@ -14,17 +14,23 @@ prj/{ref,train,test}. The commit then moves things with renames only:
 The setup moves before the projector images because its setup.json records the digest of the new
 prj images: between any two renames the loader finds the complete old set, the complete new set,
 a missing folder, or prj images that do not match the digest, and it refuses the last two.
-A kill leaves the journal; the next capture into the root replays it first.
+A kill leaves the journal; the next job that takes the root's lock replays it first.
+
+A capture holds the root's lock (common.locking) from before it clears anything until its commit
+is done, and training and generation hold it while they use the root: one job writes into a root
+at a time, and whatever staging a job finds there was left by a process that is gone.
 """
 from __future__ import annotations
 
 import json
 import shutil
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from ..common.imageio import atomic_write_bytes, read_image
+from ..common.locking import FolderLock
 from . import dataset as ds
 from .settings import CaptureError
 
@@ -62,19 +68,34 @@ def _same_8bit(stored: np.ndarray, image: np.ndarray) -> bool:
 class StagedCapture:
     """Where a capture writes (``layout``), and the commit that swaps it into ``final``.
 
-    Opening one first finishes the root's interrupted commits and clears what a killed capture
-    of this setup left.
+    ``with StagedCapture(final, "LAPIG capture") as staged:`` takes the root's lock (FolderBusy,
+    naming the job that holds it, when another has it) and tidies the root; leaving the block
+    drops an uncommitted staging and the lock.
     """
 
-    def __init__(self, final: ds.DatasetLayout):
+    def __init__(self, final: ds.DatasetLayout, holder: str):
         self.final = final
         self.folder = final.root / STAGING_DIR / final.setup
         self.layout = ds.DatasetLayout(self.folder, final.setup)
-        finish_interrupted_commits(final.root)
-        shutil.rmtree(self.folder, ignore_errors=True)  # a capture of this setup that was killed
+        self._lock = hold_root(final.root, holder)
         # where captures staged before .capture_staging existed
         shutil.rmtree(final.root / "setups" / f"{final.setup}.partial", ignore_errors=True)
-        self.others = other_setups(final)
+
+    @cached_property
+    def others(self) -> list[str]:
+        return other_setups(self.final)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        try:
+            # what an unfinished capture staged (cancel, error) goes; a commit under way belongs
+            # to its journal
+            if not (self.folder / JOURNAL).exists():
+                _remove_staged(self.folder)
+        finally:
+            self._lock.release()
 
     @property
     def owns_projector_images(self) -> bool:
@@ -99,12 +120,6 @@ class StagedCapture:
             journal.unlink()
             raise
         _remove_staged(self.folder)
-
-    def discard(self) -> None:
-        """Drop what an unfinished capture staged (cancel, error); a commit that is under way
-        belongs to its journal."""
-        if not (self.folder / JOURNAL).exists():
-            _remove_staged(self.folder)
 
     def _moves(self) -> list[tuple[str, str]]:
         """(from, to) paths relative to the root, in commit order; only those that exist."""
@@ -135,6 +150,21 @@ def _replay(root: Path, moves) -> None:
         if source.exists() and not dest.exists():
             dest.parent.mkdir(parents=True, exist_ok=True)
             source.replace(dest)
+
+
+def hold_root(root, holder: str) -> FolderLock:
+    """Take the root's lock (FolderBusy, naming the job that has it, when another does), then tidy
+    the root: interrupted commits finished, what killed captures staged removed (no live capture
+    stages there while the lock is held)."""
+    root = Path(root)
+    lock = FolderLock(root, holder).acquire()
+    try:
+        finish_interrupted_commits(root)
+        shutil.rmtree(root / STAGING_DIR, ignore_errors=True)
+    except BaseException:
+        lock.release()
+        raise
+    return lock
 
 
 def finish_interrupted_commits(root) -> list[str]:

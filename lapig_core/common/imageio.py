@@ -10,6 +10,7 @@ non-ASCII paths work on Windows, where ``cv2.imread`` cannot open them.
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
 import tempfile
 from pathlib import Path
@@ -18,6 +19,7 @@ import cv2
 import numpy as np
 
 _JPEG_MAGIC = b"\xff\xd8\xff"
+_TEMP_SUFFIX = ".tmp"  # of atomic_write_bytes' temporary files, .<name>.XXXXXXXX.tmp
 
 
 class ImageReadError(OSError):
@@ -122,7 +124,7 @@ def atomic_write_bytes(path, data: bytes) -> Path:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=_TEMP_SUFFIX, dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
@@ -133,6 +135,15 @@ def atomic_write_bytes(path, data: bytes) -> Path:
             os.unlink(tmp_name)
         raise
     return path
+
+
+def remove_partial_writes(path) -> None:
+    """Remove the temporary files that killed atomic writes of ``path`` left beside it; for a
+    writer that no other process writes ``path`` with meanwhile (one holding its folder's lock)."""
+    path = Path(path)
+    for partial in path.parent.glob(f".{glob.escape(path.name)}.*{_TEMP_SUFFIX}"):
+        with contextlib.suppress(OSError):
+            partial.unlink()
 
 
 def write_png(path, img: np.ndarray, bit_depth: int = 8) -> Path:

@@ -13,15 +13,22 @@ Folder layout (working size, projector-registered):
   compensability.png                     L_ps + L_cs per pixel over the surface, as a heat map
   comparison.png                         with and without PSA side by side (8-bit, for people)
   result.json                            prompt, backend, styles, PSA settings, metrics
+
+A new result is written into a scratch folder beside the others and renamed into place when it is
+complete, under a name no other result has (write_new_result).
 """
 from __future__ import annotations
 
+import datetime
+import hashlib
 import json
+import unicodedata
 from pathlib import Path
 
 import numpy as np
 
 from ..common.imageio import atomic_write_bytes, read_image, write_png
+from ..common.scratch import ScratchFolder
 from ..common.sheets import labelled_grid
 
 IMAGES = ("target", "projector", "simulated", "rendered", "compensability")
@@ -40,6 +47,27 @@ def heat_overlay(surface: np.ndarray, values: np.ndarray, scale: float | None = 
     hot = np.concatenate([np.ones_like(t), 1 - t, np.zeros_like(t)], -1)  # yellow -> red
     alpha = np.clip(t * 1.5, 0, 0.85)
     return gray * (1 - alpha) + hot * alpha
+
+
+def folder_name(prompt: str, when: datetime.datetime) -> str:
+    """'20260101_120000_make_it_stained_glass': the words of the prompt in any script, lower case;
+    a short hash of the prompt when it has none (emoji only)."""
+    text = unicodedata.normalize("NFKC", prompt).lower()
+    words = "".join(c if unicodedata.category(c)[0] in "LMN" else " " for c in text).split()
+    slug = "_".join(words)[:40].rstrip("_") or "look_" + hashlib.sha256(prompt.encode("utf-8")).hexdigest()[:8]
+    return f"{when:%Y%m%d_%H%M%S}_{slug}"
+
+
+def write_new_result(root, name: str, images: dict, summary: dict) -> Path:
+    """Write a result folder as a whole, as <root>/<name> (<name>_2, ... when that is taken): a
+    kill or an error leaves no half-written result, and two results never share a folder."""
+    scratch = ScratchFolder(root, ".writing_")
+    try:
+        write_result(scratch.path, images, summary)
+    except BaseException:
+        scratch.remove()
+        raise
+    return scratch.move_to_new_folder(name)
 
 
 def write_result(folder, images: dict, summary: dict) -> Path:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from . import checkpoints
 from ..capture.dataset import CaptureSet
+from ..common.imageio import remove_partial_writes
 from .training import PAPER_RECIPES, Recipe, Trainer
 from .training_data import pairs_from_capture_sets
 
@@ -57,8 +58,10 @@ def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, rec
 
 
 def save_setup_model(setup_dir, model, role: str, cs: CaptureSet, **extra) -> Path:
-    """Save next to the captures, stamped with the setup's fingerprint."""
+    """Save next to the captures, stamped with the setup's fingerprint (the jobs hold the capture's
+    lock: what a killed training left half-written here is theirs to remove)."""
     path = Path(setup_dir) / "models" / MODEL_FILES[(model.ARCH_NAME, role)]
+    remove_partial_writes(path)
     return checkpoints.save_checkpoint(path, model, role, cs.image_size[0], cs.meta.get("fingerprint"), **extra)
 
 

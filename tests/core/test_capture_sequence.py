@@ -2,6 +2,7 @@
 """The capture sequence end to end on the numpy fake device: data set, registration, cancel, commit."""
 from __future__ import annotations
 
+import os
 import pathlib
 
 import cv2
@@ -14,6 +15,7 @@ from lapig_core.capture.fake_device import FakeDevice
 from lapig_core.capture.registration import Registration, square_crop_grid
 from lapig_core.capture.sequence import GeometryChecks, pattern_images, run_capture
 from lapig_core.capture.settings import CaptureError, CaptureSettings
+from lapig_core.common.locking import FolderBusy
 
 SETUP = "plane"
 
@@ -171,14 +173,32 @@ def test_a_rename_that_fails_during_the_commit_puts_the_old_set_back(tmp_path, m
 def test_a_kill_before_the_commit_leaves_the_old_set_and_the_next_capture_cleans_up(tmp_path):
     _capture(tmp_path, seed=0)
     before = _snapshot(tmp_path)
-    # what a kill in the middle of a capture leaves: a staging folder without a journal
-    leftover = tmp_path / staging.STAGING_DIR / SETUP / "setups" / SETUP / "cam" / "raw" / "sl"
-    leftover.mkdir(parents=True)
-    (leftover / "img_0001.png").write_bytes(b"half")
+    # what kills in the middle of captures leave: staging folders without a journal, of this
+    # setup and of another one captured into the same root
+    for name in (SETUP, "other"):
+        leftover = tmp_path / staging.STAGING_DIR / name / "setups" / name / "cam" / "raw" / "sl"
+        leftover.mkdir(parents=True)
+        (leftover / "img_0001.png").write_bytes(b"half")
     assert load_capture_set(tmp_path).meta["pattern_source"] == "generated (seed 0)"
     result, _ = _capture(tmp_path, seed=2)
     assert result["meta"]["pattern_source"] == "generated (seed 2)"
     assert not (tmp_path / staging.STAGING_DIR).exists() and _snapshot(tmp_path) != before
+
+
+def test_a_second_capture_into_the_same_root_is_refused_at_once_and_the_first_completes(tmp_path):
+    first = run_capture(FakeDevice(), _settings(tmp_path, seed=0), holder="LAPIG capture")
+    assert next(first)[1] == "preparing the capture"  # it holds the root now
+    with pytest.raises(FolderBusy, match=rf"{tmp_path} is in use by LAPIG capture \(pid {os.getpid()}, "):
+        _capture(tmp_path, seed=1, setup_name="other")
+    for _ in first:
+        pass
+    assert load_capture_set(tmp_path).meta["pattern_source"] == "generated (seed 0)"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["prj", "setups"]  # no lock file, no staging
+    _capture(tmp_path, seed=0, setup_name="other")  # the root is free again
+    stopped = run_capture(FakeDevice(), _settings(tmp_path, seed=0))
+    next(stopped)
+    stopped.close()  # a cancel frees it too
+    _capture(tmp_path, seed=0)
 
 
 def test_setups_sharing_a_root_keep_its_projector_images(tmp_path):

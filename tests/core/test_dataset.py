@@ -244,3 +244,13 @@ def test_projector_images_that_changed_since_the_capture_are_refused(tmp_path):
         load_capture_set(tmp_path)
     write_setup_json(layout, {"gray_level": 0.5})  # public data sets record no digest: trusted
     assert load_capture_set(tmp_path).setup == "desk"
+
+
+def test_partial_writes_that_a_kill_left_are_removed(tmp_path):
+    target = tmp_path / "pcnet.pt"
+    target.write_bytes(b"good")
+    for name in (".pcnet.pt.abc123.tmp", ".pcnet.pt.x_y.tmp"):  # killed between write and rename
+        (tmp_path / name).write_bytes(b"half")
+    (tmp_path / ".compennest.pt.abc123.tmp").write_bytes(b"another file's")
+    imageio.remove_partial_writes(target)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".compennest.pt.abc123.tmp", "pcnet.pt"]

@@ -1,4 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
+import datetime
 import json
 
 import numpy as np
@@ -6,8 +7,8 @@ import pytest
 
 from lapig_core.common import metrics
 from lapig_core.common.imageio import read_image
-from lapig_core.export.result_files import (heat_overlay, read_result_image, read_summary, stored_bit_depth,
-                                            write_result)
+from lapig_core.export.result_files import (folder_name, heat_overlay, read_result_image, read_summary,
+                                            stored_bit_depth, write_new_result, write_result)
 from lapig_core.photometric.targets import desired_targets, reachable_mask, reachable_range
 
 
@@ -69,3 +70,24 @@ def test_render_adds_its_images_to_a_result_and_leaves_the_others_alone(tmp_path
     assert read_summary(folder)["metrics"]["rendered_psnr"] == 30.0
     assert read_image(folder / "comparison.png").shape[1] == 3 * 256  # the sheet shows the renders too
     assert stored_bit_depth(folder, "comparison") == 8  # a sheet for people
+
+
+def test_result_folder_names_keep_the_words_of_any_script():
+    when = datetime.datetime(2026, 1, 2, 3, 4, 5)
+    assert folder_name("Make it a Stained-Glass artwork!", when) == "20260102_030405_make_it_a_stained_glass_artwork"
+    assert folder_name("桜の花びら", when) == "20260102_030405_桜の花びら"
+    assert folder_name("Ｎｅｏｎ ＮＩＧＨＴ", when) == "20260102_030405_neon_night"  # NFKC: full-width letters
+    assert folder_name("नमस्ते दुनिया", when) == "20260102_030405_नमस्ते_दुनिया"  # vowel signs stay
+    emoji = folder_name("🌸🔥", when)
+    assert emoji.startswith("20260102_030405_look_") and emoji != folder_name("🌊", when)
+    assert emoji == folder_name("🌸🔥", when)
+
+
+def test_new_results_never_share_a_folder_and_a_failed_one_leaves_nothing(tmp_path):
+    img = np.full((8, 8, 3), 0.5, np.float32)
+    folders = [write_new_result(tmp_path, "20260102_030405_look", {"target": img}, {"prompt": p}) for p in "ab"]
+    assert [f.name for f in folders] == ["20260102_030405_look", "20260102_030405_look_2"]
+    assert [read_summary(f)["prompt"] for f in folders] == ["a", "b"]
+    with pytest.raises(ValueError, match="image"):
+        write_new_result(tmp_path, "20260102_030405_bad", {"target": img, "projector": img[..., :2]}, {})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["20260102_030405_look", "20260102_030405_look_2"]

@@ -34,14 +34,15 @@ s.train_count, s.test_count, s.working_size = 6, 1, 32
 s.finetune_iterations = 3  # plumbing, not quality
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(work, "e2e.blend"))
 assert bpy.ops.lapig.capture() == {"FINISHED"}
-assert s.last_capture_dir.startswith(os.path.join(work, "e2e_lapig")), s.last_capture_dir
-assert os.path.isfile(os.path.join(s.last_capture_dir, "cam", "warp", "train", "img_0002.png"))
+capture_dir = bpy.path.abspath(s.last_capture_dir)  # stored relative to the .blend
+assert capture_dir.startswith(os.path.join(work, "e2e_lapig")), s.last_capture_dir
+assert os.path.isfile(os.path.join(capture_dir, "cam", "warp", "train", "img_0002.png"))
 
 # the rest of the pipeline, with the weights shipped inside the zip
 assert bpy.ops.lapig.train_models() == {"FINISHED"}
 s.prompt = "Turn into an oil pastel drawing"
 assert bpy.ops.lapig.generate() == {"FINISHED"}
-assert os.path.isfile(os.path.join(s.result_dir, "projector.png")), s.result_dir
+assert os.path.isfile(os.path.join(bpy.path.abspath(s.result_dir), "projector.png")), s.result_dir
 assert bpy.ops.lapig.preview_mode(mode="TARGET") == {"FINISHED"}
 assert bpy.ops.lapig.export_image(filepath=os.path.join(work, "projector.png")) == {"FINISHED"}
 assert os.path.isfile(os.path.join(work, "projector.json"))

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import importlib.util
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -32,11 +31,9 @@ def smooth_image(X, Y):
 @pytest.fixture(scope="module", params=[0.55, 1.5], ids=["coarse-camera", "fine-camera"])
 def reg_scene(request):
     rig, view, _, dec = sl.rendered(request.param)
-    t0 = time.perf_counter()
     reg = Registration.from_decoded(dec, PW, PH, SIZE, supersample=2)
-    t_reg = time.perf_counter() - t0
     cam_xy, valid = projector_to_camera_map(dec, PW, PH)
-    return dict(rig=rig, view=view, reg=reg, dense=(cam_xy, valid), t_reg=t_reg)
+    return dict(rig=rig, view=view, reg=reg, dense=(cam_xy, valid))
 
 
 def test_from_decoded_equals_from_map(reg_scene):
@@ -162,15 +159,6 @@ def test_registration_save_load_roundtrip(reg_scene, tmp_path):
     bare.save(tmp_path / "bare.npz")
     assert np.array_equal(Registration.load(tmp_path / "bare.npz").warp(cap), bare.warp(cap))
 
-
-def test_warp_is_fast(reg_scene):
-    reg = reg_scene["reg"]
-    cap = np.zeros((CH, CW, 3), np.uint8)
-    t0 = time.perf_counter()
-    for _ in range(10):
-        reg.warp(cap)
-    assert (time.perf_counter() - t0) / 10 < 0.1  # typically a few ms
-    assert reg_scene["t_reg"] < 2.0
 
 
 def test_bad_inputs_raise(reg_scene):

@@ -50,16 +50,19 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
 
 
 def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, cancel_event=None,
-                   iterations: int | None = None) -> SurfaceModels:
+                   iterations: int | None = None, notes: list | None = None) -> SurfaceModels:
     """The setup's fine-tuned models: loaded when saved for this very setup, else trained now
-    (with `iterations` as in train_models)."""
+    (with `iterations` as in train_models). A damaged saved model is trained again and saved over, and
+    `notes` gets a line that says so."""
     fingerprint = cs.meta.get("fingerprint")
     try:
         comp, _ = load_setup_model(setup_dir_of(cs), "CompenNeSt", "compensation", fingerprint)
         sim, _ = load_setup_model(setup_dir_of(cs), "PCNet", "simulation", fingerprint)
-    except checkpoints.CheckpointError:
+    except checkpoints.CheckpointError as exc:
         if not train_if_missing:
             raise
+        if notes is not None and not isinstance(exc, checkpoints.NotTrainedYet):
+            notes.append(f"the saved models could not be used ({exc}): fine-tuned them again and saved over them")
         trained = train_models(cs, on_progress, cancel_event, iterations=iterations)
         comp, sim = trained["CompenNeSt"], trained["PCNet"]
     surf = SurfaceTensors.from_capture_set(cs)

@@ -2,8 +2,9 @@ import bpy
 
 from ..lapig_addon.blender import scene_state, storage
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
+from ..lapig_addon.blender.operator_boundary import AsksForFolder
 from ..lapig_addon.services.capture_job import CaptureJob, check_rig
-from ..lapig_core.capture.dataset import DatasetError, load_capture_set, summarize
+from ..lapig_core.capture.dataset import load_capture_set, summarize
 from ..lapig_core.common.deps import require
 
 
@@ -29,23 +30,13 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
         self.report({"INFO"}, f"Captured into {folder}{extra}")
 
 
-class LAPIG_OT_import_capture(bpy.types.Operator):
+class LAPIG_OT_import_capture(AsksForFolder, bpy.types.Operator):
     """Use a projector-camera capture folder made elsewhere (public compensation-dataset layout)"""
     bl_idname = "lapig.import_capture"
     bl_label = "Import Capture Folder"
 
-    directory: bpy.props.StringProperty(subtype="DIR_PATH")
-
-    def invoke(self, context, event):
-        context.window_manager.fileselect_add(self)
-        return {"RUNNING_MODAL"}
-
     def execute(self, context):
-        try:
-            capture_set = load_capture_set(bpy.path.abspath(self.directory))
-        except (DatasetError, OSError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        capture_set = load_capture_set(bpy.path.abspath(self.directory))
         folder = capture_set.root / "setups" / capture_set.setup if capture_set.setup else self.directory
         scene_state.record_capture(context.scene, folder, "")  # captured elsewhere: not tied to this rig
         self.report({"INFO"}, summarize(capture_set))

@@ -5,8 +5,17 @@ import bpy
 
 from ..lapig_addon.blender import result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
+from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, report_notes
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_core.common.deps import require
+
+
+def _pipeline_jobs():
+    """The torch-backed jobs, imported once a button needs them: the add-on enables without torch."""
+    require("torch")
+    from ..lapig_addon.services import pipeline_jobs
+
+    return pipeline_jobs
 
 
 class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
@@ -15,11 +24,8 @@ class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
     bl_label = "Train Models"
 
     def make_job(self, context):
-        require("torch")
-        from ..lapig_addon.services import pipeline_jobs  # imports torch: only once it is needed
-
         scene = context.scene
-        job = pipeline_jobs.TrainModelsJob(scene, scene_state.finetune_iterations(scene))
+        job = _pipeline_jobs().TrainModelsJob(scene, scene_state.finetune_iterations(scene))
         job.check()  # fail now, with the reason, not on the thread
         return job
 
@@ -33,20 +39,15 @@ class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
     bl_label = "Generate"
 
     def make_job(self, context):
-        require("torch")
-        from ..lapig_addon.services import pipeline_jobs  # imports torch: only once it is needed
-
         scene = context.scene
-        job = pipeline_jobs.GenerateJob(scene, scene_state.generate_request(scene),
-                                        scene_state.finetune_iterations(scene))
+        job = _pipeline_jobs().GenerateJob(scene, scene_state.generate_request(scene),
+                                           scene_state.finetune_iterations(scene))
         job.check()  # validates prompt and capture on the main thread, with a clear message
         return job
 
     def on_done(self, context, job):
         if job.result:
-            fallback = job.result["summary"]["lgst"].get("fallback")
-            if fallback:
-                self.report({"WARNING"}, fallback)
+            report_notes(self, _pipeline_jobs().result_notes(job.result["summary"]))
             self.report({"INFO"}, "Generated: " + job.result["summary_line"])
 
 
@@ -56,16 +57,14 @@ class LAPIG_OT_render_result(JobRunnerMixin, bpy.types.Operator):
     bl_label = "Render Real Capture"
 
     def make_job(self, context):
-        from ..lapig_addon.services import pipeline_jobs  # imports torch: only once it is needed
-
-        return pipeline_jobs.RenderResultJob(context.scene)
+        return _pipeline_jobs().RenderResultJob(context.scene)
 
     def on_done(self, context, job):
         m = job.result["metrics"]
         self.report({"INFO"}, f"Rendered capture: {m.get('rendered_psnr', float('nan')):.1f} dB against the target")
 
 
-class LAPIG_OT_preview_mode(bpy.types.Operator):
+class LAPIG_OT_preview_mode(ReportsErrors, bpy.types.Operator):
     """Show the original material, the projection, the target, the simulated or rendered capture"""
     bl_idname = "lapig.preview_mode"
     bl_label = "Preview"
@@ -80,7 +79,7 @@ class LAPIG_OT_preview_mode(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class LAPIG_OT_show_comparison(bpy.types.Operator):
+class LAPIG_OT_show_comparison(ReportsErrors, bpy.types.Operator):
     """Open the with/without PSA comparison sheet in an Image Editor"""
     bl_idname = "lapig.show_comparison"
     bl_label = "Compare With and Without PSA"
@@ -102,7 +101,7 @@ class LAPIG_OT_show_comparison(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class LAPIG_OT_export_image(bpy.types.Operator):
+class LAPIG_OT_export_image(ReportsErrors, bpy.types.Operator):
     """Write the projector image at the projector's native resolution, with a JSON sidecar"""
     bl_idname = "lapig.export_image"
     bl_label = "Export Projector Image"
@@ -118,35 +117,21 @@ class LAPIG_OT_export_image(bpy.types.Operator):
         from ..lapig_addon.services import export_result
 
         settings = scene_state.export_settings(context.scene, path=self.filepath or None)
-        try:
-            written = export_result.export_current(context.scene, settings)
-        except (ValueError, OSError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        written = export_result.export_current(context.scene, settings)
         self.report({"INFO"}, f"Exported {written['image']}")
         return {"FINISHED"}
 
 
-class LAPIG_OT_export_crossfade(bpy.types.Operator):
+class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
     """Write a crossfade sequence from the look without PSA to the look with it (or from black)"""
     bl_idname = "lapig.export_crossfade"
     bl_label = "Export Crossfade"
 
-    directory: bpy.props.StringProperty(subtype="DIR_PATH")
-
-    def invoke(self, context, event):
-        context.window_manager.fileselect_add(self)
-        return {"RUNNING_MODAL"}
-
     def execute(self, context):
         from ..lapig_addon.services import export_result
 
-        try:
-            paths = export_result.export_crossfade(context.scene, self.directory,
-                                                   scene_state.export_settings(context.scene))
-        except (ValueError, OSError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        paths = export_result.export_crossfade(context.scene, self.directory,
+                                               scene_state.export_settings(context.scene))
         self.report({"INFO"}, f"Wrote {len(paths)} frames to {os.path.dirname(paths[0])}")
         return {"FINISHED"}
 

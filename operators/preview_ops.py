@@ -1,10 +1,11 @@
 import bpy
 
 from ..lapig_addon.blender import preview, projector_nodes, scene_state
+from ..lapig_addon.blender.operator_boundary import ReportsErrors
 from ..lapig_addon.services.panel_state import rig_blocker
 
 
-class LAPIG_OT_preview_toggle(bpy.types.Operator):
+class LAPIG_OT_preview_toggle(ReportsErrors, bpy.types.Operator):
     """Show the projected image on the object in Solid and Material Preview modes (reversible)"""
     bl_idname = "lapig.preview_toggle"
     bl_label = "Toggle Viewport Preview"
@@ -20,11 +21,7 @@ class LAPIG_OT_preview_toggle(bpy.types.Operator):
             preview.disable_preview(target)
             self.report({"INFO"}, f"'{target.name}' shows its own materials again")
             return {"FINISHED"}
-        try:
-            preview.enable_preview(target, projector, projector_nodes.projected_image(projector.data))
-        except ValueError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        preview.enable_preview(target, projector, projector_nodes.projected_image(projector.data))
         space = context.space_data
         if space is not None and space.type == "VIEW_3D" and space.shading.type == "SOLID":
             space.shading.color_type = "TEXTURE"  # Solid mode shows image textures only like this

@@ -1,9 +1,10 @@
 import bpy
 
 from ..lapig_addon.blender import rig, scene_state
+from ..lapig_addon.blender.operator_boundary import ReportsErrors
 
 
-class LAPIG_OT_add_rig(bpy.types.Operator):
+class LAPIG_OT_add_rig(ReportsErrors, bpy.types.Operator):
     """Add a projector and a camera aimed at the selected object, so it fills the projector's frame"""
     bl_idname = "lapig.add_rig"
     bl_label = "Add Projector and Camera"
@@ -16,11 +17,7 @@ class LAPIG_OT_add_rig(bpy.types.Operator):
         if target is None or target.type != "MESH":
             self.report({"ERROR"}, "Select the mesh object to project on first")
             return {"CANCELLED"}
-        try:
-            projector, camera, placement = rig.add_rig(context, target, projector, camera)
-        except (rig.RigError, ValueError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        projector, camera, placement = rig.add_rig(context, target, projector, camera)
         kind = "filling the surface" if placement.planar else "fitting the object"
         self.report({"INFO"}, f"Projector {placement.distance:.2f} m from '{target.name}', {kind}")
         return {"FINISHED"}

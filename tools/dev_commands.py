@@ -9,6 +9,7 @@ import os
 
 from ..lapig_addon.blender import addon
 from ..lapig_addon.cli.commands import contact_sheet
+from ..lapig_addon.cli.options import ranged_option
 from ..lapig_addon.cli.output import print_json
 
 
@@ -22,30 +23,30 @@ def add_parsers(sub):
     data.add_argument("--setups", default="pretrain",
                       help="'pretrain', 'bench', or comma-separated setup names (default: pretrain)")
     data.add_argument("--out", default="out/pretrain_data", help="data set root folder")
-    data.add_argument("--train", type=int, default=125)
-    data.add_argument("--test", type=int, default=20)
-    data.add_argument("--seed", type=int, default=0, help="pattern seed")
+    ranged_option(data, "--train", "train_count", "training captures per setup (default 125)", default=125)
+    ranged_option(data, "--test", "test_count", "test captures per setup (default 20)", default=20)
+    ranged_option(data, "--seed", "seed", "pattern seed", default=0)
     data.add_argument("--skip-existing", action="store_true", help="keep setups that are already complete")
 
     pre = sub.add_parser("pretrain", help="pretrain CompenNeSt, PCNet and CompenNeSt reversed on rendered setups")
     pre.add_argument("--data", default="out/pretrain_data", help="data set root from 'dataset'")
     pre.add_argument("--out", default="lapig_core/photometric/weights", help="folder for the weights")
-    pre.add_argument("--iterations", type=int, default=2000)
-    pre.add_argument("--crop", type=int, default=96, help="random crop size (default 96)")
+    ranged_option(pre, "--iterations", "pretrain_iterations", "iterations per network (default 2000)", default=2000)
+    ranged_option(pre, "--crop", "crop", "random crop size (default 96)", default=96)
     pre.add_argument("--only", choices=["compennest", "pcnet", "reversed"], action="append",
                      help="train only these networks (repeatable)")
-    pre.add_argument("--seed", type=int, default=0)
+    ranged_option(pre, "--seed", "seed", "initialisation and crop seed", default=0)
 
     ev = sub.add_parser("eval", help="one surface image and prompt: stylize with and without PSA, capture both")
     ev.add_argument("--surface", required=True, help="surface texture image (PNG/JPG)")
     ev.add_argument("--prompt", required=True, help='e.g. "Make it a stained glass artwork"')
     ev.add_argument("--out", required=True, help="output folder (sheet.png, metrics.json)")
     ev.add_argument("--backend", default="styletransfer", help="LGST backend (default: styletransfer)")
-    ev.add_argument("--seed", type=int, default=0)
-    ev.add_argument("--train", type=int, default=125, help="captured training pairs (default 125)")
-    ev.add_argument("--psa-iterations", type=int, default=30, help="PSA iteration cap (default 30)")
-    ev.add_argument("--iterations", type=int, default=None,
-                    help="fine-tuning iterations per network (default: the CPU recipe's); fewer: rough but quick")
+    ranged_option(ev, "--seed", "seed", "pattern and style seed", default=0)
+    ranged_option(ev, "--train", "train_count", "captured training pairs (default 125)", default=125)
+    ranged_option(ev, "--psa-iterations", "psa_iterations", "PSA iteration cap (default 30)", default=30)
+    ranged_option(ev, "--iterations", "finetune_iterations",
+                  "fine-tuning iterations per network (default: the CPU recipe's); fewer: rough but quick")
     ev.add_argument("--verbose", action="store_true", help="print training progress")
 
     build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")
@@ -62,8 +63,8 @@ def add_parsers(sub):
     bench.add_argument("--data", default="out/bench_data",
                        help="models: data set root of the benchmark setups (rendered when missing)")
     bench.add_argument("--setups", type=int, default=3, help="models: how many benchmark setups (default 3)")
-    bench.add_argument("--iterations", type=int, default=None,
-                       help="models: fine-tuning iterations per model (default: the CPU recipe's)")
+    ranged_option(bench, "--iterations", "finetune_iterations",
+                  "models: fine-tuning iterations per model (default: the CPU recipe's)")
     bench.add_argument("--compensate", type=int, default=8, help="models: compensated test images per setup")
     bench.add_argument("--no-timing", dest="timing", action="store_false",
                        help="models: skip the fine-tuning time measurement")
@@ -79,15 +80,19 @@ def add_parsers(sub):
                        help="psa: prompts per surface that also run the loss ablation (default 3)")
     bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
     bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")
-    bench.add_argument("--train", type=int, default=125, help="psa: captured training pairs per surface")
-    bench.add_argument("--psa-iterations", type=int, default=None, help="psa: PSA iteration cap (default 25)")
-    bench.add_argument("--seed", type=int, default=0)
+    ranged_option(bench, "--train", "train_count", "psa: captured training pairs per surface", default=125)
+    ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 25)")
+    ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
     for name, func in (("dataset", cmd_dataset), ("pretrain", cmd_pretrain), ("eval", cmd_eval),
                        ("build", cmd_build), ("bench", cmd_bench)):
         sub.choices[name].set_defaults(func=func)
 
 
 def cmd_bench(args) -> int:
+    if args.what in ("psa", "ui"):
+        from ..lapig_core.lgst import backend_class
+
+        backend_class(args.backend)  # an unknown name is refused before any setup is rendered
     _ensure_registered()
     from .bench import bench_capture, bench_models, bench_psa, bench_ui
 

@@ -19,6 +19,8 @@ from ..lapig_core.common.imageio import atomic_write_bytes, read_image, write_pn
 from ..lapig_core.pipeline import as_image, stylize, surface_models
 from ..lapig_core.psa.adaptation import PSASettings
 from ..lapig_core.common.sheets import labelled_grid
+from ..lapig_core.lgst import backend_class
+from ..lapig_core.lgst.prompt_mapping import validate_prompt
 from ..lapig_addon.blender import scene_state
 from ..lapig_addon.blender.projection_render import render_working_images
 from ..lapig_addon.cli import headless
@@ -69,9 +71,12 @@ def comparison_sheet(surface, images, title):
 
 def run(args) -> dict:
     t0 = time.perf_counter()
+    # every input checked before the capture and the training, which take minutes
+    validate_prompt(args.prompt)
+    backend_class(args.backend)
+    image = read_image(args.surface)
     out = os.path.abspath(args.out)
     os.makedirs(out, exist_ok=True)
-    image = read_image(args.surface)
     rig_objects = build_surface_scene(image, out)
     t = time.perf_counter()
     setup_dir = capture_surface(*rig_objects, os.path.join(out, "dataset"), train=args.train, seed=args.seed)

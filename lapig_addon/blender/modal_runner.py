@@ -8,6 +8,7 @@ from __future__ import annotations
 import bpy
 
 from . import scene_state
+from .operator_boundary import ReportsErrors, report_failure
 
 _active = {"job": None}
 
@@ -20,7 +21,7 @@ def can_run_modal(context) -> bool:
     return not bpy.app.background and context.window_manager is not None and context.window is not None
 
 
-class JobRunnerMixin:
+class JobRunnerMixin(ReportsErrors):
     """Mix into an Operator; implement make_job(context) and on_done(context, job)."""
 
     _timer = None
@@ -33,11 +34,7 @@ class JobRunnerMixin:
         pass
 
     def execute(self, context):  # synchronous: scripts, tests, background mode
-        try:
-            job = self.make_job(context)
-        except (ValueError, ImportError, OSError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        job = self.make_job(context)
         scene = context.scene
         job.run(on_progress=lambda progress, message: scene_state.record_job_progress(scene, progress, message))
         return self._finish(context, job)
@@ -48,11 +45,7 @@ class JobRunnerMixin:
         if _active["job"] is not None and not _active["job"].finished:
             self.report({"ERROR"}, "Another LAPIG job is running: wait for it or press Esc")
             return {"CANCELLED"}
-        try:
-            self._job = self.make_job(context)
-        except (ValueError, ImportError, OSError) as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        self._job = self.make_job(context)
         self._job.poll_timeout = 0  # a worker job must never make the UI thread wait
         _active["job"] = self._job
         wm = context.window_manager
@@ -62,6 +55,14 @@ class JobRunnerMixin:
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
+        try:
+            return self._modal(context, event)
+        except Exception as exc:  # the UI itself failed (not the job: its failures end in _finish)
+            self._job.cancel()
+            self._end_modal(context)
+            return report_failure(self, exc)
+
+    def _modal(self, context, event):
         job = self._job
         if event.type == "ESC":
             job.cancel()
@@ -75,12 +76,18 @@ class JobRunnerMixin:
                     area.tag_redraw()
         if not job.finished:
             return {"RUNNING_MODAL"}
+        self._end_modal(context)
+        return self._finish(context, job)
+
+    def _end_modal(self, context):
+        if self._timer is None:  # ended already (on_done failed after it)
+            return
         wm = context.window_manager
         wm.event_timer_remove(self._timer)
+        self._timer = None
         wm.progress_end()
         context.workspace.status_text_set(None)
         _active["job"] = None
-        return self._finish(context, job)
 
     def _finish(self, context, job):
         if job.state == "DONE":
@@ -88,6 +95,5 @@ class JobRunnerMixin:
             return {"FINISHED"}
         if job.state == "CANCELLED":
             self.report({"WARNING"}, f"{job.title} cancelled: the scene is as it was")
-        else:
-            self.report({"ERROR"}, f"{job.title} failed: {job.message}")
-        return {"CANCELLED"}
+            return {"CANCELLED"}
+        return report_failure(self, job.error, prefix=f"{job.title} failed: ")

@@ -6,13 +6,14 @@ import sys
 import bpy
 
 from ...lapig_core.common.deps import check_dependencies, install_command
+from .operator_boundary import ReportsErrors
 
 
 def _addon_package() -> str:
     return __package__.rsplit(".", 2)[0]  # the extension package, e.g. bl_ext.user_default.lapig
 
 
-class LAPIG_OT_copy_install_command(bpy.types.Operator):
+class LAPIG_OT_copy_install_command(ReportsErrors, bpy.types.Operator):
     """Copy the pip command that installs LAPIG's missing dependencies"""
     bl_idname = "lapig.copy_install_command"
     bl_label = "Copy install command"

@@ -5,6 +5,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
+from ..services.limits import LIMITS
 from .compat import RELATIVE_PATH_OPTIONS
 from .scene_state import projector_model
 
@@ -105,23 +106,23 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                             poll=lambda self, obj: obj.type == "MESH")
     ambient: FloatProperty(name="Ambient light", default=0.03, min=0.0, max=1.0, subtype="FACTOR",
                            description="Room light on the object, as a fraction of the projector's white")
-    train_count: IntProperty(name="Training images", default=32, min=0, max=2000)
-    test_count: IntProperty(name="Test images", default=8, min=0, max=2000)
-    working_size: IntProperty(name="Working size", default=256, min=32, max=1024, step=32)
+    train_count: IntProperty(name="Training images", default=32, **LIMITS["train_count"].bounds())
+    test_count: IntProperty(name="Test images", default=8, **LIMITS["test_count"].bounds())
+    working_size: IntProperty(name="Working size", default=256, step=32, **LIMITS["working_size"].bounds())
     gray_level: FloatProperty(name="Gray level", default=0.5, min=0.05, max=0.95,
                               description="Projector input value of the surface capture s")
-    samples: IntProperty(name="Samples", default=1, min=1, max=64,
+    samples: IntProperty(name="Samples", default=1, **LIMITS["samples"].bounds(),
                          description="Cycles samples per capture (the projector light is noise-free, "
                                      "samples only anti-alias)")
     pattern_source: EnumProperty(name="Patterns", items=[
         ("GENERATED", "Generated", "Varied natural-image-like patterns"),
         ("FOLDER", "Folder", "Your own images")], default="GENERATED")
     pattern_folder: StringProperty(name="Pattern folder", subtype="DIR_PATH")
-    seed: IntProperty(name="Seed", default=0, min=0)
+    seed: IntProperty(name="Seed", default=0, **LIMITS["seed"].bounds())
     last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     last_capture_fingerprint: StringProperty(name="Scene fingerprint of the last capture")
     # models
-    finetune_iterations: IntProperty(name="Iterations", default=0, min=0, max=100000,
+    finetune_iterations: IntProperty(name="Iterations", default=0, **LIMITS["finetune_iterations"].bounds(),
                                      description="Fine-tuning iterations per network; 0 for the standard "
                                                  "recipe, fewer for a rough but quick fine-tune")
     models_fingerprint: StringProperty(name="Rig fingerprint the models were trained for")
@@ -136,10 +137,10 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                                                "e.g. 'black_ink_cells:0.7, teal_red_mosaic:0.3'")
     use_psa: BoolProperty(name="Surface adaptation (PSA)", default=True,
                           description="Adapt the look to what this surface and projector can show")
-    psa_strength: FloatProperty(name="Strength", default=0.5, min=0.05, max=0.95, subtype="FACTOR",
+    psa_strength: FloatProperty(name="Strength", default=0.5, subtype="FACTOR", **LIMITS["psa_strength"].bounds(),
                                 description="How far PSA pushes the projection loss down (0.5: to half its "
                                             "first value)")
-    style_seed: IntProperty(name="Seed", default=0, min=0)
+    style_seed: IntProperty(name="Seed", default=0, **LIMITS["style_seed"].bounds())
     result_dir: StringProperty(name="Result folder", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     result_fingerprint: StringProperty(name="Rig fingerprint of the result")
     result_summary: StringProperty(name="Result")
@@ -149,7 +150,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     export_bit_depth: EnumProperty(name="Bit depth", items=[("8", "8 bit", ""), ("16", "16 bit", "")], default="8",
                                    update=_export_bit_depth_changed)
     export_path: StringProperty(name="Export to", subtype="FILE_PATH", default="//projector_image.png")
-    crossfade_frames: IntProperty(name="Crossfade frames", default=60, min=2, max=10000)
+    crossfade_frames: IntProperty(name="Crossfade frames", default=60, **LIMITS["crossfade_frames"].bounds())
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
     job_message: StringProperty(name="Status")
 

@@ -11,10 +11,11 @@ import numpy as np
 from ...lapig_core.capture import dataset as ds
 from ...lapig_core.common.imageio import read_image, write_png
 from ...lapig_core.common.sheets import labelled_grid
-from ..blender import addon, result_preview, scene_state
+from ..blender import addon, result_preview, scene_state, storage
+from ..services.errors import one_line
 from ..services.panel_state import rig_blocker
 from . import headless
-from .output import print_json
+from .output import print_json, print_notes
 
 
 def _ensure_registered():
@@ -24,9 +25,11 @@ def _ensure_registered():
 
 def cmd_demo(args) -> int:
     """The README's main job: demo scene -> capture -> models -> prompt -> projector image -> render."""
+    from ...lapig_core.lgst.prompt_mapping import validate_prompt
     from ..services import export_result
-    from ..services.pipeline_jobs import GenerateJob, RenderResultJob, TrainModelsJob
+    from ..services.pipeline_jobs import GenerateJob, RenderResultJob, TrainModelsJob, result_notes
 
+    validate_prompt(args.prompt)  # now, not after minutes of capture and training
     _ensure_registered()
     out = os.path.abspath(args.out)
     os.makedirs(out, exist_ok=True)
@@ -51,6 +54,7 @@ def cmd_demo(args) -> int:
     t = time.perf_counter()
     generated = GenerateJob(scene, request, args.iterations).run_to_completion(on_progress=headless.print_progress)
     timings["stylize_s"] = round(time.perf_counter() - t, 2)
+    print_notes(result_notes(generated["summary"]))
     t = time.perf_counter()
     rendered = RenderResultJob(scene).run_to_completion()
     timings["render_s"] = round(time.perf_counter() - t, 2)
@@ -105,7 +109,11 @@ def _open_scene(args):
     if args.blend:
         if not os.path.isfile(args.blend):
             raise ValueError(f"no such .blend file: {args.blend}")
-        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.blend))
+        try:
+            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.blend))
+        except RuntimeError as exc:  # empty, damaged or not a .blend at all
+            raise ValueError(f"cannot open {args.blend}: it is empty, damaged or not a .blend file "
+                             f"({one_line(exc)})") from exc
     scene = bpy.context.scene
     blocker = rig_blocker(scene_state.read_rig(scene))
     if blocker:
@@ -143,7 +151,7 @@ def cmd_train(args) -> int:
 
 
 def cmd_stylize(args) -> int:
-    from ..services.pipeline_jobs import GenerateJob, RenderResultJob
+    from ..services.pipeline_jobs import GenerateJob, RenderResultJob, result_notes
 
     scene = _open_scene(args)
     request = scene_state.generate_request(scene, prompt=args.prompt, backend=args.backend, mix=args.mix,
@@ -155,6 +163,10 @@ def cmd_stylize(args) -> int:
     if args.render:
         summary.update(RenderResultJob(scene).run_to_completion()["metrics"])
     _save_if_asked(args)
+    print_notes(result_notes(out["summary"]))
+    if not args.save:
+        print_notes([f"this result is not saved into the .blend (no --save): export it with "
+                     f"'export --result {out['folder']}'"])
     print(f"Look at {os.path.join(out['folder'], 'comparison.png')}")
     print_json({"result": out["folder"], "styles": out["summary"]["lgst"].get("styles"), **summary})
     return 0
@@ -163,16 +175,34 @@ def cmd_stylize(args) -> int:
 def cmd_export(args) -> int:
     from ..services import export_result
 
+    if args.crossfade and not os.path.isdir(os.path.dirname(os.path.abspath(args.crossfade))):
+        raise ValueError(f"--crossfade: the folder above {args.crossfade} does not exist")  # before any file
     scene = _open_scene(args)
+    result = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     settings = scene_state.export_settings(scene, path=os.path.abspath(args.out), bit_depth=args.bit_depth,
                                            crossfade_frames=args.frames)
-    written = export_result.export_current(scene, settings)
-    summary = {k: str(v) for k, v in written.items()}
+    written = export_result.export_current(scene, settings, result)
+    summary = {"result": result, **{k: str(v) for k, v in written.items()}}
     if args.crossfade:
-        frames = export_result.export_crossfade(scene, os.path.abspath(args.crossfade), settings)
+        frames = export_result.export_crossfade(scene, os.path.abspath(args.crossfade), settings, result,
+                                                on_progress=headless.print_progress)
         summary["crossfade_frames"] = len(frames)
     print_json(summary)
     return 0
+
+
+def _scene_result_if_latest(scene) -> str:
+    """The scene's result, unless a later stylize (one without --save) made a newer one: a pipeline that
+    stylizes and then exports means that one, so say how to choose instead of exporting the old look."""
+    from ..services import export_result
+
+    recorded = scene_state.read(scene).result_dir
+    newest = export_result.newest_result(os.path.join(storage.data_root()[0], "results"))
+    if newest and os.path.normpath(newest) != os.path.normpath(recorded or ""):
+        held = f"the .blend holds {recorded}" if recorded else "the .blend holds no result"
+        raise ValueError(f"{held}, but stylize made {newest} after it without --save: pass --result {newest} "
+                         f"to export that one" + (f", or --result {recorded} for the .blend's" if recorded else ""))
+    return recorded
 
 
 def _iterations(args, scene) -> int | None:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import sys
 
 _last_progress = {"message": None}
 
@@ -16,3 +17,10 @@ def print_progress(progress, message):
 
 def print_json(summary: dict):
     print(json.dumps(summary, sort_keys=True), flush=True)
+
+
+def print_notes(notes):
+    """What the user should know about a result (a cut prompt, a weak match, retrained models), on stderr
+    so stdout stays progress lines and the JSON summary."""
+    for note in notes:
+        print("note: " + " ".join(note.split()), file=sys.stderr, flush=True)

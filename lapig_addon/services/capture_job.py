@@ -13,6 +13,7 @@ from ..blender.cycles_device import CyclesCaptureDevice
 from ..blender.fingerprint import rig_fingerprint
 from .jobs import Job
 from ..blender.scene_state import read_rig
+from .limits import first_problem
 from .panel_state import rig_blocker
 
 
@@ -21,6 +22,15 @@ def check_rig(scene, projector=None, camera=None, target=None):
     blocker = rig_blocker(read_rig(scene, projector, camera, target))
     if blocker:
         raise CaptureError(blocker)
+
+
+def check_settings(settings: CaptureSettings):
+    """CaptureError unless every count and size is within the panel's range: checked before any image is
+    allocated (a working size of 100000 would ask for 112 GiB per image)."""
+    problem = first_problem({name: getattr(settings, name)
+                             for name in ("train_count", "test_count", "working_size", "samples", "seed")})
+    if problem:
+        raise CaptureError(problem)
 
 
 class CaptureJob(Job):
@@ -33,6 +43,7 @@ class CaptureJob(Job):
 
     def steps(self):
         s = self.settings
+        check_settings(s)
         check_rig(self.scene, self.projector, self.camera, self.target)
         # the viewport preview tints the object's materials: capture the real surface
         previewing = preview.current_preview(self.target)

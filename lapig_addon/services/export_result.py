@@ -5,6 +5,7 @@ both place and round the stored result with lapig_core's one frame function.
 """
 from __future__ import annotations
 
+import glob
 import os
 
 import bpy
@@ -13,7 +14,7 @@ from ...lapig_core.export import projector_image as export
 from ...lapig_core.export.result_files import read_result_image, read_summary, stored_bit_depth
 from ..blender import scene_state
 from ..blender.scene_state import projector_model
-from .panel_state import result_blocker
+from .panel_state import result_blocker, rig_blocker
 from .state import ExportSettings
 
 
@@ -30,12 +31,32 @@ def addon_version() -> str:
     return "unknown"
 
 
-def _result_folder(scene) -> str:
+def result_folder(scene, chosen: str | None = None) -> str:
+    """The result to export: `chosen` (a result folder made from the scene's capture), else the scene's."""
     state = scene_state.read(scene)
-    blocker = result_blocker(state)
+    blocker = rig_blocker(state.rig) if chosen else result_blocker(state)
     if blocker:
         raise ValueError(blocker)
-    return state.result_dir
+    if not chosen:
+        return state.result_dir
+    made_from = read_summary(chosen).get("fingerprint")
+    if made_from and state.capture_fingerprint and made_from != state.capture_fingerprint:
+        raise ValueError(f"{chosen} was made from another capture than this scene's: export it with the "
+                         ".blend it was made with")
+    return chosen
+
+
+def newest_result(root: str) -> str:
+    """The result folder under `root` written last ('' when there is none): the one a pipeline's last
+    stylize made, saved into the .blend or not."""
+    summaries = glob.glob(os.path.join(glob.escape(root), "*", "result.json"))
+    return os.path.dirname(max(summaries, key=os.path.getmtime)) if summaries else ""
+
+
+def _check(settings: ExportSettings):
+    problem = settings.problem()
+    if problem:
+        raise ValueError(problem)
 
 
 def metadata(scene, folder: str, summary: dict) -> dict:
@@ -48,8 +69,10 @@ def metadata(scene, folder: str, summary: dict) -> dict:
             "software_blender": bpy.app.version_string}
 
 
-def export_current(scene, settings: ExportSettings) -> dict:
-    folder = _result_folder(scene)
+def export_current(scene, settings: ExportSettings, result: str | None = None) -> dict:
+    """Write the projector image of `result` (None: the scene's result)."""
+    _check(settings)
+    folder = result_folder(scene, result)
     summary = read_summary(folder)
     model = projector_model(scene_state.rig_objects(scene)[0])
     return export.export_projector_image(settings.path, read_result_image(folder, "projector"), model.width,
@@ -57,8 +80,11 @@ def export_current(scene, settings: ExportSettings) -> dict:
                                          metadata=metadata(scene, folder, summary), lapig_version=addon_version())
 
 
-def export_crossfade(scene, directory: str, settings: ExportSettings) -> list:
-    folder = _result_folder(scene)
+def export_crossfade(scene, directory: str, settings: ExportSettings, result: str | None = None,
+                     on_progress=None) -> list:
+    """Write the crossfade frames of `result` (None: the scene's result)."""
+    _check(settings)
+    folder = result_folder(scene, result)
     if not directory:
         raise ValueError("Choose a folder for the crossfade frames")
     summary = read_summary(folder)
@@ -72,4 +98,4 @@ def export_crossfade(scene, directory: str, settings: ExportSettings) -> list:
                                      width=model.width, height=model.height,
                                      bit_depth=settings.bit_depth, ease="smooth", gamma=model.gamma,
                                      metadata=metadata(scene, folder, summary), source_labels=labels,
-                                     lapig_version=addon_version())
+                                     lapig_version=addon_version(), on_progress=on_progress)

@@ -9,6 +9,8 @@ from __future__ import annotations
 import time
 from typing import Callable, Iterator
 
+from .errors import one_line
+
 
 class JobCancelled(Exception):
     pass
@@ -50,7 +52,7 @@ class Job:
             self._finish("CANCELLED", self.progress, "cancelled")
         except Exception as exc:  # reported to the user by the operator or the CLI
             self.error = exc
-            self._finish("FAILED", self.progress, str(exc))
+            self._finish("FAILED", self.progress, one_line(exc))
         return not self.finished
 
     def cancel(self):
@@ -60,6 +62,10 @@ class Job:
             self._gen.close()  # runs the generator's cleanup at its current yield
         self._finish("CANCELLED", self.progress, "cancelled")
 
+    def stop(self):
+        """Cancel and return once no work of this job runs any more."""
+        self.cancel()
+
     def _finish(self, state, progress, message):
         self.state, self.progress, self.message = state, progress, message
         self.finished_at = time.perf_counter()
@@ -67,11 +73,17 @@ class Job:
     def run(self, on_progress: Callable[[float, str], None] | None = None,
             should_cancel: Callable[[], bool] | None = None) -> str:
         """Step until finished; returns the final state (failures stay in self.error)."""
-        while self.step():
+        try:
+            while self.step():
+                if on_progress:
+                    on_progress(self.progress, self.message)
+                if should_cancel and should_cancel():
+                    self.cancel()
+        except KeyboardInterrupt:  # Ctrl-C in a headless run: undo as Esc does, then let the caller exit
             if on_progress:
-                on_progress(self.progress, self.message)
-            if should_cancel and should_cancel():
-                self.cancel()
+                on_progress(self.progress, "interrupted: stopping")
+            self.stop()
+            raise
         if on_progress:
             on_progress(self.progress, self.message)
         return self.state
@@ -103,6 +115,7 @@ class WorkerJob(Job):
     poll_timeout = 0.05
     _NOT_PREPARED = object()
     _inputs = _NOT_PREPARED
+    _thread = None
 
     def prepare(self):
         return None
@@ -121,6 +134,12 @@ class WorkerJob(Job):
 
     def finish(self, output):
         return output
+
+    def stop(self):
+        """Cancel, and wait for the worker to see it: torch work left running when Python exits aborts it."""
+        self.cancel()  # sets cancel_event while the worker runs
+        if self._thread is not None:
+            self._thread.join()
 
     def steps(self):
         import queue
@@ -144,7 +163,7 @@ class WorkerJob(Job):
             finally:  # when the work has stopped, not when a cancel stops waiting for it
                 release()
 
-        thread = threading.Thread(target=target, name=self.title, daemon=True)
+        thread = self._thread = threading.Thread(target=target, name=self.title, daemon=True)
         try:
             thread.start()
         except BaseException:

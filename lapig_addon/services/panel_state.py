@@ -74,11 +74,10 @@ def backend_warning(request: GenerateRequest) -> str:
     checked = _AVAILABILITY.get(key)
     if checked is None or time.monotonic() - checked[0] > 30:
         try:
-            from ...lapig_core.lgst import BACKENDS
+            from ...lapig_core.lgst import backend_class
 
-            cls = BACKENDS.get(request.backend)
-            ok, why = cls.availability(**options) if cls else (False, f"unknown backend '{request.backend}'")
-        except ImportError as exc:
+            ok, why = backend_class(request.backend).availability(**options)
+        except (ImportError, ValueError) as exc:  # torch missing, or a backend name nothing registered
             ok, why = False, str(exc)
         checked = _AVAILABILITY[key] = (time.monotonic(), ok, why)
     return "" if checked[1] else checked[2]

@@ -7,12 +7,14 @@ from __future__ import annotations
 
 import datetime
 import os
+import shutil
 
 import numpy as np
 
 from ...lapig_core.common import metrics
 from ...lapig_core.capture.dataset import load_capture_set, resolve_setup
 from ...lapig_core.capture.staging import hold_root
+from ...lapig_core.lgst import backend_class
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.pipeline import as_image, stylize, surface_models, train_models
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
@@ -92,6 +94,7 @@ class GenerateJob(WorkerJob):
         problem = r.problem()
         if problem:
             raise PipelineError(problem)
+        backend_class(r.backend)  # an unknown name is refused now, not after the models are trained
         return {"capture": folder, "prompt": prompt, "notes": notes, "backend": r.backend,
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
                 "settings": psa_settings_from(r),
@@ -104,8 +107,9 @@ class GenerateJob(WorkerJob):
     def work(self, job, report, cancel_event):
         cs = load_capture_set(job["capture"])
         report(0.02, "loading the models")
+        notes = list(job["notes"])
         models = surface_models(cs, on_progress=lambda p, m: report(0.05 + 0.45 * p, m), cancel_event=cancel_event,
-                                iterations=self.iterations)
+                                iterations=self.iterations, notes=notes)
         if cancel_event.is_set():
             return None
         report(0.5, "stylizing")
@@ -114,13 +118,17 @@ class GenerateJob(WorkerJob):
                       on_progress=lambda p, m: report(0.55 + 0.4 * p, m), backend_options=job["backend_options"])
         if cancel_event.is_set():  # cancelled: write nothing, the scene keeps its last result
             return None
-        return save_stylize_result(job, cs, models, res)
+        return save_stylize_result({**job, "notes": notes}, cs, models, res)
 
     def finish(self, output):
         if output is None:
             return None
         from ..blender import result_preview
 
+        blocker = panel_state.rig_blocker(scene_state.read_rig(self.scene))
+        if blocker:  # the rig was deleted while the work ran: keep no result that no scene refers to
+            shutil.rmtree(output["folder"], ignore_errors=True)
+            raise PipelineError(f"{blocker}: the result was not kept")
         scene_state.record_models(self.scene, output["summary"].get("fingerprint") or "")  # trained on the way
         scene_state.record_result(self.scene, output["folder"], output["summary_line"])
         result_preview.show_result_on_projector(self.scene)  # the stored image, as Export will write it
@@ -128,6 +136,12 @@ class GenerateJob(WorkerJob):
         if mode != "ORIGINAL":
             result_preview.apply_mode(self.scene, mode)
         return output
+
+
+def result_notes(summary: dict) -> list[str]:
+    """What the user should read about a result: the prompt's and the models' notes, then the backend's
+    (a weak prompt match, a fallback)."""
+    return list(summary.get("notes", [])) + list(summary.get("lgst", {}).get("notes", []))
 
 
 def save_stylize_result(job: dict, cs, models, res) -> dict:

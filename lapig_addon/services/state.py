@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from ...lapig_core.optics.camera_model import CameraResponse
+from .limits import first_problem
 
 IP2P_BACKEND = "instruct-pix2pix"  # lapig_core.lgst's name for it (not imported here: it needs torch)
 
@@ -66,7 +67,7 @@ class GenerateRequest:
     backend: str
     mix: str  # an explicit style mix instead of the prompt's; '' for the prompt's own
     psa: bool
-    strength: float  # how far PSA pushes the projection loss down, in (0, 1)
+    strength: float  # how far PSA pushes the projection loss down, within LIMITS["psa_strength"]
     seed: int
     ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
 
@@ -74,11 +75,7 @@ class GenerateRequest:
         """Why Generate cannot run with this request ('' when it can)."""
         if not self.prompt.strip() and not self.mix.strip():
             return "Type a prompt"
-        if not 0.0 < self.strength < 1.0:
-            return f"The PSA strength must be between 0 and 1, got {self.strength}"
-        if self.seed < 0:
-            return f"The seed must not be negative, got {self.seed}"
-        return ""
+        return first_problem({"psa_strength": self.strength, "style_seed": self.seed})
 
     def backend_options(self) -> dict:
         """Options for the LGST backend (and its availability check): where its model is."""
@@ -91,3 +88,7 @@ class ExportSettings:
     path: str  # the PNG to write (a JSON sidecar goes beside it)
     bit_depth: int  # 8 or 16
     crossfade_frames: int
+
+    def problem(self) -> str:
+        """Why the export cannot run with these settings ('' when it can)."""
+        return first_problem({"crossfade_frames": self.crossfade_frames})

@@ -212,6 +212,14 @@ def projector_images_digest(root) -> str:
     return digest.hexdigest()
 
 
+def _check_fingerprint(meta: dict, layout: DatasetLayout) -> None:
+    """The rig fingerprint is text (or absent, for a set captured elsewhere): models and scenes store it."""
+    value = meta.get("fingerprint")
+    if value is not None and not isinstance(value, str):
+        raise DatasetError(f"{layout.setup_json}: \"fingerprint\" must be text, got {value!r}; capture this "
+                           "setup again, or remove the entry for a set captured elsewhere")
+
+
 def _check_projector_images(meta: dict, layout: DatasetLayout) -> None:
     expected = meta.get(PRJ_DIGEST_KEY)
     if expected is not None and expected != projector_images_digest(layout.root):
@@ -335,6 +343,7 @@ def load_capture_set(path, size: int | None = None) -> CaptureSet:
     layout = resolve_setup(path)
     _require_dir(layout.setup_dir, "setup")
     meta = read_setup_json(layout.setup_json)
+    _check_fingerprint(meta, layout)
     _check_projector_images(meta, layout)
 
     prj_train_dir = _require_dir(layout.prj_dir("train"), "projector training images")

@@ -294,7 +294,7 @@ def _png_path(out_path) -> Path:
         raise ExportError(f"output path must be a path or string, got {type(out_path).__name__}") from exc
     if not path.name:
         raise ExportError(f"output path has no file name: {out_path!r}")
-    if path.suffix.lower() != ".png":
+    if path.suffix.lower() != ".png" and not path.is_dir():  # a folder is refused, not written beside
         path = path.with_name(path.name + ".png")
     return path
 
@@ -319,7 +319,8 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
     json_path = png_path.with_suffix(".json")
     _check_folder(png_path.parent)
     if png_path.is_dir():
-        raise ExportError(f"output path is a folder, not a file name: {png_path}")
+        raise ExportError(f"output path is a folder, not a file name: {png_path} (e.g. "
+                          f"{png_path / 'projector_image.png'})")
 
     working = _working(working_image, "working image")
     pixels = quantised_frame(working, width, height, bit_depth)
@@ -354,7 +355,7 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
                        bit_depth: int = 8, ease: str = "linear", name: str = "crossfade",
                        gamma: float = 2.2, metadata: dict | None = None,
                        source_labels: tuple[str, str] | None = None,
-                       lapig_version: str | None = None) -> list[Path]:
+                       lapig_version: str | None = None, on_progress=None) -> list[Path]:
     """Write `name_0001.png` ... `name_NNNN.png` blending image_a into image_b, plus `name.json`.
 
     Each image is either a square working image (placed like export_projector_image does) or an
@@ -366,7 +367,8 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
     like a real dissolve between two projectors with constant total output. (The projector's
     black level is an affine term and cancels out.)
     ``out_dir`` is created if its parent exists. Frames written before a failure are removed;
-    the sidecar is written last. Returns the frame paths in order. Raises ExportError.
+    the sidecar is written last. on_progress(fraction, message) hears about every 1% of the frames.
+    Returns the frame paths in order. Raises ExportError.
     """
     bit_depth = _check_bit_depth(bit_depth)
     width, height = _check_size(width, height)
@@ -435,6 +437,8 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
             else:
                 frame = np.power(lin_a * np.float32(1.0 - w) + lin_b * np.float32(w), inv)
             written += _commit([(path, _encode_png(to_bit_depth(frame, bit_depth), path.name))])
+            if on_progress and (len(written) % max(1, frames // 100) == 0 or len(written) == frames):
+                on_progress(len(written) / frames, f"wrote crossfade frame {len(written)}/{frames}")
         _commit([(folder / f"{name}.json", sidecar)])
     except BaseException:
         for path in written:

@@ -7,7 +7,8 @@
 
 Importing this package loads no model; backends load theirs on first use.
 """
-from .base import BACKENDS, LGSTBackend, LGSTUnavailable, available_backends, get_backend, register_backend
+from .base import (BACKENDS, LGSTBackend, LGSTUnavailable, available_backends, backend_class, get_backend,
+                   register_backend)
 from .ip2p_backend import InstructPix2PixBackend
 from .styletransfer_backend import StyleTransferBackend
 
@@ -16,4 +17,4 @@ register_backend(DEFAULT_BACKEND, StyleTransferBackend)
 register_backend("instruct-pix2pix", InstructPix2PixBackend)  # optional: diffusers + weights, loaded lazily
 
 __all__ = ["BACKENDS", "DEFAULT_BACKEND", "InstructPix2PixBackend", "LGSTBackend", "LGSTUnavailable",
-           "StyleTransferBackend", "available_backends", "get_backend", "register_backend"]
+           "StyleTransferBackend", "available_backends", "backend_class", "get_backend", "register_backend"]

@@ -100,12 +100,18 @@ def register_backend(name: str, cls: type) -> None:
     BACKENDS[name] = cls
 
 
-def get_backend(name: str, **kwargs) -> LGSTBackend:
-    """A new backend instance; ValueError naming the registered backends if `name` is unknown."""
+def backend_class(name: str) -> type:
+    """The backend registered as `name`; ValueError naming the registered backends if it is unknown
+    (cheap: callers check a name before any expensive step)."""
     if name not in BACKENDS:
         known = ", ".join(sorted(BACKENDS)) or "(none registered)"
         raise ValueError(f"unknown LGST backend '{name}'; registered backends: {known}")
-    return BACKENDS[name](**kwargs)
+    return BACKENDS[name]
+
+
+def get_backend(name: str, **kwargs) -> LGSTBackend:
+    """A new backend instance; ValueError naming the registered backends if `name` is unknown."""
+    return backend_class(name)(**kwargs)
 
 
 def available_backends() -> dict[str, tuple[bool, str]]:

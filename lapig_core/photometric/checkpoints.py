@@ -30,6 +30,14 @@ class CheckpointError(ValueError):
     pass
 
 
+class NotTrainedYet(CheckpointError):
+    """No checkpoint for this setup yet: none saved, or one trained on another setup (as opposed to a
+    file that is damaged)."""
+
+
+HEADER_FIELDS = {"arch": str, "role": str, "working_size": int}  # what loading reads from a header
+
+
 def make_header(model, role: str, working_size: int, fingerprint: str | None = None, **extra) -> dict:
     return {"format": FORMAT, "version": VERSION, "arch": model.ARCH_NAME, "role": role,
             "working_size": int(working_size), "fingerprint": fingerprint,
@@ -49,14 +57,27 @@ def save_checkpoint(path, model, role: str, working_size: int, fingerprint: str 
 def _read(path) -> dict:
     path = Path(path)
     if not path.is_file():
-        raise CheckpointError(f"no checkpoint at {path}")
+        raise NotTrainedYet(f"no checkpoint at {path}")
     try:
         data = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # truncated or not a torch file
-        raise CheckpointError(f"{path.name} is not a readable checkpoint ({exc.__class__.__name__}: {exc})") from None
-    if not isinstance(data, dict) or data.get("header", {}).get("format") != FORMAT:
+        raise CheckpointError(f"{path.name} is not a readable checkpoint ({_first_sentence(exc)})") from None
+    header = data.get("header") if isinstance(data, dict) else None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise CheckpointError(f"{path.name} is not a LAPIG checkpoint (no header)")
+    for key, kind in HEADER_FIELDS.items():
+        if not isinstance(header.get(key), kind):
+            problem = "is missing" if key not in header else f"is {header[key]!r}, not {kind.__name__}"
+            raise CheckpointError(f"{path.name} has a damaged header: '{key}' {problem}")
+    if not isinstance(data.get("state_dict"), dict):
+        raise CheckpointError(f"{path.name} holds no weights (no state_dict)")
     return data
+
+
+def _first_sentence(exc: Exception) -> str:
+    """'Type: first sentence' of a loader's error (torch's own explanation spans a page)."""
+    lines = str(exc).strip().split(". ")[0].splitlines()
+    return f"{type(exc).__name__}: {lines[0][:160]}" if lines else type(exc).__name__
 
 
 def load_checkpoint(path, arch: str | None = None, role: str | None = None, working_size: int | None = None,
@@ -73,9 +94,12 @@ def load_checkpoint(path, arch: str | None = None, role: str | None = None, work
         raise CheckpointError(f"{name} was trained at {h['working_size']} px, this setup works at "
                               f"{working_size} px: train again at this size")
     if fingerprint is not None and h.get("fingerprint") not in (None, fingerprint):
-        raise CheckpointError(f"{name} was trained on another setup (the projector, camera or object "
-                              f"changed since): fine-tune the models again")
-    model = archs.build(h["arch"])
+        raise NotTrainedYet(f"{name} was trained on another setup (the projector, camera or object "
+                            f"changed since): fine-tune the models again")
+    try:
+        model = archs.build(h["arch"])
+    except ValueError as exc:
+        raise CheckpointError(f"{name} holds an {exc}") from None
     try:
         model.load_state_dict(data["state_dict"])
     except RuntimeError as exc:

@@ -68,5 +68,5 @@ def save_setup_model(setup_dir, model, role: str, cs: CaptureSet, **extra) -> Pa
 def load_setup_model(setup_dir, arch: str, role: str, fingerprint: str | None = None):
     path = Path(setup_dir) / "models" / MODEL_FILES[(arch, role)]
     if not path.is_file():
-        raise checkpoints.CheckpointError(f"no fine-tuned {arch} for this setup yet: train the models first")
+        raise checkpoints.NotTrainedYet(f"no fine-tuned {arch} for this setup yet: train the models first")
     return checkpoints.load_checkpoint(path, arch=arch, role=role, fingerprint=fingerprint)

@@ -41,9 +41,11 @@ def test_generate_request_from_the_scene_and_the_command_line(state):
     ({}, ""),
     ({"prompt": "   "}, "Type a prompt"),
     ({"prompt": "", "mix": "charcoal_wash:1"}, ""),
-    ({"strength": 0.0}, "PSA strength must be between 0 and 1"),
-    ({"strength": 1.0}, "PSA strength must be between 0 and 1"),
-    ({"seed": -1}, "seed must not be negative"),
+    ({"strength": 0.05}, ""),  # the panel's own range, both ends included (services/limits.py)
+    ({"strength": 0.95}, ""),
+    ({"strength": 0.01}, "PSA strength must be between 0.05 and 0.95, got 0.01"),
+    ({"strength": 1.0}, "PSA strength must be between 0.05 and 0.95"),
+    ({"seed": -1}, "Style seed must be at least 0, got -1"),
 ])
 def test_generate_request_problems(state, change, problem):
     found = _request(state, **change).problem()

@@ -1,0 +1,56 @@
+"""The allowed range of every numeric setting: one table behind the panel's properties (their min and
+max), the command line's options and the checks of the plain settings objects.
+
+A value outside its range is refused with the setting's name, never clamped in silence.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Limit:
+    label: str  # what the user calls the setting
+    low: float
+    high: float | None = None  # None: no upper bound
+
+    def problem(self, value) -> str:
+        """Why `value` is out of range ('' when it is in)."""
+        if self.high is None:
+            return "" if value >= self.low else f"{self.label} must be at least {self.low}, got {value}"
+        if self.low <= value <= self.high:
+            return ""
+        return f"{self.label} must be between {self.low} and {self.high}, got {value}"
+
+    def describe(self) -> str:
+        return f"at least {self.low}" if self.high is None else f"{self.low} to {self.high}"
+
+    def bounds(self) -> dict:
+        """The min and max of the Blender property."""
+        return {"min": self.low} if self.high is None else {"min": self.low, "max": self.high}
+
+
+LIMITS = {  # keyed by the scene property's name (blender/properties.py) where there is one
+    "train_count": Limit("Training images", 1, 2000),  # no training pairs: a set nothing can be trained on
+    "test_count": Limit("Test images", 0, 2000),
+    "working_size": Limit("Working size", 32, 1024),  # every capture image is working size squared
+    "samples": Limit("Samples", 1, 64),
+    "seed": Limit("Pattern seed", 0),
+    "finetune_iterations": Limit("Fine-tuning iterations", 0, 100000),  # 0: the standard recipe
+    "psa_strength": Limit("PSA strength", 0.05, 0.95),
+    "style_seed": Limit("Style seed", 0),
+    "crossfade_frames": Limit("Crossfade frames", 2, 10000),
+    # developer commands only
+    "psa_iterations": Limit("PSA iterations", 1, 1000),
+    "pretrain_iterations": Limit("Pretraining iterations", 1, 1000000),
+    "crop": Limit("Crop size", 16, 1024),
+}
+
+
+def first_problem(values: dict) -> str:
+    """The first setting (LIMITS name -> value) out of its range, said ('' when all are in)."""
+    for name, value in values.items():
+        problem = LIMITS[name].problem(value)
+        if problem:
+            return problem
+    return ""

@@ -85,8 +85,10 @@ def project(lapig_registered, tmp_path_factory):
     bpy.ops.wm.save_mainfile()
     assert _main("train", "--blend", blend, "--save") == 0
     assert _main("stylize", "--blend", blend, *MIX, "--no-psa", "--save") == 0
-    setup = Path(bpy.context.scene.lapig.last_capture_dir)
-    return Project(folder, blend, setup, folder / "wall_lapig" / "results", bpy.context.scene.lapig.result_dir)
+    from lapig.lapig_addon.blender import scene_state
+
+    state = scene_state.read(bpy.context.scene)  # folders are stored relative to the .blend
+    return Project(folder, blend, Path(state.capture_dir), folder / "wall_lapig" / "results", state.result_dir)
 
 
 @pytest.fixture
@@ -227,7 +229,7 @@ def test_a_rig_deleted_while_generating_leaves_no_result(project, unchanged):
     bpy.data.objects.remove(scene.lapig.projector)
     assert job.run() == "FAILED"
     assert str(job.error) == "Add the projector and camera first: the result was not kept"
-    assert scene.lapig.result_dir == project.result
+    assert scene_state.read(scene).result_dir == project.result
 
 
 def test_dev_commands_check_their_inputs_before_capturing(capfd, tmp_path):

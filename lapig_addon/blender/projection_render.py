@@ -22,8 +22,9 @@ from .scene_state import projector_model
 
 def render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
                           chunk=8, return_raw=False, bit_depth=8):
-    """Registered captures (N, S, S, 3) float32 of projecting each working image (N, S, S, 3),
-    sent to the projector as bit_depth frames (ProjectorModel.frame_light, like the exported file)."""
+    """Registered captures (N, h, w, 3) float32 at the setup's working frame of projecting each
+    image (N, H, W, 3: working frames, or native ones), sent to the projector as bit_depth frames
+    (ProjectorModel.frame_light, like the exported file)."""
     steps = iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples, seed, chunk,
                                        bit_depth)
     for _ in steps:
@@ -59,7 +60,7 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
     meta = ds.read_setup_json(os.path.join(setup_dir, "setup.json"))
     if meta.get("fingerprint") != rig_fingerprint(projector, camera, target):
         raise CaptureError("the projector, camera or object changed since this setup was captured: capture again")
-    registration = Registration.load(os.path.join(setup_dir, "registration.npz"))
+    registration = Registration.load(os.path.join(setup_dir, ds.REGISTRATION_FILE))
     model = projector_model(projector)
     registered, raw = [], []
     images = np.asarray(images, np.float32)

@@ -106,7 +106,10 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                            description="Room light on the object, as a fraction of the projector's white")
     train_count: IntProperty(name="Training images", default=32, min=0, max=2000)
     test_count: IntProperty(name="Test images", default=8, min=0, max=2000)
-    working_size: IntProperty(name="Working size", default=256, min=32, max=1024, step=32)
+    working_size: IntProperty(name="Working size", default=256, min=32, max=1024, step=32,
+                              description="Long side of the working frame, in pixels: the networks work on the "
+                                          "whole projector frame at this size (e.g. 256 -> 256x192 at 4:3, "
+                                          "256x144 at 16:9), rounded to a multiple of 4")
     gray_level: FloatProperty(name="Gray level", default=0.5, min=0.05, max=0.95,
                               description="Projector input value of the surface capture s")
     samples: IntProperty(name="Samples", default=1, min=1, max=64,
@@ -139,6 +142,9 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                                 description="How far PSA pushes the projection loss down (0.5: to half its "
                                             "first value)")
     style_seed: IntProperty(name="Seed", default=0, min=0)
+    dark_outside: BoolProperty(name="Dark outside the object", default=True,
+                               description="Black projector pixels where the frame misses the object (the "
+                                           "capture found no surface there), so no stray light lands behind it")
     result_dir: StringProperty(name="Result folder", subtype="DIR_PATH")
     result_fingerprint: StringProperty(name="Rig fingerprint of the result")
     result_summary: StringProperty(name="Result")

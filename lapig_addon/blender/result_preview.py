@@ -61,7 +61,7 @@ def show_result_on_projector(scene) -> bpy.types.Image | None:
 def _appearance_image(projector, result_dir: str, kind: str) -> bpy.types.Image:
     model = projector_model(projector)
     img = read_result_image(result_dir, kind)
-    # appearances are in the same central-square layout as the projector image
+    # appearances cover the whole frame, like the projector image
     return frame_image(IMAGE_PREFIX + kind, frame_from_working_image(img, model.width, model.height))
 
 

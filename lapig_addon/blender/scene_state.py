@@ -80,7 +80,8 @@ def capture_settings(scene, **overrides) -> CaptureSettings:
 def generate_request(scene, **overrides) -> GenerateRequest:
     s = scene.lapig
     request = GenerateRequest(prompt=s.prompt, backend=s.backend, mix=s.style_override, psa=s.use_psa,
-                              strength=s.psa_strength, seed=s.style_seed, ip2p_model=preferences.ip2p_model())
+                              strength=s.psa_strength, seed=s.style_seed, ip2p_model=preferences.ip2p_model(),
+                              dark_outside=s.dark_outside)
     return overridden(request, **overrides)
 
 
@@ -147,3 +148,4 @@ def write_stylize_settings(scene, request: GenerateRequest):
     s = scene.lapig
     s.prompt, s.backend, s.style_override = request.prompt, request.backend, request.mix
     s.use_psa, s.psa_strength, s.style_seed = request.psa, request.strength, request.seed
+    s.dark_outside = request.dark_outside

@@ -87,6 +87,7 @@ class GenerateJob(WorkerJob):
         stamp = datetime.datetime.now().strftime("%Y%m%d_%H%M%S")
         return {"capture": folder, "prompt": prompt, "notes": notes, "backend": r.backend,
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
+                "dark_outside": r.dark_outside,
                 "settings": psa_settings_from(r), "out": os.path.join(root, f"{stamp}_{slug}")}
 
     def work(self, job, report, cancel_event):
@@ -99,7 +100,8 @@ class GenerateJob(WorkerJob):
         report(0.5, "stylizing")
         res = stylize(cs, models, job["prompt"], backend=job["backend"], seed=job["seed"], mix=job["mix"],
                       psa=job["psa"], settings=job["settings"], cancel_event=cancel_event,
-                      on_progress=lambda p, m: report(0.55 + 0.4 * p, m), backend_options=job["backend_options"])
+                      on_progress=lambda p, m: report(0.55 + 0.4 * p, m), backend_options=job["backend_options"],
+                      dark_outside=job["dark_outside"])
         if cancel_event.is_set():  # cancelled: write nothing, the scene keeps its last result
             return None
         return save_stylize_result(job, cs, models, res)
@@ -129,7 +131,7 @@ def save_stylize_result(job: dict, cs, models, res) -> dict:
               "simulated_nopsa": as_image(res.without.simulated)}
     summary = {"prompt": job["prompt"], "notes": job.get("notes", []), "backend": job["backend"], "seed": job["seed"],
                "style_mix_override": job.get("mix"), "lgst": res.describe, "psa": job["psa"],
-               "psa_settings": res.settings.to_dict(), "capture": job["capture"],
+               "psa_settings": res.settings.to_dict(), "dark_outside": res.dark_outside, "capture": job["capture"],
                "fingerprint": cs.meta.get("fingerprint"),
                "metrics": {"simulated_psnr": metrics.psnr(images["simulated"], images["target"]),
                            "simulated_psnr_nopsa": metrics.psnr(images["simulated_nopsa"], images["target_nopsa"]),

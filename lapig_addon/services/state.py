@@ -69,6 +69,7 @@ class GenerateRequest:
     strength: float  # how far PSA pushes the projection loss down, in (0, 1)
     seed: int
     ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
+    dark_outside: bool = True  # black projector pixels where the frame misses the object
 
     def problem(self) -> str:
         """Why Generate cannot run with this request ('' when it can)."""

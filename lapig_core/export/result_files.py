@@ -5,9 +5,9 @@ The images are 16-bit PNGs: float results kept to 1/65535 (half a level of error
 and Render Real Capture all start from the optimiser's values, not from 8-bit copies of them.
 Folders written before this hold 8-bit PNGs; they are read as they are (stored_bit_depth tells).
 
-Folder layout (working size, projector-registered):
+Folder layout (working frame, projector-registered):
   target.png / target_nopsa.png          what the viewer should see, with and without PSA
-  projector.png / projector_nopsa.png    the compensated projector images (working square)
+  projector.png / projector_nopsa.png    the compensated projector images (working frame)
   simulated.png / simulated_nopsa.png    PCNet's prediction of the capture
   rendered.png / rendered_nopsa.png      the Cycles capture of the projection (when rendered)
   compensability.png                     L_ps + L_cs per pixel over the surface, as a heat map

@@ -59,7 +59,8 @@ def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, rec
 def save_setup_model(setup_dir, model, role: str, cs: CaptureSet, **extra) -> Path:
     """Save next to the captures, stamped with the setup's fingerprint."""
     path = Path(setup_dir) / "models" / MODEL_FILES[(model.ARCH_NAME, role)]
-    return checkpoints.save_checkpoint(path, model, role, cs.image_size[0], cs.meta.get("fingerprint"), **extra)
+    return checkpoints.save_checkpoint(path, model, role, max(cs.frame_size), cs.meta.get("fingerprint"),
+                                       working_frame=list(cs.frame_size), **extra)
 
 
 def load_setup_model(setup_dir, arch: str, role: str, fingerprint: str | None = None):

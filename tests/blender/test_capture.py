@@ -47,7 +47,9 @@ def test_capture_writes_a_registered_dataset_and_restores_the_scene(small_setup,
     assert meta["white_clipped_fraction"] < 0.02
 
     cs = load_capture_set(result["setup_dir"])
-    assert cs.cam_train.shape == (4, 64, 64, 3) and cs.cam_test.shape == (2, 64, 64, 3)
+    # the 160x120 projector's whole frame, at working size 64
+    assert cs.cam_train.shape == (4, 48, 64, 3) and cs.cam_test.shape == (2, 48, 64, 3)
+    assert cs.meta["working_frame"] == [64, 48] and cs.projector_valid.mean() > 0.95
     # a real room: I- is dim but not black, I+ is bright, s in between
     assert 0.005 < cs.cam_black.mean() < cs.cam_gray.mean() < cs.cam_white.mean()
     assert cs.cam_white.mean() > 0.4

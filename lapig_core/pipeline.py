@@ -18,6 +18,7 @@ from .common import metrics
 from .capture.dataset import CaptureSet
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
 from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, get_backend
+from .native_output import NativeResult, native_output
 from .psa.adaptation import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
 from .photometric.training_data import SurfaceTensors
 
@@ -130,6 +131,17 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
         describe["fallback"] = fallback
         describe.setdefault("notes", []).append(fallback)
     return StylizeResult(plain, adapted, describe, settings, dark_outside, lgst)
+
+
+def output_at(cs: CaptureSet, models: SurfaceModels, res: StylizeResult, width: int, height: int,
+              budget_mb: float | None = None) -> NativeResult | None:
+    """The chosen look (with PSA when it ran) and its projector image at width x height (e.g. the
+    projector's native frame); None when that is the working frame itself."""
+    if (width, height) == cs.frame_size:
+        return None
+    chosen = res.with_psa or res.without
+    return native_output(setup_dir_of(cs), models, res.backend, chosen.state, width, height, res.dark_outside,
+                         budget_mb)
 
 
 def as_image(t: torch.Tensor):

@@ -4,6 +4,7 @@ from ..lapig_addon.blender import scene_state, storage
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
 from ..lapig_addon.services.capture_job import CaptureJob, check_rig
 from ..lapig_core.capture.dataset import DatasetError, load_capture_set, summarize
+from ..lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ..lapig_core.common.deps import require
 
 
@@ -41,9 +42,13 @@ class LAPIG_OT_import_capture(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def execute(self, context):
+        projector_size = scene_state.read_rig(context.scene).projector_size
         try:
             capture_set = load_capture_set(bpy.path.abspath(self.directory))
-        except (DatasetError, OSError) as exc:
+            if projector_size:  # its images must cover the projector's frame (e.g. a public 256x256 set: 1:1)
+                check_aspect(capture_set.frame_size, projector_size, "the data set",
+                             advice="set the projector's resolution to the data set's aspect first")
+        except (DatasetError, WorkingFrameError, OSError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         folder = capture_set.root / "setups" / capture_set.setup if capture_set.setup else self.directory

@@ -154,6 +154,7 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         sub.prop(s, "psa_strength")
         layout.prop(s, "style_seed")
         layout.prop(s, "dark_outside")
+        layout.prop(s, "output_size")
         _progress(layout)
         blocked = panel_state.generate_blocker(state, request)
         _blocked(layout, blocked)

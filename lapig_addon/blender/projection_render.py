@@ -63,7 +63,7 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
     registration = Registration.load(os.path.join(setup_dir, ds.REGISTRATION_FILE))
     model = projector_model(projector)
     registered, raw = [], []
-    images = np.asarray(images, np.float32)
+    images = [np.asarray(im, np.float32) for im in images]  # working frames and native ones may mix
     with CyclesCaptureDevice(scene, projector, camera, target, samples=samples or meta.get("samples", 1),
                              ambient=meta.get("ambient", 0.0), seed=seed,
                              response=CameraResponse(**meta["camera"]["response"]),
@@ -76,3 +76,10 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
                 registered.append(registration.warp(cap))
             yield len(registered) / len(images)
     return np.stack(registered).astype(np.float32), np.stack(raw)
+
+
+def register_at(setup_dir, raw_capture, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """A raw capture of the setup registered into a width x height frame (e.g. native), and where
+    it is valid."""
+    registration = Registration.load(os.path.join(os.fspath(setup_dir), ds.REGISTRATION_FILE))
+    return registration.resized(width, height).warp(raw_capture, return_valid=True)

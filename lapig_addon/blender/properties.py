@@ -145,6 +145,10 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     dark_outside: BoolProperty(name="Dark outside the object", default=True,
                                description="Black projector pixels where the frame misses the object (the "
                                            "capture found no surface there), so no stray light lands behind it")
+    output_size: IntProperty(name="Output size", default=0, min=0, max=8192,
+                             description="Long side of the final projector image, up to the projector's "
+                                         "resolution; 0 for its native resolution. The look and its "
+                                         "compensation are computed at this size after the adaptation")
     result_dir: StringProperty(name="Result folder", subtype="DIR_PATH")
     result_fingerprint: StringProperty(name="Rig fingerprint of the result")
     result_summary: StringProperty(name="Result")

@@ -44,6 +44,7 @@ class Rig:
     scene: str = ""
     outside_scene: tuple[str, ...] = ()  # rig objects that are not linked into the scene
     fingerprint: str = ""  # of the whole rig as it is now (blender/fingerprint.py); '' while incomplete
+    projector_size: tuple[int, int] | None = None  # (width, height) of the projector's native frame
 
 
 @dataclass(frozen=True)
@@ -70,6 +71,7 @@ class GenerateRequest:
     seed: int
     ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
     dark_outside: bool = True  # black projector pixels where the frame misses the object
+    output_size: int = 0  # long side of the final projector image; 0: the projector's native frame
 
     def problem(self) -> str:
         """Why Generate cannot run with this request ('' when it can)."""
@@ -79,6 +81,8 @@ class GenerateRequest:
             return f"The PSA strength must be between 0 and 1, got {self.strength}"
         if self.seed < 0:
             return f"The seed must not be negative, got {self.seed}"
+        if self.output_size < 0:
+            return f"The output size must not be negative (0: native), got {self.output_size}"
         return ""
 
     def backend_options(self) -> dict:

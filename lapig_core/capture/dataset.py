@@ -340,6 +340,20 @@ def _gray_level(meta: dict, layout: DatasetLayout) -> float:
     )
 
 
+def frame_size_of(path) -> tuple[int, int]:
+    """(width, height) of a setup's working frame, without loading it: setup.json's "working_frame",
+    else the size of its first registered reference (public sets)."""
+    layout = _resolve_setup(Path(path))
+    frame = read_setup_json(layout.setup_json).get("working_frame")
+    if frame:
+        return int(frame[0]), int(frame[1])
+    try:
+        h, w = read_image(layout.image_path(layout.cam_warp_dir("ref"), REF_BLACK)).shape[:2]
+    except ImageReadError as exc:
+        raise DatasetError(str(exc)) from exc
+    return w, h
+
+
 def _projector_valid(layout: DatasetLayout, shape) -> np.ndarray | None:
     """The registration's frame_valid at the images' (H, W); None without a usable registration."""
     path = layout.setup_dir / REGISTRATION_FILE

@@ -6,7 +6,7 @@ import pytest
 
 from lapig_core.common import metrics
 from lapig_core.common.imageio import read_image
-from lapig_core.export.result_files import (heat_overlay, read_result_image, read_summary, stored_bit_depth,
+from lapig_core.export.result_files import (heat_overlay, output_name, read_output_image, read_result_image, read_summary, stored_bit_depth,
                                             write_result)
 from lapig_core.photometric.targets import desired_targets, reachable_mask, reachable_range
 
@@ -69,3 +69,16 @@ def test_render_adds_its_images_to_a_result_and_leaves_the_others_alone(tmp_path
     assert read_summary(folder)["metrics"]["rendered_psnr"] == 30.0
     assert read_image(folder / "comparison.png").shape[1] == 3 * 256  # the sheet shows the renders too
     assert stored_bit_depth(folder, "comparison") == 8  # a sheet for people
+
+
+def test_the_output_size_image_is_what_a_result_shows_where_it_has_one(tmp_path):
+    working, native = np.full((24, 32, 3), 0.25, np.float32), np.full((48, 64, 3), 0.75, np.float32)
+    folder = write_result(tmp_path / "r", {"projector": working, "target": working}, {"prompt": "p"})
+    assert output_name(folder, "projector") == "projector"
+    assert read_output_image(folder, "projector").shape == (24, 32, 3)
+    write_result(folder, {"projector_native": native}, {"prompt": "p"})
+    assert output_name(folder, "projector") == "projector_native"
+    assert np.allclose(read_output_image(folder, "projector"), 0.75, atol=1e-4)
+    assert output_name(folder, "target") == "target"  # per image
+    # a sheet of 4:3 images has 4:3 cells
+    assert read_image(folder / "comparison.png").shape[0] < 256

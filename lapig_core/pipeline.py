@@ -84,7 +84,7 @@ class StylizeResult:
         return {"ssim": metrics.ssim(a, b), "psnr": metrics.psnr(a, b)}
 
 
-def off_object_mask(valid) -> torch.Tensor:
+def on_object_mask(valid) -> torch.Tensor:
     """(1,1,H,W) float mask of the projector pixels that land on the object (registration's valid map)."""
     return torch.as_tensor(valid, dtype=torch.float32)[None, None]
 
@@ -123,7 +123,7 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
         adapted = run_psa(lgst, models, settings, on_progress=on_progress, cancel_event=cancel_event)
     dark_outside = dark_outside and cs.projector_valid is not None
     if dark_outside:
-        mask = off_object_mask(cs.projector_valid)
+        mask = on_object_mask(cs.projector_valid)
         plain = darkened_outside(plain, mask, models)
         adapted = darkened_outside(adapted, mask, models) if adapted is not None else None
     describe = lgst.describe()

@@ -17,6 +17,7 @@ from ...lapig_core.optics.projector_model import quantised_frame
 from ..services.capture_job import CaptureError, check_rig
 from .cycles_device import CyclesCaptureDevice
 from .fingerprint import rig_fingerprint
+from .preview import real_surface
 from .scene_state import projector_model
 
 
@@ -64,10 +65,12 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
     model = projector_model(projector)
     registered, raw = [], []
     images = [np.asarray(im, np.float32) for im in images]  # working frames and native ones may mix
-    with CyclesCaptureDevice(scene, projector, camera, target, samples=samples or meta.get("samples", 1),
-                             ambient=meta.get("ambient", 0.0), seed=seed,
-                             response=CameraResponse(**meta["camera"]["response"]),
-                             camera_size=tuple(meta["camera"]["resolution"])) as device:
+    # the real surface, not a preview's material (which would show the look it is judged against)
+    with real_surface(target, projector), \
+            CyclesCaptureDevice(scene, projector, camera, target, samples=samples or meta.get("samples", 1),
+                                ambient=meta.get("ambient", 0.0), seed=seed,
+                                response=CameraResponse(**meta["camera"]["response"]),
+                                camera_size=tuple(meta["camera"]["resolution"])) as device:
         for start in range(0, len(images), chunk):
             # the frames of the files Export writes at this bit depth
             frames = [quantised_frame(im, model.width, model.height, bit_depth) for im in images[start:start + chunk]]

@@ -10,14 +10,15 @@ import os
 import re
 
 from ...lapig_core.common import metrics
+from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import DatasetError, frame_size_of, load_capture_set
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.native_output import OutputSizeError, output_frame, tile_for
 from ...lapig_core.pipeline import as_image, output_at, stylize, surface_models, train_models
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
-from ...lapig_core.export.result_files import (heat_overlay, output_name, read_output_image, read_result_image,
-                                               read_summary, write_result)
+from ...lapig_core.export.result_files import (heat_overlay, output_name, read_output_image, read_summary,
+                                               write_result)
 from . import panel_state
 from ..blender import scene_state, storage
 from .capture_job import CaptureError
@@ -216,7 +217,8 @@ class RenderResultJob(Job):
         for name, cap in zip(names, captured):
             suffix = name[len("projector"):]
             rendered["rendered" + suffix] = cap
-            target = read_result_image(folder, "target" + suffix)
+            # the look of the image that was projected (the native one where made), at the working frame
+            target = resize_image(read_output_image(folder, "target" + suffix), cap.shape[1], cap.shape[0])
             summary["metrics"]["rendered_psnr" + suffix] = metrics.psnr(cap, target)
             summary["metrics"]["rendered_ssim" + suffix] = metrics.ssim(cap, target)
         if output_name(folder, "target") != "target":  # and at the output size, on the object

@@ -76,7 +76,8 @@ def test_whole_path_through_the_operators(captured, tmp_path):
         assert preview.is_previewing(target)
     with pytest.raises(RuntimeError, match="no 'rendered' image"):
         bpy.ops.lapig.preview_mode(mode="RENDERED")
-    assert bpy.ops.lapig.render_result() == {"FINISHED"}
+    assert bpy.ops.lapig.render_result() == {"FINISHED"}  # with the preview on: Cycles sees the real surface
+    assert preview.is_previewing(target)
     summary = json.load(open(os.path.join(folder, "result.json")))
     assert summary["metrics"]["rendered_psnr"] > 5 and "rendered_psnr_nopsa" in summary["metrics"]
     assert summary["metrics"]["rendered_psnr_native"] > 5 and "rendered_ssim_native" in summary["metrics"]

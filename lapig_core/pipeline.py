@@ -2,12 +2,13 @@
 
 captured setup -> fine-tuned CompenNeSt + PCNet (cached next to the captures)
               -> LGST target from the white-lit surface I+ and the prompt
-              -> with and without PSA: target, projector image, simulated capture.
+              -> with and without PSA: target, projector image, simulated capture,
+                 the projector image black where the frame misses the object (by default).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import torch
@@ -16,7 +17,8 @@ from .photometric import checkpoints
 from .common import metrics
 from .capture.dataset import CaptureSet
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
-from .lgst import DEFAULT_BACKEND, LGSTUnavailable, get_backend
+from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, get_backend
+from .native_output import NativeResult, native_output
 from .psa.adaptation import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
 from .photometric.training_data import SurfaceTensors
 
@@ -75,6 +77,8 @@ class StylizeResult:
     with_psa: PSAResult | None
     describe: dict
     settings: PSASettings
+    dark_outside: bool = False  # the projector images are black off the object
+    backend: LGSTBackend | None = None  # prepared: renders a result's theta at other sizes (native output)
 
     def style_retention(self) -> dict:
         if self.with_psa is None:
@@ -83,10 +87,27 @@ class StylizeResult:
         return {"ssim": metrics.ssim(a, b), "psnr": metrics.psnr(a, b)}
 
 
+def on_object_mask(valid) -> torch.Tensor:
+    """(1,1,H,W) float mask of the projector pixels that land on the object (registration's valid map)."""
+    return torch.as_tensor(valid, dtype=torch.float32)[None, None]
+
+
+def darkened_outside(result: PSAResult, mask: torch.Tensor, models: SurfaceModels) -> PSAResult:
+    """The result with its projector image black where ``mask`` is 0 (no stray light behind the
+    object), and the simulated capture of that image."""
+    projector_image = result.projector_image * mask
+    with torch.no_grad():
+        simulated = models.simulate(projector_image)
+    return replace(result, projector_image=projector_image, simulated=simulated)
+
+
 def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = DEFAULT_BACKEND, seed: int = 0,
             mix=None, psa: bool = True, settings: PSASettings | None = None, on_progress=None, cancel_event=None,
-            backend_options: dict | None = None) -> StylizeResult:
-    """The prompt's look on this surface, and its PSA-adapted version."""
+            backend_options: dict | None = None, dark_outside: bool = True) -> StylizeResult:
+    """The prompt's look on this surface, and its PSA-adapted version.
+
+    dark_outside: black projector pixels where the frame misses the object (where the capture set
+    knows it: setups captured here; public sets have no registration)."""
     settings = settings or PSASettings(seed=seed)
     surface = SurfaceTensors.from_capture_set(cs).i_max  # LGST sees the white-lit surface (as the paper)
     lgst, fallback = get_backend(backend, **(backend_options or {})), None
@@ -103,11 +124,27 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     adapted = None
     if psa:
         adapted = run_psa(lgst, models, settings, on_progress=on_progress, cancel_event=cancel_event)
+    dark_outside = dark_outside and cs.projector_valid is not None
+    if dark_outside:
+        mask = on_object_mask(cs.projector_valid)
+        plain = darkened_outside(plain, mask, models)
+        adapted = darkened_outside(adapted, mask, models) if adapted is not None else None
     describe = lgst.describe()
     if fallback:
         describe["fallback"] = fallback
         describe.setdefault("notes", []).append(fallback)
-    return StylizeResult(plain, adapted, describe, settings)
+    return StylizeResult(plain, adapted, describe, settings, dark_outside, lgst)
+
+
+def output_at(cs: CaptureSet, models: SurfaceModels, res: StylizeResult, width: int, height: int,
+              budget_mb: float | None = None) -> NativeResult | None:
+    """The chosen look (with PSA when it ran) and its projector image at width x height (e.g. the
+    projector's native frame); None when that is the working frame itself."""
+    if (width, height) == cs.frame_size:
+        return None
+    chosen = res.with_psa or res.without
+    return native_output(setup_dir_of(cs), models, res.backend, chosen.state, width, height, res.dark_outside,
+                         budget_mb)
 
 
 def as_image(t: torch.Tensor):

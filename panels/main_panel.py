@@ -153,6 +153,8 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         sub.enabled = s.use_psa
         sub.prop(s, "psa_strength")
         layout.prop(s, "style_seed")
+        layout.prop(s, "dark_outside")
+        layout.prop(s, "output_size")
         _progress(layout)
         blocked = panel_state.generate_blocker(state, request)
         _blocked(layout, blocked)

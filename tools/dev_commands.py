@@ -5,6 +5,7 @@ this package is importable, i.e. in a source checkout.
 """
 from __future__ import annotations
 
+import argparse
 import os
 
 from ..lapig_addon.blender import addon
@@ -16,6 +17,22 @@ from ..lapig_addon.cli.output import print_json
 def _ensure_registered():
     if not addon.is_registered():
         addon.register()
+
+
+def pair_of(kind, example: str):
+    """An argparse type for 'AxB' (e.g. 1920x1080 pixels, 3.6x2 metres)."""
+    def parse(text: str):
+        try:
+            a, b = (kind(v) for v in text.lower().split("x"))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must look like {example}, got '{text}'") from None
+        if a <= 0 or b <= 0:
+            raise argparse.ArgumentTypeError(f"both sides must be positive, got '{text}'")
+        return a, b
+    return parse
+
+
+pixels = pair_of(int, "1920x1080")
 
 
 def add_parsers(sub):
@@ -48,12 +65,20 @@ def add_parsers(sub):
     ranged_option(ev, "--iterations", "finetune_iterations",
                   "fine-tuning iterations per network (default: the CPU recipe's); fewer: rough but quick")
     ev.add_argument("--verbose", action="store_true", help="print training progress")
+    ev.add_argument("--projector", type=pixels, default=(800, 600), help="projector resolution (default 800x600)")
+    ev.add_argument("--throw-ratio", type=float, default=1.5, help="projector throw ratio (default 1.5)")
+    ev.add_argument("--wall", type=pair_of(float, "3.6x2"), default=None,
+                    help="the wall panel's width x height in metres (default 2x2), e.g. 3.6x2 for a wide facade")
+    ev.add_argument("--camera", type=pixels, default=(480, 360), help="camera resolution (default 480x360)")
+    ev.add_argument("--working-size", type=int, default=256, help="long side of the working frame (default 256)")
+    ev.add_argument("--output-size", type=int, default=0,
+                    help="long side of the final projector image (default 0: the projector's native frame)")
 
     build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")
     build.add_argument("--out", default="dist", help="output folder (default: dist)")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
-    bench.add_argument("what", choices=["capture", "models", "psa", "ui"], help="which benchmark")
+    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame"], help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
     bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
@@ -94,10 +119,11 @@ def cmd_bench(args) -> int:
 
         backend_class(args.backend)  # an unknown name is refused before any setup is rendered
     _ensure_registered()
-    from .bench import bench_capture, bench_models, bench_psa, bench_ui
+    from .bench import bench_capture, bench_frame, bench_models, bench_psa, bench_ui
 
     args.out = args.out or f"out/bench_{args.what}"
-    modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui}
+    modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui,
+               "frame": bench_frame}
     summary = modules[args.what].run(args)
     if not args.json:
         for key, value in sorted(summary.items()):
@@ -147,7 +173,7 @@ def cmd_eval(args) -> int:
 
     summary = evaluate.run(args)
     print(f"Look at {summary['sheet']}")
-    print_json({k: summary[k] for k in ("with_psa", "without_psa", "style_retention", "timings", "sheet")})
+    print_json({k: summary[k] for k in ("with_psa", "without_psa", "native", "style_retention", "timings", "sheet")})
     return 0
 
 

@@ -1,9 +1,11 @@
 """`python -m lapig_addon eval`: one surface image, one prompt, with and without PSA, captured for real.
 
-Builds a wall panel textured with the image, captures it, fine-tunes the models, stylizes with and
-without PSA, projects both compensated images with Cycles (the "real capture"), and writes
-DIR/sheet.png (surface | target without PSA | captured without | target with PSA | captured with)
-and DIR/metrics.json.
+Builds a wall panel textured with the image (any projector resolution and throw ratio, any wall
+size: a wide facade is `--projector 1920x1080 --wall 3.6x2`), captures it, fine-tunes the models,
+stylizes with and without PSA at the working frame, makes the PSA look and its projector image at
+the output size (native by default), projects the compensated images with Cycles (the "real
+capture"), and writes DIR/sheet.png (surface | target without PSA | captured without | target with
+PSA | captured with, all over the whole frame), DIR/native_sheet.png and DIR/metrics.json.
 """
 from __future__ import annotations
 
@@ -16,31 +18,37 @@ import numpy as np
 from ..lapig_core.common import metrics
 from ..lapig_core.capture.dataset import load_capture_set
 from ..lapig_core.common.imageio import atomic_write_bytes, read_image, write_png
-from ..lapig_core.pipeline import as_image, stylize, surface_models
+from ..lapig_core.native_output import output_frame, tile_for
+from ..lapig_core.pipeline import as_image, output_at, stylize, surface_models
 from ..lapig_core.psa.adaptation import PSASettings
 from ..lapig_core.common.sheets import labelled_grid
 from ..lapig_core.lgst import backend_class
 from ..lapig_core.lgst.prompt_mapping import validate_prompt
 from ..lapig_addon.blender import scene_state
-from ..lapig_addon.blender.projection_render import render_working_images
+from ..lapig_addon.blender.projection_render import register_at, render_working_images
 from ..lapig_addon.cli import headless
 
 
-def build_surface_scene(image: np.ndarray, folder: str, name: str = "surface", shape: str = "panel"):
-    """The demo rig around an object textured with `image`."""
-    return headless.build_demo_setup(shape, name, folder=folder, texture=image)
+def build_surface_scene(image: np.ndarray, folder: str, name: str = "surface", shape: str = "panel",
+                        projector=(800, 600), throw_ratio=1.5, wall=None, camera=(480, 360)):
+    """The demo rig around an object textured with `image`: projector (width, height) pixels, wall
+    (width, height) metres for the panel, camera (width, height) pixels."""
+    return headless.build_demo_setup(shape, name, folder=folder, texture=image, projector_resolution=projector,
+                                     throw_ratio=throw_ratio, wall_size=wall, camera_resolution=camera)
 
 
-def capture_surface(scene, projector, camera, target, data_dir, setup="surface", train=125, test=0, seed=0):
+def capture_surface(scene, projector, camera, target, data_dir, setup="surface", train=125, test=0, seed=0,
+                    working_size=None):
     settings = scene_state.capture_settings(scene, out_dir=data_dir, setup_name=setup, train_count=train,
-                                            test_count=test, seed=seed)
+                                            test_count=test, seed=seed, working_size=working_size)
     result = headless.run_capture(scene, settings, projector, camera, target)
     return result["setup_dir"]
 
 
 def evaluate_prompt(cs, models, rig_objects, setup_dir, prompt, backend="styletransfer", seed=0,
-                    settings: PSASettings | None = None, progress=None) -> tuple[dict, dict]:
-    """Stylize with and without PSA, render both for real; (metrics, images)."""
+                    settings: PSASettings | None = None, progress=None, output=None) -> tuple[dict, dict]:
+    """Stylize with and without PSA, render both for real; (metrics, images). output: (width,
+    height) of the PSA look's native output (evaluate_native), None for none."""
     t = time.perf_counter()
     res = stylize(cs, models, prompt, backend=backend, seed=seed, settings=settings, on_progress=progress)
     psa_s = time.perf_counter() - t
@@ -60,7 +68,30 @@ def evaluate_prompt(cs, models, rig_objects, setup_dir, prompt, backend="styletr
     out["style_retention"] = {k: round(v, 4) for k, v in res.style_retention().items()}
     out["psa_s"], out["render_s"] = round(psa_s, 2), round(render_s, 2)
     images = {"targets": targets, "captured": list(captured), "projector_images": projector_images}
+    if output is not None:
+        out["native"], images["native"] = evaluate_native(cs, models, res, rig_objects, setup_dir, *output)
     return out, images
+
+
+def evaluate_native(cs, models, res, rig_objects, setup_dir, width, height) -> tuple[dict, dict]:
+    """The PSA look and its projector image at width x height, rendered for real and registered at
+    that size; (figures, images). PSNR over the frame's on-object pixels, sharpness against the
+    target's (variance of the Laplacian)."""
+    native = output_at(cs, models, res, width, height)
+    if native is None:  # the output is the working frame itself
+        target, projector_image = as_image(res.with_psa.target), as_image(res.with_psa.projector_image)
+        seconds, tile = 0.0, max(width, height)
+    else:
+        target, projector_image = as_image(native.target), as_image(native.projector_image)
+        seconds, tile = native.seconds, native.tile
+    _, raw = render_working_images(*rig_objects, setup_dir, projector_image[None], return_raw=True)
+    captured, valid = register_at(setup_dir, raw[0], width, height)
+    figures = {"frame": [width, height], "tile": tile, "seconds": round(seconds, 2),
+               "psnr": round(metrics.masked_psnr(captured, target, valid), 4),
+               "ssim": round(metrics.ssim(captured, target), 4),
+               "sharpness_ratio": round(metrics.sharpness(captured, valid) / metrics.sharpness(target, valid), 4),
+               "on_object_fraction": round(float(valid.mean()), 4)}
+    return figures, {"target": target, "projector_image": projector_image, "captured": captured}
 
 
 def comparison_sheet(surface, images, title):
@@ -75,11 +106,15 @@ def run(args) -> dict:
     validate_prompt(args.prompt)
     backend_class(args.backend)
     image = read_image(args.surface)
+    output = output_frame(args.output_size, *args.projector)  # refused before any work when too large
+    tile_for(*output)
     out = os.path.abspath(args.out)
     os.makedirs(out, exist_ok=True)
-    rig_objects = build_surface_scene(image, out)
+    rig_objects = build_surface_scene(image, out, projector=args.projector, throw_ratio=args.throw_ratio,
+                                      wall=args.wall, camera=args.camera)
     t = time.perf_counter()
-    setup_dir = capture_surface(*rig_objects, os.path.join(out, "dataset"), train=args.train, seed=args.seed)
+    setup_dir = capture_surface(*rig_objects, os.path.join(out, "dataset"), train=args.train, seed=args.seed,
+                                working_size=args.working_size)
     capture_s = time.perf_counter() - t
     cs = load_capture_set(setup_dir)
     t = time.perf_counter()
@@ -88,7 +123,7 @@ def run(args) -> dict:
     train_s = time.perf_counter() - t
     settings = PSASettings(seed=args.seed, max_iterations=args.psa_iterations)
     result, images = evaluate_prompt(cs, models, rig_objects, setup_dir, args.prompt, args.backend, args.seed,
-                                     settings)
+                                     settings, output=output)
     sheet = comparison_sheet(cs.cam_white, images, f"'{args.prompt}' ({', '.join(n for n, _ in result['lgst'].get('styles', []))})")
     write_png(os.path.join(out, "sheet.png"), sheet)
     for name, im in (("target_without_psa", images["targets"][0]), ("target_with_psa", images["targets"][1]),
@@ -96,6 +131,13 @@ def run(args) -> dict:
                      ("projector_with_psa", images["projector_images"][1]),
                      ("captured_without_psa", images["captured"][0]), ("captured_with_psa", images["captured"][1])):
         write_png(os.path.join(out, name + ".png"), im)
+    native = images["native"]
+    for name in ("target", "projector_image", "captured"):
+        write_png(os.path.join(out, f"native_{name}.png"), native[name], bit_depth=16)
+    write_png(os.path.join(out, "native_sheet.png"),
+              labelled_grid([native["target"], native["projector_image"], native["captured"]],
+                            ["target (native)", "projector image (native)", "captured (native)"], columns=3,
+                            cell=512, title=f"{args.prompt} at %dx%d" % tuple(result["native"]["frame"])))
     result["timings"] = {"capture_s": round(capture_s, 2), "train_s": round(train_s, 2), "psa_s": result.pop("psa_s"),
                          "render_s": result.pop("render_s"), "total_s": round(time.perf_counter() - t0, 2)}
     result["surface"] = os.path.abspath(args.surface)

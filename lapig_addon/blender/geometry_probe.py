@@ -9,6 +9,8 @@ import numpy as np
 from mathutils import Vector
 from mathutils.bvhtree import BVHTree
 
+from ...lapig_core.optics.projector_model import frame_sample_points
+
 RENDERABLE = {"MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD", "VOLUME"}
 
 
@@ -120,13 +122,8 @@ def exact_projector_to_camera(bvh, projector_obj, model, camera_proj: CameraProj
 
 
 def coverage(bvh, projector_obj, model, camera_proj, target_bvh=None, grid=24) -> dict:
-    """Share of the projector's working square that lands on geometry the camera sees."""
-    from ...lapig_core.optics.projector_model import square_region
-
-    x0, y0, side = square_region(model.width, model.height)
-    t = (np.arange(grid) + 0.5) / grid * side - 0.5
-    xs, ys = np.meshgrid(x0 + t, y0 + t)
-    xy = np.stack([xs, ys], -1).reshape(-1, 2)
+    """Share of the projector's frame that lands on geometry the camera sees."""
+    xy = frame_sample_points(model.width, model.height, grid).reshape(-1, 2)
     hits = projector_hits(bvh, projector_obj, model, xy)
     lit = np.isfinite(hits).all(axis=1)
     if target_bvh is not None:  # count only hits on the chosen surface object

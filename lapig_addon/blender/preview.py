@@ -8,8 +8,11 @@ The originals get a fake user while swapped, so saving the file can never lose t
 """
 from __future__ import annotations
 
+import contextlib
+
 import bpy
 
+from . import projector_nodes
 from .compat import material_node_tree
 from .scene_state import projector_model
 
@@ -176,6 +179,21 @@ def current_preview(obj):
     if not is_previewing(obj):
         return None
     return bpy.data.images.get(obj.get("lapig_preview_image", "")), bool(obj.get("lapig_preview_appearance"))
+
+
+@contextlib.contextmanager
+def real_surface(obj, projector):
+    """The object in its own materials for the block (a capture must see the real surface, not the
+    preview's tinted copies), then the preview back as it was."""
+    previewing = current_preview(obj)
+    if previewing:
+        disable_preview(obj)
+    try:
+        yield
+    finally:
+        if previewing:
+            image, appearance = previewing
+            enable_preview(obj, projector, image or projector_nodes.projected_image(projector.data), appearance)
 
 
 def disable_preview(obj):

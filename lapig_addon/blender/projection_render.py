@@ -17,13 +17,15 @@ from ...lapig_core.optics.projector_model import quantised_frame
 from ..services.capture_job import CaptureError, check_rig
 from .cycles_device import CyclesCaptureDevice
 from .fingerprint import rig_fingerprint
+from .preview import real_surface
 from .scene_state import projector_model
 
 
 def render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,
                           chunk=8, return_raw=False, bit_depth=8):
-    """Registered captures (N, S, S, 3) float32 of projecting each working image (N, S, S, 3),
-    sent to the projector as bit_depth frames (ProjectorModel.frame_light, like the exported file)."""
+    """Registered captures (N, h, w, 3) float32 at the setup's working frame of projecting each
+    image (N, H, W, 3: working frames, or native ones), sent to the projector as bit_depth frames
+    (ProjectorModel.frame_light, like the exported file)."""
     steps = iter_render_working_images(scene, projector, camera, target, setup_dir, images, samples, seed, chunk,
                                        bit_depth)
     for _ in steps:
@@ -59,14 +61,16 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
     meta = ds.read_setup_json(os.path.join(setup_dir, "setup.json"))
     if meta.get("fingerprint") != rig_fingerprint(projector, camera, target):
         raise CaptureError("the projector, camera or object changed since this setup was captured: capture again")
-    registration = Registration.load(os.path.join(setup_dir, "registration.npz"))
+    registration = Registration.load(os.path.join(setup_dir, ds.REGISTRATION_FILE))
     model = projector_model(projector)
     registered, raw = [], []
-    images = np.asarray(images, np.float32)
-    with CyclesCaptureDevice(scene, projector, camera, target, samples=samples or meta.get("samples", 1),
-                             ambient=meta.get("ambient", 0.0), seed=seed,
-                             response=CameraResponse(**meta["camera"]["response"]),
-                             camera_size=tuple(meta["camera"]["resolution"])) as device:
+    images = [np.asarray(im, np.float32) for im in images]  # working frames and native ones may mix
+    # the real surface, not a preview's material (which would show the look it is judged against)
+    with real_surface(target, projector), \
+            CyclesCaptureDevice(scene, projector, camera, target, samples=samples or meta.get("samples", 1),
+                                ambient=meta.get("ambient", 0.0), seed=seed,
+                                response=CameraResponse(**meta["camera"]["response"]),
+                                camera_size=tuple(meta["camera"]["resolution"])) as device:
         for start in range(0, len(images), chunk):
             # the frames of the files Export writes at this bit depth
             frames = [quantised_frame(im, model.width, model.height, bit_depth) for im in images[start:start + chunk]]
@@ -75,3 +79,10 @@ def _render_steps(scene, projector, camera, target, setup_dir, images, samples, 
                 registered.append(registration.warp(cap))
             yield len(registered) / len(images)
     return np.stack(registered).astype(np.float32), np.stack(raw)
+
+
+def register_at(setup_dir, raw_capture, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """A raw capture of the setup registered into a width x height frame (e.g. native), and where
+    it is valid."""
+    registration = Registration.load(os.path.join(os.fspath(setup_dir), ds.REGISTRATION_FILE))
+    return registration.resized(width, height).warp(raw_capture, return_valid=True)

@@ -108,7 +108,10 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                            description="Room light on the object, as a fraction of the projector's white")
     train_count: IntProperty(name="Training images", default=32, **LIMITS["train_count"].bounds())
     test_count: IntProperty(name="Test images", default=8, **LIMITS["test_count"].bounds())
-    working_size: IntProperty(name="Working size", default=256, step=32, **LIMITS["working_size"].bounds())
+    working_size: IntProperty(name="Working size", default=256, step=32, **LIMITS["working_size"].bounds(),
+                              description="Long side of the working frame, in pixels: the networks work on the "
+                                          "whole projector frame at this size (e.g. 256 -> 256x192 at 4:3, "
+                                          "256x144 at 16:9), rounded to a multiple of 4")
     gray_level: FloatProperty(name="Gray level", default=0.5, min=0.05, max=0.95,
                               description="Projector input value of the surface capture s")
     samples: IntProperty(name="Samples", default=1, **LIMITS["samples"].bounds(),
@@ -141,6 +144,13 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                                 description="How far PSA pushes the projection loss down (0.5: to half its "
                                             "first value)")
     style_seed: IntProperty(name="Seed", default=0, **LIMITS["style_seed"].bounds())
+    dark_outside: BoolProperty(name="Dark outside the object", default=True,
+                               description="Black projector pixels where the frame misses the object (the "
+                                           "capture found no surface there), so no stray light lands behind it")
+    output_size: IntProperty(name="Output size", default=0, min=0, max=8192,
+                             description="Long side of the final projector image, up to the projector's "
+                                         "resolution; 0 for its native resolution. The look and its "
+                                         "compensation are computed at this size after the adaptation")
     result_dir: StringProperty(name="Result folder", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     result_fingerprint: StringProperty(name="Rig fingerprint of the result")
     result_summary: StringProperty(name="Result")

@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from ...lapig_core.optics.projector_model import frame_from_working_image
-from ...lapig_core.export.result_files import read_result_image
+from ...lapig_core.export.result_files import read_output_image
 from ..services.panel_state import preview_blocker
 from . import preview, projector_nodes, scene_state
 from .scene_state import projector_model
@@ -40,8 +40,8 @@ def frame_image(name: str, pixels: np.ndarray, non_color: bool = True) -> bpy.ty
 
 
 def set_projector_image(projector, working_image: np.ndarray, bit_depth: int) -> bpy.types.Image:
-    """Put a working-size projector image on the light, as the light it emits when sent as a
-    bit_depth file (placement, rounding, gamma, black level)."""
+    """Put a projector image (working frame or native) on the light, as the light it emits when sent
+    as a bit_depth file (placement, rounding, gamma, black level)."""
     light = projector_model(projector).frame_light(working_image, bit_depth)
     image = frame_image(IMAGE_PREFIX + "projector image", light)
     projector_nodes.set_projected_image(projector.data, image)
@@ -54,14 +54,14 @@ def show_result_on_projector(scene) -> bpy.types.Image | None:
     projector = scene_state.rig_objects(scene)[0]
     if not folder or projector is None:
         return None
-    return set_projector_image(projector, read_result_image(folder, "projector"),
+    return set_projector_image(projector, read_output_image(folder, "projector"),
                                scene_state.export_settings(scene).bit_depth)
 
 
 def _appearance_image(projector, result_dir: str, kind: str) -> bpy.types.Image:
     model = projector_model(projector)
-    img = read_result_image(result_dir, kind)
-    # appearances are in the same central-square layout as the projector image
+    img = read_output_image(result_dir, kind)
+    # appearances cover the whole frame, like the projector image
     return frame_image(IMAGE_PREFIX + kind, frame_from_working_image(img, model.width, model.height))
 
 

@@ -53,7 +53,9 @@ def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
     return Rig(projector=projector.name if projector else None, camera=camera.name if camera else None,
                target=target.name if target else None, scene=scene.name,
                outside_scene=tuple(ob.name for ob in objects if ob.name not in scene.objects),
-               fingerprint=rig_fingerprint(projector, camera, target) if len(objects) == 3 else "")
+               fingerprint=rig_fingerprint(projector, camera, target) if len(objects) == 3 else "",
+               projector_size=(projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y)
+               if projector else None)
 
 
 def read(scene) -> SceneState:
@@ -80,7 +82,8 @@ def capture_settings(scene, **overrides) -> CaptureSettings:
 def generate_request(scene, **overrides) -> GenerateRequest:
     s = scene.lapig
     request = GenerateRequest(prompt=s.prompt, backend=s.backend, mix=s.style_override, psa=s.use_psa,
-                              strength=s.psa_strength, seed=s.style_seed, ip2p_model=preferences.ip2p_model())
+                              strength=s.psa_strength, seed=s.style_seed, ip2p_model=preferences.ip2p_model(),
+                              dark_outside=s.dark_outside, output_size=s.output_size)
     return overridden(request, **overrides)
 
 
@@ -148,3 +151,4 @@ def write_stylize_settings(scene, request: GenerateRequest):
     s = scene.lapig
     s.prompt, s.backend, s.style_override = request.prompt, request.backend, request.mix
     s.use_psa, s.psa_strength, s.style_seed = request.psa, request.strength, request.seed
+    s.dark_outside, s.output_size = request.dark_outside, request.output_size

@@ -73,6 +73,8 @@ def cmd_demo(args) -> int:
                "prompt": args.prompt, "styles": generated["summary"]["lgst"].get("styles"),
                "rendered_psnr": round(m.get("rendered_psnr", float("nan")), 3),
                "rendered_psnr_nopsa": round(m.get("rendered_psnr_nopsa", float("nan")), 3),
+               "native_output": generated["summary"]["native_output"],
+               "rendered_psnr_native": round(m.get("rendered_psnr_native", float("nan")), 3),
                "registration_error_px_median": meta["registration"].get("registration_error_px_median"),
                **timings}
     print(f"Look at {sheet_path} and {summary['contact_sheet']}; open {blend_path} in Blender")

@@ -11,17 +11,28 @@ from .output import print_progress  # noqa: F401 (re-exported)
 
 
 def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camera_resolution=(480, 360),
-                     tint=(1.0, 1.0, 1.0), texture=None):
+                     tint=(1.0, 1.0, 1.0), texture=None, projector_resolution=(800, 600), throw_ratio=1.5,
+                     wall_size=None):
     """A fresh scene with a textured object, a projector and a camera placed around it.
 
-    tint and texture as in demo_scene.add_surface_object (texture: the user's own image).
+    tint and texture as in demo_scene.add_surface_object (texture: the user's own image);
+    wall_size (width, height) in metres: the panel's size (default 2 x 2; a wide facade: (3.6, 2.0)).
     """
+    if wall_size and shape != "panel":
+        raise ValueError(f"a wall size is for the panel, not the {shape}")
     demo_scene.new_empty_scene()
     target = demo_scene.add_surface_object(shape, surface, folder=folder, seed=seed, tint=tint, texture=texture)
+    if wall_size:  # the panel is a 2 m plane stood up: its local x and y are the wall's width and height
+        target.scale = (wall_size[0] / 2.0, wall_size[1] / 2.0, 1.0)
+        bpy.context.view_layer.update()
     bpy.context.view_layer.objects.active = target
-    camera = rig.create_camera(bpy.context.scene)
+    scene = bpy.context.scene
+    camera = rig.create_camera(scene)
     camera.lapig_camera.resolution_x, camera.lapig_camera.resolution_y = camera_resolution
-    projector, camera, _ = rig.add_rig(bpy.context, target, camera=camera)  # lens fits this aspect
+    projector = rig.create_projector(scene)
+    settings = projector.lapig_projector
+    (settings.resolution_x, settings.resolution_y), settings.throw_ratio = projector_resolution, throw_ratio
+    projector, camera, _ = rig.add_rig(bpy.context, target, projector=projector, camera=camera)  # lens fits
     return bpy.context.scene, projector, camera, target
 
 

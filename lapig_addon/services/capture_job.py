@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ...lapig_core.capture.sequence import run_capture
 from ...lapig_core.capture.settings import CaptureError, CaptureSettings  # noqa: F401 (re-exported)
-from ..blender import preview, projector_nodes
+from ..blender import preview
 from ..blender.cycles_device import CyclesCaptureDevice
 from ..blender.fingerprint import rig_fingerprint
 from .jobs import Job
@@ -46,19 +46,11 @@ class CaptureJob(Job):
         check_settings(s)
         check_rig(self.scene, self.projector, self.camera, self.target)
         # the viewport preview tints the object's materials: capture the real surface
-        previewing = preview.current_preview(self.target)
-        if previewing:
-            preview.disable_preview(self.target)
-        try:
-            with CyclesCaptureDevice(self.scene, self.projector, self.camera, self.target, samples=s.samples,
-                                     ambient=s.ambient, seed=s.seed) as device:
-                # once the device has evaluated the scene: matrix_world is current
-                rig_meta = {"fingerprint": rig_fingerprint(self.projector, self.camera, self.target),
-                            "objects": {"projector": self.projector.name, "camera": self.camera.name,
-                                        "target": self.target.name}}
-                self.result = yield from run_capture(device, s, device.geometry_checks(), rig_meta, self.title)
-        finally:
-            if previewing:
-                image, appearance = previewing
-                preview.enable_preview(self.target, self.projector,
-                                       image or projector_nodes.projected_image(self.projector.data), appearance)
+        with preview.real_surface(self.target, self.projector), \
+                CyclesCaptureDevice(self.scene, self.projector, self.camera, self.target, samples=s.samples,
+                                    ambient=s.ambient, seed=s.seed) as device:
+            # once the device has evaluated the scene: matrix_world is current
+            rig_meta = {"fingerprint": rig_fingerprint(self.projector, self.camera, self.target),
+                        "objects": {"projector": self.projector.name, "camera": self.camera.name,
+                                    "target": self.target.name}}
+            self.result = yield from run_capture(device, s, device.geometry_checks(), rig_meta, self.title)

@@ -11,7 +11,8 @@ import os
 import bpy
 
 from ...lapig_core.export import projector_image as export
-from ...lapig_core.export.result_files import read_result_image, read_summary, stored_bit_depth
+from ...lapig_core.export.result_files import (output_name, read_output_image, read_result_image, read_summary,
+                                               stored_bit_depth)
 from ..blender import scene_state
 from ..blender.scene_state import projector_model
 from .panel_state import result_blocker, rig_blocker
@@ -65,7 +66,7 @@ def metadata(scene, folder: str, summary: dict) -> dict:
             "psa_settings": summary.get("psa_settings"), "metrics": summary.get("metrics"),
             **scene_state.rig_metadata(scene),
             # 8 for results stored before results were 16-bit: a 16-bit file then holds 8 bits of data
-            "result_bit_depth": stored_bit_depth(folder, "projector"),
+            "result_bit_depth": stored_bit_depth(folder, output_name(folder, "projector")),
             "software_blender": bpy.app.version_string}
 
 
@@ -75,7 +76,7 @@ def export_current(scene, settings: ExportSettings, result: str | None = None) -
     folder = result_folder(scene, result)
     summary = read_summary(folder)
     model = projector_model(scene_state.rig_objects(scene)[0])
-    return export.export_projector_image(settings.path, read_result_image(folder, "projector"), model.width,
+    return export.export_projector_image(settings.path, read_output_image(folder, "projector"), model.width,
                                          model.height, bit_depth=settings.bit_depth,
                                          metadata=metadata(scene, folder, summary), lapig_version=addon_version())
 
@@ -89,7 +90,7 @@ def export_crossfade(scene, directory: str, settings: ExportSettings, result: st
         raise ValueError("Choose a folder for the crossfade frames")
     summary = read_summary(folder)
     model = projector_model(scene_state.rig_objects(scene)[0])
-    b = read_result_image(folder, "projector")
+    b = read_output_image(folder, "projector")
     try:
         a, labels = read_result_image(folder, "projector_nopsa"), ["without PSA", "with PSA"]
     except FileNotFoundError:

@@ -9,22 +9,23 @@ import datetime
 import os
 import shutil
 
-import numpy as np
-
 from ...lapig_core.common import metrics
-from ...lapig_core.capture.dataset import load_capture_set, resolve_setup
+from ...lapig_core.common.resample import resize_image
+from ...lapig_core.capture.dataset import DatasetError, frame_size_of, load_capture_set, resolve_setup
 from ...lapig_core.capture.staging import hold_root
 from ...lapig_core.lgst import backend_class
+from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
-from ...lapig_core.pipeline import as_image, stylize, surface_models, train_models
+from ...lapig_core.native_output import OutputSizeError, output_frame, tile_for
+from ...lapig_core.pipeline import as_image, output_at, stylize, surface_models, train_models
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
-from ...lapig_core.export.result_files import (folder_name, heat_overlay, read_result_image, read_summary,
-                                                write_new_result, write_result)
+from ...lapig_core.export.result_files import (folder_name, heat_overlay, output_name, read_output_image,
+                                               read_summary, write_new_result, write_result)
 from . import panel_state
 from ..blender import scene_state, storage
 from .capture_job import CaptureError
 from .jobs import Job, WorkerJob
-from ..blender.projection_render import iter_render_working_images
+from ..blender.projection_render import iter_render_working_images, register_at
 from .state import GenerateRequest, SceneState
 
 
@@ -33,10 +34,16 @@ class PipelineError(ValueError):
 
 
 def current_capture(state: SceneState) -> str:
-    """The scene's capture folder, checked to exist and to match the rig as it is now."""
+    """The scene's capture folder, checked to exist, to match the rig as it is now and to cover the
+    projector's frame (an imported data set of another aspect cannot)."""
     blocker = panel_state.capture_blocker(state)
     if blocker:
         raise PipelineError(blocker)
+    try:
+        check_aspect(frame_size_of(state.capture_dir), state.rig.projector_size, "the capture",
+                     advice="capture this projector's surface, or set its resolution to the capture's aspect")
+    except (DatasetError, WorkingFrameError) as exc:
+        raise PipelineError(str(exc)) from None
     return state.capture_dir
 
 
@@ -87,7 +94,13 @@ class GenerateJob(WorkerJob):
 
     def prepare(self):
         r = self.request
-        folder = current_capture(scene_state.read(self.scene))
+        state = scene_state.read(self.scene)
+        folder = current_capture(state)
+        try:  # refused now, not after PSA: an output over native or over the memory budget
+            output = output_frame(r.output_size, *state.rig.projector_size)
+            tile_for(*output)
+        except OutputSizeError as exc:
+            raise PipelineError(str(exc)) from None
         mix = r.mix.strip()
         # before r.problem(): an empty prompt is refused here with the longer reason
         prompt, notes = validate_prompt(r.prompt) if not mix else (r.prompt.strip(), [])
@@ -97,6 +110,7 @@ class GenerateJob(WorkerJob):
         backend_class(r.backend)  # an unknown name is refused now, not after the models are trained
         return {"capture": folder, "prompt": prompt, "notes": notes, "backend": r.backend,
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
+                "dark_outside": r.dark_outside, "output_frame": output,
                 "settings": psa_settings_from(r),
                 "results": self.result_root or os.path.join(storage.data_root()[0], "results"),
                 "name": folder_name(prompt or mix, datetime.datetime.now())}
@@ -115,10 +129,16 @@ class GenerateJob(WorkerJob):
         report(0.5, "stylizing")
         res = stylize(cs, models, job["prompt"], backend=job["backend"], seed=job["seed"], mix=job["mix"],
                       psa=job["psa"], settings=job["settings"], cancel_event=cancel_event,
-                      on_progress=lambda p, m: report(0.55 + 0.4 * p, m), backend_options=job["backend_options"])
+                      on_progress=lambda p, m: report(0.55 + 0.4 * p, m), backend_options=job["backend_options"],
+                      dark_outside=job["dark_outside"])
         if cancel_event.is_set():  # cancelled: write nothing, the scene keeps its last result
             return None
-        return save_stylize_result({**job, "notes": notes}, cs, models, res)
+        report(0.95, "the look and its compensation at %dx%d" % job["output_frame"])
+        try:
+            native = output_at(cs, models, res, *job["output_frame"])
+        except DatasetError as exc:  # e.g. an imported set without registration: the working frame only
+            native = str(exc)
+        return save_stylize_result({**job, "notes": notes}, cs, models, res, native)
 
     def finish(self, output):
         if output is None:
@@ -144,8 +164,20 @@ def result_notes(summary: dict) -> list[str]:
     return list(summary.get("notes", [])) + list(summary.get("lgst", {}).get("notes", []))
 
 
-def save_stylize_result(job: dict, cs, models, res) -> dict:
-    """Write the result folder (worker-thread safe: files only) and return a short summary."""
+def _native_summary(native) -> dict:
+    if native is None:
+        return {"frame": "working frame"}
+    if isinstance(native, str):
+        return {"not_made": native}
+    h, w = native.target.shape[-2:]
+    return {"frame": [w, h], "seconds": round(native.seconds, 2), "tile": native.tile}
+
+
+def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
+    """Write the result folder (worker-thread safe: files only) and return a short summary.
+
+    native: the output at the output size (pipeline.output_at), None at the working frame, or why
+    it could not be made."""
     chosen = res.with_psa or res.without
     maps = loss_maps(chosen.target, models)
     problem = (maps["cs"] + maps["ps"]).numpy()
@@ -153,9 +185,12 @@ def save_stylize_result(job: dict, cs, models, res) -> dict:
               "simulated": as_image(chosen.simulated), "compensability": heat_overlay(cs.cam_white, problem),
               "target_nopsa": as_image(res.without.target), "projector_nopsa": as_image(res.without.projector_image),
               "simulated_nopsa": as_image(res.without.simulated)}
+    if native is not None and not isinstance(native, str):
+        images.update(target_native=as_image(native.target), projector_native=as_image(native.projector_image))
     summary = {"prompt": job["prompt"], "notes": job.get("notes", []), "backend": job["backend"], "seed": job["seed"],
                "style_mix_override": job.get("mix"), "lgst": res.describe, "psa": job["psa"],
-               "psa_settings": res.settings.to_dict(), "capture": job["capture"],
+               "psa_settings": res.settings.to_dict(), "dark_outside": res.dark_outside,
+               "native_output": _native_summary(native), "capture": job["capture"],
                "fingerprint": cs.meta.get("fingerprint"),
                "metrics": {"simulated_psnr": metrics.psnr(images["simulated"], images["target"]),
                            "simulated_psnr_nopsa": metrics.psnr(images["simulated_nopsa"], images["target_nopsa"]),
@@ -188,7 +223,7 @@ class RenderResultJob(Job):
         summary = read_summary(folder)
         names = [n for n in ("projector", "projector_nopsa") if os.path.isfile(os.path.join(folder, n + ".png"))]
         yield 0.1, "rendering the projection with Cycles"
-        images = np.stack([read_result_image(folder, n) for n in names])
+        images = [read_output_image(folder, n) for n in names]  # native where the result has it
         # one image per step, so the UI gets a turn between renders; the frames are the light of
         # the files Export writes at the scene's bit depth
         bit_depth = scene_state.export_settings(self.scene).bit_depth
@@ -201,15 +236,22 @@ class RenderResultJob(Job):
             raise PipelineError(str(exc)) from None
         finally:
             steps.close()
-        captured = steps.result[0]
+        captured, raw = steps.result
         yield 0.9, "comparing with the targets"
         rendered = {}
         for name, cap in zip(names, captured):
             suffix = name[len("projector"):]
             rendered["rendered" + suffix] = cap
-            target = read_result_image(folder, "target" + suffix)
+            # the look of the image that was projected (the native one where made), at the working frame
+            target = resize_image(read_output_image(folder, "target" + suffix), cap.shape[1], cap.shape[0])
             summary["metrics"]["rendered_psnr" + suffix] = metrics.psnr(cap, target)
             summary["metrics"]["rendered_ssim" + suffix] = metrics.ssim(cap, target)
+        if output_name(folder, "target") != "target":  # and at the output size, on the object
+            target = read_output_image(folder, "target")
+            cap, valid = register_at(capture, raw[0], target.shape[1], target.shape[0])
+            rendered["rendered_native"] = cap
+            summary["metrics"]["rendered_psnr_native"] = metrics.masked_psnr(cap, target, valid)
+            summary["metrics"]["rendered_ssim_native"] = metrics.ssim(cap, target)
         summary["rendered_bit_depth"] = bit_depth
         write_result(folder, rendered, summary)
         self.result = summary

@@ -45,6 +45,7 @@ class Rig:
     scene: str = ""
     outside_scene: tuple[str, ...] = ()  # rig objects that are not linked into the scene
     fingerprint: str = ""  # of the whole rig as it is now (blender/fingerprint.py); '' while incomplete
+    projector_size: tuple[int, int] | None = None  # (width, height) of the projector's native frame
 
 
 @dataclass(frozen=True)
@@ -70,12 +71,19 @@ class GenerateRequest:
     strength: float  # how far PSA pushes the projection loss down, within LIMITS["psa_strength"]
     seed: int
     ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
+    dark_outside: bool = True  # black projector pixels where the frame misses the object
+    output_size: int = 0  # long side of the final projector image; 0: the projector's native frame
 
     def problem(self) -> str:
         """Why Generate cannot run with this request ('' when it can)."""
         if not self.prompt.strip() and not self.mix.strip():
             return "Type a prompt"
-        return first_problem({"psa_strength": self.strength, "style_seed": self.seed})
+        problem = first_problem({"psa_strength": self.strength, "style_seed": self.seed})
+        if problem:
+            return problem
+        if self.output_size < 0:
+            return f"The output size must not be negative (0: native), got {self.output_size}"
+        return ""
 
     def backend_options(self) -> dict:
         """Options for the LGST backend (and its availability check): where its model is."""

@@ -5,13 +5,14 @@ The layout follows the public projector compensation datasets (CompenNet
 family) so data captured here can be used by their tools and vice versa::
 
     <root>/prj/{ref,train,test}/img_%04d.png        projector inputs shared by all
-                                                     setups, 256x256 8-bit
+                                                     setups, 8-bit, the working frame
+                                                     (public sets: 256x256)
     <root>/setups/<setup>/setup.json                 metadata (a JSON object)
     <root>/setups/<setup>/cam/raw/{ref,sl,train,test,cmp}/img_%04d.png
                                                      raw camera captures, any size
     <root>/setups/<setup>/cam/warp/{ref,train,test,cmp}/img_%04d.png
                                                      captures registered into
-                                                     projector space (working size)
+                                                     projector space (working frame)
     <root>/setups/<setup>/prj/{sl,cmp}/img_%04d.png  setup-specific projector images
                                                      (structured light at native
                                                      resolution; compensation images)
@@ -22,6 +23,12 @@ Reference order, in prj/ref and cam/*/ref:
     img_0001  black projection (I-, the surface under ambient light only)
     img_0002  white projection (I+, full projector output)
     img_0003  uniform gray projection (s); its level is setup.json "gray_level"
+
+The working frame covers the whole projector frame, so its aspect ratio is the projector's
+(setup.json "working_frame": [width, height]); the public sets' 256x256 square is one aspect among
+others, and a set whose aspect is not the projector's is refused where it meets one
+(optics.working_frame.check_aspect). registration.npz, where a setup has one, says which working
+pixels the projector frame lands on (CaptureSet.projector_valid).
 
 A setup captured here records a digest of the shared prj/{ref,train,test} images in setup.json
 ("projector_images_sha256"); the loader refuses the setup when prj/ no longer holds them.
@@ -39,6 +46,7 @@ import cv2
 import numpy as np
 
 from ..common.imageio import ImageReadError, atomic_write_bytes, read_image, write_png
+from .registration import Registration
 
 PRJ_KINDS = ("ref", "train", "test")
 CAM_RAW_KINDS = ("ref", "sl", "train", "test", "cmp")
@@ -47,6 +55,7 @@ PRJ_SETUP_KINDS = ("sl", "cmp")
 STAGES = ("raw", "warp")
 REF_BLACK, REF_WHITE, REF_GRAY = 1, 2, 3  # 1-based indices in the ref folders
 SETUP_JSON = "setup.json"
+REGISTRATION_FILE = "registration.npz"
 PRJ_DIGEST_KEY = "projector_images_sha256"
 
 _IMAGE_NAME = re.compile(r"^img_(\d{4,})\.png$")
@@ -242,13 +251,20 @@ class CaptureSet:
     cam_white: np.ndarray  # (H, W, 3) I+: surface under a white projection
     cam_gray: np.ndarray  # (H, W, 3) s: surface under the uniform gray projection
     gray_level: float
+    projector_valid: np.ndarray | None = None  # (H, W) bool: registered pixels; None: unknown (public sets)
     meta: dict = field(default_factory=dict)
     root: Path = Path(".")
     setup: str = ""
 
     @property
     def image_size(self) -> tuple[int, int]:
+        """(height, width) of every image."""
         return tuple(self.cam_black.shape[:2])
+
+    @property
+    def frame_size(self) -> tuple[int, int]:
+        """(width, height) of the working frame."""
+        return self.image_size[1], self.image_size[0]
 
     @property
     def has_test(self) -> bool:
@@ -279,26 +295,26 @@ def resolve_setup(path) -> DatasetLayout:
     )
 
 
-def _read_folder_images(paths: list[Path], size: int | None, shape: list) -> np.ndarray:
+def _read_folder_images(paths: list[Path], frame: tuple[int, int] | None, shape: list) -> np.ndarray:
     """Read images into one array; ``shape`` ([H, W] or empty) is shared so sizes stay consistent."""
     if not paths:
-        return np.zeros((0, *(shape or [size or 0, size or 0]), 3), np.float32)
+        return np.zeros((0, *(shape or (frame[::-1] if frame else [0, 0])), 3), np.float32)
     out = None
     for i, path in enumerate(paths):
         try:
             img = read_image(path)
         except ImageReadError as exc:
             raise DatasetError(str(exc)) from exc  # the message already names the file
-        if size is not None:
-            if img.shape[:2] != (size, size):
-                img = cv2.resize(img, (size, size), interpolation=cv2.INTER_AREA)
+        if frame is not None:
+            if img.shape[:2] != frame[::-1]:
+                img = cv2.resize(img, frame, interpolation=cv2.INTER_AREA)
         elif not shape:
             shape.extend(img.shape[:2])
         elif list(img.shape[:2]) != shape:
             raise DatasetError(
                 f"image size mismatch: {path} is {img.shape[1]}x{img.shape[0]} "
                 f"but earlier images are {shape[1]}x{shape[0]}; all projector images and "
-                "warped captures must have the same size (or load with size=...)"
+                "warped captures must have the same size (or load with frame=...)"
             )
         if out is None:
             out = np.empty((len(paths), *img.shape), np.float32)
@@ -333,12 +349,40 @@ def _gray_level(meta: dict, layout: DatasetLayout) -> float:
     )
 
 
-def load_capture_set(path, size: int | None = None) -> CaptureSet:
+def frame_size_of(path) -> tuple[int, int]:
+    """(width, height) of a setup's working frame, without loading it: setup.json's "working_frame",
+    else the size of its first registered reference (public sets)."""
+    layout = resolve_setup(path)
+    frame = read_setup_json(layout.setup_json).get("working_frame")
+    if frame:
+        return int(frame[0]), int(frame[1])
+    try:
+        h, w = read_image(layout.image_path(layout.cam_warp_dir("ref"), REF_BLACK)).shape[:2]
+    except ImageReadError as exc:
+        raise DatasetError(str(exc)) from exc
+    return w, h
+
+
+def _projector_valid(layout: DatasetLayout, shape) -> np.ndarray | None:
+    """The registration's frame_valid at the images' (H, W); None without a usable registration."""
+    path = layout.setup_dir / REGISTRATION_FILE
+    if not path.is_file():
+        return None
+    try:
+        valid = Registration.load(path).frame_valid
+    except (OSError, ValueError):
+        return None  # an older or damaged file: the images still load, nothing is masked
+    if valid.shape != tuple(shape):
+        valid = cv2.resize(valid.astype(np.uint8), tuple(shape)[::-1], interpolation=cv2.INTER_NEAREST) > 0
+    return valid
+
+
+def load_capture_set(path, frame: tuple[int, int] | None = None) -> CaptureSet:
     """Load and validate the training/test data of one setup.
 
     ``path`` is a dataset root with exactly one setup, or <root>/setups/<name>.
-    With ``size`` every image is resized to size x size; without it all images
-    must already share one size. Any problem raises DatasetError.
+    With ``frame`` (width, height) every image is resized to it; without it all
+    images must already share one size. Any problem raises DatasetError.
     """
     layout = resolve_setup(path)
     _require_dir(layout.setup_dir, "setup")
@@ -374,11 +418,11 @@ def load_capture_set(path, size: int | None = None) -> CaptureSet:
         )
 
     shape: list = []  # filled by the first image read, checked against all others
-    prj_train = _read_folder_images(prj_train_files, size, shape)
-    cam_train = _read_folder_images(cam_train_files, size, shape)
-    refs = _read_folder_images(ref_files[:REF_GRAY], size, shape)
-    prj_test = _read_folder_images(prj_test_files, size, shape)
-    cam_test = _read_folder_images(cam_test_files, size, shape)
+    prj_train = _read_folder_images(prj_train_files, frame, shape)
+    cam_train = _read_folder_images(cam_train_files, frame, shape)
+    refs = _read_folder_images(ref_files[:REF_GRAY], frame, shape)
+    prj_test = _read_folder_images(prj_test_files, frame, shape)
+    cam_test = _read_folder_images(cam_test_files, frame, shape)
     return CaptureSet(
         prj_train=prj_train,
         cam_train=cam_train,
@@ -388,6 +432,7 @@ def load_capture_set(path, size: int | None = None) -> CaptureSet:
         cam_white=refs[REF_WHITE - 1],
         cam_gray=refs[REF_GRAY - 1],
         gray_level=_gray_level(meta, layout),
+        projector_valid=_projector_valid(layout, refs.shape[1:3]),
         meta=meta,
         root=layout.root,
         setup=layout.setup,
@@ -407,7 +452,8 @@ def summarize(capture_set: CaptureSet) -> str:
     black, white, gray = (float(img.mean()) for img in (cs.cam_black, cs.cam_white, cs.cam_gray))
     contrast = white / black if black > 1e-6 else float("inf")
     return (
-        f"Setup '{cs.setup}' in {cs.root}: {len(cs.prj_train)} training pairs and {test} at {w}x{h} pixels. "
+        f"Setup '{cs.setup}' in {cs.root}: {len(cs.prj_train)} training pairs and {test} at {w}x{h} pixels "
+        f"(aspect {w / h:.3f}; the projector's must match). "
         f"Camera means under black/white/gray ({cs.gray_level:.2f}) projection: "
         f"{black:.3f}/{white:.3f}/{gray:.3f} (white-to-black ratio {contrast:.1f}:1)."
     )

@@ -11,7 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..optics.projector_model import square_region
+from ..optics.projector_model import frame_sample_points
 from .device import CaptureDevice, DeviceInfo
 
 
@@ -74,9 +74,6 @@ class FakeDevice(CaptureDevice):
         return cam
 
     def coverage(self, grid=24) -> dict:
-        """The plane is everywhere: the share of the working square the camera sees."""
-        x0, y0, side = square_region(*self.projector_size)
-        t = (np.arange(grid) + 0.5) / grid * side - 0.5
-        xs, ys = np.meshgrid(x0 + t, y0 + t)
-        seen = np.isfinite(self.exact_projector_to_camera(np.stack([xs, ys], -1))).all(-1)
+        """The plane is everywhere: the share of the projector frame the camera sees."""
+        seen = np.isfinite(self.exact_projector_to_camera(frame_sample_points(*self.projector_size, grid))).all(-1)
         return {"projector_on_object": 1.0, "seen_by_camera": float(seen.mean())}

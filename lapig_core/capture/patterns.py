@@ -8,7 +8,7 @@ images procedurally (no bundled photographs); ``load_image_folder`` uses the
 user's own pictures instead; ``reference_patterns`` gives the black, white and
 gray frames projected to measure the surface.
 
-All images are float32 RGB arrays of shape (size, size, 3) in [0, 1].
+All images are float32 RGB arrays of shape (height, width, 3) in [0, 1]: the working frame.
 """
 
 from __future__ import annotations
@@ -37,24 +37,31 @@ class PatternFolderError(ValueError):
 # --------------------------------------------------------------------------
 
 
-def generate_patterns(count: int, size: int = 256, seed: int = 0) -> np.ndarray:
-    """``count`` varied, natural-image-like patterns, float32 (count, size, size, 3).
+def generate_patterns(count: int, width: int = 256, height: int = 256, seed: int = 0) -> np.ndarray:
+    """``count`` varied, natural-image-like patterns, float32 (count, height, width, 3).
 
-    Image k depends only on (seed, k, size), so asking for more images keeps
+    Image k depends only on (seed, k, width, height), so asking for more images keeps
     the first ones unchanged.
     """
     if count < 0:
         raise ValueError(f"count must be >= 0, got {count}")
-    if size < 8:
-        raise ValueError(f"size must be >= 8, got {size}")
-    out = np.empty((count, size, size, 3), np.float32)
+    if min(width, height) < 8:
+        raise ValueError(f"patterns must be at least 8x8, got {width}x{height}")
+    out = np.empty((count, height, width, 3), np.float32)
     for index in range(count):
-        out[index] = generate_pattern(index, size, seed)
+        out[index] = generate_pattern(index, width, height, seed)
     return out
 
 
-def generate_pattern(index: int, size: int = 256, seed: int = 0) -> np.ndarray:
-    """Pattern number ``index`` of the set generated from ``seed``."""
+def generate_pattern(index: int, width: int = 256, height: int = 256, seed: int = 0) -> np.ndarray:
+    """Pattern number ``index`` of the set generated from ``seed``: drawn on a square of the long
+    side (the generator is isotropic), then the frame's centre is kept."""
+    square = _square_pattern(index, max(width, height), seed)
+    top, left = (square.shape[0] - height) // 2, (square.shape[1] - width) // 2
+    return np.ascontiguousarray(square[top:top + height, left:left + width])
+
+
+def _square_pattern(index: int, size: int, seed: int) -> np.ndarray:
     rng = np.random.default_rng([seed & _SEED_MASK, index])
     img = _background(rng, size)
     for _ in range(rng.integers(3, 11)):
@@ -338,20 +345,21 @@ def _add_fine_detail(rng, img: np.ndarray) -> None:
 # --------------------------------------------------------------------------
 
 
-def _square_resize(img: np.ndarray, size: int) -> np.ndarray:
-    """Centre-crop to a square, then resize (area averaging when shrinking)."""
+def _fill_resize(img: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Centre-crop to the frame's aspect ratio, then resize (area averaging when shrinking)."""
     h, w = img.shape[:2]
-    side = min(h, w)
-    top, left = (h - side) // 2, (w - side) // 2
-    square = img[top : top + side, left : left + side]
-    if side == size:
-        return np.ascontiguousarray(square)
-    interpolation = cv2.INTER_AREA if side > size else cv2.INTER_CUBIC
-    return np.clip(cv2.resize(square, (size, size), interpolation=interpolation), 0.0, 1.0)
+    crop_w, crop_h = min(w, round(h * width / height)), min(h, round(w * height / width))
+    top, left = (h - crop_h) // 2, (w - crop_w) // 2
+    crop = img[top : top + crop_h, left : left + crop_w]
+    if (crop_h, crop_w) == (height, width):
+        return np.ascontiguousarray(crop)
+    interpolation = cv2.INTER_AREA if crop_w > width else cv2.INTER_CUBIC
+    return np.clip(cv2.resize(crop, (width, height), interpolation=interpolation), 0.0, 1.0)
 
 
-def load_image_folder(folder, size: int = 256, count: int | None = None) -> np.ndarray:
-    """Load the images in ``folder`` (sorted by file name) as float32 (N, size, size, 3).
+def load_image_folder(folder, width: int = 256, height: int = 256, count: int | None = None) -> np.ndarray:
+    """Load the images in ``folder`` (sorted by file name) as float32 (N, height, width, 3), each
+    cropped to the frame's aspect ratio about its centre.
 
     Reads PNG, JPEG, BMP, TIFF and WebP; 16-bit, grayscale and alpha are
     handled by read_image. ``count`` takes the first ``count`` images and is
@@ -374,21 +382,21 @@ def load_image_folder(folder, size: int = 256, count: int | None = None) -> np.n
         if len(files) < count:
             raise PatternFolderError(f"pattern folder {folder} has {len(files)} images but {count} were requested")
         files = files[:count]
-    out = np.empty((len(files), size, size, 3), np.float32)
+    out = np.empty((len(files), height, width, 3), np.float32)
     for i, path in enumerate(files):
         try:
-            out[i] = _square_resize(read_image(path), size)
+            out[i] = _fill_resize(read_image(path), width, height)
         except ImageReadError as exc:
             raise PatternFolderError(f"{exc} (in pattern folder {folder})") from exc
     return out
 
 
-def reference_patterns(size: int = 256, gray_level: float = 0.5) -> dict[str, np.ndarray]:
+def reference_patterns(width: int = 256, height: int = 256, gray_level: float = 0.5) -> dict[str, np.ndarray]:
     """Uniform 'black', 'white' and 'gray' frames used to measure the surface."""
     if not 0.0 <= gray_level <= 1.0:
         raise ValueError(f"gray_level must be in [0, 1], got {gray_level}")
     return {
-        "black": np.zeros((size, size, 3), np.float32),
-        "white": np.ones((size, size, 3), np.float32),
-        "gray": np.full((size, size, 3), gray_level, np.float32),
+        "black": np.zeros((height, width, 3), np.float32),
+        "white": np.ones((height, width, 3), np.float32),
+        "gray": np.full((height, width, 3), gray_level, np.float32),
     }

@@ -1,10 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Registering camera captures into a square projector-space working image.
+"""Registering camera captures into the projector's working frame.
 
-The compensation models work on a size x size image covering the central square of the projector
-frame (side min(Wp, Hp), centred). ``working_map`` samples the dense projector -> camera map of
+The compensation models work on a width x height image covering the whole projector frame
+(lapig_core.optics.working_frame). ``working_map`` samples the dense projector -> camera map of
 ``structured_light.projector_to_camera_map`` at that grid's pixel centres; ``warp_to_projector``
-pulls a capture through it. Coordinates follow OpenCV (pixel (i, j) has its centre at (i, j)).
+pulls a capture through it. The dense map is kept too, so the same captures can be registered
+again at any other size up to native (``Registration.resized``). Coordinates follow OpenCV
+(pixel (i, j) has its centre at (i, j)).
 
 Plain Python + numpy + OpenCV; never imports bpy.
 """
@@ -19,18 +21,17 @@ import numpy as np
 from .structured_light import DecodeResult, projector_to_camera_map
 
 
-def square_crop_grid(proj_width: int, proj_height: int, size: int) -> tuple[np.ndarray, np.ndarray]:
-    """Native projector x and y (float64, each of length ``size``) of the working pixel centres.
+def frame_grid(proj_width: int, proj_height: int, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Native projector x (length ``width``) and y (length ``height``), float64, of the pixel
+    centres of a width x height frame covering the whole native frame.
 
-    The grid is separable: working pixel (row r, col c) sits at (xs[c], ys[r]). The square's
-    outer edges are native pixel edges, so with side s and offset x0 = (Wp - s) / 2:
-    xs[c] = x0 - 0.5 + (c + 0.5) * s / size.
+    The grid is separable: pixel (row r, col c) sits at (xs[c], ys[r]). Its outer edges are the
+    native frame's edges: xs[c] = (c + 0.5) * Wp / width - 0.5.
     """
-    if proj_width < 1 or proj_height < 1 or size < 1:
-        raise ValueError(f"sizes must be positive, got projector {proj_width}x{proj_height}, size {size}")
-    side = min(proj_width, proj_height)
-    t = (np.arange(size) + 0.5) * side / size - 0.5
-    return (proj_width - side) / 2 + t, (proj_height - side) / 2 + t
+    if min(proj_width, proj_height, width, height) < 1:
+        raise ValueError(f"sizes must be positive, got projector {proj_width}x{proj_height}, frame {width}x{height}")
+    return ((np.arange(width) + 0.5) * proj_width / width - 0.5,
+            (np.arange(height) + 0.5) * proj_height / height - 0.5)
 
 
 def _check_dense(cam_xy, valid, proj_width, proj_height):
@@ -41,7 +42,7 @@ def _check_dense(cam_xy, valid, proj_width, proj_height):
 
 
 def working_map(
-    cam_xy: np.ndarray, valid: np.ndarray, proj_width: int, proj_height: int, size: int = 256
+    cam_xy: np.ndarray, valid: np.ndarray, proj_width: int, proj_height: int, width: int, height: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Camera coordinates of the working pixel centres: (map_x, map_y) float32 for cv2.remap, and
     valid_w. Bilinear on the dense map; invalid (maps -1) where any of the 4 neighbours is invalid.
@@ -49,7 +50,7 @@ def working_map(
     cam_xy = np.asarray(cam_xy)
     valid = np.asarray(valid, bool)
     _check_dense(cam_xy, valid, proj_width, proj_height)
-    xs, ys = square_crop_grid(proj_width, proj_height, size)
+    xs, ys = frame_grid(proj_width, proj_height, width, height)
 
     def axis(t, n):  # left neighbour index and weight, clamped to the frame
         t = np.clip(t, 0.0, n - 1.0)
@@ -71,10 +72,12 @@ def working_map(
 
 
 def supersampled_map(
-    cam_xy: np.ndarray, valid: np.ndarray, proj_width: int, proj_height: int, size: int = 256, supersample: int = 2
+    cam_xy: np.ndarray, valid: np.ndarray, proj_width: int, proj_height: int, width: int, height: int,
+    supersample: int = 2
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The working map at ``size * supersample``: what ``warp_to_projector`` wants for ``size``."""
-    return working_map(cam_xy, valid, proj_width, proj_height, size * int(supersample))
+    """The working map at ``supersample`` times the frame: what ``warp_to_projector`` wants for it."""
+    ss = int(supersample)
+    return working_map(cam_xy, valid, proj_width, proj_height, width * ss, height * ss)
 
 
 def _as_float_image(capture) -> np.ndarray:
@@ -103,11 +106,11 @@ def warp_to_projector(
     """Register a camera capture into projector space.
 
     ``map_x``/``map_y`` (and ``valid_w``) must be the map at ``supersample`` times the output size
-    (``supersampled_map``, or ``working_map(size=size * supersample)``): the capture is remapped
+    (``supersampled_map``): the capture is remapped
     bilinearly at that resolution, then area-averaged (cv2.INTER_AREA) by ``supersample`` so a
     camera finer than the working grid does not alias. With ``supersample=1`` pass the plain
     working map. Output: float32 in [0, 1] (uint8 input is divided by 255), HxW or HxWxC like the
-    capture, of side map size // supersample; 0 where any sub-sample is invalid or falls outside
+    capture, of the map's size // supersample; 0 where any sub-sample is invalid or falls outside
     the capture. ``return_valid=True`` also returns that output validity mask.
     """
     img = _as_float_image(capture)
@@ -137,19 +140,26 @@ def warp_to_projector(
     return (out, ok) if return_valid else out
 
 
+class RegistrationError(ValueError):
+    """A registration file that cannot serve this version (made for a central square)."""
+
+
 @dataclass
 class Registration:
     """Projector <-> camera registration of one capture set, reusable for many captures.
 
-    ``map_x``/``map_y``/``valid``: camera coordinates of the size x size working pixel centres
-    (``working_map``). ``fine_*``: the same at ``size * supersample``, cached for ``warp``; built
-    by ``from_map`` (exact, from the dense map). Without them ``warp`` remaps the working map
-    directly (no supersampling). ``camera_shape`` (H, W), when known, is checked against captures.
+    ``map_x``/``map_y``/``valid``: camera coordinates of the width x height working pixel centres
+    (``working_map``). ``fine_*``: the same at ``supersample`` times the frame, cached for ``warp``;
+    built by ``from_map`` (exact, from the dense map). Without them ``warp`` remaps the working map
+    directly (no supersampling). ``dense_xy``/``dense_valid``: the native projector -> camera map
+    itself, kept for registering at other sizes (``resized``). ``camera_shape`` (H, W), when known,
+    is checked against captures.
     """
 
     proj_width: int
     proj_height: int
-    size: int
+    width: int
+    height: int
     map_x: np.ndarray
     map_y: np.ndarray
     valid: np.ndarray
@@ -158,35 +168,74 @@ class Registration:
     fine_x: np.ndarray | None = field(default=None, repr=False)
     fine_y: np.ndarray | None = field(default=None, repr=False)
     fine_valid: np.ndarray | None = field(default=None, repr=False)
+    dense_xy: np.ndarray | None = field(default=None, repr=False)
+    dense_valid: np.ndarray | None = field(default=None, repr=False)
 
     def __post_init__(self):
-        n = self.size
+        shape = (self.height, self.width)
         for name in ("map_x", "map_y", "valid"):
-            if np.shape(getattr(self, name)) != (n, n):
-                raise ValueError(f"{name} has shape {np.shape(getattr(self, name))}, expected ({n}, {n})")
+            if np.shape(getattr(self, name)) != shape:
+                raise ValueError(f"{name} has shape {np.shape(getattr(self, name))}, expected {shape}")
         fine = [self.fine_x, self.fine_y, self.fine_valid]
         if any(f is not None for f in fine):
-            m = n * self.supersample
-            if any(np.shape(f) != (m, m) for f in fine):
-                raise ValueError(f"fine maps must all be ({m}, {m}) for size {n} x supersample {self.supersample}")
+            ss = self.supersample
+            if any(np.shape(f) != (shape[0] * ss, shape[1] * ss) for f in fine):
+                raise ValueError(f"fine maps must all be {shape[0] * ss}x{shape[1] * ss} for a "
+                                 f"{self.width}x{self.height} frame x supersample {ss}")
+        if self.dense_xy is not None:
+            _check_dense(self.dense_xy, self.dense_valid, self.proj_width, self.proj_height)
         if self.camera_shape is not None:
             self.camera_shape = tuple(int(v) for v in self.camera_shape)
 
-    @classmethod
-    def from_map(cls, cam_xy, valid, proj_width, proj_height, size=256, supersample=2, camera_shape=None):
-        """Build from ``projector_to_camera_map`` output; caches the supersampled maps."""
-        mx, my, ok = working_map(cam_xy, valid, proj_width, proj_height, size)
-        fx, fy, fok = supersampled_map(cam_xy, valid, proj_width, proj_height, size, supersample)
-        return cls(proj_width, proj_height, size, mx, my, ok, supersample, camera_shape, fx, fy, fok)
+    @property
+    def frame_size(self) -> tuple[int, int]:
+        """(width, height) of the registered images."""
+        return self.width, self.height
+
+    @property
+    def frame_valid(self) -> np.ndarray:
+        """(height, width) bool: the working pixels ``warp`` fills from the camera, i.e. where the
+        projector frame lands on something the camera sees."""
+        if self.fine_valid is None:
+            return self.valid.copy()
+        ss = self.supersample
+        return self.fine_valid.reshape(self.height, ss, self.width, ss).all(axis=(1, 3))
 
     @classmethod
-    def from_decoded(cls, decoded: DecodeResult, proj_width, proj_height, size=256, supersample=2, sigma=None):
+    def from_map(cls, cam_xy, valid, proj_width, proj_height, width, height, supersample=2, camera_shape=None):
+        """Build from ``projector_to_camera_map`` output; caches the supersampled maps and keeps
+        the dense map."""
+        mx, my, ok = working_map(cam_xy, valid, proj_width, proj_height, width, height)
+        fx, fy, fok = supersampled_map(cam_xy, valid, proj_width, proj_height, width, height, supersample)
+        return cls(proj_width, proj_height, width, height, mx, my, ok, supersample, camera_shape, fx, fy, fok,
+                   np.asarray(cam_xy, np.float32), np.asarray(valid, bool))
+
+    @classmethod
+    def from_decoded(cls, decoded: DecodeResult, proj_width, proj_height, width, height, supersample=2,
+                     sigma=None):
         """Decoded Gray code -> dense map -> registration, remembering the camera shape."""
         cam_xy, valid = projector_to_camera_map(decoded, proj_width, proj_height, sigma=sigma)
-        return cls.from_map(cam_xy, valid, proj_width, proj_height, size, supersample, decoded.valid.shape)
+        return cls.from_map(cam_xy, valid, proj_width, proj_height, width, height, supersample,
+                            decoded.valid.shape)
+
+    def resized(self, width: int, height: int, supersample: int | None = None) -> "Registration":
+        """The same registration for a width x height frame (up to native), from the dense map.
+
+        supersample None: 2 where the camera has more pixels than the frame (so it does not alias),
+        else 1 (a finer grid would only interpolate the same camera pixels)."""
+        if self.dense_xy is None:
+            raise RegistrationError("this registration has no dense map: capture again to register at other sizes")
+        if width > self.proj_width or height > self.proj_height:
+            raise ValueError(f"a {width}x{height} frame is finer than the projector's "
+                             f"{self.proj_width}x{self.proj_height}")
+        if supersample is None:
+            camera_pixels = np.prod(self.camera_shape) if self.camera_shape else 0
+            supersample = 2 if camera_pixels > width * height else 1
+        return Registration.from_map(self.dense_xy, self.dense_valid, self.proj_width, self.proj_height, width,
+                                     height, supersample, self.camera_shape)
 
     def warp(self, capture, return_valid: bool = False):
-        """Capture (HxW[xC], uint8 or float) -> float32 size x size[xC] projector-space image."""
+        """Capture (HxW[xC], uint8 or float) -> float32 height x width[xC] projector-space image."""
         shape = np.shape(capture)[:2]
         if self.camera_shape is not None and shape != self.camera_shape:
             raise ValueError(f"capture is {shape[1]}x{shape[0]}, registration was made for "
@@ -196,16 +245,18 @@ class Registration:
         return warp_to_projector(capture, self.map_x, self.map_y, self.valid, 1, return_valid)
 
     def save(self, path) -> None:
-        """Write everything (fine maps included) to ``path`` as .npz, exactly at that name."""
+        """Write everything (fine and dense maps included) to ``path`` as .npz, exactly at that name."""
         arrays = dict(
             proj_size=np.array([self.proj_width, self.proj_height]),
-            size=np.array(self.size),
+            frame_size=np.array([self.width, self.height]),
             supersample=np.array(self.supersample),
             camera_shape=np.array(self.camera_shape if self.camera_shape else [], dtype=np.int64),
             map_x=self.map_x, map_y=self.map_y, valid=self.valid,
         )
         if self.fine_x is not None:
             arrays.update(fine_x=self.fine_x, fine_y=self.fine_y, fine_valid=self.fine_valid)
+        if self.dense_xy is not None:
+            arrays.update(dense_xy=self.dense_xy, dense_valid=self.dense_valid)
         with open(Path(path), "wb") as f:  # a file object: np.savez must not append ".npz"
             np.savez(f, **arrays)
 
@@ -213,7 +264,14 @@ class Registration:
     def load(cls, path) -> "Registration":
         """Read a file written by ``save``."""
         with np.load(Path(path), allow_pickle=False) as z:
+            if "frame_size" not in z.files:
+                raise RegistrationError(f"{Path(path).name} registers a central square of the projector frame "
+                                        "(made by an older version): capture again for the whole frame")
             cam = tuple(int(v) for v in z["camera_shape"]) or None
-            fine = [z[k] if k in z.files else None for k in ("fine_x", "fine_y", "fine_valid")]
-            return cls(int(z["proj_size"][0]), int(z["proj_size"][1]), int(z["size"]),
-                       z["map_x"], z["map_y"], z["valid"].astype(bool), int(z["supersample"]), cam, *fine)
+            optional = [z[k] if k in z.files else None
+                        for k in ("fine_x", "fine_y", "fine_valid", "dense_xy", "dense_valid")]
+            if optional[4] is not None:
+                optional[4] = optional[4].astype(bool)
+            (pw, ph), (w, h) = z["proj_size"], z["frame_size"]
+            return cls(int(pw), int(ph), int(w), int(h), z["map_x"], z["map_y"], z["valid"].astype(bool),
+                       int(z["supersample"]), cam, *optional)

@@ -22,6 +22,7 @@ import numpy as np
 from ..common.imageio import to_uint8, write_png
 from ..optics.camera_model import clipped_fraction
 from ..optics.projector_model import quantised_frame
+from ..optics.working_frame import WorkingFrameError, working_frame
 from . import dataset as ds
 from . import patterns as pat
 from .device import CaptureDevice
@@ -37,7 +38,7 @@ class GeometryChecks:
     """Ground truth that only a simulated rig knows; a real rig passes none.
 
     coverage() -> {"projector_on_object": f, "seen_by_camera": f}, shares of the projector's
-    working square; exact_projector_to_camera(points (..., 2) native projector pixels) -> camera
+    frame; exact_projector_to_camera(points (..., 2) native projector pixels) -> camera
     pixels (..., 2), NaN where not seen. Coordinates follow OpenCV.
     """
 
@@ -47,17 +48,26 @@ class GeometryChecks:
     exact_projector_to_camera: Callable[[np.ndarray], np.ndarray] | None = None
 
 
-def pattern_images(s: CaptureSettings) -> np.ndarray:
-    """The training then test working images: the user's folder, or generated from the seed."""
+def pattern_images(s: CaptureSettings, frame: tuple[int, int]) -> np.ndarray:
+    """The training then test working images of a (width, height) frame: the user's folder, or
+    generated from the seed."""
     count = s.train_count + s.test_count
     if s.pattern_folder:
-        return pat.load_image_folder(s.pattern_folder, size=s.working_size, count=count)
-    return pat.generate_patterns(count, size=s.working_size, seed=s.seed)
+        return pat.load_image_folder(s.pattern_folder, *frame, count=count)
+    return pat.generate_patterns(count, *frame, seed=s.seed)
 
 
 def native_frame(working_image: np.ndarray, width: int, height: int) -> np.ndarray:
-    """The 8-bit native frame that shows a working image in the projector's central square."""
+    """The 8-bit native frame that shows a working image over the whole projector frame."""
     return quantised_frame(working_image, width, height, 8)
+
+
+def capture_frame(s: CaptureSettings, width: int, height: int) -> tuple[int, int]:
+    """The working frame (width, height) of a capture with a width x height projector."""
+    try:
+        return working_frame(s.working_size, width, height)
+    except WorkingFrameError as exc:
+        raise CaptureError(str(exc)) from None
 
 
 def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryChecks = GeometryChecks(),
@@ -67,8 +77,9 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
     root meanwhile. A generator: see the module docstring."""
     t0 = time.perf_counter()
     width, height = device.describe().projector_size
-    refs = pat.reference_patterns(size=s.working_size, gray_level=s.gray_level)
-    images = pattern_images(s)
+    frame = capture_frame(s, width, height)
+    refs = pat.reference_patterns(*frame, gray_level=s.gray_level)
+    images = pattern_images(s, frame)
     shown = {"ref": [refs["black"], refs["white"], refs["gray"]],
              "train": images[:s.train_count], "test": images[s.train_count:]}
     with StagedCapture(ds.DatasetLayout(s.out_dir, s.setup_name), holder) as staged:
@@ -97,7 +108,7 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
         t = time.perf_counter()
         decoded = decode_graycode(sl_caps, width, height)
         cam_xy, valid = projector_to_camera_map(decoded, width, height)
-        registration = Registration.from_map(cam_xy, valid, width, height, s.working_size)
+        registration = Registration.from_map(cam_xy, valid, width, height, *frame)
         s.timings["registration_build_s"] = time.perf_counter() - t
         if registration.valid.mean() < 0.05:
             raise CaptureError("the Gray code decoded on almost no pixels: the camera does not see "
@@ -110,7 +121,7 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
         for i, (p, cap) in enumerate(zip(sl_patterns, sl_caps), start=1):
             write_png(layout.image_path(layout.prj_setup_dir("sl"), i), p)
             ds.write_capture(layout, "raw", "sl", i, cap)
-        registration.save(os.path.join(layout.setup_dir, "registration.npz"))
+        registration.save(os.path.join(layout.setup_dir, ds.REGISTRATION_FILE))
 
         t = time.perf_counter()
         done = 0
@@ -128,6 +139,7 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
         meta = {
             "gray_level": s.gray_level,
             "working_size": s.working_size,
+            "working_frame": list(frame),  # (width, height) of every registered image
             **_device_meta(device),
             "counts": {"train": s.train_count, "test": s.test_count, "sl": len(sl_patterns)},
             **({} if cover is None else {"coverage": cover}),
@@ -169,7 +181,7 @@ def _check_coverage(checks: GeometryChecks, minimum: float) -> dict | None:
     cover = checks.coverage()
     if min(cover.values()) < minimum:
         raise CaptureError(
-            f"{checks.surface} covers {cover['projector_on_object']:.0%} of the projector's working area "
+            f"{checks.surface} covers {cover['projector_on_object']:.0%} of the projector's frame "
             f"and the camera sees {cover['seen_by_camera']:.0%} of it (at least {minimum:.0%} needed): "
             f"{checks.aim_hint}")
     return cover

@@ -22,7 +22,7 @@ class CaptureSettings:
     pattern_folder: str | None = None
     seed: int = 0
     chunk: int = 8  # frames per capture() call, and between two progress reports
-    min_coverage: float = 0.5
+    min_coverage: float = 0.3  # of the whole frame on the object: a statue leaves the corners free
     check_registration: bool = True
     check_grid_step: int = 4
     timings: dict = field(default_factory=dict)  # filled by the capture

@@ -1,4 +1,4 @@
-"""Image quality metrics: PSNR, RMSE, SSIM (numpy or torch inputs).
+"""Image quality metrics: PSNR, RMSE, SSIM (numpy or torch inputs), sharpness.
 
 Layout convention: numpy arrays are channel-last ((H,W), (H,W,C), (N,H,W,C)),
 as produced by OpenCV/imageio; torch tensors are channel-first ((C,H,W) or
@@ -120,3 +120,16 @@ def masked_psnr(pred, target, mask) -> float:
     err = ((p - t) ** 2).mean(dim=1)[:, m]
     value = float(err.mean())
     return math.inf if value == 0 else 10.0 * math.log10(1.0 / value)
+
+
+def sharpness(img, mask=None) -> float:
+    """High-frequency energy: the variance of the Laplacian of the luminance, over the pixels where
+    mask (H, W) is true (all by default). One (H, W, 3) numpy image in [0, 1]."""
+    import cv2
+
+    lum = np.asarray(img, np.float64)
+    lum = lum.mean(axis=-1) if lum.ndim == 3 else lum
+    lap = cv2.Laplacian(lum, cv2.CV_64F)
+    if mask is not None:
+        lap = lap[np.asarray(mask, bool)]
+    return float(lap.var()) if lap.size else math.nan

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Resizing a square image to another square size: sharp, and without ringing.
+"""Resizing an image to another size: sharp, and without ringing.
 
 Enlarging uses Lanczos (8x8 taps), then clamps every output pixel to the range of the 2x2 source
 pixels around it, the ones bilinear interpolation would blend (the "anti-ringing" filter of video
@@ -14,7 +14,7 @@ renderers such as madVR and mpv). Why this kernel for a projector image:
   - unshifted: the kernel is centre-aligned like every OpenCV resize, so the picture sits at the
     same sub-pixel position as the registration expects.
 Shrinking averages areas (a box filter), as any interpolating kernel would alias; equal sizes are
-copied untouched.
+copied untouched. Each axis has its own scale, so a working frame resizes to any native frame.
 """
 from __future__ import annotations
 
@@ -26,29 +26,36 @@ DOWNSCALE = "area average"
 SAME_SIZE = "none"
 
 
-def resampling(size: int, side: int) -> str:
-    """How resize_square changes a size x size image into a side x side one, in words."""
-    return SAME_SIZE if side == size else UPSCALE if side > size else DOWNSCALE
+def resampling(shape: tuple[int, int], out_shape: tuple[int, int]) -> str:
+    """How resize_image changes an image of (height, width) ``shape`` into ``out_shape``, in words."""
+    if tuple(shape) == tuple(out_shape):
+        return SAME_SIZE
+    return DOWNSCALE if all(o <= n for o, n in zip(out_shape, shape)) else UPSCALE
 
 
-def resize_square(img: np.ndarray, side: int) -> np.ndarray:
-    """A square (n, n[, c]) float32 image resized to (side, side[, c])."""
-    n = img.shape[0]
-    if side == n:
+def _footprint_counts(n: int, out: int) -> np.ndarray:
+    """How many output pixels along an axis have each bilinear source pair (f, f+1) of the padded
+    axis, f = floor((d + 0.5) * n / out - 0.5) in -1..n-1, clamped to the image."""
+    f = np.floor((np.arange(out) + 0.5) * (n / out) - 0.5).astype(np.intp)
+    return np.bincount(np.clip(f, -1, n - 1) + 1, minlength=n + 1)
+
+
+def resize_image(img: np.ndarray, width: int, height: int) -> np.ndarray:
+    """An (h, w[, c]) float32 image resized to (height, width[, c])."""
+    h, w = img.shape[:2]
+    if (height, width) == (h, w):
         return img.copy()
-    if side < n:
-        return cv2.resize(img, (side, side), interpolation=cv2.INTER_AREA)
-    sharp = cv2.resize(img, (side, side), interpolation=cv2.INTER_LANCZOS4)
-    # The bilinear footprint of output pixel d is source pixels f and f+1, with
-    # f = floor((d + 0.5) * n / side - 0.5) in -1..n-1, clamped to the image. With one replicated
-    # pixel on every side, index f + 1 of the 2x2 min/max of the padded image gives that range,
-    # and as f never decreases, repeating each entry by its count spreads it to the output.
-    f = np.floor((np.arange(side) + 0.5) * (n / side) - 0.5).astype(np.intp)
-    counts = np.bincount(f + 1, minlength=n + 1)
+    if height <= h and width <= w:
+        return cv2.resize(img, (width, height), interpolation=cv2.INTER_AREA)
+    sharp = cv2.resize(img, (width, height), interpolation=cv2.INTER_LANCZOS4)
+    # With one replicated pixel on every side, entry f + 1 of the 2x2 min/max of the padded image
+    # is the range of output pixel d's bilinear footprint; as f never decreases along an axis,
+    # repeating each entry by its count spreads it to the output.
+    rows, cols = _footprint_counts(h, height), _footprint_counts(w, width)
     padded = cv2.copyMakeBorder(img, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
     kernel = np.ones((2, 2), np.uint8)
-    lo = cv2.erode(padded, kernel, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)[:n + 1, :n + 1]
-    hi = cv2.dilate(padded, kernel, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)[:n + 1, :n + 1]
-    lo = np.repeat(np.repeat(lo, counts, axis=0), counts, axis=1)
-    hi = np.repeat(np.repeat(hi, counts, axis=0), counts, axis=1)
+    lo = cv2.erode(padded, kernel, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)[:h + 1, :w + 1]
+    hi = cv2.dilate(padded, kernel, anchor=(0, 0), borderType=cv2.BORDER_REPLICATE)[:h + 1, :w + 1]
+    lo = np.repeat(np.repeat(lo, rows, axis=0), cols, axis=1)
+    hi = np.repeat(np.repeat(hi, rows, axis=0), cols, axis=1)
     return np.clip(sharp, lo, hi, out=sharp)

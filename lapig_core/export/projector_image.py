@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Export of finished projector images: native-resolution PNGs, JSON sidecars, crossfades.
 
-The optimiser works on a small square working image (e.g. 256x256) that covers the central
-square of the projector frame. What a user loads into a real projector is the full native frame:
+The optimiser works on a small working frame (e.g. 256x192 for an 800x600 projector) that covers
+the whole projector frame. What a user loads into a real projector is the full native frame:
 this module writes the pixels of projector_model.quantised_frame, the same placement and rounding
 the Blender light, Render Real Capture and the capture patterns use, so the file is exactly the
 image that was rendered and checked. It writes 8- or 16-bit PNGs and records next to each image
@@ -34,7 +34,8 @@ import numpy as np
 
 from ..common.imageio import to_bit_depth, to_float
 from ..common.resample import SAME_SIZE, resampling
-from ..optics.projector_model import frame_from_working_image, quantised_frame, square_region
+from ..optics.projector_model import frame_from_working_image, quantised_frame
+from ..optics.working_frame import WorkingFrameError, check_aspect
 
 __all__ = [
     "ExportError",
@@ -96,26 +97,23 @@ def _as_rgb_float(image, what: str) -> np.ndarray:
 # ----------------------------------------------------------------------------- the frame
 
 
-def _working(image, what: str) -> np.ndarray:
+def _working(image, width: int, height: int, what: str) -> np.ndarray:
+    """A working frame (or a native one) of the projector's aspect ratio, as float RGB."""
     img = _as_rgb_float(image, what)
-    if img.shape[0] != img.shape[1]:
-        raise ExportError(f"{what} must be square, got {img.shape[1]}x{img.shape[0]} pixels")
+    try:
+        check_aspect((img.shape[1], img.shape[0]), (width, height), what)
+    except WorkingFrameError as exc:
+        raise ExportError(str(exc)) from None
     return img
 
 
 def _native(image, width: int, height: int, what: str) -> tuple[np.ndarray, str]:
-    """(frame, how it was resampled): an image already at native size is used as is, a square one
-    is placed as a working image."""
-    img = _as_rgb_float(image, what)
+    """(frame, how it was resampled): a working frame resized to the native one (one at native
+    size is used as is)."""
+    img = _working(image, width, height, what)
     if img.shape[:2] == (height, width):
         return img, SAME_SIZE
-    if img.shape[0] != img.shape[1]:
-        raise ExportError(
-            f"{what} must be a square working image or a {width}x{height} projector frame, "
-            f"got {img.shape[1]}x{img.shape[0]} pixels"
-        )
-    side = square_region(width, height)[2]
-    return frame_from_working_image(img, width, height), resampling(img.shape[0], side)
+    return frame_from_working_image(img, width, height), resampling(img.shape[:2], (height, width))
 
 
 def _encode_png(pixels: np.ndarray, name: str) -> bytes:
@@ -322,9 +320,8 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
         raise ExportError(f"output path is a folder, not a file name: {png_path} (e.g. "
                           f"{png_path / 'projector_image.png'})")
 
-    working = _working(working_image, "working image")
+    working = _working(working_image, width, height, "working image")
     pixels = quantised_frame(working, width, height, bit_depth)
-    x0, y0, side = square_region(width, height)
     own = {
         "software": _software(lapig_version),
         "image": {
@@ -333,10 +330,9 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
             "height": height,
             "bit_depth": bit_depth,
             "channels": "RGB",
-            "working_size": int(working.shape[0]),
-            "resampling": resampling(working.shape[0], side),
-            # where the working square lies in the native frame; rows from the top
-            "placement": {"x": x0, "y": y0, "width": side, "height": side},
+            # the working frame covers the whole native frame
+            "working_frame": [int(working.shape[1]), int(working.shape[0])],
+            "resampling": resampling(working.shape[:2], (height, width)),
         },
         "created": _utc_now(),
     }
@@ -358,7 +354,7 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
                        lapig_version: str | None = None, on_progress=None) -> list[Path]:
     """Write `name_0001.png` ... `name_NNNN.png` blending image_a into image_b, plus `name.json`.
 
-    Each image is either a square working image (placed like export_projector_image does) or an
+    Each image is either a working frame (resized like export_projector_image does) or an
     already native (height, width) frame; the first and last frames are those images' exports.
     The blend is done in the projector's linear light: values are raised to ``gamma`` (the
     projector's transfer, ProjectorModel.gamma), mixed, and taken back with 1/gamma. Mixing the

@@ -5,12 +5,15 @@ The images are 16-bit PNGs: float results kept to 1/65535 (half a level of error
 and Render Real Capture all start from the optimiser's values, not from 8-bit copies of them.
 Folders written before this hold 8-bit PNGs; they are read as they are (stored_bit_depth tells).
 
-Folder layout (working size, projector-registered):
+Folder layout (working frame, projector-registered):
   target.png / target_nopsa.png          what the viewer should see, with and without PSA
-  projector.png / projector_nopsa.png    the compensated projector images (working square)
+  projector.png / projector_nopsa.png    the compensated projector images (working frame)
   simulated.png / simulated_nopsa.png    PCNet's prediction of the capture
   rendered.png / rendered_nopsa.png      the Cycles capture of the projection (when rendered)
   compensability.png                     L_ps + L_cs per pixel over the surface, as a heat map
+  target_native.png / projector_native.png / rendered_native.png
+                                         the chosen look, its projector image and their Cycles
+                                         capture at the output size (native by default), when made
   comparison.png                         with and without PSA side by side (8-bit, for people)
   result.json                            prompt, backend, styles, PSA settings, metrics
 
@@ -32,6 +35,7 @@ from ..common.scratch import ScratchFolder
 from ..common.sheets import labelled_grid
 
 IMAGES = ("target", "projector", "simulated", "rendered", "compensability")
+NATIVE = "_native"  # suffix of the images at the output size
 BIT_DEPTH = 16
 COMPARISON = (("target_nopsa", "target without PSA"), ("simulated_nopsa", "simulated without PSA"),
               ("rendered_nopsa", "rendered without PSA"), ("target", "target with PSA"),
@@ -113,6 +117,18 @@ def _image_path(folder, name: str) -> Path:
 def read_result_image(folder, name: str) -> np.ndarray:
     """A result image as float32 RGB in [0, 1], from a 16-bit (or an older 8-bit) PNG."""
     return read_image(_image_path(folder, name))
+
+
+def output_name(folder, name: str) -> str:
+    """The name of the finest version of a result image: '<name>_native' (the output size) where the
+    result has one, else the working frame's."""
+    native = name + NATIVE
+    return native if (Path(folder) / f"{native}.png").is_file() else name
+
+
+def read_output_image(folder, name: str) -> np.ndarray:
+    """The finest version of a result image (output_name): what the projector shows and Export writes."""
+    return read_result_image(folder, output_name(folder, name))
 
 
 def stored_bit_depth(folder, name: str) -> int:

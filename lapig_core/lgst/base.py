@@ -35,6 +35,16 @@ class LGSTBackend:
         """The target image (1,3,H,W) in [0,1], differentiable w.r.t. parameters()."""
         raise NotImplementedError
 
+    def render_at(self, surface: torch.Tensor) -> torch.Tensor:
+        """The look of the current theta for another view of the surface (1,3,H,W), e.g. the white-lit
+        surface registered at the projector's native resolution; no graph. theta does not depend on
+        the resolution, so PSA at the working frame carries over. By default the look is rendered
+        as forward() does and resized; backends that can use the finer surface override this."""
+        with torch.no_grad():
+            look = self.forward()
+        return torch.nn.functional.interpolate(look, size=tuple(surface.shape[-2:]), mode="bicubic",
+                                               align_corners=False).clamp(0, 1)
+
     def stylize(self, surface: torch.Tensor, prompt: str, seed: int = 0, mix=None) -> torch.Tensor:
         """prepare + forward without building a graph (for previews)."""
         self.prepare(surface, prompt, seed=seed, mix=mix)

@@ -132,11 +132,24 @@ class StyleTransferBackend(ThetaBackend):
     # -- rendering -------------------------------------------------------------------------------
     def forward(self):
         self._require_prepared()
-        styled = resize(self.net.forward_from_stem(self._stem, self._params()), self.size)
-        out = (1.0 - self.blend) * styled + self.blend * self.surface
+        return self._look(self._stem, self.surface)
+
+    def _look(self, stem, surface):
+        """The styled content at the net's internal size, resized to the surface and blended with it."""
+        styled = resize(self.net.forward_from_stem(stem, self._params()), tuple(surface.shape[-2:]))
+        out = (1.0 - self.blend) * styled + self.blend * surface
         for effect in self._effects:
             out = effect(out)
         return out
+
+    def render_at(self, surface):
+        """The same style strokes (the net runs at its internal size, as in PSA), blended with the
+        finer surface, so the look keeps the surface's own detail at any output size."""
+        self._require_prepared()
+        surface = surface.detach().float().clamp(0, 1).to(self.surface.device)
+        with torch.no_grad():
+            stem = self.net.stem(resize(surface, internal_shape(*surface.shape[-2:], self.internal_size)))
+            return self._look(stem, surface).clamp(0, 1)
 
     def describe(self):
         self._require_prepared()

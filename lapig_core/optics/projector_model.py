@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..common.imageio import to_bit_depth, to_float
-from ..common.resample import resize_square
+from ..common.resample import resize_image
 
 
 @dataclass(frozen=True)
@@ -109,29 +109,26 @@ class ProjectorModel:
         return asdict(self)
 
 
-
-def square_region(width: int, height: int) -> tuple[int, int, int]:
-    """(x0, y0, side) of the central square of a width x height frame, in whole pixels."""
-    side = min(width, height)
-    return (width - side) // 2, (height - side) // 2, side
+def frame_sample_points(width: int, height: int, grid: int = 24) -> np.ndarray:
+    """(grid, grid, 2) native pixel coordinates spread evenly over a width x height frame, for
+    coverage checks (cell centres, OpenCV convention)."""
+    t = (np.arange(grid) + 0.5) / grid
+    xs, ys = np.meshgrid(t * width - 0.5, t * height - 0.5)
+    return np.stack([xs, ys], -1)
 
 
 def frame_from_working_image(image: np.ndarray, width: int, height: int) -> np.ndarray:
-    """Place a square working image in the central square of a native frame, black elsewhere.
+    """The native width x height frame of a working image: the working frame covers the whole
+    projector frame, so this is a plain resize (an image already at native size is kept as is).
 
-    The working (e.g. 256x256) projector image covers the central square of the projector frame,
-    so the registered capture (crop of that square) lines up with it pixel for pixel. This is the
-    one placement of every frame the projector shows: capture patterns, the Blender light, Render
-    Real Capture and the exported file (resampling: lapig_core.common.resample). Values are
+    The one placement of every frame the projector shows: capture patterns, the Blender light,
+    Render Real Capture and the exported file (resampling: lapig_core.common.resample). Values are
     clipped to [0, 1] (NaN -> 0) and stay there.
     """
-    x0, y0, side = square_region(width, height)
     img = to_float(image)
     if img.ndim == 2:
         img = np.repeat(img[..., None], 3, axis=-1)
-    frame = np.zeros((height, width, 3), np.float32)
-    frame[y0:y0 + side, x0:x0 + side] = resize_square(img, side)
-    return frame
+    return resize_image(np.ascontiguousarray(img, dtype=np.float32), width, height)
 
 
 def quantised_frame(image: np.ndarray, width: int, height: int, bit_depth: int) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Checkpoints with a header: architecture, role, working size and the setup they were trained on.
+"""Checkpoints with a header: architecture, role, working size (the frame's long side) and the setup
+they were trained on.
 
 Loading checks the header before the weights, so a PCNet file given where a CompenNeSt is expected,
 or weights fine-tuned on another setup, are refused with a message instead of silently misused.

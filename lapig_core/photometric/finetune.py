@@ -62,7 +62,8 @@ def save_setup_model(setup_dir, model, role: str, cs: CaptureSet, **extra) -> Pa
     lock: what a killed training left half-written here is theirs to remove)."""
     path = Path(setup_dir) / "models" / MODEL_FILES[(model.ARCH_NAME, role)]
     remove_partial_writes(path)
-    return checkpoints.save_checkpoint(path, model, role, cs.image_size[0], cs.meta.get("fingerprint"), **extra)
+    return checkpoints.save_checkpoint(path, model, role, max(cs.frame_size), cs.meta.get("fingerprint"),
+                                       working_frame=list(cs.frame_size), **extra)
 
 
 def load_setup_model(setup_dir, arch: str, role: str, fingerprint: str | None = None):

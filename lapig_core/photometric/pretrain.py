@@ -56,7 +56,7 @@ def pretrain_one(sets, arch: str, role: str, iterations: int, out_dir, crop=96, 
     val_metrics = evaluate_pairs(model, val)
     name = checkpoints.PRETRAINED[(arch, role)]
     path = checkpoints.save_checkpoint(
-        Path(out_dir) / name, model, role, working_size=int(train.x.shape[-1]),
+        Path(out_dir) / name, model, role, working_size=int(max(train.x.shape[-2:])),
         pretrained_on=[cs.setup for cs in sets], iterations=iterations, warmup=warmup, crop=crop, seed=seed,
         validation=val_metrics)
     return {"file": str(path), "size_mb": round(checkpoints.file_size_mb(path), 2),

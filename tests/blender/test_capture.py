@@ -47,7 +47,9 @@ def test_capture_writes_a_registered_dataset_and_restores_the_scene(small_setup,
     assert meta["white_clipped_fraction"] < 0.02
 
     cs = load_capture_set(result["setup_dir"])
-    assert cs.cam_train.shape == (4, 64, 64, 3) and cs.cam_test.shape == (2, 64, 64, 3)
+    # the 160x120 projector's whole frame, at working size 64
+    assert cs.cam_train.shape == (4, 48, 64, 3) and cs.cam_test.shape == (2, 48, 64, 3)
+    assert cs.meta["working_frame"] == [64, 48] and cs.projector_valid.mean() > 0.95
     # a real room: I- is dim but not black, I+ is bright, s in between
     assert 0.005 < cs.cam_black.mean() < cs.cam_gray.mean() < cs.cam_white.mean()
     assert cs.cam_white.mean() > 0.4
@@ -200,6 +202,14 @@ def test_import_capture_folder_accepts_a_good_set_and_names_the_bad_file(small_s
     setup_dir = str(result["setup_dir"])
     assert bpy.ops.lapig.import_capture(directory=setup_dir) == {"FINISHED"}
     assert scene.lapig.last_capture_dir == setup_dir
+    # a set of another aspect (as a public 256x256 one for a 4:3 projector) cannot cover the frame
+    projector = small_setup[1].lapig_projector
+    projector.resolution_x = projector.resolution_y
+    with pytest.raises(RuntimeError, match=r"64x48 \(aspect 1.333\) but the projector is 120x120"):
+        bpy.ops.lapig.import_capture(directory=setup_dir)
+    with pytest.raises(RuntimeError, match=r"the capture is 64x48 .* cannot cover the projector's frame"):
+        bpy.ops.lapig.train_models()  # the imported capture, now of another aspect than the projector
+    projector.resolution_x = 160
     broken = tmp_path / "data" / "setups" / "panel" / "cam" / "warp" / "train" / "img_0002.png"
     broken.write_bytes(b"not a png")
     with pytest.raises(RuntimeError, match="img_0002.png"):

@@ -59,9 +59,15 @@ def test_eval_writes_sheet_and_metrics(tmp_path):
     surface = tmp_path / "wood surface.png"
     write_png(surface, make_surface("wood", size=128, seed=3))
     proc = _cli("eval", "--surface", str(surface), "--prompt", "Make it a stained glass artwork", "--out",
-                str(tmp_path / "ev"), "--train", "8", "--iterations", "3", "--psa-iterations", "2", timeout=600)
+                str(tmp_path / "ev"), "--train", "8", "--iterations", "3", "--psa-iterations", "2",
+                "--projector", "320x180", "--wall", "3.6x2", "--camera", "320x180", "--working-size", "64", timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     m = json.load(open(tmp_path / "ev" / "metrics.json"))
+    # a wide facade: the whole 16:9 frame at 64x36, and the PSA look made and captured at 320x180
+    native = m["native"]
+    assert native["frame"] == [320, 180] and {"psnr", "ssim", "sharpness_ratio", "seconds"} <= set(native)
+    assert native["on_object_fraction"] > 0.9 and native["psnr"] > 5
+    assert (tmp_path / "ev" / "native_sheet.png").exists()
     for key in ("with_psa", "without_psa"):
         assert {"psnr", "rmse", "ssim", "iterations", "seconds"} <= set(m[key])
     assert m["with_psa"]["iterations"] <= 2 and {"ssim", "psnr"} <= set(m["style_retention"])
@@ -69,5 +75,8 @@ def test_eval_writes_sheet_and_metrics(tmp_path):
     assert (tmp_path / "ev" / "sheet.png").exists()
     proc = _cli("eval", "--surface", str(tmp_path / "missing.png"), "--prompt", "x", "--out", str(tmp_path / "e2"))
     assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    proc = _cli("eval", "--surface", str(surface), "--prompt", "x", "--out", str(tmp_path / "e3"), "--output-size",
+                "1000")
+    assert proc.returncode == 1 and "larger than the projector's 800x600 frame" in proc.stderr
     proc = _cli("stylize", "--prompt", "  ")
     assert proc.returncode == 1 and "Traceback" not in proc.stderr

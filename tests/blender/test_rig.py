@@ -4,7 +4,7 @@ import pytest
 
 
 @pytest.mark.blender
-@pytest.mark.parametrize("shape,min_cover", [("panel", 0.99), ("box", 0.6), ("statue", 0.45)])
+@pytest.mark.parametrize("shape,min_cover", [("panel", 0.99), ("box", 0.55), ("statue", 0.3)])
 def test_add_rig_aims_at_wall_box_and_statue(lapig_registered, tmp_path, shape, min_cover):
     from lapig.lapig_addon.blender import demo_scene, geometry_probe as probe, rig
     from lapig.lapig_addon.blender.scene_state import projector_model
@@ -19,7 +19,8 @@ def test_add_rig_aims_at_wall_box_and_statue(lapig_registered, tmp_path, shape, 
     tree = s.projector.data.node_tree
     assert tree.nodes.get("LAPIG projected image") is not None
 
-    # the object fills the projector's working square and the camera sees what is lit
+    # the object fills much of the projector frame (its whole frame: a box or a statue leaves the
+    # corners free) and the camera sees what is lit
     dg = bpy.context.evaluated_depsgraph_get()
     bvh = probe.scene_bvh([target], dg)
     scene = bpy.context.scene

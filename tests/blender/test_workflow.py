@@ -55,8 +55,16 @@ def test_whole_path_through_the_operators(captured, tmp_path):
     summary = json.load(open(os.path.join(folder, "result.json")))
     assert summary["lgst"]["styles"][0][0] == "starry_blue_yellow"
     assert summary["metrics"]["psa_iterations"] >= 1
-    for name in ("target", "projector", "simulated", "compensability", "target_nopsa", "comparison"):
+    for name in ("target", "projector", "simulated", "compensability", "target_nopsa", "comparison",
+                 "target_native", "projector_native"):
         assert os.path.isfile(os.path.join(folder, name + ".png")), name
+    # the working frame is the whole 160x120 frame at 64x48; the final look and its projector image
+    # were made again at the projector's native resolution
+    from lapig.lapig_core.export.result_files import read_result_image
+
+    assert read_result_image(folder, "projector").shape == (48, 64, 3)
+    assert read_result_image(folder, "projector_native").shape == (120, 160, 3)
+    assert summary["native_output"]["frame"] == [160, 120] and summary["dark_outside"]
     # the projector now emits the compensated image
     light_image = scene.lapig.projector.data.node_tree.nodes["LAPIG projected image"].image
     assert light_image.name == "LAPIG projector image"
@@ -69,9 +77,12 @@ def test_whole_path_through_the_operators(captured, tmp_path):
         assert preview.is_previewing(target)
     with pytest.raises(RuntimeError, match="no 'rendered' image"):
         bpy.ops.lapig.preview_mode(mode="RENDERED")
-    assert bpy.ops.lapig.render_result() == {"FINISHED"}
+    assert bpy.ops.lapig.render_result() == {"FINISHED"}  # with the preview on: Cycles sees the real surface
+    assert preview.is_previewing(target)
     summary = json.load(open(os.path.join(folder, "result.json")))
     assert summary["metrics"]["rendered_psnr"] > 5 and "rendered_psnr_nopsa" in summary["metrics"]
+    assert summary["metrics"]["rendered_psnr_native"] > 5 and "rendered_ssim_native" in summary["metrics"]
+    assert read_result_image(folder, "rendered_native").shape == (120, 160, 3)
     assert bpy.ops.lapig.preview_mode(mode="RENDERED") == {"FINISHED"}
     assert bpy.ops.lapig.preview_mode(mode="ORIGINAL") == {"FINISHED"}
     assert [slot.material.name for slot in target.material_slots] == original
@@ -124,6 +135,15 @@ def test_bad_input_is_refused_with_a_reason(captured, monkeypatch, tmp_path):
     s.prompt = "Make it a charcoal sketch ✏️ " + "very " * 400
     with pytest.raises(RuntimeError, match="pretrained CompenNeSt weights are missing"):
         bpy.ops.lapig.train_models()
+    monkeypatch.undo()
+    # an output larger than the projector's frame, or than the memory budget: refused before any work
+    s.output_size = 200
+    with pytest.raises(RuntimeError, match="larger than the projector's 160x120 frame: use at most 160"):
+        bpy.ops.lapig.generate()
+    s.output_size = 0
+    monkeypatch.setattr("lapig.lapig_core.native_output.DEFAULT_BUDGET_MB", 10)
+    with pytest.raises(RuntimeError, match="160x120 output needs about 16 MB, over the 10 MB memory budget"):
+        bpy.ops.lapig.generate()
     monkeypatch.undo()
     # the object moved: captures are stale and the next steps say so
     s.target.location.x += 0.3

@@ -12,7 +12,7 @@ import pytest
 from lapig_core.capture import staging
 from lapig_core.capture.dataset import DatasetError, load_capture_set
 from lapig_core.capture.fake_device import FakeDevice
-from lapig_core.capture.registration import Registration, square_crop_grid
+from lapig_core.capture.registration import Registration, frame_grid
 from lapig_core.capture.sequence import GeometryChecks, pattern_images, run_capture
 from lapig_core.capture.settings import CaptureError, CaptureSettings
 from lapig_core.common.locking import FolderBusy
@@ -57,8 +57,11 @@ def test_capture_completes_and_the_data_set_loads(tmp_path):
     assert progress == sorted(progress) and progress[-1] == 1.0
     assert result["setup_dir"] == tmp_path / "setups" / SETUP
     cs = load_capture_set(result["setup_dir"])
-    assert cs.prj_train.shape == cs.cam_train.shape == (4, 32, 32, 3)
-    assert cs.prj_test.shape == cs.cam_test.shape == (2, 32, 32, 3)
+    # the 64x48 projector's whole frame at working size 32
+    assert cs.prj_train.shape == cs.cam_train.shape == (4, 24, 32, 3)
+    assert cs.prj_test.shape == cs.cam_test.shape == (2, 24, 32, 3)
+    assert cs.frame_size == (32, 24) and cs.meta["working_frame"] == [32, 24] and cs.meta["working_size"] == 32
+    assert cs.projector_valid.shape == (24, 32) and cs.projector_valid.all()  # the plane fills the frame
     assert 0.01 < cs.cam_black.mean() < cs.cam_gray.mean() < cs.cam_white.mean()
     meta = cs.meta
     assert meta["device"] == "numpy fake (homography)" and meta["counts"] == {"train": 4, "test": 2, "sl": 26}
@@ -76,7 +79,7 @@ def test_registration_recovers_the_fake_geometry(tmp_path):
     assert result["meta"]["registration"]["registration_error_px_p95"] < 0.6
     # the saved registration: camera coordinates of the working pixel centres
     reg = Registration.load(result["setup_dir"] / "registration.npz")
-    xs, ys = square_crop_grid(64, 48, 32)
+    xs, ys = frame_grid(64, 48, 32, 24)
     grid = np.stack(np.meshgrid(xs, ys), -1)
     exact = cv2.perspectiveTransform(grid.reshape(-1, 1, 2), device.homography).reshape(grid.shape)
     error = np.hypot(reg.map_x - exact[..., 0], reg.map_y - exact[..., 1])
@@ -109,7 +112,7 @@ def test_cancelled_recapture_leaves_the_previous_capture_byte_identical(tmp_path
         assert result is None and _snapshot(tmp_path) == before
         assert sorted(p.name for p in tmp_path.iterdir()) == ["prj", "setups"]
     cs = load_capture_set(first["setup_dir"])
-    assert np.abs(cs.prj_train - pattern_images(_settings(tmp_path, seed=0))[:4]).max() <= 0.5 / 255 + 1e-6
+    assert np.abs(cs.prj_train - pattern_images(_settings(tmp_path, seed=0), (32, 24))[:4]).max() <= 0.5 / 255 + 1e-6
 
 
 def _kill_after(monkeypatch, renames):
@@ -146,7 +149,7 @@ def test_a_kill_between_the_commit_renames_is_detected_then_finished(tmp_path, m
     assert staging.finish_interrupted_commits(tmp_path) == [SETUP]  # what the next capture does first
     new = load_capture_set(tmp_path / "setups" / SETUP)
     assert new.meta["pattern_source"] == "generated (seed 1)"
-    assert np.abs(new.prj_train - pattern_images(_settings(tmp_path, seed=1))[:4]).max() <= 0.5 / 255 + 1e-6
+    assert np.abs(new.prj_train - pattern_images(_settings(tmp_path, seed=1), (32, 24))[:4]).max() <= 0.5 / 255 + 1e-6
     assert not np.array_equal(new.cam_train, old.cam_train)
     assert not (tmp_path / staging.STAGING_DIR).exists()
 
@@ -214,6 +217,27 @@ def test_setups_sharing_a_root_keep_its_projector_images(tmp_path):
     with pytest.raises(CaptureError, match="other setups"):
         _capture(tmp_path, seed=0, setup_name="c", test_count=1)
     assert _snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("projector, working_size, frame", [((64, 48), 64, (64, 48)), ((64, 36), 64, (64, 36)),
+                                                             ((36, 64), 48, (28, 48))])
+def test_a_non_square_projector_is_captured_over_its_whole_frame(tmp_path, projector, working_size, frame):
+    device = FakeDevice(projector_size=projector)
+    result, _ = _capture(tmp_path, device, working_size=working_size)
+    cs = load_capture_set(result["setup_dir"])
+    w, h = frame
+    assert cs.frame_size == frame and cs.cam_train.shape == (4, h, w, 3) and cs.meta["working_frame"] == [w, h]
+    # every working pixel is registered, up to the frame's edges: no central square, no black bars
+    assert cs.projector_valid.all() and cs.cam_white[:, :2].mean() > cs.cam_black[:, :2].mean() + 0.1
+    reg = Registration.load(result["setup_dir"] / "registration.npz")
+    assert reg.dense_xy.shape == (projector[1], projector[0], 2)
+
+
+@pytest.mark.parametrize("working_size, match", [(8, "16 to 1024"), (96, "larger than the projector")])
+def test_a_working_size_the_networks_cannot_use_is_refused(tmp_path, working_size, match):
+    with pytest.raises(CaptureError, match=match):
+        _capture(tmp_path, working_size=working_size)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_the_fake_projector_takes_native_8bit_frames():

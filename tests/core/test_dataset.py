@@ -22,10 +22,10 @@ def _fake_response(prj):
 
 def make_dataset(root, setup="desk", n_train=4, n_test=2, gray_level=0.5):
     layout = DatasetLayout(root, setup)
-    refs = reference_patterns(SIZE, gray_level)
+    refs = reference_patterns(SIZE, SIZE, gray_level)
     ref_images = [refs["black"], refs["white"], refs["gray"]]
-    train = generate_patterns(n_train, SIZE, seed=1)
-    test = generate_patterns(n_test, SIZE, seed=2)
+    train = generate_patterns(n_train, SIZE, SIZE, seed=1)
+    test = generate_patterns(n_test, SIZE, SIZE, seed=2)
     write_projector_images(layout, "ref", ref_images)
     write_projector_images(layout, "train", train)
     if n_test:
@@ -151,10 +151,13 @@ def test_round_trip(tmp_path):
         assert np.allclose(cs.cam_white, [0.77, 0.61, 0.45], atol=0.003)
         assert cs.gray_level == 0.5 and cs.meta["camera"]["exposure"] == pytest.approx(0.01)
         assert cs.has_test
-    resized = load_capture_set(tmp_path, size=16)
-    assert resized.cam_train.shape == (4, 16, 16, 3) and resized.cam_gray.shape == (16, 16, 3)
+    resized = load_capture_set(tmp_path, frame=(16, 12))
+    assert resized.cam_train.shape == (4, 12, 16, 3) and resized.cam_gray.shape == (12, 16, 3)
+    # a public square set: one aspect among others, said so; no registration, nothing masked
+    assert cs.frame_size == (SIZE, SIZE) and cs.projector_valid is None
     text = summarize(cs)
     assert "desk" in text and "4 training pairs" in text and "2 test pairs" in text and "32x32" in text
+    assert "aspect 1.000" in text
 
 
 def test_test_set_optional_and_gray_level_fallback(tmp_path):
@@ -222,7 +225,7 @@ def test_error_size_mismatch(tmp_path):
     with pytest.raises(DatasetError, match="img_0002.png") as info:
         load_capture_set(tmp_path)
     assert "cam" in str(info.value) and "40x32" in str(info.value)
-    assert load_capture_set(tmp_path, size=SIZE).cam_train.shape == (4, SIZE, SIZE, 3)
+    assert load_capture_set(tmp_path, frame=(SIZE, SIZE)).cam_train.shape == (4, SIZE, SIZE, 3)
 
 
 def test_error_bad_setup_json(tmp_path):

@@ -216,6 +216,44 @@ def test_backend_deterministic_with_seed_and_state_roundtrip():
     assert torch.allclose(lgst.forward(), before)
 
 
+def _wide_surface(w, h, seed=0):
+    return torch.nn.functional.interpolate(_surface(max(w, h), seed), size=(h, w), mode="bilinear")
+
+
+@needs_style_net
+def test_theta_renders_at_any_size_on_a_non_square_frame():
+    """PSA adapts theta at the working frame; the same theta renders the look at native size."""
+    lgst = get_backend("styletransfer", internal_size=64)
+    working = _wide_surface(64, 36)
+    lgst.prepare(working, "", mix="starry_blue_yellow:0.6, sepia_ink:0.4")
+    look = lgst.forward().detach()
+    assert look.shape == (1, 3, 36, 64)
+    finer = torch.nn.functional.interpolate(working, size=(144, 256), mode="bilinear")  # the same surface, finer
+    native = lgst.render_at(finer)
+    assert native.shape == (1, 3, 144, 256) and not native.requires_grad
+    assert 0.0 <= native.min() and native.max() <= 1.0
+    small = torch.nn.functional.adaptive_avg_pool2d(native, (9, 16))
+    assert float((small - torch.nn.functional.adaptive_avg_pool2d(look, (9, 16))).abs().mean()) < 0.05
+    with torch.no_grad():
+        for t in lgst.parameters():
+            t.mul_(1.5)  # another theta: another look at native size too
+    assert float((lgst.render_at(finer) - native).abs().mean()) > 0.01
+
+
+def test_the_default_render_at_resizes_the_look():
+    class Flat(LGSTBackend):
+        def prepare(self, surface, prompt, seed=0, mix=None):
+            self.surface = surface
+
+        def forward(self):
+            return self.surface * 0.5
+
+    flat = Flat()
+    flat.prepare(torch.full((1, 3, 12, 16), 0.8), "")
+    out = flat.render_at(torch.zeros(1, 3, 48, 64))
+    assert out.shape == (1, 3, 48, 64) and torch.allclose(out, torch.full_like(out, 0.4))
+
+
 @needs_style_net
 def test_backend_pixel_effect_keeps_gradients():
     lgst = get_backend("styletransfer", internal_size=64, effects=[PixelArt(blocks=8, levels=4)])

@@ -184,3 +184,16 @@ def test_physical_saturation_loss_per_pixel_bounds():
     t2 = torch.tensor([-0.5, 1.5]).view(1, 1, 1, 2)
     assert float(losses.physical_saturation_loss(t2)) == pytest.approx(0.25)
     assert float(losses.physical_saturation_loss(t2, 0.0, 2.0)) == pytest.approx(0.125)
+
+
+def test_sharpness_is_the_laplacian_energy_and_falls_with_blur():
+    import cv2
+
+    rng = np.random.default_rng(0)
+    img = rng.random((48, 64, 3)).astype(np.float32)
+    blurred = cv2.GaussianBlur(img, (0, 0), 1.5)
+    assert metrics.sharpness(blurred) < 0.2 * metrics.sharpness(img)
+    assert metrics.sharpness(np.full((16, 16, 3), 0.5)) == 0.0
+    mask = np.zeros((48, 64), bool)
+    mask[:, :32] = True
+    assert metrics.sharpness(img, mask) > 0

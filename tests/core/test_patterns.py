@@ -10,7 +10,7 @@ from lapig_core.capture.patterns import (PatternFolderError, generate_pattern, g
 
 @pytest.fixture(scope="module")
 def set_of_100():
-    return generate_patterns(100, size=64, seed=0)
+    return generate_patterns(100, 64, 64, seed=0)
 
 
 def test_shape_dtype_range(set_of_100):
@@ -21,18 +21,18 @@ def test_shape_dtype_range(set_of_100):
 
 
 def test_deterministic_per_seed():
-    a = generate_patterns(4, size=48, seed=7)
-    b = generate_patterns(4, size=48, seed=7)
-    c = generate_patterns(4, size=48, seed=8)
+    a = generate_patterns(4, 48, 48, seed=7)
+    b = generate_patterns(4, 48, 48, seed=7)
+    c = generate_patterns(4, 48, 48, seed=8)
     assert np.array_equal(a, b)
     assert np.abs(a - c).mean() > 0.05
 
 
 def test_image_k_independent_of_count():
-    few = generate_patterns(3, size=48, seed=3)
-    many = generate_patterns(9, size=48, seed=3)
+    few = generate_patterns(3, 48, 48, seed=3)
+    many = generate_patterns(9, 48, 48, seed=3)
     assert np.array_equal(few, many[:3])
-    assert np.array_equal(many[6], generate_pattern(6, size=48, seed=3))
+    assert np.array_equal(many[6], generate_pattern(6, 48, 48, seed=3))
 
 
 def test_colour_coverage(set_of_100):
@@ -66,13 +66,31 @@ def test_invalid_arguments():
     with pytest.raises(ValueError):
         generate_patterns(-1)
     with pytest.raises(ValueError):
-        generate_patterns(1, size=4)
-    assert generate_patterns(0, size=16).shape == (0, 16, 16, 3)
+        generate_patterns(1, 4, 4)
+    assert generate_patterns(0, 16, 16).shape == (0, 16, 16, 3)
+
+
+def test_a_frame_pattern_is_the_centre_of_the_long_side_square():
+    wide = generate_patterns(3, 64, 36, seed=4)
+    assert wide.shape == (3, 36, 64, 3)
+    np.testing.assert_array_equal(wide[1], generate_pattern(1, 64, 64, seed=4)[14:50])
+    tall = generate_pattern(1, 36, 64, seed=4)
+    np.testing.assert_array_equal(tall, generate_pattern(1, 64, 64, seed=4)[:, 14:50])
+
+
+def test_load_image_folder_crops_to_the_frame_aspect(tmp_path):
+    square = np.zeros((40, 40, 3), np.float32)
+    square[:10] = square[30:] = (0.0, 0.0, 1.0)  # blue bands cropped away by a 2:1 frame
+    square[10:30] = (1.0, 0.0, 0.0)
+    write_png(tmp_path / "a.png", square)
+    images = load_image_folder(tmp_path, 32, 16)
+    assert images.shape == (1, 16, 32, 3)
+    assert np.allclose(images[0], (1.0, 0.0, 0.0), atol=0.01)
 
 
 def test_reference_patterns():
-    refs = reference_patterns(size=16, gray_level=0.25)
-    assert set(refs) == {"black", "white", "gray"}
+    refs = reference_patterns(16, 12, gray_level=0.25)
+    assert set(refs) == {"black", "white", "gray"} and refs["gray"].shape == (12, 16, 3)
     assert refs["black"].max() == 0.0 and refs["white"].min() == 1.0
     assert np.allclose(refs["gray"], 0.25) and refs["gray"].dtype == np.float32
     with pytest.raises(ValueError):
@@ -100,7 +118,7 @@ def test_load_image_folder_formats(tmp_path):
     _write_raw(tmp_path / "f.tif", np.full((32, 32, 3), 64, np.uint8))
     (tmp_path / "notes.txt").write_text("ignored")
 
-    images = load_image_folder(tmp_path, size=16)
+    images = load_image_folder(tmp_path, 16, 16)
     assert images.shape == (6, 16, 16, 3) and images.dtype == np.float32
     assert np.allclose(images[0], (1.0, 0.0, 0.0), atol=0.01)  # centre crop, RGB order
     assert np.allclose(images[1], 1.0)
@@ -108,7 +126,7 @@ def test_load_image_folder_formats(tmp_path):
     assert np.allclose(images[2][10:], 0.0, atol=0.01)
     assert images[3][..., 2].mean() > 0.9 and images[3][..., 0].mean() < 0.1
     assert np.allclose(images[4], 128 / 255, atol=0.01)
-    assert load_image_folder(tmp_path, size=16, count=2).shape == (2, 16, 16, 3)
+    assert load_image_folder(tmp_path, 16, 16, count=2).shape == (2, 16, 16, 3)
 
 
 def test_load_image_folder_errors(tmp_path):
@@ -121,6 +139,6 @@ def test_load_image_folder_errors(tmp_path):
     write_png(tmp_path / "good.png", np.zeros((8, 8, 3)))
     (tmp_path / "broken.png").write_bytes(b"\x89PNG\r\n\x1a\n garbage")
     with pytest.raises(PatternFolderError, match="broken.png"):
-        load_image_folder(tmp_path, size=8)
+        load_image_folder(tmp_path, 8, 8)
     with pytest.raises(PatternFolderError, match="requested"):
-        load_image_folder(tmp_path, size=8, count=5)
+        load_image_folder(tmp_path, 8, 8, count=5)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from lapig_core.optics.camera_model import CameraResponse, auto_exposure_stops, clipped_fraction
-from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, square_region
+from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image
 
 
 def test_pixel_ray_round_trip_with_lens_shift():
@@ -36,12 +36,10 @@ def test_bad_projector_settings_are_refused(kwargs):
         ProjectorModel(**kwargs)
 
 
-def test_working_image_goes_to_the_central_square():
-    assert square_region(800, 600) == (100, 0, 600)
-    frame = frame_from_working_image(np.ones((64, 64, 3)), 800, 600)
+def test_working_frame_fills_the_native_frame():
+    frame = frame_from_working_image(np.ones((48, 64, 3)), 800, 600)
     assert frame.shape == (600, 800, 3)
-    assert frame[:, :100].max() == 0 and frame[:, 700:].max() == 0
-    assert frame[:, 100:700].min() == 1
+    assert frame.min() == 1
 
 
 def test_camera_response_is_monotonic_and_invertible():

@@ -5,31 +5,41 @@ import numpy as np
 import pytest
 
 from lapig_core.common.imageio import to_bit_depth
-from lapig_core.common.resample import DOWNSCALE, SAME_SIZE, UPSCALE, resampling, resize_square
+from lapig_core.common.resample import DOWNSCALE, SAME_SIZE, UPSCALE, resampling, resize_image
 from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, quantised_frame
 
-W, H, S = 64, 48, 32  # native 64x48 projector, 32x32 working image -> 48x48 square at x=8
+W, H, WW, WH = 64, 48, 32, 24  # native 64x48 projector, its 32x24 working frame
+S = 32  # side of the square test images
 
 
-def _working(seed=0, size=S):
-    return np.random.default_rng(seed).random((size, size, 3)).astype(np.float32)
+def _working(seed=0, size=S, height=None):
+    return np.random.default_rng(seed).random((height or size, size, 3)).astype(np.float32)
 
 
-def _clamp_reference(img, side):
+def resize_square(img, side):
+    return resize_image(img, side, side)
+
+
+def _clamp_reference(img, width, height):
     """Lanczos clamped to the 2x2 bilinear footprint, gathered pixel by pixel."""
-    n = img.shape[0]
-    sharp = cv2.resize(img, (side, side), interpolation=cv2.INTER_LANCZOS4)
-    f = np.floor((np.arange(side) + 0.5) * n / side - 0.5).astype(int)
-    i0, i1 = np.clip(f, 0, n - 1), np.clip(f + 1, 0, n - 1)
-    corners = [img[a][:, b] for a in (i0, i1) for b in (i0, i1)]
+    h, w = img.shape[:2]
+    sharp = cv2.resize(img, (width, height), interpolation=cv2.INTER_LANCZOS4)
+
+    def pair(n, out):
+        f = np.floor((np.arange(out) + 0.5) * n / out - 0.5).astype(int)
+        return np.clip(f, 0, n - 1), np.clip(f + 1, 0, n - 1)
+
+    (r0, r1), (c0, c1) = pair(h, height), pair(w, width)
+    corners = [img[a][:, b] for a in (r0, r1) for b in (c0, c1)]
     return np.clip(sharp, np.minimum.reduce(corners), np.maximum.reduce(corners))
 
 
-@pytest.mark.parametrize("n, side", [(32, 48), (32, 64), (17, 100), (256, 600)])
-def test_upscale_is_lanczos_clamped_to_the_bilinear_footprint(n, side):
-    img = _working(1, n)
-    np.testing.assert_array_equal(resize_square(img, side), _clamp_reference(img, side))
-    assert resampling(n, side) == UPSCALE
+@pytest.mark.parametrize("w, h, width, height", [(32, 32, 48, 48), (32, 24, 64, 48), (17, 17, 100, 100),
+                                                 (256, 192, 800, 600), (320, 180, 1920, 1080), (20, 30, 37, 41)])
+def test_upscale_is_lanczos_clamped_to_the_bilinear_footprint(w, h, width, height):
+    img = _working(1, w, h)
+    np.testing.assert_array_equal(resize_image(img, width, height), _clamp_reference(img, width, height))
+    assert resampling((h, w), (height, width)) == UPSCALE
 
 
 def test_no_ringing_at_hard_edges_and_values_stay_in_range():
@@ -66,23 +76,22 @@ def test_same_size_is_copied_and_shrinking_averages_areas():
     img = _working(2)
     same = resize_square(img, S)
     np.testing.assert_array_equal(same, img)
-    assert same is not img and resampling(S, S) == SAME_SIZE
-    big = _working(3, 96)
-    np.testing.assert_array_equal(resize_square(big, 48), cv2.resize(big, (48, 48), interpolation=cv2.INTER_AREA))
-    assert resampling(96, 48) == DOWNSCALE
+    assert same is not img and resampling((S, S), (S, S)) == SAME_SIZE
+    big = _working(3, 96, 72)
+    np.testing.assert_array_equal(resize_image(big, 48, 36), cv2.resize(big, (48, 36), interpolation=cv2.INTER_AREA))
+    assert resampling((72, 96), (36, 48)) == DOWNSCALE
 
 
-def test_frame_puts_the_working_image_in_the_central_square():
-    img = _working(4)
+def test_frame_is_the_working_frame_resized_over_the_whole_native_frame():
+    img = _working(4, WW, WH)
     frame = frame_from_working_image(img, W, H)
     assert frame.shape == (H, W, 3) and frame.dtype == np.float32
-    np.testing.assert_array_equal(frame[:, :8], 0)
-    np.testing.assert_array_equal(frame[:, 56:], 0)
-    np.testing.assert_array_equal(frame[:, 8:56], resize_square(img, 48))
-    tall = frame_from_working_image(img, 48, 64)  # portrait: square at y0 = 8
-    np.testing.assert_array_equal(tall[:8], 0)
-    np.testing.assert_array_equal(tall[56:], 0)
-    np.testing.assert_array_equal(tall[8:56], resize_square(img, 48))
+    np.testing.assert_array_equal(frame, resize_image(img, W, H))
+    assert frame[:, :4].max() > 0 and frame[:, -4:].max() > 0  # no black bars: the whole frame is lit
+    tall = frame_from_working_image(_working(4, WH, WW), H, W)  # portrait projector
+    np.testing.assert_array_equal(tall, resize_image(_working(4, WH, WW), H, W))
+    native = _working(6, W, H)
+    np.testing.assert_array_equal(frame_from_working_image(native, W, H), native)  # already native: kept
     gray = frame_from_working_image(img[..., 0], W, H)  # (H, W) images are gray
     np.testing.assert_array_equal(gray[..., 2], frame_from_working_image(np.repeat(img[..., :1], 3, -1), W, H)[..., 2])
     wild = img * 3 - 1
@@ -93,7 +102,7 @@ def test_frame_puts_the_working_image_in_the_central_square():
 @pytest.mark.parametrize("bit_depth, dtype", [(8, np.uint8), (16, np.uint16)])
 def test_quantised_frame_is_the_frame_rounded_and_the_light_is_its_light(bit_depth, dtype):
     model = ProjectorModel(W, H, gamma=2.3, black_level=0.01)
-    img = _working(5)
+    img = _working(5, WW, WH)
     pixels = quantised_frame(img, W, H, bit_depth)
     assert pixels.dtype == dtype
     np.testing.assert_array_equal(pixels, to_bit_depth(frame_from_working_image(img, W, H), bit_depth))
@@ -106,5 +115,5 @@ def test_quantised_frame_is_the_frame_rounded_and_the_light_is_its_light(bit_dep
 def test_capture_frames_are_the_8bit_light():
     # the device's 8-bit lookup and the light of the quantised frame agree
     model = ProjectorModel(W, H)
-    img = _working(6)
+    img = _working(6, WW, WH)
     np.testing.assert_array_equal(model.emitted_8bit(frame_from_working_image(img, W, H)), model.frame_light(img, 8))

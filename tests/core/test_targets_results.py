@@ -7,8 +7,9 @@ import pytest
 
 from lapig_core.common import metrics
 from lapig_core.common.imageio import read_image
-from lapig_core.export.result_files import (folder_name, heat_overlay, read_result_image, read_summary,
-                                            stored_bit_depth, write_new_result, write_result)
+from lapig_core.export.result_files import (folder_name, heat_overlay, output_name, read_output_image,
+                                            read_result_image, read_summary, stored_bit_depth, write_new_result,
+                                            write_result)
 from lapig_core.photometric.targets import desired_targets, reachable_mask, reachable_range
 
 
@@ -91,3 +92,16 @@ def test_new_results_never_share_a_folder_and_a_failed_one_leaves_nothing(tmp_pa
     with pytest.raises(ValueError, match="image"):
         write_new_result(tmp_path, "20260102_030405_bad", {"target": img, "projector": img[..., :2]}, {})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["20260102_030405_look", "20260102_030405_look_2"]
+
+
+def test_the_output_size_image_is_what_a_result_shows_where_it_has_one(tmp_path):
+    working, native = np.full((24, 32, 3), 0.25, np.float32), np.full((48, 64, 3), 0.75, np.float32)
+    folder = write_result(tmp_path / "r", {"projector": working, "target": working}, {"prompt": "p"})
+    assert output_name(folder, "projector") == "projector"
+    assert read_output_image(folder, "projector").shape == (24, 32, 3)
+    write_result(folder, {"projector_native": native}, {"prompt": "p"})
+    assert output_name(folder, "projector") == "projector_native"
+    assert np.allclose(read_output_image(folder, "projector"), 0.75, atol=1e-4)
+    assert output_name(folder, "target") == "target"  # per image
+    # a sheet of 4:3 images has 4:3 cells
+    assert read_image(folder / "comparison.png").shape[0] < 256

@@ -165,7 +165,7 @@ def test_export_into_an_existing_folder_is_refused_and_writes_nothing_beside_it(
 
     folder = tmp_path / "exports"
     folder.mkdir()
-    working = np.full((8, 8, 3), 0.5, np.float32)
+    working = np.full((9, 12, 3), 0.5, np.float32)  # the projector's 4:3 aspect
     with pytest.raises(ExportError, match="output path is a folder"):
         export_projector_image(folder, working, 16, 12)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["exports"] and not any(folder.iterdir())

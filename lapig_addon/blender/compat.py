@@ -1,4 +1,9 @@
-"""Differences between the Blender versions the extension supports (4.2 to 5.0)."""
+"""Differences between the Blender releases the extension supports (4.2 LTS to 5.3), in one place.
+
+Each shim names the releases it is for; scripts/test_blender_versions.sh runs the add-on's tests on
+4.2.23, 4.5.15, 5.0.1, 5.1.2, 5.2.3 and 5.3.0 (4.3 and 4.4 are not tested).
+"""
+import bpy
 
 
 def material_node_tree(material):
@@ -6,3 +11,36 @@ def material_node_tree(material):
     if getattr(material, "node_tree", None) is None:
         material.use_nodes = True  # deprecated in 5.0, where this branch never runs
     return material.node_tree
+
+
+def light_node_tree(light):
+    """The light's node tree, switched on.
+
+    4.2-5.0: a new light has use_nodes off (and on 4.x no tree at all): turn it on.
+    5.1 and later: Light.use_nodes is deprecated (to be removed in 6.0) and ignored, since every light
+    renders its tree; setting it only warns, so it is left alone."""
+    if bpy.app.version < (5, 1, 0) or light.node_tree is None:
+        light.use_nodes = True
+    return light.node_tree
+
+
+def light_local_direction(nodes, links, prefix):
+    """The socket that gives each ray's direction in the light's own space, inside a light's node tree.
+
+    4.5 and later: Geometry 'Incoming' through a Vector Transform world -> object. 5.3 gave the Vector
+    Transform node a 'LightIndex' input in front of 'Vector', so the input is found by name.
+    4.2 (checked on 4.2.23; 4.3 and 4.4 are not tested): the object space of a Vector Transform is
+    garbage in a light shader, so the projection came out as one flat colour. Texture Coordinate
+    'Normal' gives the same light-space direction there (equal to the 4.5 path on 4.2.23, 4.5.15,
+    5.0.1 and 5.3.0)."""
+    if bpy.app.version < (4, 5, 0):
+        coords = nodes.get(prefix + "texture coordinate") or nodes.new("ShaderNodeTexCoord")
+        coords.name = prefix + "texture coordinate"
+        return coords.outputs["Normal"]
+    geometry = nodes.get(prefix + "geometry") or nodes.new("ShaderNodeNewGeometry")
+    geometry.name = prefix + "geometry"
+    to_local = nodes.get(prefix + "to local") or nodes.new("ShaderNodeVectorTransform")
+    to_local.name = prefix + "to local"
+    to_local.vector_type, to_local.convert_from, to_local.convert_to = "VECTOR", "WORLD", "OBJECT"
+    links.new(geometry.outputs["Incoming"], to_local.inputs["Vector"])
+    return to_local.outputs["Vector"]

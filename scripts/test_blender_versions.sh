@@ -8,7 +8,8 @@
 #   RELEASE    bpy versions to test (default: all of MATRIX below)
 #   --setup-only  only create the venvs
 #   --full     also install torch and the rest of requirements and run the whole suite (see full_deps)
-# Environment: LAPIG_VENVS (default .venvs, git-ignored), PYTHON311 / PYTHON313 (interpreters to use).
+# Environment: LAPIG_VENVS (default .venvs, git-ignored), PYTHON311 / PYTHON313 (interpreters to use),
+#   LAPIG_WHEELS (--full only: install from this folder of wheels, made by pip download, not the index).
 # Results: $LAPIG_VENVS/results/bpy-<release>[-full].txt (pytest's output), .row (one line) and a
 # Markdown table at the end. Exit status 0 only when every release passed.
 set -uo pipefail
@@ -32,7 +33,7 @@ for arg in "$@"; do
   case "$arg" in
     --setup-only) SETUP_ONLY=1 ;;
     --full) FULL=1 ;;
-    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
     *) WANTED+=("$arg") ;;
   esac
 done
@@ -96,9 +97,9 @@ make_full_venv() {  # make_full_venv RELEASE PY NUMPY OPENCV -> $VENVS/bpy-RELEA
   local torch_pin
   torch_pin="$(full_deps | tr ' ' '\n' | grep '^torch==')"
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-cache-dir \
-      ${LAPIG_WHEELS:+--find-links "$LAPIG_WHEELS"} "$torch_pin" || return 1
+      ${LAPIG_WHEELS:+--no-index --find-links "$LAPIG_WHEELS"} "$torch_pin" || return 1
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-cache-dir \
-      ${LAPIG_WHEELS:+--find-links "$LAPIG_WHEELS"} $wants || return 1
+      ${LAPIG_WHEELS:+--no-index --find-links "$LAPIG_WHEELS"} $wants || return 1
   "$venv/bin/python" -c "import bpy, numpy, cv2, torch; print('bpy', bpy.app.version_string, 'numpy', numpy.__version__, 'cv2', cv2.__version__, 'torch', torch.__version__)" || return 1
   echo "$wants" > "$venv/.lapig-requirements"
   echo "$venv: $((SECONDS - start)) s, $(du -sm "$venv" | cut -f1) MB"

@@ -3,6 +3,8 @@
 Each shim names the releases it is for; scripts/test_blender_versions.sh runs the add-on's tests on
 4.2.23, 4.5.15, 5.0.1, 5.1.2, 5.2.3 and 5.3.0 (4.3 and 4.4 are not tested).
 """
+import contextlib
+
 import bpy
 
 
@@ -44,3 +46,19 @@ def light_local_direction(nodes, links, prefix):
     to_local.vector_type, to_local.convert_from, to_local.convert_to = "VECTOR", "WORLD", "OBJECT"
     links.new(geometry.outputs["Incoming"], to_local.inputs["Vector"])
     return to_local.outputs["Vector"]
+
+
+@contextlib.contextmanager
+def unregistered_at_exit():
+    """Unregister the add-on when the block ends, before the interpreter exits.
+
+    4.2 and 4.5 (the bpy module; checked on 4.2.23 and 4.5.15): Python crashes at exit (SIGSEGV) or
+    hangs while an operator class is still registered, so a headless command that registered the
+    add-on failed with status -11 after its work was done. 5.0 and later exit cleanly either way."""
+    try:
+        yield
+    finally:
+        from . import addon
+
+        if addon.is_registered():
+            addon.unregister()

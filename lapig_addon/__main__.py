@@ -24,4 +24,8 @@ if __name__ == "__main__":
     _load_extension_package()
     from lapig.lapig_addon.cli import main as cli  # noqa: E402  (needs the package loaded above)
 
-    sys.exit(cli.main(sys.argv[1:]))
+    from lapig.lapig_addon.blender import compat  # noqa: E402
+
+    with compat.unregistered_at_exit():
+        status = cli.main(sys.argv[1:])
+    sys.exit(status)

@@ -10,6 +10,8 @@ import math
 
 import bpy
 
+from .compat import light_local_direction, light_node_tree
+
 NODE_PREFIX = "LAPIG "
 TEXTURE_NODE = NODE_PREFIX + "projected image"
 
@@ -28,13 +30,12 @@ def _math(nodes, links, op, a, b, name):
 
 def build_light_tree(light: bpy.types.SpotLight, model, image=None):
     """(Re)build the projection nodes of a spot light from a ProjectorModel; idempotent."""
-    light.use_nodes = True
+    tree = light_node_tree(light)
     light.spot_size = math.pi * 0.999  # the image texture, not the cone, bounds the frame
     light.spot_blend = 0.0
     light.shadow_soft_size = 0.0  # pinhole: sharp pixels, noise-free direct light
     if hasattr(light, "use_soft_falloff"):
         light.use_soft_falloff = False  # keep the inverse-square law exact
-    tree = light.node_tree
     nodes, links = tree.nodes, tree.links
     for node in list(nodes):
         if node.bl_idname not in {"ShaderNodeEmission", "ShaderNodeOutputLight"} \
@@ -47,15 +48,9 @@ def build_light_tree(light: bpy.types.SpotLight, model, image=None):
     links.new(emission.outputs[0], output.inputs["Surface"])
     emission.inputs["Strength"].default_value = 1.0
 
-    geometry = nodes.get(NODE_PREFIX + "geometry") or nodes.new("ShaderNodeNewGeometry")
-    geometry.name = NODE_PREFIX + "geometry"
-    to_local = nodes.get(NODE_PREFIX + "to local") or nodes.new("ShaderNodeVectorTransform")
-    to_local.name = NODE_PREFIX + "to local"
-    to_local.vector_type, to_local.convert_from, to_local.convert_to = "VECTOR", "WORLD", "OBJECT"
     split = nodes.get(NODE_PREFIX + "split") or nodes.new("ShaderNodeSeparateXYZ")
     split.name = NODE_PREFIX + "split"
-    links.new(geometry.outputs["Incoming"], to_local.inputs[0])
-    links.new(to_local.outputs[0], split.inputs[0])
+    links.new(light_local_direction(nodes, links, NODE_PREFIX), split.inputs[0])
 
     sx, sy = model.uv_scale()
     # The ratio x/z does not depend on the sign of 'Incoming', so u = 0.5 + shift - s * x / z.
@@ -96,8 +91,8 @@ def projected_image(light):
 
 
 def _layout(nodes):
-    order = ["geometry", "to local", "split", "x/z", "u scale", "u", "y/z", "v scale", "v", "uv",
-             "projected image"]
+    order = ["geometry", "texture coordinate", "to local", "split", "x/z", "u scale", "u", "y/z", "v scale",
+             "v", "uv", "projected image"]
     for column, name in enumerate(order):
         node = nodes.get(NODE_PREFIX + name)
         if node:

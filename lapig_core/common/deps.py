@@ -5,9 +5,13 @@ import importlib.util
 import sys
 from dataclasses import dataclass
 
+# Blender 4.2 to 5.0 embed Python 3.11 with numpy 1.26, where OpenCV must stay at 4.11 (4.12 and later
+# need numpy 2); Blender 5.1 and later embed Python 3.13 with numpy 2, where OpenCV 4.12 is the first that fits.
+_NUMPY_2 = sys.version_info >= (3, 13)
 REQUIRED = (
-    ("numpy", "numpy", "numpy<2 (Blender bundles it)"),
-    ("cv2", "opencv-contrib-python-headless", "opencv-contrib-python-headless==4.11.0.86"),
+    ("numpy", "numpy", "numpy>=2.2 (Blender bundles it)" if _NUMPY_2 else "numpy<2 (Blender bundles it)"),
+    ("cv2", "opencv-contrib-python-headless",
+     "opencv-contrib-python-headless==" + ("4.12.0.88" if _NUMPY_2 else "4.11.0.86")),
     ("torch", "torch", "torch==2.13.0 (CPU build is enough)"),
 )
 OPTIONAL = (

@@ -21,7 +21,9 @@ def no_torch(name, *args, **kwargs):
         raise ImportError("No module named 'torch'")
     return real_import(name, *args, **kwargs)
 
-builtins.__import__ = no_torch
+import importlib.util
+if importlib.util.find_spec("torch") is not None:  # a torch-free venv (the version matrix) needs no hook,
+    builtins.__import__ = no_torch                   # and bpy 4.2 crashes at exit (SIGSEGV) with one in place
 _load_extension_package()
 from lapig.lapig_addon.blender import addon, scene_state
 from lapig.lapig_addon.services import panel_state

@@ -1,7 +1,8 @@
 """Tests for lapig_core.archs: CompenNeSt and PCNet."""
 
 import pytest
-import torch
+
+torch = pytest.importorskip("torch")
 
 from lapig_core.photometric.archs import ARCHS, CompenNeSt, PCNet, build, count_parameters, describe
 from lapig_core.photometric.losses import compensation_saturation_loss

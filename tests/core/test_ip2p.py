@@ -11,7 +11,8 @@ import sys
 import warnings
 
 import pytest
-import torch
+
+torch = pytest.importorskip("torch")
 
 from lapig_core.lgst import BACKENDS, LGSTUnavailable, get_backend
 from lapig_core.lgst import ip2p_backend as ip2p

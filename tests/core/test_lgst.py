@@ -5,7 +5,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import torch
+
+torch = pytest.importorskip("torch")
 
 from lapig_core.lgst import (LGSTBackend, StyleTransferBackend, available_backends, get_backend, register_backend)
 from lapig_core.lgst import BACKENDS

@@ -3,7 +3,8 @@ import math
 
 import numpy as np
 import pytest
-import torch
+
+torch = pytest.importorskip("torch")
 
 from lapig_core.photometric import losses
 from lapig_core.common import metrics

@@ -3,7 +3,8 @@
 import threading
 
 import pytest
-import torch
+
+torch = pytest.importorskip("torch")
 
 from lapig_core.psa import adaptation as psa
 from lapig_core.photometric.checkpoints import new_model

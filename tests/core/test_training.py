@@ -3,7 +3,8 @@
 import threading
 
 import pytest
-import torch
+
+torch = pytest.importorskip("torch")
 
 from lapig_core.photometric import checkpoints, finetune, pretrain
 from lapig_core.capture.dataset import load_capture_set

@@ -1,6 +1,7 @@
 """Run in a fresh Python with BLENDER_USER_RESOURCES set: install the built zip, enable, use, disable.
 
-Usage: python install_and_run.py EXTENSION.zip WORK_DIR
+Usage: python install_and_run.py EXTENSION.zip WORK_DIR [--torch-free]
+--torch-free (where torch is not installed): an existing result folder instead of Train and Generate.
 """
 import math
 import os
@@ -9,6 +10,7 @@ import sys
 import bpy
 
 zip_path, work = sys.argv[1], sys.argv[2]
+torch_free = "--torch-free" in sys.argv[3:]
 module = "bl_ext.user_default.lapig"
 
 bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
@@ -38,15 +40,25 @@ capture_dir = bpy.path.abspath(s.last_capture_dir)  # stored relative to the .bl
 assert capture_dir.startswith(os.path.join(work, "e2e_lapig")), s.last_capture_dir
 assert os.path.isfile(os.path.join(capture_dir, "cam", "warp", "train", "img_0002.png"))
 
-# the rest of the pipeline, with the weights shipped inside the zip
-assert bpy.ops.lapig.train_models() == {"FINISHED"}
-s.prompt = "Turn into an oil pastel drawing"
-assert bpy.ops.lapig.generate() == {"FINISHED"}
+if torch_free:  # a result folder as Generate writes it, from plain arrays
+    import importlib
+
+    import numpy as np
+
+    write_result = importlib.import_module(module + ".lapig_core.export.result_files").write_result
+    ramp = np.repeat(np.linspace(0, 1, 32, dtype=np.float32)[None, :, None], 24, 0).repeat(3, -1)  # 4:3
+    s.result_dir = str(write_result(os.path.join(work, "result"), {n: ramp for n in ("target", "projector",
+                       "simulated", "compensability")}, {"prompt": "a ramp", "backend": "styletransfer"}))
+else:  # the rest of the pipeline, with the weights shipped inside the zip
+    assert bpy.ops.lapig.train_models() == {"FINISHED"}
+    s.prompt = "Turn into an oil pastel drawing"
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
 assert os.path.isfile(os.path.join(bpy.path.abspath(s.result_dir), "projector.png")), s.result_dir
 assert bpy.ops.lapig.preview_mode(mode="TARGET") == {"FINISHED"}
 assert bpy.ops.lapig.export_image(filepath=os.path.join(work, "projector.png")) == {"FINISHED"}
 assert os.path.isfile(os.path.join(work, "projector.json"))
 assert bpy.ops.lapig.preview_mode(mode="ORIGINAL") == {"FINISHED"}
+assert bpy.ops.lapig.preview_toggle() == {"FINISHED"} and bpy.ops.lapig.preview_toggle() == {"FINISHED"}
 
 bpy.ops.preferences.addon_disable(module=module)
 assert not hasattr(bpy.types.Scene, "lapig"), "disable left properties behind"

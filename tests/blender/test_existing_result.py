@@ -8,11 +8,12 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 
-def write_fake_result(folder, size=64):
-    """A result folder as Generate writes it, from plain arrays (no networks)."""
+def write_fake_result(folder, width=64, height=48):
+    """A result folder as Generate writes it, from plain arrays (no networks), at the projector's 4:3."""
     from lapig.lapig_core.export.result_files import write_result
 
-    yy, xx = np.mgrid[0:size, 0:size].astype(np.float32) / (size - 1)
+    yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
+    yy, xx = yy / (height - 1), xx / (width - 1)
     ramp = np.stack([xx, yy, 1 - xx], -1)
     images = {"target": ramp, "projector": ramp * 0.8, "simulated": ramp * 0.7, "compensability": ramp[..., :1] * 0,
               "target_nopsa": ramp[:, ::-1], "projector_nopsa": ramp[:, ::-1] * 0.8}

@@ -4,10 +4,10 @@
 # drawing, viewport preview and its restore, export of an existing result, the extension build,
 # validate and install), plus the bpy-free core tests that need no torch (numpy 1 vs 2, OpenCV 4.11 vs 4.12).
 #
-# Usage: bash scripts/test_blender_versions.sh [--setup-only] [--full] [RELEASE ...]
-#   RELEASE    bpy versions to test (default: all of MATRIX below)
+# Usage: bash scripts/test_blender_versions.sh [--setup-only] [--full] [--newest | RELEASE ...]
+#   RELEASE       bpy versions to test (default: all of MATRIX below); --newest: the last of them
 #   --setup-only  only create the venvs
-#   --full     also install torch and the rest of requirements and run the whole suite (see full_deps)
+#   --full        a venv bpy-RELEASE-full with torch and the rest of requirements.txt: the whole suite
 # Environment: LAPIG_VENVS (default .venvs, git-ignored), PYTHON311 / PYTHON313 (interpreters to use),
 #   LAPIG_WHEELS (--full only: install from this folder of wheels, made by pip download, not the index).
 # Results: $LAPIG_VENVS/results/bpy-<release>[-full].txt (pytest's output), .row (one line) and a
@@ -33,6 +33,7 @@ for arg in "$@"; do
   case "$arg" in
     --setup-only) SETUP_ONLY=1 ;;
     --full) FULL=1 ;;
+    --newest) WANTED+=("$(echo "${MATRIX[-1]}" | cut -d' ' -f1)") ;;
     -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
     *) WANTED+=("$arg") ;;
   esac
@@ -43,7 +44,8 @@ find_python() {  # find_python 3.11|3.13 -> path of an interpreter of that versi
   local var="PYTHON${want/./}"
   for candidate in "${!var:-}" "python$want" \
       "$(pyenv prefix "$want" 2>/dev/null | head -1)/bin/python$want" \
-      "$(pyenv prefix "$want.0" 2>/dev/null | head -1)/bin/python$want"; do
+      "$(pyenv prefix "$want.0" 2>/dev/null | head -1)/bin/python$want" \
+      "${PYENV_ROOT:-$HOME/.pyenv}"/versions/"$want".*/bin/python"$want"; do
     [ -n "$candidate" ] || continue
     if command -v "$candidate" >/dev/null 2>&1 && "$candidate" -c \
         "import sys; sys.exit(0 if '%d.%d' % sys.version_info[:2] == '$want' else 1)" 2>/dev/null; then

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The working frame: the projector's aspect at the networks' sizes."""
 import pytest
-import torch
+torch = pytest.importorskip("torch")  # the torch-free tier of older and newer Blenders skips this
 
 from lapig_core.optics.working_frame import WorkingFrameError, check_aspect, working_frame
 from lapig_core.photometric import archs

@@ -78,7 +78,7 @@ def add_parsers(sub):
     build.add_argument("--out", default="dist", help="output folder (default: dist)")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
-    bench.add_argument("what", choices=["capture", "models", "psa", "ui"], help="which benchmark")
+    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame"], help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
     bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
@@ -119,10 +119,11 @@ def cmd_bench(args) -> int:
 
         backend_class(args.backend)  # an unknown name is refused before any setup is rendered
     _ensure_registered()
-    from .bench import bench_capture, bench_models, bench_psa, bench_ui
+    from .bench import bench_capture, bench_frame, bench_models, bench_psa, bench_ui
 
     args.out = args.out or f"out/bench_{args.what}"
-    modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui}
+    modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui,
+               "frame": bench_frame}
     summary = modules[args.what].run(args)
     if not args.json:
         for key, value in sorted(summary.items()):

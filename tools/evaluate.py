@@ -28,6 +28,8 @@ from ..lapig_addon.blender import scene_state
 from ..lapig_addon.blender.projection_render import register_at, render_working_images
 from ..lapig_addon.cli import headless
 
+SHARPNESS_SIGMA = 1.0  # px blurred before the Laplacian: finer, a rendered capture's detail is camera noise
+
 
 def build_surface_scene(image: np.ndarray, folder: str, name: str = "surface", shape: str = "panel",
                         projector=(800, 600), throw_ratio=1.5, wall=None, camera=(480, 360)):
@@ -76,7 +78,7 @@ def evaluate_prompt(cs, models, rig_objects, setup_dir, prompt, backend="styletr
 def evaluate_native(cs, models, res, rig_objects, setup_dir, width, height) -> tuple[dict, dict]:
     """The PSA look and its projector image at width x height, rendered for real and registered at
     that size; (figures, images). PSNR over the frame's on-object pixels, sharpness against the
-    target's (variance of the Laplacian)."""
+    target's (variance of the Laplacian, after a SHARPNESS_SIGMA blur)."""
     native = output_at(cs, models, res, width, height)
     if native is None:  # the output is the working frame itself
         target, projector_image = as_image(res.with_psa.target), as_image(res.with_psa.projector_image)
@@ -89,7 +91,8 @@ def evaluate_native(cs, models, res, rig_objects, setup_dir, width, height) -> t
     figures = {"frame": [width, height], "tile": tile, "seconds": round(seconds, 2),
                "psnr": round(metrics.masked_psnr(captured, target, valid), 4),
                "ssim": round(metrics.ssim(captured, target), 4),
-               "sharpness_ratio": round(metrics.sharpness(captured, valid) / metrics.sharpness(target, valid), 4),
+               "sharpness_ratio": round(metrics.sharpness(captured, valid, SHARPNESS_SIGMA)
+                                        / metrics.sharpness(target, valid, SHARPNESS_SIGMA), 4),
                "on_object_fraction": round(float(valid.mean()), 4)}
     return figures, {"target": target, "projector_image": projector_image, "captured": captured}
 

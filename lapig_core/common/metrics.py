@@ -122,13 +122,16 @@ def masked_psnr(pred, target, mask) -> float:
     return math.inf if value == 0 else 10.0 * math.log10(1.0 / value)
 
 
-def sharpness(img, mask=None) -> float:
+def sharpness(img, mask=None, sigma: float = 0.0) -> float:
     """High-frequency energy: the variance of the Laplacian of the luminance, over the pixels where
-    mask (H, W) is true (all by default). One (H, W, 3) numpy image in [0, 1]."""
+    mask (H, W) is true (all by default). One (H, W, 3) numpy image in [0, 1]. sigma > 0 first
+    blurs by a Gaussian of that many pixels, so a camera's sensor noise does not count as detail."""
     import cv2
 
     lum = np.asarray(img, np.float64)
     lum = lum.mean(axis=-1) if lum.ndim == 3 else lum
+    if sigma > 0:
+        lum = cv2.GaussianBlur(lum, (0, 0), sigma)
     lap = cv2.Laplacian(lum, cv2.CV_64F)
     if mask is not None:
         lap = lap[np.asarray(mask, bool)]

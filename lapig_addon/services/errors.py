@@ -10,6 +10,11 @@ _WORDED = (ValueError, OSError, ImportError)
 
 
 def one_line(exc: BaseException) -> str:
+    if isinstance(exc, ModuleNotFoundError):  # "No module named 'torch'" says nothing about what to do
+        from ...lapig_core.common.deps import missing_module_message
+
+        if (worded := missing_module_message(exc.name)) is not None:
+            return worded
     text = " ".join(str(exc).split())  # Blender's messages end in a newline, some span several
     # an operator's error report comes out of bpy.ops as RuntimeError("Error: ..."): worded for people too
     worded = isinstance(exc, _WORDED) or (isinstance(exc, RuntimeError) and text.startswith("Error: "))

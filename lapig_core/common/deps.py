@@ -53,10 +53,23 @@ def install_command(python_executable: str, target: str | None = None) -> str:
     return f'"{python_executable}" -m pip install{where} {packages}'
 
 
+def needs_message(packages: list[str]) -> str:
+    return (f"LAPIG needs {', '.join(packages)}: see the add-on preferences or the README "
+            f"('Installing the Python dependencies into Blender')")
+
+
 def require(*modules: str):
     """Raise ImportError with an actionable message if any of the modules is missing."""
     missing = [d for d in check_dependencies() if d.module in modules and not d.present]
     if missing:
-        names = ", ".join(d.package for d in missing)
-        raise ImportError(f"LAPIG needs {names}: see the add-on preferences or the README "
-                          f"('Installing the Python dependencies into Blender')")
+        raise ImportError(needs_message([d.package for d in missing]))
+
+
+def missing_module_message(module_name: str) -> str | None:
+    """The actionable message for an import that failed on one of LAPIG's dependencies
+    (ModuleNotFoundError.name, e.g. 'torch.nn'), or None for a module that is not one of them."""
+    top = (module_name or "").split(".")[0]
+    for module, package, _ in REQUIRED + OPTIONAL:
+        if module == top:
+            return needs_message([package])
+    return None

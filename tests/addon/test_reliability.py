@@ -42,6 +42,14 @@ def test_one_line_keeps_a_refusal_as_worded_and_names_the_type_of_anything_else(
     assert len(errors.one_line(ValueError("x" * 5000))) == errors.MAX_CHARS
 
 
+def test_a_missing_dependency_says_what_is_needed_not_no_module_named(errors):
+    said = errors.one_line(ModuleNotFoundError("No module named 'torch'", name="torch"))
+    assert said.startswith("LAPIG needs torch: see the add-on preferences")
+    assert errors.one_line(ModuleNotFoundError("No module named 'cv2.x'", name="cv2.x")).startswith(
+        "LAPIG needs opencv-contrib-python-headless")
+    assert errors.one_line(ModuleNotFoundError("No module named 'foo'", name="foo")) == "No module named 'foo'"
+
+
 def test_a_limit_refuses_values_outside_its_range_and_gives_the_property_bounds(limits):
     size = limits.LIMITS["working_size"]
     assert size.bounds() == {"min": 32, "max": 1024}
@@ -143,6 +151,7 @@ def test_a_non_text_fingerprint_is_refused_when_the_set_is_loaded(tmp_path):
     (lambda header: header.update(working_size="big"), "damaged header: 'working_size' is 'big', not int"),
     (lambda header: header.update(arch="ResNet"), "unknown architecture 'ResNet'"),
 ])
+@pytest.mark.torch
 def test_a_checkpoint_with_a_damaged_header_is_refused_with_its_name(tmp_path, damage, message):
     import torch
 

@@ -194,6 +194,7 @@ def test_capture_sees_the_real_surface_while_the_preview_is_on(small_setup, tmp_
 
 
 @pytest.mark.blender
+@pytest.mark.torch  # the import checks the set with the dataset loader, which the add-on runs with torch
 def test_import_capture_folder_accepts_a_good_set_and_names_the_bad_file(small_setup, tmp_path):
     from lapig.lapig_addon.cli import headless
 

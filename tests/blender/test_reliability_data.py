@@ -201,6 +201,7 @@ def test_a_copied_project_uses_its_own_data(saved_project):
     assert capture.startswith(os.path.dirname(blend) + os.sep) and os.path.isdir(capture)
 
 
+@pytest.mark.torch
 def test_training_a_copied_old_project_with_absolute_paths_writes_into_the_copy(saved_project):
     original = _tree(saved_project)
     blend = _copy(saved_project, "old_copy")

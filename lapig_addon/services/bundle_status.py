@@ -1,0 +1,48 @@
+"""What the installed zip carries, for the preferences (no bpy).
+
+A per-platform zip (tools/bundle.py) holds `lapig_addon/bundle.json`: its platform, its Python, the
+wheels Blender unpacked from it, and the packages it could not carry with the reason and the next step.
+A source checkout or the zip without wheels has no such file: its packages come from Blender's Python.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+from dataclasses import dataclass
+
+BUNDLE_FILE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "bundle.json")
+
+
+@dataclass
+class StatusLine:
+    icon: str  # a Blender icon name; the command line ignores it
+    text: str
+
+
+def read_bundle(path: str = BUNDLE_FILE) -> dict | None:
+    """The zip's bundle.json, or None where there is none (or it is unreadable: the dependency list
+    below it still says what is found)."""
+    try:
+        with open(path) as f:
+            info = json.load(f)
+    except (OSError, ValueError):
+        return None
+    return info if isinstance(info, dict) else None
+
+
+def bundle_lines(info: dict | None, python_version: tuple = sys.version_info[:2]) -> list[StatusLine]:
+    if info is None:
+        return [StatusLine("INFO", "No bundled wheels (a source checkout or the zip without them): "
+                                   "the packages come from Blender's Python")]
+    here = "%d.%d" % python_version[:2]
+    lines = [StatusLine("PACKAGE", f"This zip carries {len(info.get('bundled', []))} wheels for "
+                                   f"{info.get('platform', '?')}, Python {info.get('python', '?')}")]
+    if info.get("python") and info["python"] != here:
+        lines.append(StatusLine("ERROR", f"This Blender runs Python {here}, so Blender skipped those wheels: "
+                                         f"install the zip for Python {here} (Blender 4.2 to 5.0: py311, "
+                                         f"5.1 and later: py313)"))
+    for missing in info.get("not_bundled", []):
+        lines.append(StatusLine("ERROR", f"{missing.get('package')} is not in this zip: {missing.get('reason')}"))
+        lines.append(StatusLine("BLANK1", f"Next: {missing.get('next_step')}"))
+    return lines

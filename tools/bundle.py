@@ -35,8 +35,9 @@ PLATFORM_TAGS = {
                   "manylinux_2_24_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64",
                   "manylinux_2_12_x86_64", "manylinux2010_x86_64", "manylinux_2_5_x86_64", "manylinux1_x86_64"],
     "windows-x64": ["win_amd64"],
-    "macos-arm64": ["macosx_11_0_arm64", "macosx_12_0_arm64", "macosx_10_9_universal2",
-                    "macosx_10_12_universal2", "macosx_11_0_universal2"],
+    # onnx 1.23 has wheels for macOS 13 and later only, so the macOS zip needs macOS 13 (bundle.json says so)
+    "macos-arm64": [f"macosx_{v}_0_{arch}" for v in (11, 12, 13, 14) for arch in ("arm64", "universal2")]
+    + ["macosx_10_9_universal2", "macosx_10_12_universal2"],
 }
 
 
@@ -203,7 +204,10 @@ def bundle_info(bundle: BundlePlan, wheel_paths: list[str]) -> dict:
         name, version = os.path.basename(path).split("-")[:2]
         return {"name": _normal(name), "version": version}
 
+    macos = [tuple(map(int, m.groups())) for p in wheel_paths
+             for m in [re.search(r"macosx_(\d+)_(\d+)_", os.path.basename(p))] if m]
     return {"platform": bundle.platform, "python": bundle.python.version,
+            "minimum_os": "macOS %d.%d" % max(macos) if macos else None,
             "blender": [bundle.python.blender_min, bundle.python.blender_max],
             "bundled": [dist(p) for p in wheel_paths],
             "not_bundled": [vars(n) for n in bundle.not_bundled]}
@@ -242,4 +246,5 @@ def build_platform_zip(platform: str, python_tag: str, out_dir: str, cache_root:
     return {"path": path, "platform": platform, "python": bundle.python.version,
             "blender": f"{bundle.python.blender_min} to <{bundle.python.blender_max}",
             "bytes": os.path.getsize(path), "mb": round(os.path.getsize(path) / 2**20, 1), "sha256": digest,
-            "wheels": len(wheels), "not_bundled": [n.package for n in bundle.not_bundled]}
+            "wheels": len(wheels), "not_bundled": [n.package for n in bundle.not_bundled],
+            "minimum_os": bundle_info(bundle, wheels)["minimum_os"]}

@@ -38,6 +38,8 @@ def bundle_lines(info: dict | None, python_version: tuple = sys.version_info[:2]
     here = "%d.%d" % python_version[:2]
     lines = [StatusLine("PACKAGE", f"This zip carries {len(info.get('bundled', []))} wheels for "
                                    f"{info.get('platform', '?')}, Python {info.get('python', '?')}")]
+    if info.get("minimum_os"):
+        lines.append(StatusLine("INFO", f"Its wheels need {info['minimum_os']} or later"))
     if info.get("python") and info["python"] != here:
         lines.append(StatusLine("ERROR", f"This Blender runs Python {here}, so Blender skipped those wheels: "
                                          f"install the zip for Python {here} (Blender 4.2 to 5.0: py311, "

@@ -35,7 +35,8 @@ PLATFORM_TAGS = {
                   "manylinux_2_24_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64",
                   "manylinux_2_12_x86_64", "manylinux2010_x86_64", "manylinux_2_5_x86_64", "manylinux1_x86_64"],
     "windows-x64": ["win_amd64"],
-    # onnx 1.23 has wheels for macOS 13 and later only, so the macOS zip needs macOS 13 (bundle.json says so)
+    # torch 2.13 has macOS wheels for 14 and later only (onnx and OpenCV: 13), so the macOS zip needs macOS 14
+    # (bundle.json and the build say so)
     "macos-arm64": [f"macosx_{v}_0_{arch}" for v in (11, 12, 13, 14) for arch in ("arm64", "universal2")]
     + ["macosx_10_9_universal2", "macosx_10_12_universal2"],
 }

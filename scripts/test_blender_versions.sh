@@ -18,6 +18,8 @@ cd "$(dirname "$0")/.."
 # release  python  numpy                opencv-contrib-python-headless
 MATRIX=(
   "4.2.23 3.11 numpy==1.26.4 4.11.0.86"
+  "4.3.0  3.11 numpy==1.26.4 4.11.0.86"
+  "4.4.0  3.11 numpy==1.26.4 4.11.0.86"
   "4.5.15 3.11 numpy==1.26.4 4.11.0.86"
   "5.0.1  3.11 numpy==1.26.4 4.11.0.86"
   "5.1.2  3.13 numpy==2.2.6  4.12.0.88"

@@ -85,7 +85,8 @@ def add_parsers(sub):
                        help="rewrite requirements-bundle.txt from this environment first")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
-    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame"], help="which benchmark")
+    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame", "preview"],
+                       help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
     bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
@@ -126,11 +127,11 @@ def cmd_bench(args) -> int:
 
         backend_class(args.backend)  # an unknown name is refused before any setup is rendered
     _ensure_registered()
-    from .bench import bench_capture, bench_frame, bench_models, bench_psa, bench_ui
+    from .bench import bench_capture, bench_frame, bench_models, bench_preview, bench_psa, bench_ui
 
     args.out = args.out or f"out/bench_{args.what}"
     modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui,
-               "frame": bench_frame}
+               "frame": bench_frame, "preview": bench_preview}
     summary = modules[args.what].run(args)
     if not args.json:
         for key, value in sorted(summary.items()):

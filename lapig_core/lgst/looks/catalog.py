@@ -108,6 +108,9 @@ LOOKS: tuple[Look, ...] = (
          ("fog", "foggy", "mist", "misty", "haze", "hazy"), _mood("foggy")),
     Look("vintage_faded", "mood", "An old faded print: warm cast, lifted blacks, washed-out colour.",
          ("vintage", "faded", "old photo", "retro", "aged", "nostalgic"), _mood("vintage_faded")),
+    Look("neutral_grade", "grade", "The image as it is, under a colour grade PSA can move "
+         "(exposure, gamma, saturation, shadow and highlight tints, haze).",
+         ("colour grade", "color grading", "grade"), _mood("neutral_grade")),
     Look("wintry", "mood", "Cold winter light: cool blue-white cast, less saturated.",
          ("winter", "wintry", "snowy", "icy", "frosty", "cold light"), _mood("wintry")),
     # -- textures ---------------------------------------------------------------------------------------

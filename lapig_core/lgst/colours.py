@@ -204,7 +204,7 @@ def parse_colours(text: str) -> ColourParse:
 
 def colour_by_name(name: str) -> NamedColour:
     """One colour by its name (modifiers allowed); ValueError with the closest names if unknown."""
-    parsed = parse_colours(name)
+    parsed = parse_colours(f"{name} colour")  # the context makes 'mint' or 'rust' a colour
     if not parsed.colours:
         close = closest_names(name.strip().split()[-1] if name.strip() else "")
         hint = f"; closest names: {', '.join(close)}" if close else ""

@@ -178,6 +178,8 @@ def _report_unmatched(plan: PromptPlan, words: list[str], candidates, embedder) 
                           "art words work best (mosaic, woodblock, charcoal, watercolour, neon, Van Gogh)")
     from .text_embedder import embed_texts
 
+    if plan.medium_score is not None and plan.medium_score >= embedder.strong:
+        return  # the prompt as a whole matched well: its other words are descriptions, not misses
     known = {w.lower() for _, e in plan.glossed for w in e.split()}
     glossed = [w.lower() for w, _ in plan.glossed]
     words = [w for w in words if w.lower() not in known and not any(g in w.lower() for g in glossed)]

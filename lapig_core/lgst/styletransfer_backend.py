@@ -51,16 +51,19 @@ class StyleTransferBackend(ThetaBackend):
     name = "styletransfer"
 
     def __init__(self, internal_size: int = 512, blend: float = 0.15, top_k: int = 3,
-                 temperature: float | None = None, jitter: float = 0.0, effects: str | list = "auto"):
+                 temperature: float | None = None, jitter: float = 0.0, effects: str | list = "auto",
+                 looks: bool = True):
         """internal_size: the style net's working resolution (its styles were trained near 512 px).
         blend: share of the input surface mixed back in, so the content stays recognisable.
         jitter: std of seeded noise added to theta at prepare (0 = the mix exactly; >0 for PSA restarts).
         effects: 'auto' (from the prompt's words), a list of effect objects, or None.
+        looks: False maps prompts to the 26 styles only (no looks, colours or moods), as before.
         """
         if not 0.0 <= blend <= 1.0:
             raise ValueError(f"blend must be in [0, 1], got {blend}")
         self.internal_size, self.blend, self.top_k = int(internal_size), float(blend), int(top_k)
         self.temperature, self.jitter, self.effects_spec = temperature, float(jitter), effects
+        self.looks = bool(looks)
         self._theta: list[torch.Tensor] = []
         self._anchor: list[torch.Tensor] = []
         self._stages: list = []
@@ -106,8 +109,17 @@ class StyleTransferBackend(ThetaBackend):
         else:
             if hints:
                 notes.append(f"style chosen for the effects' look too: '{', '.join(hints)}'")
-            plan = plan_prompt(", ".join([text] + hints), k=self.top_k, temperature=self.temperature)
-            notes += plan.notes
+            query = ", ".join([text] + hints)
+            if self.looks:
+                plan = plan_prompt(query, k=self.top_k, temperature=self.temperature)
+                notes += plan.notes
+            else:  # the 26 styles only, as before the look library (for comparisons)
+                from .text_embedder import active
+
+                info = pm.explain_prompt(query, k=self.top_k, temperature=self.temperature)
+                plan = PromptPlan(prompt=text, embedder=active().description, medium_kind="style",
+                                  styles=info["mix"], medium_score=info["best_score"])
+                notes += info["notes"]
         self.plan = plan
         self.surface = surface.detach().float().clamp(0, 1)
         self.size = tuple(self.surface.shape[-2:])

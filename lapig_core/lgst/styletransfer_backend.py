@@ -112,7 +112,7 @@ class StyleTransferBackend(ThetaBackend):
             query = ", ".join([text] + hints)
             if self.looks:
                 plan = plan_prompt(query, k=self.top_k, temperature=self.temperature)
-                notes += plan.notes
+                notes += plan.notes + plan.unmatched  # so the artist can rephrase
             else:  # the 26 styles only, as before the look library (for comparisons)
                 from .text_embedder import active
 

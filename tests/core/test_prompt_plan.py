@@ -116,3 +116,12 @@ def test_backend_chains_the_looks_and_psa_moves_them():
     # the explicit style mix still works, and a prompt beside it adds its mood
     lgst.prepare(s, "at night", mix="sepia_ink")
     assert lgst.describe()["styles"] == [("sepia_ink", 1.0)] and lgst.describe()["looks"][0].startswith("night")
+
+
+def test_prompts_the_text_model_cannot_read_get_a_note():
+    from lapig_core.lgst.prompt_plan import script_note
+
+    assert "no words" in script_note("🎨🌙 123", "e5")
+    assert "cannot read" in script_note("ᏣᎳᎩ ᎦᏬᏂᎯᏍᏗ", "e5")  # Cherokee
+    assert script_note("Fais-en un vitrail", "e5") is None and script_note("ステンドグラス", "e5") is None
+    assert "English only" in script_note("ステンドグラス", "minilm")

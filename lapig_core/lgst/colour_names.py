@@ -82,6 +82,12 @@ EXTRA_COLOURS: dict[str, str] = {
     "chocolate brown": "#3f2a14", "cocoa": "#875f42", "beige brown": "#a0785a", "parchment": "#f1e9d2",
     "off white": "#faf9f6", "champagne": "#f7e7ce", "rose gold": "#b76e79", "silver grey": "#c0c0c0",
     "ash": "#b2beb5", "ash grey": "#b2beb5", "smoke": "#738276", "fog": "#d7d0c8",
+    # "<thing> <colour>" names
+    "emerald green": "#50c878", "lemon yellow": "#fff44f", "ruby red": "#9b111e", "sapphire blue": "#0f52ba",
+    "olive green": "#708238", "sea blue": "#006994", "ocean blue": "#4f42b5", "cherry red": "#de3163",
+    "rose pink": "#ff66cc", "golden yellow": "#ffdf00", "jade green": "#00a86b", "mint green": "#98ff98",
+    "sage green": "#9caf88", "lime green yellow": "#c5e384", "blood orange": "#d1001c", "sunset orange": "#fd5e53",
+    "blue grey": "#6699cc", "blue gray": "#6699cc", "warm grey": "#9f978c", "cool grey": "#8c92ac",
 }
 
 # basic colour words of other languages -> the English name above (for prompts written in them)

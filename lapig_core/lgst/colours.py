@@ -32,9 +32,11 @@ AMBIGUOUS = {"charcoal", "ink", "sky", "sand", "ash", "smoke", "fog", "honey", "
              "orchid", "wheat", "linen", "snow", "chestnut", "walnut", "mahogany", "pumpkin", "tangerine",
              "apricot", "avocado", "eggplant", "aubergine", "denim", "petrol", "parchment", "platinum", "pewter",
              "pearl", "champagne", "bubblegum", "canary", "sunflower", "saffron", "seashell", "honeydew",
-             "thistle", "tan", "navy", "lavender", "gainsboro", "sepia_ink", "blush", "sienna", "umber",
-             "cornflower", "peru", "moccasin", "bisque", "azure", "violet", "orange", "coral", "turquoise"}
+             "thistle", "tan", "gainsboro", "sepia_ink", "blush", "sienna", "umber",
+             "cornflower", "peru", "moccasin", "bisque"}
 MEDIUM_WORDS = {"charcoal", "ink", "sepia_ink"}  # "drawn in charcoal" is a medium, never a colour
+# words of a colour phrase that also say what the light is ("neon pink lights"): left for the medium too
+LIGHT_WORDS = {"neon", "electric", "fluorescent", "glowing"}
 
 
 def _hls_set(rgb, l=None, s=None, l_scale=None, s_scale=None, l_toward=None):
@@ -172,7 +174,7 @@ def parse_colours(text: str) -> ColourParse:
             return False
         before = words[start - 1] if start > 0 else ""
         for j in (k - 1, k + 1):  # a colour next to it in a list: "rust and teal", "rust, teal"
-            if 0 <= j < len(found) and not found[j][3]:
+            if 0 <= j < len(found):
                 gap = words[min(end, found[j][1]):max(start, found[j][0])]
                 if len(gap) <= 1 and all(g in LIST_WORDS for g in gap):
                     return True
@@ -195,7 +197,8 @@ def parse_colours(text: str) -> ColourParse:
         if (nxt in CONTEXT_AFTER and j not in used and w not in STOPWORDS and w not in CONTEXT_AFTER
                 and not _modifier(w) and w not in LIST_WORDS and len(w) > 2):
             unmatched.append((w, closest_names(w)))
-    rest = " ".join(w for j, w in enumerate(words) if j not in used and w not in CONTEXT_AFTER)
+    rest = " ".join(w for j, w in enumerate(words)
+                    if (j not in used or w in LIGHT_WORDS) and w not in CONTEXT_AFTER)
     for c in keep:
         if _CJK.match(c.words):
             rest = rest.replace(c.words, " ")

@@ -123,7 +123,11 @@ _FILLER |= {"fais", "faire", "transforme", "transformez", "une", "des", "les", "
             "die", "das", "den", "dem", "haz", "hazlo", "convierte", "convertir", "una", "uno", "los", "las",
             "del", "con", "como", "estilo", "fallo", "fai", "trasforma", "rendilo", "della", "dello", "nel",
             "nella", "faça", "transforme", "uma", "num", "numa", "estilo", "maak", "het", "een", "tot", "met",
-            "stijl", "por", "para", "sur", "aux", "vom", "zum", "zur", "mais", "molto", "muy", "sehr", "très"}
+            "stijl", "por", "para", "sur", "aux", "vom", "zum", "zur", "mais", "molto", "muy", "sehr", "très",
+            "bei", "een", "ein", "ins", "en", "le", "la", "il", "un", "im", "am", "und", "y", "et", "e"}
+
+
+_CJK_ANY = re.compile(r"[\u3040-\u30ff\u3400-\u9fff]")
 
 
 def content_words(text: str) -> list[str]:
@@ -164,13 +168,19 @@ def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = 
     plan.colours = colour_parse.colours
     plan.unmatched += colour_parse.messages()
     rest = pm.core_phrase(colour_parse.rest if colour_parse.colours else text)
-    rest_en = f"{rest} {english}".strip()
+    for word, _ in glossed:  # the glossed words stand in English now
+        rest = re.sub(re.escape(word), " ", rest, flags=re.I) if _CJK_ANY.search(word) else _strip(rest, word)
+    rest_en = " ".join(f"{rest} {english}".split())
     plan.mood, plan.mood_words = _find_tag(rest_en, MOODS)
-    plan.texture, texture_words = _find_tag(rest_en, TEXTURES)
-    medium_text = _strip(_strip(rest_en, plan.mood_words), texture_words)
-    if re.search(r"starry night", rest_en, re.I):
-        # "Starry Night" names Van Gogh's painting, not a night grade
-        plan.mood, plan.mood_words, medium_text = None, "", _strip(rest_en, texture_words)
+    plan.texture, _ = _find_tag(rest_en, TEXTURES)
+    starry = re.search(r"starry night", rest_en, re.I)
+    if starry:  # "Starry Night" names Van Gogh's painting, not a night grade
+        plan.mood, plan.mood_words = None, ""
+    # every mood and texture word goes (not only the chosen one's): "bright and sunny" leaves no medium
+    medium_text = rest_en
+    for look in MOODS * (not starry) + TEXTURES:
+        for tag in sorted(look.tags, key=len, reverse=True):
+            medium_text = _strip(medium_text, tag)
     words = content_words(medium_text)
     if not words:
         return plan  # only colours / a mood: they apply to the surface itself
@@ -181,6 +191,15 @@ def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = 
     best = candidates[order[0]]
     plan.medium_score = float(scores[order[0]])
     plan.runners_up = [(candidates[i].name, float(scores[i])) for i in order[1:4]]
+    if plan.medium_score < embedder.weak and (plan.colours or plan.mood or plan.texture):
+        # leftover words that match no medium well ("Flooded with summer daylight"): the colours and
+        # the mood are what the prompt asks for; no wrong medium for the rest
+        plan.notes.append(f"no medium: '{' '.join(words)}' resembles no style or look well "
+                          f"(closest: {best.name}, {plan.medium_score:.2f})")
+        _report_unmatched(plan, words, candidates, embedder)
+        plan.runners_up = []
+        plan.medium_score = None
+        return plan
     if best.kind == "style":
         style_idx = [i for i in order if candidates[i].kind == "style"][:max(1, int(k))]
         t = embedder.temperature if temperature is None else float(temperature)

@@ -75,8 +75,9 @@ def test_a_prompt_is_read_as_medium_colours_and_mood():
 def test_words_that_match_nothing_are_reported():
     from lapig_core.lgst.prompt_plan import plan_prompt
 
-    plan = plan_prompt("Make it a Claymation")
-    assert plan.unmatched and plan.unmatched[0].startswith("'Claymation' matched no look; closest: ")
+    plan = plan_prompt("Make it a Modigliani painting")
+    assert plan.unmatched and plan.unmatched[0].startswith("'Modigliani' matched no look; closest: ")
+    assert plan_prompt("Make it a Claymation").look == "modelling_clay"
     assert plan_prompt("Make it a stained glass window").unmatched == []
     assert plan_prompt("Fais-en un vitrail").unmatched == []  # function words of other languages are no art words
     zaffre = plan_prompt("a mosaic in zaffre tones")

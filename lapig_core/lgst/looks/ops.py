@@ -74,6 +74,19 @@ def stretched_luminance(x: torch.Tensor, low: float = 0.02, high: float = 0.98) 
     return ((lum - lo) / (hi - lo).clamp_min(0.05)).clamp(0, 1)
 
 
+def equalised_luminance(x: torch.Tensor, knots: int = 8, share: float = 0.5) -> torch.Tensor:
+    """Luminance pushed towards its own histogram's equalisation (piecewise-linear through its quantiles,
+    which are constants): a colour ramp or a set of bands then gives each of its colours a fair share of
+    the image even when most of it is one tone (the light ground of a pale surface). `share` of
+    equalisation, the rest the stretched luminance, so flat areas are not turned into noise."""
+    lum = luminance(x)
+    flat = lum.detach().flatten()[:: max(1, lum.numel() // 200_000)]
+    q = torch.quantile(flat, torch.linspace(0, 1, knots + 1, device=x.device))
+    q = q + torch.arange(knots + 1, device=x.device) * 1e-4  # strictly increasing
+    eq = sum(((lum - q[i]) / (q[i + 1] - q[i])).clamp(0, 1) for i in range(knots)) / knots
+    return share * eq + (1 - share) * stretched_luminance(x)
+
+
 def saturate(x: torch.Tensor, amount) -> torch.Tensor:
     lum = luminance(x)
     return lum + amount * (x - lum)

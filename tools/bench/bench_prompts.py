@@ -259,6 +259,8 @@ def run_psa_check(args, out) -> dict:
         r, sheet, _ = bench_psa.run_surface(name, args, os.path.join(out, "psa"), args.backend, prompts, 0)
         rows += r
         sheets.append(sheet)
+        for row in r:  # each surface as it is done (the whole check takes long on a loaded machine)
+            print("psa row:", {k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()}, flush=True)
     with_psa = [r for r in rows if r["variant"] == "all"]
     without = [r for r in rows if r["variant"] == "without"]
     mean = lambda vs, k: round(float(np.mean([v[k] for v in vs])), 4)

@@ -34,8 +34,9 @@ def _mood(name):
 LOOKS: tuple[Look, ...] = (
     # -- media ----------------------------------------------------------------------------------------
     Look("posterise", "medium",
-         "The image's own colours cut into four flat steps per channel with crisp borders between them, "
-         "a little more saturated; like a screen-printed poster.",
+         "The image's own colours cut into three flat steps per channel with crisp borders between them, "
+         "more saturated; like a screen-printed poster. On an image already made of flat areas it changes "
+         "little.",
          ("posterize", "posterized", "flat colours", "screen print", "poster", "silkscreen", "graphic"),
          lambda colours=None: graphic.posterise_stage()),
     Look("line_art", "medium",

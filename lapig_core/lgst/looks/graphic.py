@@ -13,7 +13,7 @@ from .palette import flat_bands, ramp_colours
 from .stage import Stage, tensor
 
 # -- posterise --------------------------------------------------------------------------------------
-POSTER_LEVELS = 4
+POSTER_LEVELS = 3
 
 
 def posterise(x, p, surface=None):
@@ -22,7 +22,7 @@ def posterise(x, p, surface=None):
 
 
 def posterise_stage() -> Stage:
-    return Stage("posterise", "medium", posterise, {"sharpness": tensor(8.0), "saturation": tensor(1.25)},
+    return Stage("posterise", "medium", posterise, {"sharpness": tensor(10.0), "saturation": tensor(1.4)},
                  {"sharpness": 4.0, "saturation": 0.3}, note=f"{POSTER_LEVELS} levels per channel")
 
 

@@ -176,7 +176,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         has_result = not blocked
         _blocked(layout, blocked)
         if s.result_summary:
-            layout.label(text=s.result_summary)
+            # "what the prompt was read as | which word matched nothing": one label each
+            for i, part in enumerate(s.result_summary.split(" | ")):
+                layout.label(text=part, icon="INFO" if i else "NONE")
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)

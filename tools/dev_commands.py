@@ -13,6 +13,10 @@ from ..lapig_addon.cli.commands import contact_sheet
 from ..lapig_addon.cli.options import ranged_option
 from ..lapig_addon.cli.output import print_json
 
+# `bench NAME` runs tools/bench/bench_<module>.py's run(args), which returns the JSON summary
+BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui", "frame": "frame",
+              "preview": "preview", "prompts": "prompts"}
+
 
 def _ensure_registered():
     if not addon.is_registered():
@@ -85,8 +89,7 @@ def add_parsers(sub):
                        help="rewrite requirements-bundle.txt from this environment first")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
-    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame", "preview"],
-                       help="which benchmark")
+    bench.add_argument("what", choices=sorted(BENCHMARKS), help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
     bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
@@ -113,6 +116,8 @@ def add_parsers(sub):
                        help="psa: prompts per surface that also run the loss ablation (default 3)")
     bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
     bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")
+    bench.add_argument("--psa-surfaces", type=int, default=0,
+                       help="prompts: also run Table 1 (PSA, Cycles) on this many surfaces (default 0)")
     ranged_option(bench, "--train", "train_count", "psa: captured training pairs per surface", default=125)
     ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 25)")
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
@@ -122,17 +127,16 @@ def add_parsers(sub):
 
 
 def cmd_bench(args) -> int:
-    if args.what in ("psa", "ui"):
+    if args.what in ("psa", "ui", "prompts"):
         from ..lapig_core.lgst import backend_class
 
         backend_class(args.backend)  # an unknown name is refused before any setup is rendered
     _ensure_registered()
-    from .bench import bench_capture, bench_frame, bench_models, bench_preview, bench_psa, bench_ui
+    import importlib
 
     args.out = args.out or f"out/bench_{args.what}"
-    modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui,
-               "frame": bench_frame, "preview": bench_preview}
-    summary = modules[args.what].run(args)
+    module = importlib.import_module(f".bench.bench_{BENCHMARKS[args.what]}", __package__)
+    summary = module.run(args)
     if not args.json:
         for key, value in sorted(summary.items()):
             print(f"{key:36s} {value}")

@@ -71,6 +71,7 @@ def cmd_demo(args) -> int:
     summary = {"comparison_sheet": sheet_path, "contact_sheet": os.path.join(out, "contact_sheet.png"),
                "projector_image": str(exported["image"]), "blend": blend_path, "result": generated["folder"],
                "prompt": args.prompt, "styles": generated["summary"]["lgst"].get("styles"),
+               "understood": generated["summary"]["lgst"].get("understood"),
                "rendered_psnr": round(m.get("rendered_psnr", float("nan")), 3),
                "rendered_psnr_nopsa": round(m.get("rendered_psnr_nopsa", float("nan")), 3),
                "native_output": generated["summary"]["native_output"],
@@ -170,7 +171,9 @@ def cmd_stylize(args) -> int:
         print_notes([f"this result is not saved into the .blend (no --save): export it with "
                      f"'export --result {out['folder']}'"])
     print(f"Look at {os.path.join(out['folder'], 'comparison.png')}")
-    print_json({"result": out["folder"], "styles": out["summary"]["lgst"].get("styles"), **summary})
+    lgst = out["summary"]["lgst"]
+    print_json({"result": out["folder"], "styles": lgst.get("styles"), "understood": lgst.get("understood"),
+                **summary})
     return 0
 
 

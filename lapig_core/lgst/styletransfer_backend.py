@@ -1,7 +1,10 @@
-"""The default, offline LGST backend: prompt -> mix of the 26 Dumoulin styles -> differentiable look.
+"""The default, offline LGST backend: prompt -> medium + palette + texture + mood -> differentiable look.
 
-theta is the mixed conditional-instance-norm scale/shift of every layer (990 numbers), initialised from
-the prompt's style mix. Those few numbers steer colour, texture and stroke of the whole image, so
+The prompt plan (prompt_plan.py) picks the medium: a mix of the 26 Dumoulin styles, or one look of the
+library (looks/: woodblock, halftone, neon, ...); then the named colours (a gradient map), a texture
+and a mood grade follow in a chain. theta is the mixed conditional-instance-norm scale/shift of every
+layer of the style net (990 numbers) when a style is the medium, plus every look stage's parameters
+(colours, thresholds, grades). Those few numbers steer colour, texture and stroke of the whole image, so
 gradient descent on them (PSA) changes the look smoothly while the conv weights stay fixed.
 """
 from __future__ import annotations
@@ -48,17 +51,23 @@ class StyleTransferBackend(ThetaBackend):
     name = "styletransfer"
 
     def __init__(self, internal_size: int = 512, blend: float = 0.15, top_k: int = 3,
-                 temperature: float | None = None, jitter: float = 0.0, effects: str | list = "auto"):
+                 temperature: float | None = None, jitter: float = 0.0, effects: str | list = "auto",
+                 looks: bool = True):
         """internal_size: the style net's working resolution (its styles were trained near 512 px).
         blend: share of the input surface mixed back in, so the content stays recognisable.
         jitter: std of seeded noise added to theta at prepare (0 = the mix exactly; >0 for PSA restarts).
         effects: 'auto' (from the prompt's words), a list of effect objects, or None.
+        looks: False maps prompts to the 26 styles only (no looks, colours or moods), as before.
         """
         if not 0.0 <= blend <= 1.0:
             raise ValueError(f"blend must be in [0, 1], got {blend}")
         self.internal_size, self.blend, self.top_k = int(internal_size), float(blend), int(top_k)
         self.temperature, self.jitter, self.effects_spec = temperature, float(jitter), effects
+        self.looks = bool(looks)
         self._theta: list[torch.Tensor] = []
+        self._anchor: list[torch.Tensor] = []
+        self._stages: list = []
+        self._layers: list = []
         self._info: dict = {}
 
     @classmethod
@@ -76,12 +85,12 @@ class StyleTransferBackend(ThetaBackend):
         ok, why = prompt_model_status()
         if not ok:
             return True, f"style net found at {path}; prompts need the text model ({why}); explicit mixes work"
-        return True, f"offline: 26 styles from {path.name}, prompts mapped with all-MiniLM-L6-v2"
+        return True, f"offline: 26 styles from {path.name} and the look library, prompts mapped with {why}"
 
     # -- setup -----------------------------------------------------------------------------------
     def prepare(self, surface, prompt, seed=0, mix=None):
         from . import prompt_mapping as pm
-        from .style_net import load_style_net
+        from .prompt_plan import PromptPlan, plan_prompt
 
         if surface.ndim != 4 or surface.shape[:2] != (1, 3):
             raise ValueError(f"surface must be (1,3,H,W), got {tuple(surface.shape)}")
@@ -90,54 +99,122 @@ class StyleTransferBackend(ThetaBackend):
             self._effects = effects_for_prompt(text)
         else:
             self._effects = list(self.effects_spec or [])
+        hints = [e.style_hint for e in self._effects if getattr(e, "style_hint", "")]
         if mix is not None:
-            chosen = pm.resolve_mix(mix)
+            # an explicit style mix is the medium; a prompt beside it still gives colours and mood
+            plan = plan_prompt(text) if text else PromptPlan(prompt="", embedder="")
+            plan.medium_kind, plan.look, plan.styles = "style", None, pm.resolve_mix(mix)
+            plan.medium_score, plan.runners_up = 1.0, []
             notes.append("style mix given explicitly")
         else:
-            hints = [e.style_hint for e in self._effects if getattr(e, "style_hint", "")]
-            query = ", ".join([text] + hints)
             if hints:
                 notes.append(f"style chosen for the effects' look too: '{', '.join(hints)}'")
-            info = pm.explain_prompt(query, k=self.top_k, temperature=self.temperature)
-            chosen, notes = info["mix"], notes + info["notes"]
-        self.net = load_style_net(surface.device)
+            query = ", ".join([text] + hints)
+            if self.looks:
+                plan = plan_prompt(query, k=self.top_k, temperature=self.temperature)
+                notes += plan.notes + plan.unmatched  # so the artist can rephrase
+            else:  # the 26 styles only, as before the look library (for comparisons)
+                from .text_embedder import active
+
+                info = pm.explain_prompt(query, k=self.top_k, temperature=self.temperature)
+                plan = PromptPlan(prompt=text, embedder=active().description, medium_kind="style",
+                                  styles=info["mix"], medium_score=info["best_score"])
+                notes += info["notes"]
+        self.plan = plan
         self.surface = surface.detach().float().clamp(0, 1)
         self.size = tuple(self.surface.shape[-2:])
+        self._layers, self._theta, self._anchor, self._scales = [], [], [], []
+        gen = torch.Generator().manual_seed(int(seed))
+        if plan.medium_kind == "style":
+            self._prepare_style_net(plan.styles, gen)
+        self._stages = self._build_stages(plan)
+        for stage in self._stages:
+            for key, value, scale in stage.tensors():
+                self._add_theta(value.to(self.surface.device), gen, scale)
+                stage.params[key] = self._theta[-1]
+        chosen = plan.styles if plan.medium_kind == "style" else []
+        self._info = {"backend": self.name, "prompt": text, "seed": int(seed),
+                      "styles": [(n, round(float(w), 4)) for n, w in chosen],
+                      "looks": [st.label() for st in self._stages],
+                      "effects": [e.label() for e in self._effects],
+                      "understood": plan.understood(), "understood_line": plan.summary(),
+                      "internal_size": self.internal_size, "blend": self.blend,
+                      "theta_numel": sum(t.numel() for t in self._theta), "notes": notes}
+
+    def _add_theta(self, t, gen, scale):
+        t = t.detach().clone().float()
+        self._anchor.append(t.clone())  # the prompt's choice, before any jitter
+        if self.jitter > 0:
+            noise = torch.randn(t.shape, generator=gen).to(t.device)
+            t = t + self.jitter * (scale if scale else t.abs().mean()) * noise
+        self._theta.append(t.requires_grad_(True))
+        self._scales.append(scale)
+
+    def _prepare_style_net(self, styles, gen):
+        from . import prompt_mapping as pm
+        from .style_net import load_style_net
+
+        self.net = load_style_net(self.surface.device)
         # the content input of the net is fixed during PSA: resize it and run its first conv once
         with torch.no_grad():
             self._stem = self.net.stem(resize(self.surface, internal_shape(*self.size, self.internal_size)))
-        mix_vec = pm.mix_vector(chosen)
-        params = self.net.style_params(mix_vec)
-        gen = torch.Generator().manual_seed(int(seed))
+        params = self.net.style_params(pm.mix_vector(styles))
         self._layers = list(params)
-        self._theta, self._anchor = [], []
         for name in self._layers:
             for t in params[name]:
-                t = t.detach().clone()
-                self._anchor.append(t.clone())  # the prompt's choice, before any jitter
-                if self.jitter > 0:
-                    noise = torch.randn(t.shape, generator=gen).to(t.device)
-                    t = t + self.jitter * t.abs().mean() * noise
-                self._theta.append(t.requires_grad_(True))
-        self._info = {"backend": self.name, "prompt": text, "seed": int(seed),
-                      "styles": [(n, round(float(w), 4)) for n, w in chosen],
-                      "effects": [e.label() for e in self._effects],
-                      "internal_size": self.internal_size, "blend": self.blend,
-                      "theta_numel": sum(t.numel() for t in self._theta), "notes": notes}
+                self._add_theta(t, gen, None)  # CIN tensors: relative distance (None)
+
+    @staticmethod
+    def _build_stages(plan) -> list:
+        """The look chain after the medium: the look medium, the named colours, the texture, the mood."""
+        from .looks import BY_NAME, palette_stage
+
+        rgb = [c.rgb for c in plan.colours] or None
+        stages = []
+        medium = BY_NAME.get(plan.look) if plan.medium_kind == "look" else None
+        if medium is not None:
+            stages.append(medium.make(rgb))
+        if rgb and not (medium is not None and medium.uses_colours):
+            stages.append(palette_stage(rgb))
+        if plan.texture:
+            stages.append(BY_NAME[plan.texture].make(None))
+        if plan.mood:
+            stages.append(BY_NAME[plan.mood].make(None))
+        if not stages and plan.medium_kind is None:
+            stages.append(BY_NAME["neutral_grade"].make(None))  # nothing understood: a grade PSA can move
+        return stages
 
     def _params(self) -> dict:
         it = iter(self._theta)
         return {name: (next(it), next(it)) for name in self._layers}
 
+    def theta_distance(self):
+        """Mean squared change of theta from the prompt's choice: relative for the style net's CIN
+        tensors (as before), against each look parameter's typical size for the looks."""
+        self._require_prepared()
+        terms = []
+        for t, a, scale in zip(self._theta, self._anchor, self._scales):
+            if scale is None:
+                terms.append(((t - a) ** 2).mean() / (a.pow(2).mean() + 1e-6))
+            else:
+                terms.append(((t - a) ** 2).mean() / (scale * scale))
+        return torch.stack(terms).mean()
+
     # -- rendering -------------------------------------------------------------------------------
     def forward(self):
         self._require_prepared()
-        return self._look(self._stem, self.surface)
+        return self._look(getattr(self, "_stem", None), self.surface)
 
     def _look(self, stem, surface):
-        """The styled content at the net's internal size, resized to the surface and blended with it."""
-        styled = resize(self.net.forward_from_stem(stem, self._params()), tuple(surface.shape[-2:]))
-        out = (1.0 - self.blend) * styled + self.blend * surface
+        """The medium (styled content blended with the surface, or the surface for a look), then the
+        look stages and the effects."""
+        if self._layers:
+            styled = resize(self.net.forward_from_stem(stem, self._params()), tuple(surface.shape[-2:]))
+            out = (1.0 - self.blend) * styled + self.blend * surface
+        else:
+            out = surface
+        for stage in self._stages:
+            out = stage(out, surface)
         for effect in self._effects:
             out = effect(out)
         return out
@@ -148,8 +225,14 @@ class StyleTransferBackend(ThetaBackend):
         self._require_prepared()
         surface = surface.detach().float().clamp(0, 1).to(self.surface.device)
         with torch.no_grad():
-            stem = self.net.stem(resize(surface, internal_shape(*surface.shape[-2:], self.internal_size)))
+            stem = None
+            if self._layers:
+                stem = self.net.stem(resize(surface, internal_shape(*surface.shape[-2:], self.internal_size)))
             return self._look(stem, surface).clamp(0, 1)
+
+    def _require_prepared(self):
+        if not self._info:
+            raise RuntimeError("call prepare(surface, prompt) first")
 
     def describe(self):
         self._require_prepared()

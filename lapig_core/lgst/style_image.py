@@ -113,7 +113,7 @@ def prepare_array(img: np.ndarray, name: str = "style image", max_side: int = MA
         img = cv2.resize(np.ascontiguousarray(img), size, interpolation=cv2.INTER_AREA)
         notes.append(f"large image ({w}x{h}): resized to {size[0]}x{size[1]} (the style is read from a "
                      f"256 px centre square)")
-    elif np.ptp(img) < 1e-3:
+    if float(np.ptp(img.reshape(-1, 3), axis=0).max()) < 1e-3:
         notes.append("the image is one flat colour: the style will be that colour's, with no texture")
     return StyleImage(name, np.ascontiguousarray(img, dtype=np.float32), (w, h), notes)
 

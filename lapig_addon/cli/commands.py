@@ -158,21 +158,24 @@ def _style_image_specs(specs) -> tuple | None:
         return None
     from ...lapig_core.lgst.style_image import parse_style_image_spec
 
+    from ..services.pipeline_jobs import check_style_images
+
     out = []
     for spec in specs:
         path, weight = parse_style_image_spec(spec)
         out.append(os.path.abspath(path) + (f":{weight:g}" if weight != 1.0 else ""))
+    check_style_images(out)
     return tuple(out)
 
 
 def cmd_stylize(args) -> int:
     from ..services.pipeline_jobs import GenerateJob, RenderResultJob, result_notes
 
-    scene = _open_scene(args)
-    style_images = _style_image_specs(args.style_images)
+    style_images = _style_image_specs(args.style_images)  # a bad image is refused before the .blend opens
     prompt = args.prompt if args.prompt is not None else ("" if style_images else None)
     if prompt is None:
         raise ValueError("stylize needs --prompt (or --style-image)")
+    scene = _open_scene(args)
     request = scene_state.generate_request(scene, prompt=prompt, backend=args.backend, mix=args.mix,
                                            psa=args.psa, strength=args.strength, seed=args.seed,
                                            ip2p_model=args.ip2p_model, style_images=style_images,

@@ -78,7 +78,7 @@ def add_parsers(sub):
     build.add_argument("--out", default="dist", help="output folder (default: dist)")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
-    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame"], help="which benchmark")
+    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame", "style-images"], help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
     bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
@@ -108,6 +108,10 @@ def add_parsers(sub):
     ranged_option(bench, "--train", "train_count", "psa: captured training pairs per surface", default=125)
     ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 25)")
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
+    bench.add_argument("--psa-surfaces", type=int, default=0,
+                       help="style-images: captured surfaces for the PSA part (default 0: parity, timing, sheet)")
+    bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
+    ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
     for name, func in (("dataset", cmd_dataset), ("pretrain", cmd_pretrain), ("eval", cmd_eval),
                        ("build", cmd_build), ("bench", cmd_bench)):
         sub.choices[name].set_defaults(func=func)
@@ -119,11 +123,11 @@ def cmd_bench(args) -> int:
 
         backend_class(args.backend)  # an unknown name is refused before any setup is rendered
     _ensure_registered()
-    from .bench import bench_capture, bench_frame, bench_models, bench_psa, bench_ui
+    from .bench import bench_capture, bench_frame, bench_models, bench_psa, bench_style_images, bench_ui
 
     args.out = args.out or f"out/bench_{args.what}"
     modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui,
-               "frame": bench_frame}
+               "frame": bench_frame, "style-images": bench_style_images}
     summary = modules[args.what].run(args)
     if not args.json:
         for key, value in sorted(summary.items()):

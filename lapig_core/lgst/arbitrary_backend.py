@@ -53,11 +53,12 @@ class ArbitraryStyleBackend(ThetaBackend):
     name = "arbitrary"
 
     def __init__(self, style_images=(), strength: float = 1.0, prompt_weight: float | None = None,
-                 internal_size: int = 384, blend: float = 0.0, jitter: float = 0.0):
+                 internal_size: int = 256, blend: float = 0.0, jitter: float = 0.0):
         """style_images: paths, 'path:weight' strings, (path or RGB array, weight) pairs, or StyleImages.
         strength: the content blend in [0, 1] (1: the reference's style vector as it is).
         prompt_weight: share of the prompt's catalogue look in the mix; default 0 with images, 1 without.
-        internal_size: the transformer's working long side (the package's 384).
+        internal_size: the transformer's working long side (256: the working frame's, fast enough for PSA on a
+        CPU; the package uses 384, whose strokes are finer).
         blend: share of the surface mixed back in pixel space after the transformer.
         """
         if not 0.0 <= strength <= 1.0:

@@ -156,7 +156,7 @@ def _style_image_specs(specs) -> tuple | None:
     """--style-image values with absolute paths (a weight kept), None when none was given (the scene's)."""
     if not specs:
         return None
-    from ...lapig_core.lgst.style_image import parse_style_image_spec
+    from ...lapig_core.common.style_image import parse_style_image_spec
 
     from ..services.pipeline_jobs import check_style_images
 

@@ -80,7 +80,7 @@ class TrainModelsJob(WorkerJob):
 def check_style_images(specs) -> None:
     """Read every style image once: missing, not an image, too small -> PipelineError with its line.
     What was converted (grayscale, resized) the backend notes in the result."""
-    from ...lapig_core.lgst.style_image import StyleImageError, load_style_image, parse_style_image_spec
+    from ...lapig_core.common.style_image import StyleImageError, load_style_image, parse_style_image_spec
 
     for spec in specs:
         try:
@@ -93,7 +93,7 @@ def style_name(specs) -> str:
     """'style_<first image's name>' for the result folder of a look from style images alone."""
     if not specs:
         return ""
-    from ...lapig_core.lgst.style_image import parse_style_image_spec
+    from ...lapig_core.common.style_image import parse_style_image_spec
 
     return "style " + os.path.splitext(os.path.basename(parse_style_image_spec(specs[0])[0]))[0]
 

@@ -91,7 +91,7 @@ class GenerateRequest:
         if problem:
             return problem
         if self.style_images:
-            from ...lapig_core.lgst.style_image import StyleImageError, check_path, parse_style_image_spec
+            from ...lapig_core.common.style_image import StyleImageError, check_path, parse_style_image_spec
 
             try:
                 for spec in self.style_images:

@@ -17,7 +17,7 @@ import numpy as np
 import torch
 
 from .base import LGSTUnavailable, ThetaBackend
-from .style_image import StyleImage, StyleImageError, load_style_image, parse_style_image_spec, prepare_array
+from ..common.style_image import StyleImage, StyleImageError, load_style_image, parse_style_image_spec, prepare_array
 from .styletransfer_backend import internal_shape, resize
 
 

@@ -8,7 +8,7 @@ torch = pytest.importorskip("torch")
 
 from lapig_core.lgst import get_backend
 from lapig_core.lgst.arbitrary_backend import ArbitraryStyleBackend, mix_vectors
-from lapig_core.lgst.style_image import StyleImageError
+from lapig_core.common.style_image import StyleImageError
 
 pytestmark = pytest.mark.torch
 

@@ -27,7 +27,7 @@ from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.common.surfaces import make_surface
 from ...lapig_core.lgst.arbitrary_backend import ArbitraryStyleBackend, image_tensor
-from ...lapig_core.lgst.style_image import prepare_array
+from ...lapig_core.common.style_image import prepare_array
 
 SHEET_SURFACES = ("wood", "stripe")
 PSA_SURFACES = ("sakura", "wood", "stripe")

@@ -1,6 +1,7 @@
 """Reading a reference image for the arbitrary-style backend, with a clear message for bad input.
 
-numpy + OpenCV only (no torch), so the add-on can check a chosen file before any model loads.
+numpy + OpenCV only (no torch), so the add-on can check a chosen file before any model loads;
+check_path needs neither (the panel calls it on every redraw), so OpenCV is imported where it is used.
 A file that is missing, a folder, not an image or smaller than MIN_SIDE is refused with one line;
 a grayscale, transparent or 16-bit image is converted and a huge one resized, each with a note
 that says what was done.
@@ -11,10 +12,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
-
-from ..common.imageio import to_float
 
 MIN_SIDE = 32  # the predictor halves the image five times: less leaves no texture to read
 MAX_SIDE = 1024  # longer side kept; the predictor reads a 256 px centre square, more only costs memory
@@ -77,6 +75,10 @@ def prepare_array(img: np.ndarray, name: str = "style image", max_side: int = MA
     """An image array (gray, gray+alpha, colour, colour+alpha; uint8, uint16 or float in [0, 1]) ->
     StyleImage, with notes for what was converted. bgr: channels in OpenCV's order (as decoded).
     `name` is used in messages."""
+    import cv2
+
+    from .imageio import to_float
+
     notes = []
     img = np.asarray(img)
     if img.ndim == 3 and img.shape[2] == 1:
@@ -120,6 +122,8 @@ def prepare_array(img: np.ndarray, name: str = "style image", max_side: int = MA
 
 def load_style_image(path, max_side: int = MAX_SIDE) -> StyleImage:
     """Read a style image file; StyleImageError with a one-line reason when it cannot be used."""
+    import cv2
+
     p = check_path(path)
     data = np.fromfile(p, dtype=np.uint8)  # np.fromfile + imdecode: non-ASCII paths work on Windows
     img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)

@@ -156,7 +156,7 @@ def parity(refs) -> dict:
     return out
 
 
-def timing(repeats=3) -> dict:
+def timing(repeats=5) -> dict:
     from ...lapig_core.lgst.arbitrary_net import load_predictor, load_transformer
 
     predictor, transformer = load_predictor(), load_transformer()
@@ -207,16 +207,31 @@ def style_sheet(refs, out_dir) -> str:
             with torch.no_grad():
                 look = backend.stylize(image_tensor(surface), "")
             tiles.append(look[0].permute(1, 2, 0).numpy())
-            labels.append(f"on {name} (torch)")
+            labels.append(f"on {name} (torch, 256 px)")
             if k == 0:
                 if engine is not None:
                     u8 = lambda a: (np.clip(a, 0, 1) * 255 + 0.5).astype(np.uint8)
                     ref = np.asarray(engine.stylize_with(u8(surface), u8(img)), np.float32) / 255
                     tiles.append(ref)
-                    labels.append(f"on {name} (int8 onnxruntime)")
+                    labels.append(f"package int8, 384 px")
                 else:
                     tiles.append(np.zeros_like(surface))
                     labels.append("onnxruntime not installed")
+    # mixing: two reference images half and half, and one image with the prompt's catalogue look
+    mixes = [("mix: mosaic 0.5 + op-art 0.5", dict(style_images=[(refs[4][1], 0.5), (refs[5][1], 0.5)]), None),
+             ("mosaic + prompt look 0.5", dict(style_images=[(refs[4][1], 1.0)], prompt_weight=0.5),
+              "charcoal_wash:1")]
+    for label, options, mix in mixes:
+        tiles.append(np.full((256, 256, 3), 0.5, np.float32))
+        labels.append(label)
+        for k, (name, surface) in enumerate(surfaces):
+            with torch.no_grad():
+                look = ArbitraryStyleBackend(**options).stylize(image_tensor(surface), "", mix=mix)
+            tiles.append(look[0].permute(1, 2, 0).numpy())
+            labels.append(f"on {name} (torch)" if mix is None else f"on {name}, + charcoal_wash")
+            if k == 0:
+                tiles.append(np.full((256, 256, 3), 0.5, np.float32))
+                labels.append("")
     header = [(f"surface '{n}'", s) for n, s in surfaces]
     tiles = [np.ones((256, 256, 3), np.float32)] + [header[0][1], header[0][1], header[1][1]] + tiles
     labels = ["reference image", header[0][0], header[0][0], header[1][0]] + labels

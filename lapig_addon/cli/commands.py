@@ -192,7 +192,8 @@ def cmd_stylize(args) -> int:
                      f"'export --result {out['folder']}'"])
     print(f"Look at {os.path.join(out['folder'], 'comparison.png')}")
     lgst = out["summary"]["lgst"]
-    images = {"style_images": [(i["path"], i["weight"]) for i in lgst["style_images"]]} if lgst.get("style_images") else {}
+    images = {"style_images": [(i["path"], i["weight"]) for i in lgst.get("style_images", [])]}
+    images = images if images["style_images"] else {}
     print_json({"result": out["folder"], "styles": lgst.get("styles"), **images, **summary})
     return 0
 

@@ -157,13 +157,16 @@ class ArbitraryStyleBackend(ThetaBackend):
                     raise LGSTUnavailable(notes[-1])
             elif prompt_weight > 0:
                 notes.append("no prompt: the mix is the reference images only")
+            elif text or mix is not None:  # said, so an artist does not wonder why the prompt did nothing
+                notes.append("the prompt and style mix are not used: the look is the style images' "
+                             "(give the prompt a share to mix its look in)")
             if prompt_vector is None:
                 prompt_weight = 0.0
             else:
                 prompt_weight = prompt_weight if images else 1.0
                 vectors.append(prompt_vector)
-            weights = [w * (1 - prompt_weight) for w in image_weights] + ([prompt_weight] if prompt_vector is not None else [])
-            style = mix_vectors(vectors, weights)
+            weights = [w * (1 - prompt_weight) for w in image_weights]
+            style = mix_vectors(vectors, weights + ([prompt_weight] if prompt_vector is not None else []))
             own = self.style_vector_of(self.surface)  # the content's own style, for the content blend
         self.net = load_transformer(device)
         self.size = tuple(self.surface.shape[-2:])

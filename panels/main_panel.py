@@ -147,6 +147,9 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         if warning:
             layout.label(text="Falls back to 'styletransfer': " + warning[:80], icon="ERROR")
         layout.prop(s, "style_override")
+        layout.prop(s, "style_image")
+        if s.style_image.strip():
+            layout.prop(s, "style_prompt_weight")
         row = layout.row(align=True)
         row.prop(s, "use_psa")
         sub = row.row()

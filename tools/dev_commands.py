@@ -15,7 +15,7 @@ from ..lapig_addon.cli.output import print_json
 
 # `bench NAME` runs tools/bench/bench_<module>.py's run(args), which returns the JSON summary
 BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui", "frame": "frame",
-              "preview": "preview", "prompts": "prompts"}
+              "preview": "preview", "prompts": "prompts", "style-images": "style_images"}
 
 
 def _ensure_registered():
@@ -117,10 +117,13 @@ def add_parsers(sub):
     bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
     bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")
     bench.add_argument("--psa-surfaces", type=int, default=0,
-                       help="prompts: also run Table 1 (PSA, Cycles) on this many surfaces (default 0)")
+                       help="prompts, style-images: also run PSA (Table 1, Cycles) on this many captured "
+                            "surfaces (default 0: prompts: adherence and sheets; style-images: parity, timing, sheet)")
     ranged_option(bench, "--train", "train_count", "psa: captured training pairs per surface", default=125)
     ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 25)")
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
+    bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
+    ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
     for name, func in (("dataset", cmd_dataset), ("pretrain", cmd_pretrain), ("eval", cmd_eval),
                        ("build", cmd_build), ("bench", cmd_bench)):
         sub.choices[name].set_defaults(func=func)

@@ -138,6 +138,13 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     style_override: StringProperty(name="Style mix",
                                    description="Optional explicit mix instead of the prompt's, "
                                                "e.g. 'black_ink_cells:0.7, teal_red_mosaic:0.3'")
+    style_image: StringProperty(name="Style image", subtype="FILE_PATH", options=RELATIVE_PATH_OPTIONS,
+                                description="Optional painting or photo of a material whose style the look "
+                                            "takes (the 'arbitrary' backend); empty for the prompt's look")
+    style_prompt_weight: FloatProperty(name="Prompt share", default=0.0, subtype="FACTOR",
+                                       **LIMITS["style_prompt_weight"].bounds(),
+                                       description="How much of the prompt's own look is mixed into the "
+                                                   "style image's (0: the image only)")
     use_psa: BoolProperty(name="Surface adaptation (PSA)", default=True,
                           description="Adapt the look to what this surface and projector can show")
     psa_strength: FloatProperty(name="Strength", default=0.5, subtype="FACTOR", **LIMITS["psa_strength"].bounds(),

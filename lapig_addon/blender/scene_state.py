@@ -83,7 +83,9 @@ def generate_request(scene, **overrides) -> GenerateRequest:
     s = scene.lapig
     request = GenerateRequest(prompt=s.prompt, backend=s.backend, mix=s.style_override, psa=s.use_psa,
                               strength=s.psa_strength, seed=s.style_seed, ip2p_model=preferences.ip2p_model(),
-                              dark_outside=s.dark_outside, output_size=s.output_size)
+                              dark_outside=s.dark_outside, output_size=s.output_size,
+                              style_images=(bpy.path.abspath(s.style_image),) if s.style_image.strip() else (),
+                              style_prompt_weight=s.style_prompt_weight)
     return overridden(request, **overrides)
 
 
@@ -152,3 +154,5 @@ def write_stylize_settings(scene, request: GenerateRequest):
     s.prompt, s.backend, s.style_override = request.prompt, request.backend, request.mix
     s.use_psa, s.psa_strength, s.style_seed = request.psa, request.strength, request.seed
     s.dark_outside, s.output_size = request.dark_outside, request.output_size
+    s.style_image = request.style_images[0] if request.style_images else ""  # the panel holds one
+    s.style_prompt_weight = request.style_prompt_weight

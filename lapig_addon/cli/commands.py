@@ -153,13 +153,34 @@ def cmd_train(args) -> int:
     return 0
 
 
+def _style_image_specs(specs) -> tuple | None:
+    """--style-image values with absolute paths (a weight kept), None when none was given (the scene's)."""
+    if not specs:
+        return None
+    from ...lapig_core.common.style_image import parse_style_image_spec
+
+    from ..services.pipeline_jobs import check_style_images
+
+    out = []
+    for spec in specs:
+        path, weight = parse_style_image_spec(spec)
+        out.append(os.path.abspath(path) + (f":{weight:g}" if weight != 1.0 else ""))
+    check_style_images(out)
+    return tuple(out)
+
+
 def cmd_stylize(args) -> int:
     from ..services.pipeline_jobs import GenerateJob, RenderResultJob, result_notes
 
+    style_images = _style_image_specs(args.style_images)  # a bad image is refused before the .blend opens
+    prompt = args.prompt if args.prompt is not None else ("" if style_images else None)
+    if prompt is None:
+        raise ValueError("stylize needs --prompt (or --style-image)")
     scene = _open_scene(args)
-    request = scene_state.generate_request(scene, prompt=args.prompt, backend=args.backend, mix=args.mix,
+    request = scene_state.generate_request(scene, prompt=prompt, backend=args.backend, mix=args.mix,
                                            psa=args.psa, strength=args.strength, seed=args.seed,
-                                           ip2p_model=args.ip2p_model)
+                                           ip2p_model=args.ip2p_model, style_images=style_images,
+                                           style_prompt_weight=args.style_prompt_weight)
     job = GenerateJob(scene, request, _iterations(args, scene))
     out = job.run_to_completion(on_progress=headless.print_progress)
     summary = dict(out["summary"]["metrics"])
@@ -172,8 +193,10 @@ def cmd_stylize(args) -> int:
                      f"'export --result {out['folder']}'"])
     print(f"Look at {os.path.join(out['folder'], 'comparison.png')}")
     lgst = out["summary"]["lgst"]
+    images = {"style_images": [(i["path"], i["weight"]) for i in lgst.get("style_images", [])]}
+    images = images if images["style_images"] else {}
     print_json({"result": out["folder"], "styles": lgst.get("styles"), "understood": lgst.get("understood"),
-                **summary})
+                **images, **summary})
     return 0
 
 

@@ -52,9 +52,15 @@ def _parser():
 
     st = sub.add_parser("stylize", help="turn a prompt into a projector image for the scene's surface")
     blend_arg(st)
-    st.add_argument("--prompt", required=True, help='e.g. "Make it a stained glass artwork"')
+    st.add_argument("--prompt", help='e.g. "Make it a stained glass artwork" (required unless --style-image)')
     st.add_argument("--backend", help="LGST backend, e.g. styletransfer (default: the scene's)")
     st.add_argument("--mix", help="explicit style mix instead of the prompt's, e.g. 'charcoal_wash:1'")
+    st.add_argument("--style-image", dest="style_images", action="append", metavar="PATH[:WEIGHT]",
+                    help="take the look's style from this painting or photo (the 'arbitrary' backend); "
+                         "repeat to mix several, e.g. --style-image a.jpg:0.7 --style-image b.png:0.3 "
+                         "(default: the scene's style image, if any)")
+    ranged_option(st, "--style-prompt-weight", "style_prompt_weight",
+                  "share of the prompt's own look mixed into the style images' (default: the scene's)", type=float)
     ranged_option(st, "--seed", "style_seed", "style seed (default: the scene's)")
     st.add_argument("--no-psa", dest="psa", action="store_false", default=None, help="skip the surface adaptation")
     ranged_option(st, "--strength", "psa_strength", "PSA strength (default: the scene's)", type=float)

@@ -39,6 +39,7 @@ LIMITS = {  # keyed by the scene property's name (blender/properties.py) where t
     "finetune_iterations": Limit("Fine-tuning iterations", 0, 100000),  # 0: the standard recipe
     "psa_strength": Limit("PSA strength", 0.05, 0.95),
     "style_seed": Limit("Style seed", 0),
+    "style_prompt_weight": Limit("Prompt share of the style image's look", 0.0, 1.0),
     "crossfade_frames": Limit("Crossfade frames", 2, 10000),
     # developer commands only
     "psa_iterations": Limit("PSA iterations", 1, 1000),

@@ -70,13 +70,14 @@ _AVAILABILITY: dict = {}  # (backend, options) -> (checked at, available, reason
 def backend_warning(request: GenerateRequest) -> str:
     """Why the request's backend cannot run here ('' when it can); Generate then falls back."""
     options = request.backend_options()
-    key = (request.backend, tuple(sorted(options.items())))
+    backend = request.lgst_backend()
+    key = (backend, tuple(sorted(options.items())))
     checked = _AVAILABILITY.get(key)
     if checked is None or time.monotonic() - checked[0] > 30:
         try:
             from ...lapig_core.lgst import backend_class
 
-            ok, why = backend_class(request.backend).availability(**options)
+            ok, why = backend_class(backend).availability(**options)
         except (ImportError, ValueError) as exc:  # torch missing, or a backend name nothing registered
             ok, why = False, str(exc)
         checked = _AVAILABILITY[key] = (time.monotonic(), ok, why)

@@ -77,6 +77,27 @@ class TrainModelsJob(WorkerJob):
         return output
 
 
+def check_style_images(specs) -> None:
+    """Read every style image once: missing, not an image, too small -> PipelineError with its line.
+    What was converted (grayscale, resized) the backend notes in the result."""
+    from ...lapig_core.common.style_image import StyleImageError, load_style_image, parse_style_image_spec
+
+    for spec in specs:
+        try:
+            load_style_image(parse_style_image_spec(spec)[0])
+        except StyleImageError as exc:
+            raise PipelineError(str(exc)) from None
+
+
+def style_name(specs) -> str:
+    """'style_<first image's name>' for the result folder of a look from style images alone."""
+    if not specs:
+        return ""
+    from ...lapig_core.common.style_image import parse_style_image_spec
+
+    return "style " + os.path.splitext(os.path.basename(parse_style_image_spec(specs[0])[0]))[0]
+
+
 def psa_settings_from(request: GenerateRequest) -> PSASettings:
     return PSASettings(stop_ratio=1.0 - request.strength, seed=request.seed)
 
@@ -103,17 +124,24 @@ class GenerateJob(WorkerJob):
             raise PipelineError(str(exc)) from None
         mix = r.mix.strip()
         # before r.problem(): an empty prompt is refused here with the longer reason
-        prompt, notes = validate_prompt(r.prompt) if not mix else (r.prompt.strip(), [])
+        style_only = bool(r.style_images) and not r.prompt.strip()  # a style image needs no prompt
+        prompt, notes = validate_prompt(r.prompt) if not (mix or style_only) else (r.prompt.strip(), [])
         problem = r.problem()
         if problem:
             raise PipelineError(problem)
-        backend_class(r.backend)  # an unknown name is refused now, not after the models are trained
-        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": r.backend,
+        backend = r.lgst_backend()
+        backend_class(backend)  # an unknown name is refused now, not after the models are trained
+        if r.style_images:
+            check_style_images(r.style_images)  # a bad file is refused now too (its notes: in the result)
+            if r.backend != backend:
+                notes.append(f"a style image is chosen: the look comes from it ('{backend}' backend), "
+                             f"not from '{r.backend}'")
+        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend,
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
                 "dark_outside": r.dark_outside, "output_frame": output,
                 "settings": psa_settings_from(r),
                 "results": self.result_root or os.path.join(storage.data_root()[0], "results"),
-                "name": folder_name(prompt or mix, datetime.datetime.now())}
+                "name": folder_name(prompt or mix or style_name(r.style_images), datetime.datetime.now())}
 
     def hold(self, job):
         return hold_capture(job["capture"], self.title)

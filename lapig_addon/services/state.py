@@ -12,6 +12,7 @@ from ...lapig_core.optics.camera_model import CameraResponse
 from .limits import first_problem
 
 IP2P_BACKEND = "instruct-pix2pix"  # lapig_core.lgst's name for it (not imported here: it needs torch)
+ARBITRARY_BACKEND = "arbitrary"  # the reference-image backend, which a chosen style image uses
 
 
 def overridden(settings, **overrides):
@@ -73,20 +74,38 @@ class GenerateRequest:
     ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
     dark_outside: bool = True  # black projector pixels where the frame misses the object
     output_size: int = 0  # long side of the final projector image; 0: the projector's native frame
+    style_images: tuple = ()  # reference images ('path' or 'path:weight') whose style the look takes
+    style_prompt_weight: float = 0.0  # share of the prompt's own look mixed into the style images'
+
+    def lgst_backend(self) -> str:
+        """The backend that runs: style images need the reference-image backend, whatever is chosen."""
+        return ARBITRARY_BACKEND if self.style_images else self.backend
 
     def problem(self) -> str:
-        """Why Generate cannot run with this request ('' when it can)."""
-        if not self.prompt.strip() and not self.mix.strip():
+        """Why Generate cannot run with this request ('' when it can). Cheap (the panel asks on every
+        redraw): a style image is only checked to be a file here; Generate reads it before any model."""
+        if not self.prompt.strip() and not self.mix.strip() and not self.style_images:
             return "Type a prompt"
-        problem = first_problem({"psa_strength": self.strength, "style_seed": self.seed})
+        problem = first_problem({"psa_strength": self.strength, "style_seed": self.seed,
+                                 "style_prompt_weight": self.style_prompt_weight})
         if problem:
             return problem
+        if self.style_images:
+            from ...lapig_core.common.style_image import StyleImageError, check_path, parse_style_image_spec
+
+            try:
+                for spec in self.style_images:
+                    check_path(parse_style_image_spec(spec)[0])
+            except StyleImageError as exc:
+                return str(exc)
         if self.output_size < 0:
             return f"The output size must not be negative (0: native), got {self.output_size}"
         return ""
 
     def backend_options(self) -> dict:
         """Options for the LGST backend (and its availability check): where its model is."""
+        if self.style_images:
+            return {"style_images": tuple(self.style_images), "prompt_weight": self.style_prompt_weight}
         return {"model": self.ip2p_model} if self.backend == IP2P_BACKEND and self.ip2p_model else {}
 
 

@@ -71,3 +71,23 @@ def test_camera_response_uses_the_manual_exposure_unless_given(state):
     assert camera.response().exposure_stops == -1.5
     response = camera.response(0.75)
     assert (response.exposure_stops, response.gamma, response.noise_std) == (0.75, 2.0, 0.01)
+
+
+def test_a_style_image_needs_no_prompt_and_picks_the_reference_image_backend(state, tmp_path):
+    image = tmp_path / "painting.png"
+    image.write_bytes(b"not checked here: problem() only sees that it is a file")
+    request = _request(state, prompt="", style_images=(str(image),), style_prompt_weight=0.25)
+    assert request.problem() == ""
+    assert request.lgst_backend() == "arbitrary" and request.backend == "styletransfer"
+    assert request.backend_options() == {"style_images": (str(image),), "prompt_weight": 0.25}
+    assert _request(state).lgst_backend() == "styletransfer" and _request(state).backend_options() == {}
+
+
+def test_style_image_problems(state, tmp_path):
+    missing = _request(state, style_images=(str(tmp_path / "gone.jpg"),)).problem()
+    assert missing == f"style image not found: {tmp_path / 'gone.jpg'}"
+    assert "is a folder" in _request(state, style_images=(str(tmp_path),)).problem()
+    weighted = tmp_path / "a.png"
+    weighted.write_bytes(b"x")
+    assert _request(state, style_images=(f"{weighted}:0.5",)).problem() == ""
+    assert "Prompt share" in _request(state, style_images=(str(weighted),), style_prompt_weight=1.5).problem()

@@ -85,3 +85,16 @@ def test_eval_writes_sheet_and_metrics(tmp_path):
     assert proc.returncode == 1 and "larger than the projector's 800x600 frame" in proc.stderr
     proc = _cli("stylize", "--prompt", "  ")
     assert proc.returncode == 1 and "Traceback" not in proc.stderr
+
+
+@pytest.mark.blender
+def test_stylize_refuses_a_bad_style_image_in_one_line(tmp_path):
+    not_image = tmp_path / "painting.jpg"
+    not_image.write_text("a letter, not a picture")
+    proc = _cli("stylize", "--style-image", str(not_image))
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert f"error: {not_image} is not an image OpenCV can read" in proc.stderr
+    proc = _cli("stylize", "--style-image", str(tmp_path / "gone.png:0.5"))
+    assert proc.returncode == 1 and f"error: style image not found: {tmp_path / 'gone.png'}" in proc.stderr
+    proc = _cli("stylize")
+    assert proc.returncode == 1 and "stylize needs --prompt (or --style-image)" in proc.stderr

@@ -64,3 +64,24 @@ def test_panels_draw_with_and_without_a_rig(lapig_registered, small_setup, with_
         assert ("prop", "throw_ratio") in log and ("operator", "lapig.capture") in log
     else:
         assert any("Add the projector and camera first" in t for t in texts)
+
+
+@pytest.mark.blender
+def test_the_style_image_property_reaches_the_generate_request(lapig_registered, small_setup, tmp_path):
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.panels.main_panel import CLASSES
+
+    scene = bpy.context.scene
+    s = scene.lapig
+    assert scene_state.generate_request(scene).style_images == ()  # none chosen: the prompt's look
+    s.style_image, s.style_prompt_weight = str(tmp_path / "missing painting.png"), 0.3
+    request = scene_state.generate_request(scene)
+    assert request.style_images == (str(tmp_path / "missing painting.png"),)
+    assert request.lgst_backend() == "arbitrary" and request.style_prompt_weight == pytest.approx(0.3)
+    assert request.problem().startswith("style image not found")  # the panel shows why Generate waits
+    log = []
+    for cls in CLASSES:
+        cls.draw(type("P", (), {"layout": RecordingLayout(log)})(), bpy.context)
+    assert ("prop", "style_image") in log and ("prop", "style_prompt_weight") in log
+    scene_state.write_stylize_settings(scene, scene_state.generate_request(scene, style_images=()))
+    assert s.style_image == ""

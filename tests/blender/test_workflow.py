@@ -230,3 +230,27 @@ def test_cancelled_render_leaves_the_scene_as_it_was(captured):
     assert job.state == "CANCELLED"
     assert set(bpy.data.scenes.keys()) == scenes and capture_studio.STUDIO_NAME not in bpy.data.scenes
     assert projector_nodes.projected_image(s.projector.data).name == image
+
+
+def test_generate_from_a_style_image_records_it(captured, tmp_path):
+    import cv2
+
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.services.pipeline_jobs import GenerateJob, PipelineError
+
+    scene = captured
+    gray = (np.random.default_rng(0).random((40, 48)) * 255).astype(np.uint8)  # grayscale: converted, said
+    painting = tmp_path / "gray painting.png"
+    cv2.imwrite(str(painting), gray)
+    request = scene_state.generate_request(scene, prompt="", style_images=(str(painting),), psa=False)
+    out = GenerateJob(scene, request, scene_state.finetune_iterations(scene)).run_to_completion()
+    with open(os.path.join(out["folder"], "result.json")) as f:
+        lgst = json.load(f)["lgst"]
+    assert lgst["backend"] == "arbitrary" and lgst["style_images"][0]["path"] == str(painting)
+    assert lgst["style_images"][0]["file_size"] == [48, 40]
+    assert any("grayscale" in n for n in lgst["notes"])
+    assert "gray_painting" in os.path.basename(out["folder"])  # named after the image, no prompt
+    tiny = tmp_path / "tiny.png"
+    cv2.imwrite(str(tiny), gray[:8, :8])
+    with pytest.raises(PipelineError, match="too small"):  # refused before any model runs
+        GenerateJob(scene, scene_state.generate_request(scene, style_images=(str(tiny),))).prepare()

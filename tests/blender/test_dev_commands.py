@@ -1,0 +1,30 @@
+"""The developer commands of a source checkout parse, and every benchmark name leads to a module with run()
+(a moved or doubled name once broke `bench ui`, and two helpers once added the same option)."""
+import importlib
+import importlib.util
+
+import pytest
+
+pytest.importorskip("bpy")  # dev_commands registers the add-on
+
+
+def test_every_benchmark_name_has_a_module_with_run():
+    if importlib.util.find_spec("torch") is None:
+        pytest.skip("the benchmarks import torch")
+    dev = importlib.import_module("lapig.tools.dev_commands")
+    for name, module in dev.BENCHMARKS.items():
+        spec = importlib.util.find_spec(f"lapig.tools.bench.bench_{module}")
+        assert spec is not None, f"bench {name}: tools/bench/bench_{module}.py is missing"
+        assert "def run(args)" in open(spec.origin).read(), f"bench {name}: no run(args)"
+
+
+def test_the_command_line_with_the_developer_commands_parses(capsys):
+    cli = importlib.import_module("lapig.lapig_addon.cli.main")
+    parser = cli._parser()  # argparse refuses two options of the same name here
+    with pytest.raises(SystemExit):
+        parser.parse_args(["bench", "--help"])
+    text = capsys.readouterr().out
+    dev = importlib.import_module("lapig.tools.dev_commands")
+    assert all(name in text for name in dev.BENCHMARKS)
+    args = parser.parse_args(["build", "--platform", "linux-x64", "--python", "py311"])
+    assert args.platform == ["linux-x64"] and args.python == "py311"

@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 
 from ...lapig_core.common.scratch import ScratchFolder
+from ...lapig_core.optics.transport import FAST, LightTransport, indirect_from_passes
 from . import projector_nodes
 from .geometry_probe import renderable_objects
 
@@ -45,8 +46,9 @@ def write_pattern(path, emitted: np.ndarray):
 
 class CaptureStudio:
     def __init__(self, source_scene, projector, camera, width, height, samples=1, ambient=0.03,
-                 ambient_distance=None, work_dir=None):
+                 ambient_distance=None, work_dir=None, transport: LightTransport = FAST):
         self.source_scene = source_scene
+        self.transport = transport
         self.projector, self.camera = projector, camera
         self.width, self.height, self.samples = width, height, samples
         self.ambient, self.ambient_distance = ambient, ambient_distance
@@ -57,6 +59,7 @@ class CaptureStudio:
         self._image = None
         self._saved_image = None
         self._chunk = 0
+        self._saved_dof = None
 
     # -- lifecycle -------------------------------------------------------------------------
     def __enter__(self):
@@ -90,6 +93,7 @@ class CaptureStudio:
                 bg.inputs["Strength"].default_value = 0.0
         scene.world = world
         self._configure_render()
+        self._configure_camera_lens()
         self._saved_image = projector_nodes.projected_image(self.projector.data)
 
     def _render_ambient(self, samples=32):
@@ -141,12 +145,12 @@ class CaptureStudio:
         r.use_file_extension = True
         c = scene.cycles
         c.device = "CPU"
-        c.samples = self.samples
+        c.samples = self._direct_samples()
         c.use_adaptive_sampling = False
         c.use_denoising = False
         c.max_bounces = 0  # direct light: noise-free with a pinhole projector
         c.caustics_reflective = c.caustics_refractive = False
-        if self.samples == 1:
+        if c.samples == 1:
             c.pixel_filter_type = "BOX"
             c.filter_width = 0.01  # sample pixel centres: exact geometry for structured light
         else:
@@ -163,6 +167,21 @@ class CaptureStudio:
         scene.view_settings.exposure = 0.0
         scene.view_settings.gamma = 1.0
 
+    def _configure_camera_lens(self):
+        """Cycles depth of field on the (user's) camera for the studio's renders; restored on close."""
+        dof = self.camera.data.dof
+        self._saved_dof = (dof.use_dof, dof.focus_object, dof.focus_distance, dof.aperture_fstop)
+        t = self.transport
+        dof.use_dof = t.uses_camera_dof
+        if t.uses_camera_dof:
+            dof.focus_object = None
+            dof.focus_distance, dof.aperture_fstop = t.camera_focus_m, t.camera_f_number
+
+    def _direct_samples(self) -> int:
+        """A lens blurs by sampling its aperture: with camera defocus the direct pass needs samples."""
+        return max(self.samples, self.transport.camera_dof_samples) if self.transport.uses_camera_dof \
+            else self.samples
+
     def close(self):
         try:
             self._restore()
@@ -172,6 +191,10 @@ class CaptureStudio:
                 self._scratch, self.work_dir = None, None
 
     def _restore(self):
+        if self._saved_dof is not None and self.camera is not None and self.camera.data:
+            dof = self.camera.data.dof
+            dof.use_dof, dof.focus_object, dof.focus_distance, dof.aperture_fstop = self._saved_dof
+            self._saved_dof = None
         if self.projector is not None and self.projector.data and self.projector.data.node_tree:
             try:
                 projector_nodes.set_projected_image(self.projector.data, self._saved_image)
@@ -193,31 +216,65 @@ class CaptureStudio:
     # -- rendering -------------------------------------------------------------------------
     def render(self, emitted_frames) -> list[np.ndarray]:
         """Render native projector frames of relative emitted light; returns linear RGB renders
-        (projector light plus the room's ambient light)."""
+        (projector light, the light it bounced in Realistic mode, and the room's ambient light)."""
         frames = list(emitted_frames)
         if not frames:
             return []
         if self.ambient_linear is None:  # lazily: a refused capture should not pay for it
             self._render_ambient()
-        return [r + self.ambient_linear for r in self._render_frames(frames)]
+        return [r + self.ambient_linear for r in self._render_frames(frames, self.transport.uses_bounces)]
 
-    def _render_frames(self, frames) -> list[np.ndarray]:
+    def _render_frames(self, frames, with_indirect=False) -> list[np.ndarray]:
         self._chunk += 1
         chunk_dir = os.path.join(self.work_dir, f"chunk_{self._chunk:05d}")
         os.makedirs(chunk_dir, exist_ok=True)
-        scene = self.scene
         try:
             if frames:
                 self._load_patterns(chunk_dir, frames)
             count = max(1, len(frames))
-            scene.frame_start, scene.frame_end = 1, count
-            scene.frame_set(1)
-            scene.render.filepath = os.path.join(chunk_dir, "render_")
-            with bpy.context.temp_override(scene=scene):
-                bpy.ops.render.render(animation=True, scene=scene.name)
-            return [read_exr_rgb(os.path.join(chunk_dir, f"render_{i:04d}.exr")) for i in range(1, count + 1)]
+            direct = self._render_pass(chunk_dir, count, "render_")
+            if not with_indirect:
+                return direct
+            indirect = self._indirect_pass(chunk_dir, count)
+            return [d + i for d, i in zip(direct, indirect)]
         finally:
             shutil.rmtree(chunk_dir, ignore_errors=True)
+
+    def _render_pass(self, chunk_dir, count, prefix) -> list[np.ndarray]:
+        scene = self.scene
+        scene.frame_start, scene.frame_end = 1, count
+        scene.frame_set(1)
+        scene.render.filepath = os.path.join(chunk_dir, prefix)
+        with bpy.context.temp_override(scene=scene):
+            bpy.ops.render.render(animation=True, scene=scene.name)
+        return [read_exr_rgb(os.path.join(chunk_dir, f"{prefix}{i:04d}.exr")) for i in range(1, count + 1)]
+
+    def _indirect_pass(self, chunk_dir, count) -> list[np.ndarray]:
+        """The light the projector's light bounced, at a lower resolution and more samples.
+
+        Two renders of the same size, samples and seed, one with bounces and one without: their
+        difference is the bounce light alone (the direct light and its anti-aliasing cancel), which
+        lapig_core.optics.transport.indirect_from_passes smooths and scales up to the capture."""
+        t = self.transport
+        scene, r, c = self.scene, self.scene.render, self.scene.cycles
+        saved = (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
+                 c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
+                 self.camera.data.dof.use_dof)
+        try:
+            r.resolution_x = max(1, self.width // t.indirect_downscale)
+            r.resolution_y = max(1, self.height // t.indirect_downscale)
+            c.samples, c.filter_width = t.indirect_samples, 1.0
+            self.camera.data.dof.use_dof = False  # the bounce light is smooth: a lens changes nothing in it
+            c.max_bounces = 0
+            direct = self._render_pass(chunk_dir, count, "direct_low_")
+            c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = t.bounces
+            c.transparent_max_bounces, c.volume_bounces = max(t.bounces, 4), 0
+            bounced = self._render_pass(chunk_dir, count, "bounced_low_")
+        finally:
+            (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
+             c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
+             self.camera.data.dof.use_dof) = saved
+        return [indirect_from_passes(b, d, (self.width, self.height)) for b, d in zip(bounced, direct)]
 
     def _load_patterns(self, chunk_dir, frames):
         for i, frame in enumerate(frames, start=1):

@@ -46,9 +46,10 @@ def write_pattern(path, emitted: np.ndarray):
 
 class CaptureStudio:
     def __init__(self, source_scene, projector, camera, width, height, samples=1, ambient=0.03,
-                 ambient_distance=None, work_dir=None, transport: LightTransport = FAST):
+                 ambient_distance=None, work_dir=None, transport: LightTransport = FAST, seed: int = 0):
         self.source_scene = source_scene
         self.transport = transport
+        self.seed = seed  # Cycles' sampling seed: with bounces, two seeds give two noise draws
         self.projector, self.camera = projector, camera
         self.width, self.height, self.samples = width, height, samples
         self.ambient, self.ambient_distance = ambient, ambient_distance
@@ -156,7 +157,7 @@ class CaptureStudio:
         else:
             c.pixel_filter_type = "BOX"
             c.filter_width = 1.0
-        c.seed = 0
+        c.seed = self.seed % (2 ** 31)
         if hasattr(c, "use_light_tree"):
             c.use_light_tree = False  # one light: the tree only costs time (20% at 640x480)
         try:  # 'Raw' writes the linear render untouched; older configs only have 'Standard'

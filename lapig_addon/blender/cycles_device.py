@@ -39,7 +39,8 @@ class CyclesCaptureDevice(CaptureDevice):
                                         - np.array(target.matrix_world.translation)))
         self.transport = transport or light_transport(projector, camera)
         self.studio = CaptureStudio(scene, projector, camera, self.width, self.height, samples=samples,
-                                    ambient=ambient, ambient_distance=distance, transport=self.transport)
+                                    ambient=ambient, ambient_distance=distance, transport=self.transport,
+                                    seed=seed)
         self._shown = None
         self._blur_radius = None  # projector pixels' circle of confusion, with projector defocus
         self._vignetting = None

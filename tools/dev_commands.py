@@ -78,7 +78,8 @@ def add_parsers(sub):
     build.add_argument("--out", default="dist", help="output folder (default: dist)")
 
     bench = sub.add_parser("bench", help="benchmarks that print one JSON object as their last line")
-    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame"], help="which benchmark")
+    bench.add_argument("what", choices=["capture", "models", "psa", "ui", "frame", "transport"],
+                       help="which benchmark")
     bench.add_argument("--json", action="store_true", help="print only the JSON summary at the end")
     bench.add_argument("--out", default=None, help="output folder (default: out/bench_WHAT)")
     bench.add_argument("--patterns", type=int, default=40, help="train+test captures to time (default 40)")
@@ -108,6 +109,25 @@ def add_parsers(sub):
     ranged_option(bench, "--train", "train_count", "psa: captured training pairs per surface", default=125)
     ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 25)")
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
+    bench.add_argument("--parts", default="",
+                       help="transport: comma-separated parts (look, defocus, interreflection, speed, compensation; "
+                            "default: all)")
+    bench.add_argument("--transport-data", default="out/transport_data",
+                       help="transport: data set root of the realistic setups (rendered when missing)")
+    bench.add_argument("--realistic-setups", type=lambda t: [n.strip() for n in t.split(",") if n.strip()],
+                       default=[], help="transport: comma-separated realistic setup names (default: all)")
+    bench.add_argument("--train-pairs", type=int, default=125, help="transport: training pairs captured per setup")
+    bench.add_argument("--test-pairs", type=int, default=16,
+                       help="transport: test pairs per setup (the first --compensate are compensated, the rest "
+                            "validate the choice)")
+    bench.add_argument("--pair-counts", type=lambda t: [int(n) for n in t.split(",")], default=[8, 125],
+                       help="transport: CompenNeSt fine-tuning pair counts (default 8,125; the first is the app's)")
+    bench.add_argument("--lens-radius-mm", type=float, default=60.0,
+                       help="transport: the projector's lens radius for the defocus figure (default 60)")
+    bench.add_argument("--min-blur-px", type=float, default=1.0,
+                       help="transport: smallest predicted blur radius counted in the defocus error (default 1)")
+    bench.add_argument("--reference-samples", type=int, default=1024,
+                       help="transport: samples of the converged inter-reflection reference (default 1024)")
     for name, func in (("dataset", cmd_dataset), ("pretrain", cmd_pretrain), ("eval", cmd_eval),
                        ("build", cmd_build), ("bench", cmd_bench)):
         sub.choices[name].set_defaults(func=func)
@@ -119,11 +139,11 @@ def cmd_bench(args) -> int:
 
         backend_class(args.backend)  # an unknown name is refused before any setup is rendered
     _ensure_registered()
-    from .bench import bench_capture, bench_frame, bench_models, bench_psa, bench_ui
+    from .bench import bench_capture, bench_frame, bench_models, bench_psa, bench_transport, bench_ui
 
     args.out = args.out or f"out/bench_{args.what}"
     modules = {"capture": bench_capture, "models": bench_models, "psa": bench_psa, "ui": bench_ui,
-               "frame": bench_frame}
+               "frame": bench_frame, "transport": bench_transport}
     summary = modules[args.what].run(args)
     if not args.json:
         for key, value in sorted(summary.items()):

@@ -22,14 +22,22 @@ from .geometry_probe import renderable_objects
 STUDIO_NAME = "LAPIG capture studio"
 
 
-def read_exr_rgb(path) -> np.ndarray:
+def read_exr_rgba(path) -> tuple[np.ndarray, np.ndarray]:
+    """(linear RGB, alpha): alpha is where the camera sees a surface (the world is transparent)."""
     os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")  # read lazily by OpenCV
     import cv2
 
     data = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if data is None:
         raise OSError(f"could not read the rendered capture {path}")
-    return np.ascontiguousarray(data[..., 2::-1], dtype=np.float32)
+    rgb = np.ascontiguousarray(data[..., 2::-1], dtype=np.float32)
+    alpha = np.ascontiguousarray(data[..., 3], dtype=np.float32) if data.shape[-1] == 4 else np.ones(rgb.shape[:2],
+                                                                                                    np.float32)
+    return rgb, alpha
+
+
+def read_exr_rgb(path) -> np.ndarray:
+    return read_exr_rgba(path)[0]
 
 
 def write_pattern(path, emitted: np.ndarray):
@@ -139,8 +147,9 @@ class CaptureStudio:
         r.use_persistent_data = False  # persistent data made pattern captures stale
         r.use_compositing = False
         r.use_sequencer = False
-        r.film_transparent = False
+        r.film_transparent = True  # the world is black anyway: alpha then says where a surface is
         r.image_settings.file_format = "OPEN_EXR"
+        r.image_settings.color_mode = "RGBA"
         r.image_settings.color_depth = "32"
         r.image_settings.exr_codec = "NONE"
         r.use_file_extension = True
@@ -233,24 +242,25 @@ class CaptureStudio:
             if frames:
                 self._load_patterns(chunk_dir, frames)
             count = max(1, len(frames))
-            direct = self._render_pass(chunk_dir, count, "render_")
             if not with_indirect:
-                return direct
-            indirect = self._indirect_pass(chunk_dir, count)
-            return [d + i for d, i in zip(direct, indirect)]
+                return self._render_pass(chunk_dir, count, "render_")
+            direct = self._render_pass(chunk_dir, count, "render_", with_alpha=True)
+            indirect = self._indirect_pass(chunk_dir, count, [alpha for _, alpha in direct])
+            return [d + i for (d, _), i in zip(direct, indirect)]
         finally:
             shutil.rmtree(chunk_dir, ignore_errors=True)
 
-    def _render_pass(self, chunk_dir, count, prefix) -> list[np.ndarray]:
+    def _render_pass(self, chunk_dir, count, prefix, with_alpha=False) -> list:
         scene = self.scene
         scene.frame_start, scene.frame_end = 1, count
         scene.frame_set(1)
         scene.render.filepath = os.path.join(chunk_dir, prefix)
         with bpy.context.temp_override(scene=scene):
             bpy.ops.render.render(animation=True, scene=scene.name)
-        return [read_exr_rgb(os.path.join(chunk_dir, f"{prefix}{i:04d}.exr")) for i in range(1, count + 1)]
+        paths = [os.path.join(chunk_dir, f"{prefix}{i:04d}.exr") for i in range(1, count + 1)]
+        return [read_exr_rgba(p) for p in paths] if with_alpha else [read_exr_rgb(p) for p in paths]
 
-    def _indirect_pass(self, chunk_dir, count) -> list[np.ndarray]:
+    def _indirect_pass(self, chunk_dir, count, coverage) -> list[np.ndarray]:
         """The light the projector's light bounced, at a lower resolution and more samples.
 
         Two renders of the same size, samples and seed, one with bounces and one without: their
@@ -267,7 +277,7 @@ class CaptureStudio:
             c.samples, c.filter_width = t.indirect_samples, 1.0
             self.camera.data.dof.use_dof = False  # the bounce light is smooth: a lens changes nothing in it
             c.max_bounces = 0
-            direct = self._render_pass(chunk_dir, count, "direct_low_")
+            direct = self._render_pass(chunk_dir, count, "direct_low_", with_alpha=True)
             c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = t.bounces
             c.transparent_max_bounces, c.volume_bounces = max(t.bounces, 4), 0
             bounced = self._render_pass(chunk_dir, count, "bounced_low_")
@@ -275,7 +285,8 @@ class CaptureStudio:
             (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
              c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
              self.camera.data.dof.use_dof) = saved
-        return [indirect_from_passes(b, d, (self.width, self.height)) for b, d in zip(bounced, direct)]
+        return [indirect_from_passes(b, d, (self.width, self.height), t.indirect_smooth_px, low_coverage=a,
+                                     coverage=full) for b, (d, a), full in zip(bounced, direct, coverage)]
 
     def _load_patterns(self, chunk_dir, frames):
         for i, frame in enumerate(frames, start=1):

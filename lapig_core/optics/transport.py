@@ -27,6 +27,7 @@ class LightTransport:
     bounces: int = 3  # diffuse / glossy / transmission bounces of the indirect pass
     indirect_samples: int = 16  # samples per pixel of the indirect pass
     indirect_downscale: int = 4  # the indirect pass renders at 1/this of the capture size
+    indirect_smooth_px: float = 1.5  # Gaussian sigma on the low-resolution bounce light (0: raw; references)
     projector_focus_m: float = 3.0
     projector_lens_radius_mm: float = 5.0  # 0: pinhole projector
     camera_dof: bool = False
@@ -76,7 +77,7 @@ class LightTransport:
         """What a capture depends on, rounded, for the rig's fingerprint."""
         if not self.realistic:
             return ["FAST"]
-        return ["REALISTIC", self.bounces, self.indirect_samples, self.indirect_downscale,
+        return ["REALISTIC", self.bounces, self.indirect_samples, self.indirect_downscale, self.indirect_smooth_px,
                 round(self.projector_focus_m, 4), round(self.projector_lens_radius_mm, 4),
                 self.camera_dof, round(self.camera_focus_m, 4), round(self.camera_f_number, 3),
                 self.camera_dof_samples, round(self.vignetting, 4)]
@@ -160,19 +161,35 @@ def vignetting_map(width: int, height: int, half_width_tan: float, strength: flo
 
 # -- inter-reflection ------------------------------------------------------------------------
 def indirect_from_passes(with_bounces: np.ndarray, direct: np.ndarray, size: tuple[int, int],
-                         smooth_px: float = 1.0) -> np.ndarray:
+                         smooth_px: float = 1.0, low_coverage: np.ndarray | None = None,
+                         coverage: np.ndarray | None = None) -> np.ndarray:
     """The bounce light of a low-resolution pass, at the capture's (width, height).
 
     Both passes render at the same samples and seed, so their direct light (and its anti-aliasing)
     is the same and cancels exactly; what is left is the light that bounced. It is smooth, so a
     small blur and a bilinear upscale take the rest of its path-tracing noise away without
-    softening anything the direct pass carries (edges, texture, highlights of the projector)."""
+    softening anything the direct pass carries (edges, texture, highlights of the projector).
+
+    low_coverage (h, w) and coverage (H, W): where the passes and the capture see a surface (the
+    renders' alpha). The blur and the upscale are then normalised by coverage, so the empty
+    background does not darken the bounce light at the object's outline, and nothing lands off it."""
     import cv2
 
     indirect = np.asarray(with_bounces, np.float32) - np.asarray(direct, np.float32)
+    weight = None if low_coverage is None else np.asarray(low_coverage, np.float32)[..., None]
+    if weight is not None:
+        indirect = indirect * weight
     if smooth_px > 0:
         indirect = cv2.GaussianBlur(indirect, (0, 0), smooth_px)
+        if weight is not None:
+            weight = cv2.GaussianBlur(weight[..., 0], (0, 0), smooth_px)[..., None]
     width, height = size
     if indirect.shape[1] != width or indirect.shape[0] != height:
         indirect = cv2.resize(indirect, (width, height), interpolation=cv2.INTER_LINEAR)
+        if weight is not None:
+            weight = cv2.resize(weight[..., 0], (width, height), interpolation=cv2.INTER_LINEAR)[..., None]
+    if weight is not None:
+        indirect = np.where(weight > 1e-3, indirect / np.maximum(weight, 1e-3), 0.0).astype(np.float32)
+    if coverage is not None:
+        indirect = indirect * np.asarray(coverage, np.float32)[..., None]
     return indirect

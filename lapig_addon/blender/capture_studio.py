@@ -52,6 +52,21 @@ def write_pattern(path, emitted: np.ndarray):
         raise OSError(f"could not write the projector pattern {path} (disk full?)")
 
 
+def has_subsurface(objects) -> bool:
+    """Whether any of the objects' materials scatters light under its surface."""
+    for ob in objects:
+        for slot in getattr(ob, "material_slots", []):
+            tree = slot.material.node_tree if slot.material else None
+            for node in (tree.nodes if tree else []):
+                if node.bl_idname == "ShaderNodeSubsurfaceScattering":
+                    return True
+                weight = node.inputs.get("Subsurface Weight") if node.bl_idname == "ShaderNodeBsdfPrincipled" \
+                    else None
+                if weight is not None and (weight.is_linked or weight.default_value > 0):
+                    return True
+    return False
+
+
 class CaptureStudio:
     def __init__(self, source_scene, projector, camera, width, height, samples=1, ambient=0.03,
                  ambient_distance=None, work_dir=None, transport: LightTransport = FAST, seed: int = 0):
@@ -188,9 +203,14 @@ class CaptureStudio:
             dof.focus_distance, dof.aperture_fstop = t.camera_focus_m, t.camera_f_number
 
     def _direct_samples(self) -> int:
-        """A lens blurs by sampling its aperture: with camera defocus the direct pass needs samples."""
-        return max(self.samples, self.transport.camera_dof_samples) if self.transport.uses_camera_dof \
-            else self.samples
+        """A lens blurs by sampling its aperture, and light scatters under a surface by sampling random
+        walks: with camera defocus or a subsurface material the direct pass needs samples (Realistic)."""
+        t, samples = self.transport, self.samples
+        if t.uses_camera_dof:
+            samples = max(samples, t.camera_dof_samples)
+        if t.realistic and has_subsurface(self.scene.collection.objects):
+            samples = max(samples, t.subsurface_samples)
+        return samples
 
     def close(self):
         try:

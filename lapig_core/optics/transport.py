@@ -34,6 +34,7 @@ class LightTransport:
     camera_focus_m: float = 3.0
     camera_f_number: float = 2.8
     camera_dof_samples: int = 16  # a lens blurs by sampling: the direct pass needs samples then
+    subsurface_samples: int = 16  # subsurface scattering is sampled too: the direct pass of such a scene
     vignetting: float = 1.0  # 0: none, 1: natural cos^4 falloff
 
     def __post_init__(self):
@@ -80,7 +81,7 @@ class LightTransport:
         return ["REALISTIC", self.bounces, self.indirect_samples, self.indirect_downscale, self.indirect_smooth_px,
                 round(self.projector_focus_m, 4), round(self.projector_lens_radius_mm, 4),
                 self.camera_dof, round(self.camera_focus_m, 4), round(self.camera_f_number, 3),
-                self.camera_dof_samples, round(self.vignetting, 4)]
+                self.camera_dof_samples, round(self.vignetting, 4), self.subsurface_samples]
 
     def to_dict(self) -> dict:
         return {**asdict(self), "label": self.label()}

@@ -110,7 +110,7 @@ def add_parsers(sub):
     ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 25)")
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
     bench.add_argument("--parts", default="",
-                       help="transport: comma-separated parts (look, defocus, interreflection, speed, compensation; "
+                       help="transport: comma-separated parts (look, defocus, interreflection, noise, speed, compensation; "
                             "default: all)")
     bench.add_argument("--transport-data", default="out/transport_data",
                        help="transport: data set root of the realistic setups (rendered when missing)")

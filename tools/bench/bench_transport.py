@@ -167,6 +167,29 @@ def interreflection_run(args, out) -> dict:
             "interreflection_render_s": {k: round(v, 2) for k, v in times.items()}}
 
 
+def bounce_noise_run(args, out) -> dict:
+    """Noise the bounce pass adds: two Realistic renders of the same frame with two seeds (no ambient,
+    no sensor noise), exposed as the camera would, against the camera model's own sensor noise."""
+    from ...lapig_core.optics.camera_model import auto_exposure_stops
+
+    scene, projector, camera, target = headless.build_demo_setup("corner", "sakura", folder=out,
+                                                                 camera_resolution=(480, 360))
+    sensor = camera.lapig_camera.noise
+    transport = scene_state.light_transport(projector, camera)
+    frame = np.random.default_rng(3).integers(0, 256, (600, 800, 3)).astype(np.uint8)
+    renders = []
+    for seed in (0, 1):
+        with CyclesCaptureDevice(scene, projector, camera, target, transport=transport, ambient=0.0,
+                                 seed=seed) as device:
+            white = _linear(device, [np.full((600, 800, 3), 255, np.uint8)])[0]
+            stops = auto_exposure_stops(white, mask=white.max(-1) > 1e-6)
+            renders.append(_linear(device, [frame])[0] * 2 ** stops)
+    on = white.max(-1) > 1e-6
+    std = float(np.std((renders[0] - renders[1])[on]) / math.sqrt(2))
+    return {"bounce_noise_std": round(std, 5), "camera_noise_std": sensor,
+            "bounce_noise_of_camera_noise": round(std / sensor, 3) if sensor else None}
+
+
 # -- speed -----------------------------------------------------------------------------------
 def speed_run(args, out) -> dict:
     figures = {}
@@ -296,7 +319,7 @@ def run(args) -> dict:
     os.makedirs(os.path.join(out, "textures"), exist_ok=True)
     data = os.path.abspath(args.transport_data)
     parts = set(args.parts.split(",")) if args.parts else {"defocus", "interreflection", "speed", "compensation",
-                                                            "look"}
+                                                            "look", "noise"}
     summary = {}
     if "look" in parts:
         summary["look_sheet"] = look_run(args, data, out)
@@ -306,6 +329,8 @@ def run(args) -> dict:
     if "interreflection" in parts:
         summary.update(interreflection_run(args, out))
         _log(args, f"interreflection: {summary['interreflection_error_pct']} %")
+    if "noise" in parts:
+        summary.update(bounce_noise_run(args, out))
     if "speed" in parts:
         summary.update(speed_run(args, out))
     if "compensation" in parts:

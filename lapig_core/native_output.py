@@ -97,7 +97,10 @@ def native_output(setup_dir, models, backend, state: dict, width: int, height: i
     backend.load_state(state)
     target = backend.render_at(to_tensor(refs.white))
     s = to_tensor(refs.gray)
-    projector_image = tiled(lambda x, surface: models.compensator(x, surface), [target, s], tile)
+    # a per-pixel compensator (the classical one, where it was chosen) takes its parameters at this size
+    per_pixel = models.compensator.frame_inputs(height, width) if hasattr(models.compensator, "frame_inputs") else []
+    projector_image = tiled(lambda x, surface, *more: models.compensator(x, surface, *more), [target, s, *per_pixel],
+                            tile)
     valid = torch.from_numpy(refs.valid)
     if dark_outside:
         projector_image = projector_image * valid[None, None].to(projector_image.dtype)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import torch
 
-from .photometric import checkpoints
+from .photometric import checkpoints, choice as compensator_choice
 from .common import metrics
 from .capture.dataset import CaptureSet
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
@@ -47,8 +47,21 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
             save_setup_model(setup_dir_of(cs), model, role, cs, iterations=result.iterations,
                              train_seconds=round(result.seconds, 2))
         out[arch] = model
+    # the learned and the classical compensation, validated on the held-back pairs: the better one is used
+    chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"])
+    if save:
+        compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
+    out["choice"], out["classical"] = chosen, classical
     out["seconds"] = time.perf_counter() - t0
     return out
+
+
+def chosen_compensator(learned, chosen, classical):
+    """The module that compensates this setup: the fine-tuned network, or the classical model where
+    it measured better."""
+    if chosen is not None and chosen.chosen == compensator_choice.CLASSICAL and classical is not None:
+        return compensator_choice.ClassicalCompensator(classical)
+    return learned
 
 
 def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, cancel_event=None,
@@ -60,6 +73,12 @@ def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, canc
     try:
         comp, _ = load_setup_model(setup_dir_of(cs), "CompenNeSt", "compensation", fingerprint)
         sim, _ = load_setup_model(setup_dir_of(cs), "PCNet", "simulation", fingerprint)
+        saved = compensator_choice.load_choice(setup_dir_of(cs) / "models")
+        if saved is None:  # models fine-tuned before the choice existed: measure it now
+            chosen, classical = compensator_choice.fit_and_choose(cs, comp)
+            compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
+        else:
+            chosen, classical = saved
     except checkpoints.CheckpointError as exc:
         if not train_if_missing:
             raise
@@ -67,8 +86,11 @@ def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, canc
             notes.append(f"the saved models could not be used ({exc}): fine-tuned them again and saved over them")
         trained = train_models(cs, on_progress, cancel_event, iterations=iterations)
         comp, sim = trained["CompenNeSt"], trained["PCNet"]
+        chosen, classical = trained["choice"], trained["classical"]
     surf = SurfaceTensors.from_capture_set(cs)
-    return SurfaceModels(comp, sim, surf.s, surf.i_min, surf.i_max)
+    models = SurfaceModels(chosen_compensator(comp, chosen, classical), sim, surf.s, surf.i_min, surf.i_max)
+    models.choice = chosen  # which compensator, and by how much: the panel and result.json show it
+    return models
 
 
 @dataclass

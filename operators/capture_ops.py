@@ -25,7 +25,8 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
 
     def on_done(self, context, job):
         folder = str(job.result["setup_dir"])
-        scene_state.record_capture(context.scene, folder, job.result["meta"]["fingerprint"])
+        meta = job.result["meta"]
+        scene_state.record_capture(context.scene, folder, meta["fingerprint"], meta.get("transport", {}).get("label", ""))
         err = job.result["meta"]["registration"].get("registration_error_px_median")
         extra = f", registration error {err:.2f} px" if err is not None else ""
         self.report({"INFO"}, f"Captured into {folder}{extra}")

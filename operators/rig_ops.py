@@ -23,6 +23,22 @@ class LAPIG_OT_add_rig(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (LAPIG_OT_add_rig,)
+class LAPIG_OT_focus_on_object(ReportsErrors, bpy.types.Operator):
+    """Focus the projector's and the camera's lenses on the surface object's centre"""
+    bl_idname = "lapig.focus_on_object"
+    bl_label = "Focus on the Object"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        projector, camera, target = scene_state.rig_objects(context.scene)
+        if projector is None or target is None:
+            self.report({"ERROR"}, "Add the projector and camera and choose the surface object first")
+            return {"CANCELLED"}
+        p, c = rig.focus_on_object(projector, camera, target)
+        self.report({"INFO"}, f"Projector focused at {p:.2f} m" + (f", camera at {c:.2f} m" if camera else ""))
+        return {"FINISHED"}
+
+
+CLASSES = (LAPIG_OT_add_rig, LAPIG_OT_focus_on_object)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -42,6 +42,26 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             col.prop(p, "brightness")
             col.prop(p, "black_level")
             col.prop(p, "gamma")
+            box = layout.box()
+            box.prop(p, "transport_mode")
+            if p.transport_mode == "REALISTIC":
+                col = box.column(align=True)
+                col.prop(p, "bounces")
+                col.prop(p, "indirect_samples")
+                col.prop(p, "indirect_downscale")
+                col = box.column(align=True)
+                col.prop(p, "lens_radius_mm")
+                col.prop(p, "focus_distance")
+                if s.camera:
+                    c = s.camera.lapig_camera
+                    col = box.column(align=True)
+                    col.prop(c, "use_dof")
+                    sub = col.column(align=True)
+                    sub.enabled = c.use_dof
+                    sub.prop(c, "focus_distance", text="Camera focus")
+                    sub.prop(c, "f_number")
+                    col.prop(c, "vignetting")
+                box.operator("lapig.focus_on_object", icon="CAMERA_DATA")
         if s.camera:
             c = s.camera.lapig_camera
             col = layout.column(align=True)
@@ -73,6 +93,8 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
         state = scene_state.read(context.scene)
         status = panel_state.capture_status(state)
         layout.label(text=status.text, icon=STATE_ICONS[status.state])
+        if state.capture_dir and state.capture_transport:
+            layout.label(text="Light: " + state.capture_transport, icon="LIGHT_SPOT")
         col = layout.column(align=True)
         col.prop(s, "train_count")
         col.prop(s, "test_count")

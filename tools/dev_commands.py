@@ -15,7 +15,8 @@ from ..lapig_addon.cli.output import print_json
 
 # `bench NAME` runs tools/bench/bench_<module>.py's run(args), which returns the JSON summary
 BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui", "frame": "frame",
-              "preview": "preview", "prompts": "prompts", "style-images": "style_images"}
+              "preview": "preview", "prompts": "prompts", "style-images": "style_images",
+              "transport": "transport"}
 
 
 def _ensure_registered():
@@ -124,6 +125,25 @@ def add_parsers(sub):
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
     bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
     ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
+    bench.add_argument("--parts", default="",
+                       help="transport: comma-separated parts (look, defocus, interreflection, noise, speed, compensation; "
+                            "default: all)")
+    bench.add_argument("--transport-data", default="out/transport_data",
+                       help="transport: data set root of the realistic setups (rendered when missing)")
+    bench.add_argument("--realistic-setups", type=lambda t: [n.strip() for n in t.split(",") if n.strip()],
+                       default=[], help="transport: comma-separated realistic setup names (default: all)")
+    bench.add_argument("--train-pairs", type=int, default=125, help="transport: training pairs captured per setup")
+    bench.add_argument("--test-pairs", type=int, default=16,
+                       help="transport: test pairs per setup (the first --compensate are compensated, the rest "
+                            "validate the choice)")
+    bench.add_argument("--pair-counts", type=lambda t: [int(n) for n in t.split(",")], default=[8, 125],
+                       help="transport: CompenNeSt fine-tuning pair counts (default 8,125; the first is the app's)")
+    bench.add_argument("--lens-radius-mm", type=float, default=60.0,
+                       help="transport: the projector's lens radius for the defocus figure (default 60)")
+    bench.add_argument("--min-blur-px", type=float, default=1.0,
+                       help="transport: smallest predicted blur radius counted in the defocus error (default 1)")
+    bench.add_argument("--reference-samples", type=int, default=1024,
+                       help="transport: samples of the converged inter-reflection reference (default 1024)")
     for name, func in (("dataset", cmd_dataset), ("pretrain", cmd_pretrain), ("eval", cmd_eval),
                        ("build", cmd_build), ("bench", cmd_bench)):
         sub.choices[name].set_defaults(func=func)

@@ -30,6 +30,9 @@ class SetupSpec:
     orbit_deg: float = 0.0  # rig turned about the object's vertical axis
     tilt_deg: float = 0.0  # rig raised (+) or lowered (-) about the object
     brightness: float = 1.0  # projector power relative to the default
+    finish: str = "matte"  # demo_scene.FINISHES: matte, glazed (gloss), marble (subsurface)
+    transport: str = "FAST"  # light transport of its captures: FAST (direct, pinhole) or REALISTIC
+    lens_radius_mm: float = 5.0  # the projector's aperture in REALISTIC mode, focused on the object
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -57,7 +60,21 @@ BENCH_SETUPS = (
               orbit_deg=-12),
 )
 
-ALL_SETUPS = {s.name: s for s in PRETRAIN_SETUPS + BENCH_SETUPS}
+# Realistic light transport (bounces, projector defocus, vignetting, gloss, subsurface), for
+# `bench transport`: shapes, finishes and texture seeds that no pretraining setup has.
+REALISTIC_SETUPS = (
+    SetupSpec("r1_wood_corner", "corner", "wood", 201, tint=(0.95, 0.9, 0.85), ambient=0.03, orbit_deg=8,
+              transport="REALISTIC"),
+    SetupSpec("r2_clouds_niche", "bowl", "clouds", 202, tint=(1.2, 1.15, 1.1), ambient=0.02, transport="REALISTIC"),
+    SetupSpec("r3_glazed_vase", "vase", "spray", 203, ambient=0.03, tilt_deg=6, finish="glazed",
+              transport="REALISTIC"),
+    SetupSpec("r4_marble_bust", "statue", "clouds", 204, tint=(1.35, 1.35, 1.3), ambient=0.03, orbit_deg=-8,
+              finish="marble", transport="REALISTIC"),
+    SetupSpec("r5_tilted_relief", "relief", "stripe", 205, ambient=0.02, orbit_deg=35, lens_radius_mm=20.0,
+              transport="REALISTIC"),
+)
+
+ALL_SETUPS = {s.name: s for s in PRETRAIN_SETUPS + BENCH_SETUPS + REALISTIC_SETUPS}
 
 
 def orbit_rig(projector, camera, centre, orbit_deg: float, tilt_deg: float):
@@ -78,12 +95,18 @@ def orbit_rig(projector, camera, centre, orbit_deg: float, tilt_deg: float):
 
 def build_setup(spec: SetupSpec, folder: str):
     """A fresh scene for the spec: (scene, projector, camera, target)."""
+    from ..lapig_core.optics.transport import LightTransport
+
     scene, projector, camera, target = headless.build_demo_setup(spec.shape, spec.surface, folder, spec.seed,
-                                                                 tint=spec.tint)
+                                                                 tint=spec.tint, finish=spec.finish)
     projector.lapig_projector.brightness *= spec.brightness
     bpy.context.view_layer.update()
     centre = target.matrix_world @ _bounds_centre(target)
-    orbit_rig(projector, camera, centre, spec.orbit_deg, spec.tilt_deg)
+    orbit_rig(projector, camera, centre, spec.orbit_deg, spec.tilt_deg)  # about the centre: the focus holds
+    p, c = projector.lapig_projector, camera.lapig_camera
+    scene_state.write_light_transport(projector, camera, LightTransport(
+        mode=spec.transport, projector_focus_m=p.focus_distance, projector_lens_radius_mm=spec.lens_radius_mm,
+        camera_focus_m=c.focus_distance))
     return scene, projector, camera, target
 
 

@@ -15,20 +15,29 @@ import bpy
 import numpy as np
 
 from ...lapig_core.common.scratch import ScratchFolder
+from ...lapig_core.optics.transport import FAST, LightTransport, indirect_from_passes
 from . import projector_nodes
 from .geometry_probe import renderable_objects
 
 STUDIO_NAME = "LAPIG capture studio"
 
 
-def read_exr_rgb(path) -> np.ndarray:
+def read_exr_rgba(path) -> tuple[np.ndarray, np.ndarray]:
+    """(linear RGB, alpha): alpha is where the camera sees a surface (the world is transparent)."""
     os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")  # read lazily by OpenCV
     import cv2
 
     data = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if data is None:
         raise OSError(f"could not read the rendered capture {path}")
-    return np.ascontiguousarray(data[..., 2::-1], dtype=np.float32)
+    rgb = np.ascontiguousarray(data[..., 2::-1], dtype=np.float32)
+    alpha = np.ascontiguousarray(data[..., 3], dtype=np.float32) if data.shape[-1] == 4 else np.ones(rgb.shape[:2],
+                                                                                                    np.float32)
+    return rgb, alpha
+
+
+def read_exr_rgb(path) -> np.ndarray:
+    return read_exr_rgba(path)[0]
 
 
 def write_pattern(path, emitted: np.ndarray):
@@ -43,10 +52,27 @@ def write_pattern(path, emitted: np.ndarray):
         raise OSError(f"could not write the projector pattern {path} (disk full?)")
 
 
+def has_subsurface(objects) -> bool:
+    """Whether any of the objects' materials scatters light under its surface."""
+    for ob in objects:
+        for slot in getattr(ob, "material_slots", []):
+            tree = slot.material.node_tree if slot.material else None
+            for node in (tree.nodes if tree else []):
+                if node.bl_idname == "ShaderNodeSubsurfaceScattering":
+                    return True
+                weight = node.inputs.get("Subsurface Weight") if node.bl_idname == "ShaderNodeBsdfPrincipled" \
+                    else None
+                if weight is not None and (weight.is_linked or weight.default_value > 0):
+                    return True
+    return False
+
+
 class CaptureStudio:
     def __init__(self, source_scene, projector, camera, width, height, samples=1, ambient=0.03,
-                 ambient_distance=None, work_dir=None):
+                 ambient_distance=None, work_dir=None, transport: LightTransport = FAST, seed: int = 0):
         self.source_scene = source_scene
+        self.transport = transport
+        self.seed = seed  # Cycles' sampling seed: with bounces, two seeds give two noise draws
         self.projector, self.camera = projector, camera
         self.width, self.height, self.samples = width, height, samples
         self.ambient, self.ambient_distance = ambient, ambient_distance
@@ -57,6 +83,7 @@ class CaptureStudio:
         self._image = None
         self._saved_image = None
         self._chunk = 0
+        self._saved_dof = None
 
     # -- lifecycle -------------------------------------------------------------------------
     def __enter__(self):
@@ -90,6 +117,7 @@ class CaptureStudio:
                 bg.inputs["Strength"].default_value = 0.0
         scene.world = world
         self._configure_render()
+        self._configure_camera_lens()
         self._saved_image = projector_nodes.projected_image(self.projector.data)
 
     def _render_ambient(self, samples=32):
@@ -134,25 +162,26 @@ class CaptureStudio:
         r.use_persistent_data = False  # persistent data made pattern captures stale
         r.use_compositing = False
         r.use_sequencer = False
-        r.film_transparent = False
+        r.film_transparent = True  # the world is black anyway: alpha then says where a surface is
         r.image_settings.file_format = "OPEN_EXR"
+        r.image_settings.color_mode = "RGBA"
         r.image_settings.color_depth = "32"
         r.image_settings.exr_codec = "NONE"
         r.use_file_extension = True
         c = scene.cycles
         c.device = "CPU"
-        c.samples = self.samples
+        c.samples = self._direct_samples()
         c.use_adaptive_sampling = False
         c.use_denoising = False
         c.max_bounces = 0  # direct light: noise-free with a pinhole projector
         c.caustics_reflective = c.caustics_refractive = False
-        if self.samples == 1:
+        if c.samples == 1:
             c.pixel_filter_type = "BOX"
             c.filter_width = 0.01  # sample pixel centres: exact geometry for structured light
         else:
             c.pixel_filter_type = "BOX"
             c.filter_width = 1.0
-        c.seed = 0
+        c.seed = self.seed % (2 ** 31)
         if hasattr(c, "use_light_tree"):
             c.use_light_tree = False  # one light: the tree only costs time (20% at 640x480)
         try:  # 'Raw' writes the linear render untouched; older configs only have 'Standard'
@@ -163,6 +192,26 @@ class CaptureStudio:
         scene.view_settings.exposure = 0.0
         scene.view_settings.gamma = 1.0
 
+    def _configure_camera_lens(self):
+        """Cycles depth of field on the (user's) camera for the studio's renders; restored on close."""
+        dof = self.camera.data.dof
+        self._saved_dof = (dof.use_dof, dof.focus_object, dof.focus_distance, dof.aperture_fstop)
+        t = self.transport
+        dof.use_dof = t.uses_camera_dof
+        if t.uses_camera_dof:
+            dof.focus_object = None
+            dof.focus_distance, dof.aperture_fstop = t.camera_focus_m, t.camera_f_number
+
+    def _direct_samples(self) -> int:
+        """A lens blurs by sampling its aperture, and light scatters under a surface by sampling random
+        walks: with camera defocus or a subsurface material the direct pass needs samples (Realistic)."""
+        t, samples = self.transport, self.samples
+        if t.uses_camera_dof:
+            samples = max(samples, t.camera_dof_samples)
+        if t.realistic and has_subsurface(self.scene.collection.objects):
+            samples = max(samples, t.subsurface_samples)
+        return samples
+
     def close(self):
         try:
             self._restore()
@@ -172,6 +221,10 @@ class CaptureStudio:
                 self._scratch, self.work_dir = None, None
 
     def _restore(self):
+        if self._saved_dof is not None and self.camera is not None and self.camera.data:
+            dof = self.camera.data.dof
+            dof.use_dof, dof.focus_object, dof.focus_distance, dof.aperture_fstop = self._saved_dof
+            self._saved_dof = None
         if self.projector is not None and self.projector.data and self.projector.data.node_tree:
             try:
                 projector_nodes.set_projected_image(self.projector.data, self._saved_image)
@@ -193,31 +246,67 @@ class CaptureStudio:
     # -- rendering -------------------------------------------------------------------------
     def render(self, emitted_frames) -> list[np.ndarray]:
         """Render native projector frames of relative emitted light; returns linear RGB renders
-        (projector light plus the room's ambient light)."""
+        (projector light, the light it bounced in Realistic mode, and the room's ambient light)."""
         frames = list(emitted_frames)
         if not frames:
             return []
         if self.ambient_linear is None:  # lazily: a refused capture should not pay for it
             self._render_ambient()
-        return [r + self.ambient_linear for r in self._render_frames(frames)]
+        return [r + self.ambient_linear for r in self._render_frames(frames, self.transport.uses_bounces)]
 
-    def _render_frames(self, frames) -> list[np.ndarray]:
+    def _render_frames(self, frames, with_indirect=False) -> list[np.ndarray]:
         self._chunk += 1
         chunk_dir = os.path.join(self.work_dir, f"chunk_{self._chunk:05d}")
         os.makedirs(chunk_dir, exist_ok=True)
-        scene = self.scene
         try:
             if frames:
                 self._load_patterns(chunk_dir, frames)
             count = max(1, len(frames))
-            scene.frame_start, scene.frame_end = 1, count
-            scene.frame_set(1)
-            scene.render.filepath = os.path.join(chunk_dir, "render_")
-            with bpy.context.temp_override(scene=scene):
-                bpy.ops.render.render(animation=True, scene=scene.name)
-            return [read_exr_rgb(os.path.join(chunk_dir, f"render_{i:04d}.exr")) for i in range(1, count + 1)]
+            if not with_indirect:
+                return self._render_pass(chunk_dir, count, "render_")
+            direct = self._render_pass(chunk_dir, count, "render_", with_alpha=True)
+            indirect = self._indirect_pass(chunk_dir, count, [alpha for _, alpha in direct])
+            return [d + i for (d, _), i in zip(direct, indirect)]
         finally:
             shutil.rmtree(chunk_dir, ignore_errors=True)
+
+    def _render_pass(self, chunk_dir, count, prefix, with_alpha=False) -> list:
+        scene = self.scene
+        scene.frame_start, scene.frame_end = 1, count
+        scene.frame_set(1)
+        scene.render.filepath = os.path.join(chunk_dir, prefix)
+        with bpy.context.temp_override(scene=scene):
+            bpy.ops.render.render(animation=True, scene=scene.name)
+        paths = [os.path.join(chunk_dir, f"{prefix}{i:04d}.exr") for i in range(1, count + 1)]
+        return [read_exr_rgba(p) for p in paths] if with_alpha else [read_exr_rgb(p) for p in paths]
+
+    def _indirect_pass(self, chunk_dir, count, coverage) -> list[np.ndarray]:
+        """The light the projector's light bounced, at a lower resolution and more samples.
+
+        Two renders of the same size, samples and seed, one with bounces and one without: their
+        difference is the bounce light alone (the direct light and its anti-aliasing cancel), which
+        lapig_core.optics.transport.indirect_from_passes smooths and scales up to the capture."""
+        t = self.transport
+        scene, r, c = self.scene, self.scene.render, self.scene.cycles
+        saved = (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
+                 c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
+                 self.camera.data.dof.use_dof)
+        try:
+            r.resolution_x = max(1, self.width // t.indirect_downscale)
+            r.resolution_y = max(1, self.height // t.indirect_downscale)
+            c.samples, c.filter_width = t.indirect_samples, 1.0
+            self.camera.data.dof.use_dof = False  # the bounce light is smooth: a lens changes nothing in it
+            c.max_bounces = 0
+            direct = self._render_pass(chunk_dir, count, "direct_low_", with_alpha=True)
+            c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = t.bounces
+            c.transparent_max_bounces, c.volume_bounces = max(t.bounces, 4), 0
+            bounced = self._render_pass(chunk_dir, count, "bounced_low_")
+        finally:
+            (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
+             c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
+             self.camera.data.dof.use_dof) = saved
+        return [indirect_from_passes(b, d, (self.width, self.height), t.indirect_smooth_px, low_coverage=a,
+                                     coverage=full) for b, (d, a), full in zip(bounced, direct, coverage)]
 
     def _load_patterns(self, chunk_dir, frames):
         for i, frame in enumerate(frames, start=1):

@@ -12,16 +12,19 @@ import numpy as np
 from ...lapig_core.capture.device import CaptureDevice, DeviceInfo
 from ...lapig_core.capture.sequence import GeometryChecks
 from ...lapig_core.optics.camera_model import CameraResponse, auto_exposure_stops
+from ...lapig_core.optics import transport as light
 from .capture_studio import CaptureStudio
-from .geometry_probe import RigGeometry
-from .scene_state import camera_settings, projector_model
+from .geometry_probe import RigGeometry, projector_axial_depth, renderable_objects, scene_bvh
+from .scene_state import camera_settings, light_transport, projector_model
 
 
 class CyclesCaptureDevice(CaptureDevice):
     def __init__(self, scene, projector, camera, target, samples=1, ambient=0.03, seed=0,
-                 response: CameraResponse | None = None, camera_size: tuple[int, int] | None = None):
+                 response: CameraResponse | None = None, camera_size: tuple[int, int] | None = None,
+                 transport: light.LightTransport | None = None):
         """response, camera_size: a setup's recorded camera (Render Real Capture judges a projection
-        as that setup's captures were taken); None: the camera's own settings."""
+        as that setup's captures were taken); None: the camera's own settings.
+        transport: how light travels (None: the rig's own setting, scene_state.light_transport)."""
         self.scene, self.projector, self.camera, self.target = scene, projector, camera, target
         # an evaluation brings matrix_world up to date after a script moved the rig
         bpy.context.evaluated_depsgraph_get()
@@ -34,13 +37,48 @@ class CyclesCaptureDevice(CaptureDevice):
         self.samples, self.ambient = samples, ambient
         distance = float(np.linalg.norm(np.array(projector.matrix_world.translation)
                                         - np.array(target.matrix_world.translation)))
+        self.transport = transport or light_transport(projector, camera)
         self.studio = CaptureStudio(scene, projector, camera, self.width, self.height, samples=samples,
-                                    ambient=ambient, ambient_distance=distance)
+                                    ambient=ambient, ambient_distance=distance, transport=self.transport,
+                                    seed=seed)
         self._shown = None
+        self._blur_radius = None  # projector pixels' circle of confusion, with projector defocus
+        self._vignetting = None
 
     def __enter__(self):
         self.studio.__enter__()
+        try:
+            self._prepare_lenses()
+        except Exception:
+            self.studio.close()
+            raise
         return self
+
+    def _prepare_lenses(self):
+        t = self.transport
+        if t.uses_projector_defocus:
+            bvh = scene_bvh(renderable_objects(self.scene), bpy.context.evaluated_depsgraph_get())
+            depth = projector_axial_depth(bvh, self.projector, self.model)
+            focal_px = self.model.width * self.model.throw_ratio
+            self._blur_radius = light.blur_radius_px(depth, t.projector_focus_m, t.projector_lens_radius_mm / 1000,
+                                                     focal_px).astype(np.float32)
+        if t.uses_vignetting:
+            cam = self.camera.data
+            half_tan = cam.sensor_width / (2 * cam.lens)  # sensor fit is horizontal (rig.create_camera)
+            self._vignetting = light.vignetting_map(self.width, self.height, half_tan, t.vignetting)[..., None]
+
+    def _emitted(self, frame) -> np.ndarray:
+        """The light the projector's lens puts on the surface for one input frame."""
+        emitted = self.model.emitted_8bit(frame) if frame.dtype == np.uint8 else self.model.emitted(frame)
+        if self._blur_radius is not None:
+            emitted = light.defocus_frame(emitted, self._blur_radius)
+        return emitted
+
+    def _linear(self, frames) -> list[np.ndarray]:
+        linear = self.studio.render([self._emitted(f) for f in frames])
+        if self._vignetting is not None:
+            linear = [x * self._vignetting for x in linear]
+        return linear
 
     def close(self):
         self.studio.close()
@@ -52,6 +90,7 @@ class CyclesCaptureDevice(CaptureDevice):
                        "lens_mm": self.camera.data.lens, "auto_exposure": self.camera_settings.auto_exposure},
             "ambient": self.ambient,
             "samples": self.samples,
+            "transport": self.transport.to_dict(),
             "blender": bpy.app.version_string,
         })
 
@@ -67,7 +106,7 @@ class CyclesCaptureDevice(CaptureDevice):
     def lock_exposure(self, white_frame):
         """Auto exposure: the camera's setting, from a linear render of the white frame."""
         if self.camera_settings.auto_exposure:
-            linear = self.studio.render([self.model.emitted_8bit(white_frame)])[0]
+            linear = self._linear([white_frame])[0]
             stops = auto_exposure_stops(linear, mask=linear.max(-1) > 1e-6)
             self.response = self.camera_settings.response(stops)
 
@@ -80,6 +119,5 @@ class CyclesCaptureDevice(CaptureDevice):
     def capture(self, frames):
         """One Cycles animation render for the whole batch (uint8 frames, or uint16 ones where the
         exported file is 16-bit)."""
-        linear = self.studio.render([self.model.emitted_8bit(f) if f.dtype == np.uint8 else self.model.emitted(f)
-                                     for f in frames])
+        linear = self._linear(frames)
         return [self.response.capture(x, self.rng) for x in linear]

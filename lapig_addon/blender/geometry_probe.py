@@ -95,6 +95,24 @@ def projector_hits(bvh, projector_obj, model, pixel_xy) -> np.ndarray:
     return hits
 
 
+def projector_axial_depth(bvh, projector_obj, model, step: int = 4) -> np.ndarray:
+    """(H, W) native map of each projector pixel's surface depth along the projector's axis (what a
+    thin lens focuses by), ray cast every `step` pixels and spread to the others; NaN where the
+    pixel lights nothing."""
+    import cv2
+
+    w, h = max(1, model.width // step), max(1, model.height // step)
+    xs = (np.arange(w) + 0.5) * model.width / w - 0.5
+    ys = (np.arange(h) + 0.5) * model.height / h - 0.5
+    xy = np.stack(np.meshgrid(xs, ys), -1).reshape(-1, 2)
+    hits = projector_hits(bvh, projector_obj, model, xy)
+    m = np.array(projector_obj.matrix_world)
+    rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    axis = -rot[:, 2]  # a light shines along its local -Z
+    depth = ((hits - m[:3, 3]) @ axis).reshape(h, w).astype(np.float32)
+    return cv2.resize(depth, (model.width, model.height), interpolation=cv2.INTER_NEAREST)
+
+
 def visible_from(bvh, origin, points, tolerance=1e-3) -> np.ndarray:
     """Whether each point is the first surface hit seen from origin (not occluded)."""
     origin = np.asarray(origin, float)

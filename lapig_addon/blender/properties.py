@@ -40,6 +40,24 @@ class LapigProjectorSettings(bpy.types.PropertyGroup):
                                description="Light leaked by a black input, relative to white")
     gamma: FloatProperty(name="Projector gamma", default=2.2, min=0.3, max=4.0,
                          description="Input value to light output exponent")
+    # light transport (lapig_core.optics.transport): how the captures render the room and the lenses
+    transport_mode: EnumProperty(name="Light transport", items=[
+        ("REALISTIC", "Realistic", "Bounce light, the projector's and the camera's lenses, vignetting: what a "
+                                   "real room and real lenses show"),
+        ("FAST", "Fast", "Direct light through pinhole lenses: quick, but what only the classical model assumes")],
+        default="REALISTIC", description="How light travels in the captures")
+    bounces: IntProperty(name="Bounces", default=3, min=0, max=16,
+                         description="Light bounces of the indirect pass (0: no inter-reflection)")
+    indirect_samples: IntProperty(name="Indirect samples", default=16, min=1, max=4096,
+                                  description="Samples per pixel of the indirect (bounce) pass")
+    indirect_downscale: IntProperty(name="Indirect downscale", default=4, min=1, max=16,
+                                    description="The bounce light renders at 1/this of the capture size "
+                                                "(it is smooth) and is added to the full-size direct light")
+    focus_distance: FloatProperty(name="Focus distance", default=3.0, min=0.01, max=1000.0, unit="LENGTH",
+                                  description="Distance the projector's lens is focused at")
+    lens_radius_mm: FloatProperty(name="Lens radius (mm)", default=5.0, min=0.0, max=200.0,
+                                  description="Radius of the projector's aperture; 0: a pinhole that is "
+                                              "sharp at every depth")
 
 
 class LapigCameraSettings(bpy.types.PropertyGroup):
@@ -55,6 +73,16 @@ class LapigCameraSettings(bpy.types.PropertyGroup):
                                   description="Non-linear camera response (encoding gamma)")
     noise: FloatProperty(name="Noise", default=0.003, min=0.0, max=0.1, precision=4,
                          description="Sensor noise standard deviation, linear units")
+    use_dof: BoolProperty(name="Lens defocus", default=False,
+                          description="Blur what is off the camera's focus distance (Realistic mode; renders "
+                                      "more samples per capture)")
+    focus_distance: FloatProperty(name="Focus distance", default=3.0, min=0.01, max=1000.0, unit="LENGTH",
+                                  description="Distance the camera's lens is focused at")
+    f_number: FloatProperty(name="F-number", default=2.8, min=0.5, max=64.0,
+                            description="Aperture of the camera's lens (smaller: more blur)")
+    vignetting: FloatProperty(name="Vignetting", default=1.0, min=0.0, max=1.0, subtype="FACTOR",
+                              description="Natural darkening towards the corners (cos^4 law; 0: none; "
+                                          "Realistic mode)")
 
 
 PREVIEW_MODES = [
@@ -124,6 +152,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     seed: IntProperty(name="Seed", default=0, **LIMITS["seed"].bounds())
     last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     last_capture_fingerprint: StringProperty(name="Scene fingerprint of the last capture")
+    last_capture_transport: StringProperty(name="Light transport of the last capture")
     # models
     finetune_iterations: IntProperty(name="Iterations", default=0, **LIMITS["finetune_iterations"].bounds(),
                                      description="Fine-tuning iterations per network; 0 for the standard "

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import bpy
 import numpy as np
-from mathutils import Matrix
+from mathutils import Matrix, Vector
 
 from ...lapig_core.optics.placement import place_rig
 from . import projector_nodes
@@ -108,5 +108,36 @@ def add_rig(context, target=None, projector=None, camera=None):
     camera.data.sensor_width = placement.sensor_width_mm
     camera.data.lens = placement.camera_lens_mm
     camera.data.clip_end = max(camera.data.clip_end, placement.distance * 4)
+    bpy.context.view_layer.update()
+    focus_on_object(projector, camera, target)
     scene_state.record_rig(scene, projector, camera, target)
     return projector, camera, placement
+
+
+def axial_distance(obj, point) -> float:
+    """Distance of a world point along the view axis (local -Z) of a light or a camera."""
+    m = np.array(obj.matrix_world)
+    axis = -m[:3, 2] / np.linalg.norm(m[:3, 2])
+    return float((np.asarray(point, float) - m[:3, 3]) @ axis)
+
+
+def object_centre(obj) -> np.ndarray:
+    """The world centre of an object's bounding box."""
+    corners = np.array([tuple(obj.matrix_world @ Vector(c)) for c in obj.bound_box])
+    return (corners.min(0) + corners.max(0)) / 2
+
+
+def focus_on_object(projector, camera, target) -> tuple[float, float]:
+    """Focus the projector's and the camera's lenses on the target's centre; returns both distances."""
+    centre = object_centre(target)
+    distances = []
+    for obj, settings in ((projector, projector.lapig_projector), (camera, camera.lapig_camera)):
+        if obj is None:
+            distances.append(0.0)
+            continue
+        distance = axial_distance(obj, centre)
+        if distance <= 0:
+            raise RigError(f"'{target.name}' is behind '{obj.name}': aim the rig at it first")
+        settings.focus_distance = distance
+        distances.append(distance)
+    return distances[0], distances[1]

@@ -11,6 +11,7 @@ import bpy
 from ...lapig_core.capture.settings import CaptureSettings
 from ...lapig_core.optics.camera_model import CameraResponse
 from ...lapig_core.optics.projector_model import ProjectorModel
+from ...lapig_core.optics.transport import LightTransport
 from ..services.state import (CameraSettings, ExportSettings, GenerateRequest, Rig, SceneState,
                               overridden)
 from . import preferences, storage
@@ -21,6 +22,27 @@ def projector_model(obj) -> ProjectorModel:
     p = obj.lapig_projector
     return ProjectorModel(width=p.resolution_x, height=p.resolution_y, throw_ratio=p.throw_ratio,
                           shift_x=p.shift_x, shift_y=p.shift_y, gamma=p.gamma, black_level=p.black_level)
+
+
+def light_transport(projector, camera) -> LightTransport:
+    """How the captures of this projector and camera render light (lapig_core.optics.transport)."""
+    p = projector.lapig_projector
+    c = camera.lapig_camera if camera is not None else None
+    lens = {} if c is None else {"camera_dof": c.use_dof, "camera_focus_m": c.focus_distance,
+                                 "camera_f_number": c.f_number, "vignetting": c.vignetting}
+    return LightTransport(mode=p.transport_mode, bounces=p.bounces, indirect_samples=p.indirect_samples,
+                          indirect_downscale=p.indirect_downscale, projector_focus_m=p.focus_distance,
+                          projector_lens_radius_mm=p.lens_radius_mm, **lens)
+
+
+def write_light_transport(projector, camera, transport: LightTransport):
+    """Set the rig's light transport (the benchmarks' and tests' setups)."""
+    p, c = projector.lapig_projector, camera.lapig_camera
+    p.transport_mode, p.bounces, p.indirect_samples = transport.mode, transport.bounces, transport.indirect_samples
+    p.indirect_downscale, p.focus_distance = transport.indirect_downscale, transport.projector_focus_m
+    p.lens_radius_mm = transport.projector_lens_radius_mm
+    c.use_dof, c.focus_distance, c.f_number = transport.camera_dof, transport.camera_focus_m, transport.camera_f_number
+    c.vignetting = transport.vignetting
 
 
 def camera_settings(obj) -> CameraSettings:
@@ -54,6 +76,7 @@ def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
                target=target.name if target else None, scene=scene.name,
                outside_scene=tuple(ob.name for ob in objects if ob.name not in scene.objects),
                fingerprint=rig_fingerprint(projector, camera, target) if len(objects) == 3 else "",
+               transport=light_transport(projector, camera).label() if projector and camera else "",
                projector_size=(projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y)
                if projector else None)
 
@@ -61,7 +84,8 @@ def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
 def read(scene) -> SceneState:
     s = scene.lapig
     return SceneState(rig=read_rig(scene), capture_dir=storage.resolve_capture_dir(s.last_capture_dir),
-                      capture_fingerprint=s.last_capture_fingerprint, models_fingerprint=s.models_fingerprint,
+                      capture_fingerprint=s.last_capture_fingerprint, capture_transport=s.last_capture_transport,
+                      models_fingerprint=s.models_fingerprint,
                       models_status=s.models_status, result_dir=storage.resolve_result_dir(s.result_dir),
                       result_fingerprint=s.result_fingerprint, preview_mode=s.preview_mode)
 
@@ -117,10 +141,12 @@ def record_rig(scene, projector, camera, target):
     s.projector, s.camera, s.target = projector, camera, target
 
 
-def record_capture(scene, folder, fingerprint: str):
-    """fingerprint: the rig's at the capture; '' for one captured elsewhere (tied to no rig here)."""
+def record_capture(scene, folder, fingerprint: str, transport: str = ""):
+    """fingerprint: the rig's at the capture; '' for one captured elsewhere (tied to no rig here).
+    transport: the light transport's label at the capture ('' when unknown)."""
     s = scene.lapig
     s.last_capture_dir, s.last_capture_fingerprint = storage.stored_path(folder), fingerprint
+    s.last_capture_transport = transport
 
 
 def record_models(scene, fingerprint: str, status: str | None = None):

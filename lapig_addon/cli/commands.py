@@ -44,7 +44,8 @@ def cmd_demo(args) -> int:
     t = time.perf_counter()
     result = headless.run_capture(scene, settings, progress=headless.print_progress)
     timings["capture_s"] = round(time.perf_counter() - t, 2)
-    scene_state.record_capture(scene, result["setup_dir"], result["meta"]["fingerprint"])
+    scene_state.record_capture(scene, result["setup_dir"], result["meta"]["fingerprint"],
+                               result["meta"].get("transport", {}).get("label", ""))
     write_png(os.path.join(out, "contact_sheet.png"), contact_sheet(result["setup_dir"]))
     t = time.perf_counter()
     TrainModelsJob(scene, args.iterations).run_to_completion(on_progress=headless.print_progress)

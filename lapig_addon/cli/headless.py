@@ -12,7 +12,7 @@ from .output import print_progress  # noqa: F401 (re-exported)
 
 def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camera_resolution=(480, 360),
                      tint=(1.0, 1.0, 1.0), texture=None, projector_resolution=(800, 600), throw_ratio=1.5,
-                     wall_size=None):
+                     wall_size=None, finish="matte"):
     """A fresh scene with a textured object, a projector and a camera placed around it.
 
     tint and texture as in demo_scene.add_surface_object (texture: the user's own image);
@@ -21,7 +21,8 @@ def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camer
     if wall_size and shape != "panel":
         raise ValueError(f"a wall size is for the panel, not the {shape}")
     demo_scene.new_empty_scene()
-    target = demo_scene.add_surface_object(shape, surface, folder=folder, seed=seed, tint=tint, texture=texture)
+    target = demo_scene.add_surface_object(shape, surface, folder=folder, seed=seed, tint=tint, texture=texture,
+                                          finish=finish)
     if wall_size:  # the panel is a 2 m plane stood up: its local x and y are the wall's width and height
         target.scale = (wall_size[0] / 2.0, wall_size[1] / 2.0, 1.0)
         bpy.context.view_layer.update()

@@ -51,6 +51,7 @@ class CaptureJob(Job):
                                     ambient=s.ambient, seed=s.seed) as device:
             # once the device has evaluated the scene: matrix_world is current
             rig_meta = {"fingerprint": rig_fingerprint(self.projector, self.camera, self.target),
+                        "transport": device.transport.to_dict(),
                         "objects": {"projector": self.projector.name, "camera": self.camera.name,
                                     "target": self.target.name}}
             self.result = yield from run_capture(device, s, device.geometry_checks(), rig_meta, self.title)

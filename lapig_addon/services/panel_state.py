@@ -33,6 +33,8 @@ def capture_status(state: SceneState) -> StepStatus:
     if not state.capture_dir:
         return StepStatus("MISSING", "No capture yet")
     if state.capture_fingerprint and state.rig.fingerprint and state.rig.fingerprint != state.capture_fingerprint:
+        if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
+            return StepStatus("STALE", f"Captured in {state.capture_transport}; the rig is now {state.rig.transport}")
         return StepStatus("STALE", "The rig or the object changed since the capture")
     return StepStatus("DONE", state.capture_dir)
 
@@ -46,6 +48,8 @@ def capture_blocker(state: SceneState) -> str:
     if status == "MISSING":
         return "Capture the surface first"
     if status == "STALE":
+        if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
+            return "The light transport changed: capture again"
         return "The rig or the object moved: capture again"
     return ""
 

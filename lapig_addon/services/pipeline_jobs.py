@@ -70,10 +70,12 @@ class TrainModelsJob(WorkerJob):
     def work(self, folder, report, cancel_event):
         cs = load_capture_set(folder)
         trained = train_models(cs, on_progress=report, cancel_event=cancel_event, iterations=self.iterations)
-        return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder}
+        return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder,
+                "choice": trained["choice"].line()}
 
     def finish(self, output):
-        scene_state.record_models(self.scene, output["fingerprint"], f"Fine-tuned in {output['seconds']:.0f} s")
+        scene_state.record_models(self.scene, output["fingerprint"],
+                                  f"Fine-tuned in {output['seconds']:.0f} s; {output['choice']}")
         return output
 
 
@@ -177,7 +179,9 @@ class GenerateJob(WorkerJob):
         if blocker:  # the rig was deleted while the work ran: keep no result that no scene refers to
             shutil.rmtree(output["folder"], ignore_errors=True)
             raise PipelineError(f"{blocker}: the result was not kept")
-        scene_state.record_models(self.scene, output["summary"].get("fingerprint") or "")  # trained on the way
+        compensator = output["summary"].get("compensator") or {}
+        scene_state.record_models(self.scene, output["summary"].get("fingerprint") or "",  # trained on the way
+                                  f"Fine-tuned; {compensator['line']}" if compensator.get("line") else None)
         scene_state.record_result(self.scene, output["folder"], output["summary_line"])
         result_preview.show_result_on_projector(self.scene)  # the stored image, as Export will write it
         mode = scene_state.read(self.scene).preview_mode
@@ -220,6 +224,7 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
                "psa_settings": res.settings.to_dict(), "dark_outside": res.dark_outside,
                "native_output": _native_summary(native), "capture": job["capture"],
                "fingerprint": cs.meta.get("fingerprint"),
+               "compensator": models.choice.to_dict() if getattr(models, "choice", None) else None,
                "metrics": {"simulated_psnr": metrics.psnr(images["simulated"], images["target"]),
                            "simulated_psnr_nopsa": metrics.psnr(images["simulated_nopsa"], images["target_nopsa"]),
                            "psa_iterations": res.with_psa.iterations if res.with_psa else 0,
@@ -232,7 +237,9 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     # what the prompt was read as (medium; colours; mood | a word that matched nothing), then the figure
     understood, _, missed = (res.describe.get("understood_line") or styles or job["backend"]).partition(" | ")
     line = f"{understood}; simulated {summary['metrics']['simulated_psnr']:.1f} dB"
-    if missed:
+    if summary["compensator"]:
+        line += f"; compensated by {summary['compensator']['chosen']}"
+    if missed:  # last: the panel shows what follows " | " on a line of its own
         line += f" | {missed}"
     return {"folder": folder, "summary": summary, "summary_line": line}
 

@@ -47,6 +47,7 @@ class Rig:
     outside_scene: tuple[str, ...] = ()  # rig objects that are not linked into the scene
     fingerprint: str = ""  # of the whole rig as it is now (blender/fingerprint.py); '' while incomplete
     projector_size: tuple[int, int] | None = None  # (width, height) of the projector's native frame
+    transport: str = ""  # the light transport's label (lapig_core.optics.transport); '' while incomplete
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,7 @@ class SceneState:
     rig: Rig = Rig()
     capture_dir: str = ""  # the last capture, found again beside a moved .blend; '' when it is gone
     capture_fingerprint: str = ""  # the rig's fingerprint when it was captured; '' for an imported capture
+    capture_transport: str = ""  # the light transport's label when it was captured; '' when unknown
     models_fingerprint: str = ""  # the capture fingerprint the models were fine-tuned for
     models_status: str = ""
     result_dir: str = ""  # the last generated result, found again like the capture

@@ -18,6 +18,22 @@ def with_torch(panel_state, monkeypatch):
     monkeypatch.setattr(panel_state, "missing_required", lambda: [])
 
 
+def test_a_changed_light_transport_makes_the_capture_stale_and_says_so(state, panel_state):
+    def scene(rig_fp, rig_mode):
+        rig = state.Rig(projector="Projector", camera="Camera", target="Wall", scene="Scene", fingerprint=rig_fp,
+                        transport=rig_mode)
+        return state.SceneState(rig=rig, capture_dir="/data/Wall", capture_fingerprint="rig-1",
+                                capture_transport="Fast (direct light, pinhole lenses)")
+    stale = scene("rig-2", "Realistic (3 bounces)")
+    status = panel_state.capture_status(stale)
+    assert status.state == "STALE"
+    assert status.text == "Captured in Fast (direct light, pinhole lenses); the rig is now Realistic (3 bounces)"
+    assert panel_state.capture_blocker(stale) == "The light transport changed: capture again"
+    moved = scene("rig-2", "Fast (direct light, pinhole lenses)")  # same mode, the rig moved
+    assert panel_state.capture_status(moved).text == "The rig or the object changed since the capture"
+    assert panel_state.capture_status(scene("rig-1", "Fast (direct light, pinhole lenses)")).state == "DONE"
+
+
 def test_rig_blockers(state, panel_state, rig):
     assert panel_state.rig_blocker(state.Rig()) == "Add the projector and camera first"
     assert panel_state.rig_blocker(state.Rig(projector="Projector", target="Wall")) == \

@@ -29,6 +29,7 @@ from ...lapig_core.photometric.targets import desired_targets, reachable_mask
 from ...lapig_core.photometric.training import predict
 from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
 from .. import synthetic_setups as syn
+from .noise_floor import below_floor, noise_floor
 from ...lapig_addon.blender.projection_render import render_working_images
 
 SIZES = (8, 48, 125)
@@ -84,11 +85,16 @@ def compensation_run(spec, cs, surf, mask, pcnet, iterations, args, textures) ->
     rendered = render_working_images(scene, projector, camera, target, setup_dir_of(cs),
                                      np.concatenate([learned, classical_same, classical_all, targets]), seed=7)
     ours, same, theirs, plain = (rendered[i * count:(i + 1) * count] for i in range(4))
+    # the same uncompensated images again, other noise seeds: the setup's repeatability limit
+    again = render_working_images(scene, projector, camera, target, setup_dir_of(cs), targets, seed=8)
     figures = {"compensated": _figures(ours, targets, mask),
                "classical_compensated_same_pairs": _figures(same, targets, mask),
                "classical_compensated": _figures(theirs, targets, mask),
                "uncompensated": _figures(plain, targets, mask), "compensation_pairs": pairs,
                "compennest_train_s": round(result.seconds, 1)}
+    floor = noise_floor(plain, again, mask)
+    figures.update(floor)
+    figures.update(below_floor(figures, floor["noise_floor_psnr"]))
     simulated = None
     if pcnet is not None:
         simulated = to_numpy(predict(pcnet, to_tensor(learned), surf.s, surf.i_min, surf.i_max))
@@ -182,6 +188,9 @@ def run(args) -> dict:
         for m in ("psnr", "ssim", "rmse", "psnr_masked"):
             summary[f"{key}_{m}"] = mean(("compensation", key, m))
     summary["compensation_pairs"] = args.compensation_pairs
+    summary["noise_floor_psnr"] = mean(("compensation", "noise_floor_psnr"))
+    for key in ("compensated", "classical_compensated", "classical_compensated_same_pairs", "uncompensated"):
+        summary[f"{key}_below_noise_floor_db"] = round(summary["noise_floor_psnr"] - summary[f"{key}_psnr_masked"], 3)
     summary.update(timing)
     sheet_path = os.path.join(out, "models_sheet.png")
     write_png(sheet_path, labelled_grid([im for im, _ in sheet], [lb.split(": ")[1] for _, lb in sheet],

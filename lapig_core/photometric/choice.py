@@ -1,0 +1,156 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Choose the setup's compensator by measurement: the learned one (CompenNeSt) or the classical one.
+
+After fine-tuning, both compensate the held-back test captures of the setup (their projector
+images are known), and the one that recovers those projector images better (masked PSNR over the
+registered pixels) compensates this setup. Where direct light is all there is, the per-pixel
+classical model is exact and often wins; where light bounces, blurs or scatters, the network can
+follow it. A user never gets the worse one silently: the choice and its margin go into the
+panel's model status and result.json.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from ..common import metrics
+from .classical import ClassicalModel
+
+LEARNED, CLASSICAL = "CompenNeSt", "classical"
+CHOICE_FILE = "compensator_choice.json"
+CLASSICAL_FILE = "classical.npz"
+
+
+@dataclass(frozen=True)
+class CompensatorChoice:
+    chosen: str  # LEARNED or CLASSICAL
+    learned_psnr: float | None  # on the held-back pairs, projector space, masked
+    classical_psnr: float | None
+    validation_pairs: int
+    reason: str = ""  # why there was nothing to measure, when so
+
+    @property
+    def margin_db(self) -> float:
+        """How far the chosen one is ahead of the other (0 when not measured)."""
+        if self.learned_psnr is None or self.classical_psnr is None:
+            return 0.0
+        return abs(self.learned_psnr - self.classical_psnr)
+
+    def line(self) -> str:
+        """One line for the panel."""
+        if self.learned_psnr is None or self.classical_psnr is None:
+            return f"compensation: {self.chosen} ({self.reason})"
+        other = CLASSICAL if self.chosen == LEARNED else LEARNED
+        return (f"compensation: {self.chosen}, {self.margin_db:.2f} dB ahead of {other} "
+                f"on {self.validation_pairs} held-back pairs")
+
+    def to_dict(self) -> dict:
+        return {**asdict(self), "margin_db": round(self.margin_db, 4), "line": self.line()}
+
+
+def validation_psnr(compensate, cam: np.ndarray, prj: np.ndarray, mask: np.ndarray | None) -> float:
+    """Mean masked PSNR of compensate(captures) against the projector images that made them."""
+    pred = compensate(cam)
+    return float(np.mean([metrics.masked_psnr(p, t, mask) if mask is not None else metrics.psnr(p, t)
+                          for p, t in zip(pred, prj)]))
+
+
+def learned_compensate(model, s: torch.Tensor):
+    """numpy (N,H,W,3) -> (N,H,W,3) through a compensation network; s: the (1,3,H,W) surface capture."""
+    from .training import predict
+    from .training_data import to_numpy, to_tensor
+
+    return lambda cam: to_numpy(predict(model, to_tensor(cam), s))
+
+
+def choose(learned, classical, cam_val, prj_val, mask=None) -> CompensatorChoice:
+    """Compare two compensators (callables numpy -> numpy) on held-back pairs; ties go to the learned one."""
+    n = len(cam_val)
+    if n == 0:
+        return CompensatorChoice(LEARNED, None, None, 0, "no held-back pairs to compare on")
+    lp = validation_psnr(learned, cam_val, prj_val, mask)
+    cp = validation_psnr(classical, cam_val, prj_val, mask)
+    return CompensatorChoice(CLASSICAL if cp > lp else LEARNED, round(lp, 4), round(cp, 4), n)
+
+
+def fit_and_choose(cs, learned_model) -> tuple[CompensatorChoice, ClassicalModel]:
+    """Fit the classical model on the setup's training pairs and choose against the fine-tuned network."""
+    from .training_data import SurfaceTensors
+
+    classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
+    s = SurfaceTensors.from_capture_set(cs).s
+    mask = cs.projector_valid
+    cam, prj = (cs.cam_test, cs.prj_test) if cs.has_test else (cs.cam_test[:0], cs.prj_test[:0])
+    return choose(learned_compensate(learned_model, s), classical.compensate, cam, prj, mask), classical
+
+
+def save_choice(models_dir, choice: CompensatorChoice, classical: ClassicalModel):
+    """Beside the fine-tuned networks (temp-then-rename)."""
+    folder = Path(models_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = folder / (CLASSICAL_FILE + ".tmp")
+    classical.save(tmp)
+    tmp.replace(folder / CLASSICAL_FILE)
+    tmp = folder / (CHOICE_FILE + ".tmp")
+    tmp.write_text(json.dumps(choice.to_dict(), indent=2))
+    tmp.replace(folder / CHOICE_FILE)
+
+
+def load_choice(models_dir) -> tuple[CompensatorChoice, ClassicalModel] | None:
+    """The saved choice and classical model; None when there is none (models trained before it)."""
+    folder = Path(models_dir)
+    try:
+        data = json.loads((folder / CHOICE_FILE).read_text())
+        classical = ClassicalModel.load(folder / CLASSICAL_FILE)
+    except (OSError, ValueError, KeyError):
+        return None
+    fields = {k: data[k] for k in ("chosen", "learned_psnr", "classical_psnr", "validation_pairs", "reason")
+              if k in data}
+    return CompensatorChoice(**fields), classical
+
+
+class ClassicalCompensator(torch.nn.Module):
+    """The classical per-pixel compensation as a differentiable module with CompenNeSt's call
+    signature, so PSA and the native output use it where it was chosen.
+
+    Its per-pixel pseudo-inverse and offset live at the working frame; another size (the native
+    output) resamples them bilinearly (`frame_inputs` gives them to the tiling as extra inputs)."""
+
+    ARCH_NAME = CLASSICAL
+
+    def __init__(self, model: ClassicalModel):
+        super().__init__()
+        pinv = model._pseudo_inverse()  # (H, W, 3, 3)
+        h, w = pinv.shape[:2]
+        self.register_buffer("pinv", torch.from_numpy(np.ascontiguousarray(pinv.reshape(h, w, 9))).permute(2, 0, 1)[None])
+        self.register_buffer("offset", torch.from_numpy(np.ascontiguousarray(model.o)).permute(2, 0, 1)[None].float())
+        self.gamma_c, self.gamma_p = float(model.gamma_c), float(model.gamma_p)
+
+    def cache_surface(self, s):  # CompenNeSt caches its surface features; nothing to cache here
+        pass
+
+    def frame_inputs(self, height: int, width: int) -> list[torch.Tensor]:
+        """The per-pixel parameters at height x width."""
+        if (height, width) == tuple(self.pinv.shape[-2:]):
+            return [self.pinv, self.offset]
+        size = (height, width)
+        return [F.interpolate(self.pinv, size, mode="bilinear", align_corners=False),
+                F.interpolate(self.offset, size, mode="bilinear", align_corners=False)]
+
+    def forward(self, target, s=None, pinv=None, offset=None, return_raw=False):
+        if pinv is None:
+            pinv, offset = self.frame_inputs(*target.shape[-2:])
+        pinv = pinv.to(target.dtype)
+        rhs = target.clamp(0, 1) ** self.gamma_c - offset.to(target.dtype)
+        n, _, h, w = target.shape
+        x = (pinv.reshape(pinv.shape[0], 3, 3, h, w) * rhs[:, None]).sum(2)  # per pixel M^+ (t^gc - o)
+        out = x.clamp(1e-6, 1.0) ** (1.0 / self.gamma_p)
+        if not return_raw:
+            return out
+        raw = torch.sign(x) * x.abs().clamp_min(1e-6) ** (1.0 / self.gamma_p)  # > 1 where it would saturate
+        return out, raw

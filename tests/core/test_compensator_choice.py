@@ -1,0 +1,89 @@
+"""Choosing the compensator by measurement on held-back pairs (learned against classical)."""
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from lapig_core.photometric import choice  # noqa: E402
+from lapig_core.photometric.classical import ClassicalModel  # noqa: E402
+
+
+def _pairs(n, seed, size=32):
+    """Direct light only: capture = (albedo * p^2.2 + 0.02)^(1/2.2), the classical model's own world."""
+    rng = np.random.default_rng(seed)
+    albedo = rng.uniform(0.3, 0.9, (size, size, 3)).astype(np.float32)
+    prj = rng.uniform(0, 1, (n, size, size, 3)).astype(np.float32)
+    cam = np.power(albedo * prj ** 2.2 + 0.02, 1 / 2.2).astype(np.float32)
+    return prj, cam
+
+
+def test_the_classical_model_is_chosen_where_the_learned_one_measures_worse():
+    prj, cam = _pairs(24, 0)
+    classical = ClassicalModel.fit(prj[:16], cam[:16])
+
+    def poor_network(c):  # a fake learned compensator that lags: the target itself, slightly blurred
+        return np.clip(c * 0.9 + 0.05, 0, 1)
+
+    picked = choice.choose(poor_network, classical.compensate, cam[16:], prj[16:])
+    assert picked.chosen == choice.CLASSICAL
+    assert picked.classical_psnr > picked.learned_psnr
+    assert picked.margin_db == pytest.approx(picked.classical_psnr - picked.learned_psnr, abs=1e-3)
+    assert "classical" in picked.line() and "held-back" in picked.line()
+    # and a learned one that does better wins
+    exact = choice.choose(lambda c: prj[16:], classical.compensate, cam[16:], prj[16:])
+    assert exact.chosen == choice.LEARNED
+
+
+def test_no_held_back_pairs_keeps_the_learned_one_and_says_why():
+    prj, cam = _pairs(4, 1)
+    picked = choice.choose(lambda c: c, lambda c: c, cam[:0], prj[:0])
+    assert picked.chosen == choice.LEARNED and "no held-back" in picked.line()
+
+
+def test_the_classical_compensator_module_matches_the_model_at_any_size(tmp_path):
+    prj, cam = _pairs(16, 2)
+    model = ClassicalModel.fit(prj, cam)
+    module = choice.ClassicalCompensator(model)
+    t = torch.from_numpy(cam[:2].transpose(0, 3, 1, 2).copy())
+    out, raw = module(t, None, return_raw=True)
+    expected = model.compensate(cam[:2]).transpose(0, 3, 1, 2)
+    assert np.abs(out.numpy() - expected).max() < 2e-3
+    assert raw.shape == out.shape
+    big = torch.nn.functional.interpolate(t, (64, 64), mode="bilinear", align_corners=False)
+    assert module(big, None, *module.frame_inputs(64, 64)).shape == (2, 3, 64, 64)
+    # saved and loaded beside the models
+    picked = choice.CompensatorChoice(choice.CLASSICAL, 20.0, 22.5, 8)
+    choice.save_choice(tmp_path, picked, model)
+    loaded, again = choice.load_choice(tmp_path)
+    assert loaded == picked and np.allclose(again.M, model.M)
+    assert choice.load_choice(tmp_path / "none") is None
+
+
+def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp_path):
+    """A barely fine-tuned network (2 iterations) on a direct-light fake rig loses to the classical model:
+    train_models records it, and surface_models hands out the classical compensator with the choice."""
+    from lapig_core.capture.dataset import load_capture_set
+    from lapig_core.capture.fake_device import FakeDevice
+    from lapig_core.capture.sequence import GeometryChecks, run_capture
+    from lapig_core.capture.settings import CaptureSettings
+    from lapig_core.pipeline import setup_dir_of, surface_models, train_models
+
+    device = FakeDevice(projector_size=(48, 36), camera_size=(96, 72))
+    settings = CaptureSettings(out_dir=str(tmp_path), train_count=12, test_count=4, working_size=48, chunk=8)
+    checks = GeometryChecks(coverage=device.coverage, exact_projector_to_camera=device.exact_projector_to_camera)
+    steps = run_capture(device, settings, checks)
+    try:
+        while True:
+            next(steps)
+    except StopIteration as done:
+        cs = load_capture_set(done.value["setup_dir"])
+    trained = train_models(cs, iterations=2)
+    picked = trained["choice"]
+    assert picked.validation_pairs == 4
+    assert picked.chosen == choice.CLASSICAL, picked
+    assert (setup_dir_of(cs) / "models" / choice.CHOICE_FILE).is_file()
+    models = surface_models(cs)
+    assert isinstance(models.compensator, choice.ClassicalCompensator)
+    assert models.choice == picked
+    out = models.compensate(models.i_max)
+    assert out.shape == models.i_max.shape and 0 <= float(out.min()) and float(out.max()) <= 1

@@ -1,0 +1,75 @@
+"""Light transport models: thin-lens defocus, vignetting, the indirect pass, the mode's fingerprint."""
+import numpy as np
+import pytest
+
+from lapig_core.optics import transport as light
+from lapig_core.optics.transport import FAST, LightTransport
+
+
+def _edge_blur_radius(profile):
+    """Disk radius from an edge profile: its derivative's variance is r^2 / 4 for a disk."""
+    lsf = np.clip(np.diff(profile), 0, None)
+    x = np.arange(len(lsf))
+    mean = (lsf * x).sum() / lsf.sum()
+    return 2 * np.sqrt((lsf * (x - mean) ** 2).sum() / lsf.sum())
+
+
+def test_blur_is_zero_at_the_focus_and_follows_the_thin_lens_off_it():
+    r = light.blur_radius_px([2.0, 3.0, 6.0], focus_m=3.0, lens_radius_m=0.01, focal_px=1000)
+    assert r[1] == pytest.approx(0.0)
+    assert r[0] == pytest.approx(0.01 * (1 / 2 - 1 / 3) * 1000)
+    assert r[2] == pytest.approx(0.01 * (1 / 3 - 1 / 6) * 1000)
+    assert light.blur_radius_px([np.nan], 3.0, 0.01, 1000)[0] == 0.0  # a pixel that lights nothing
+
+
+@pytest.mark.parametrize("radius", [1.5, 3.0, 6.0])
+def test_defocus_blurs_an_edge_by_the_radius_asked_for(radius):
+    frame = np.zeros((64, 64, 3), np.float32)
+    frame[32:] = 1.0
+    out = light.defocus_frame(frame, np.full((64, 64), radius, np.float32))
+    assert _edge_blur_radius(out[:, 32, 0]) == pytest.approx(radius, rel=0.1)
+    assert out[:, 32, 0].sum() == pytest.approx(frame[:, 32, 0].sum(), rel=0.05)  # light is kept
+
+
+def test_defocus_keeps_the_focal_plane_sharp_and_blurs_by_depth():
+    rng = np.random.default_rng(0)
+    frame = rng.random((48, 96, 3)).astype(np.float32)
+    radius = np.tile(np.abs(np.linspace(-4, 4, 96, dtype=np.float32)), (48, 1))  # in focus in the middle
+    out = light.defocus_frame(frame, radius)
+    assert np.abs(out[:, 47:49] - frame[:, 47:49]).max() < 0.15
+    detail = lambda im: np.abs(np.diff(im, axis=0)).mean()
+    assert detail(out[:, :10]) < 0.4 * detail(frame[:, :10])
+    assert detail(out[:, 40:56]) > 2 * detail(out[:, :10])
+    assert np.array_equal(light.defocus_frame(frame, np.zeros((48, 96), np.float32)), frame)
+
+
+def test_vignetting_is_cos4_off_the_axis_and_can_be_off():
+    v = light.vignetting_map(40, 30, half_width_tan=0.4, strength=1.0)
+    assert v[15, 20] == pytest.approx(1.0, abs=0.01)
+    corner_tan2 = (0.4 * 39 / 40) ** 2 + (0.3 * 29 / 30) ** 2
+    assert v[0, 0] == pytest.approx(1 / (1 + corner_tan2) ** 2, rel=1e-3)
+    assert np.all(light.vignetting_map(40, 30, 0.4, 0.0) == 1.0)
+
+
+def test_indirect_pass_cancels_the_direct_light_and_keeps_the_bounce():
+    rng = np.random.default_rng(1)
+    direct = rng.random((24, 32, 3)).astype(np.float32)  # sharp texture: must cancel exactly
+    y, x = np.mgrid[0:24, 0:32]
+    bounce = (0.1 + 0.05 * np.sin(x / 8.0))[..., None].repeat(3, -1).astype(np.float32)
+    noisy = direct + bounce + 0.02 * rng.standard_normal(direct.shape).astype(np.float32)
+    up = light.indirect_from_passes(noisy, direct, (128, 96))
+    assert up.shape == (96, 128, 3)
+    truth = light.indirect_from_passes(direct + bounce, direct, (128, 96), smooth_px=0)
+    assert np.abs(up - truth)[8:-8, 8:-8].mean() < 0.01
+
+
+def test_the_mode_and_its_settings_change_the_state_a_capture_depends_on():
+    realistic = LightTransport()
+    assert FAST.state() != realistic.state()
+    assert LightTransport(bounces=1).state() != realistic.state()
+    assert LightTransport(projector_focus_m=2.0).state() != realistic.state()
+    assert FAST.state() == LightTransport(mode="FAST", bounces=7).state()  # fast ignores the rest
+    assert "Fast" in FAST.label() and "Realistic" in realistic.label()
+    assert not FAST.uses_bounces and not FAST.uses_projector_defocus and not FAST.uses_vignetting
+    with pytest.raises(ValueError, match="unknown light transport mode"):
+        LightTransport(mode="SLOW")

@@ -1,3 +1,5 @@
+import textwrap
+
 import bpy
 
 from ..lapig_addon.blender import scene_state, storage
@@ -151,7 +153,7 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         row.prop(s, "use_psa")
         sub = row.row()
         sub.enabled = s.use_psa
-        sub.prop(s, "psa_strength")
+        sub.prop(s, "psa_adaptation")
         layout.prop(s, "style_seed")
         layout.prop(s, "dark_outside")
         layout.prop(s, "output_size")
@@ -177,6 +179,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         _blocked(layout, blocked)
         if s.result_summary:
             layout.label(text=s.result_summary)
+        if s.result_reach_message:  # most of the look is out of the surface's reach: say so plainly
+            for i, line in enumerate(textwrap.wrap(s.result_reach_message, 60)):
+                layout.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)

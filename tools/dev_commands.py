@@ -104,6 +104,14 @@ def add_parsers(sub):
     bench.add_argument("--ablation-prompts", type=int, default=3,
                        help="psa: prompts per surface that also run the loss ablation (default 3)")
     bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
+    bench.add_argument("--table", choices=["paper", "hard", "both"], default="both",
+                       help="psa: the paper's Table 1/2 surfaces, the hard surfaces of issue 13, or both")
+    bench.add_argument("--no-resample", dest="resample", action="store_false",
+                       help="psa: leave out the resample baseline (the public code's PSA)")
+    bench.add_argument("--reuse-captures", action="store_true",
+                       help="psa: keep each surface's capture and models from an earlier run into --out")
+    ranged_option(bench, "--adaptation", "psa_adaptation", "psa: PSA adaptation (default 0.5)", default=0.5,
+                  type=float)
     bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")
     ranged_option(bench, "--train", "train_count", "psa: captured training pairs per surface", default=125)
     ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 25)")

@@ -157,7 +157,7 @@ def cmd_stylize(args) -> int:
 
     scene = _open_scene(args)
     request = scene_state.generate_request(scene, prompt=args.prompt, backend=args.backend, mix=args.mix,
-                                           psa=args.psa, strength=args.strength, seed=args.seed,
+                                           psa=args.psa, adaptation=args.adaptation, seed=args.seed,
                                            ip2p_model=args.ip2p_model)
     job = GenerateJob(scene, request, _iterations(args, scene))
     out = job.run_to_completion(on_progress=headless.print_progress)

@@ -65,6 +65,8 @@ def add_parsers(sub):
     ranged_option(ev, "--iterations", "finetune_iterations",
                   "fine-tuning iterations per network (default: the CPU recipe's); fewer: rough but quick")
     ev.add_argument("--verbose", action="store_true", help="print training progress")
+    ranged_option(ev, "--adaptation", "psa_adaptation", "PSA adaptation, 0 keep my look .. 1 whatever the surface "
+                  "can show (default 0.5)", default=0.5, type=float)
     ev.add_argument("--projector", type=pixels, default=(800, 600), help="projector resolution (default 800x600)")
     ev.add_argument("--throw-ratio", type=float, default=1.5, help="projector throw ratio (default 1.5)")
     ev.add_argument("--wall", type=pair_of(float, "3.6x2"), default=None,
@@ -181,7 +183,8 @@ def cmd_eval(args) -> int:
 
     summary = evaluate.run(args)
     print(f"Look at {summary['sheet']}")
-    print_json({k: summary[k] for k in ("with_psa", "without_psa", "native", "style_retention", "timings", "sheet")})
+    keys = ("with_psa", "without_psa", "native", "style_retention", "surface_reach", "timings", "sheet")
+    print_json({k: summary[k] for k in keys})
     return 0
 
 

@@ -36,6 +36,7 @@ from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.common.surfaces import make_surface
 from ...lapig_core.photometric.training_data import SurfaceTensors
 from ..evaluate import build_surface_scene, capture_surface
+from .structure_sheet import structure_sheet
 from ...lapig_addon.blender.projection_render import render_working_images
 
 SURFACES = ("bench", "wood", "stripe", "sakura", "spray")  # the paper's surface names, our own textures
@@ -206,6 +207,9 @@ def run(args) -> dict:
     os.makedirs(out, exist_ok=True)
     tables = {"paper": ("paper", "both"), "hard": ("hard", "both")}
     summary, sheets, timings = {}, [], {}
+    # what the two retention figures mean, on one look and its changes (cheap: no capture)
+    structure_path = os.path.join(out, "sheet_structure.png")
+    summary["structure_sheet"] = {"sheet": structure_path, "variants": structure_sheet(structure_path)}
     if args.table in tables["hard"]:
         prompts = HARD_PROMPTS[:args.prompts]
         rows, sh, tm = _run_table(args, out, HARD_SURFACES[:args.surfaces], prompts, 0, "_hard")

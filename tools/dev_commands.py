@@ -91,7 +91,7 @@ def add_parsers(sub):
                        help="models: data set root of the benchmark setups (rendered when missing)")
     bench.add_argument("--setups", type=int, default=3, help="models: how many benchmark setups (default 3)")
     ranged_option(bench, "--iterations", "finetune_iterations",
-                  "models: fine-tuning iterations per model (default: the CPU recipe's)")
+                  "models, psa: fine-tuning iterations per model (default: the CPU recipe's)")
     bench.add_argument("--compensate", type=int, default=8, help="models: compensated test images per setup")
     bench.add_argument("--no-timing", dest="timing", action="store_false",
                        help="models: skip the fine-tuning time measurement")

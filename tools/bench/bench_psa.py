@@ -87,7 +87,7 @@ def run_surface(name, args, out, backend_name, prompts, ablation_prompts, tag=""
     cs = load_capture_set(setup_dir)
     capture_s = time.perf_counter() - t0
     t = time.perf_counter()
-    models = surface_models(cs)
+    models = surface_models(cs, iterations=args.iterations or None)  # --iterations: a quicker fine-tune
     train_s = time.perf_counter() - t
     surface = SurfaceTensors.from_capture_set(cs).i_max
     backend = get_backend(backend_name)

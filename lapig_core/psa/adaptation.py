@@ -50,10 +50,10 @@ class PSASettings:
     mode: str = "gradient"  # "gradient" or "resample"
     terms: tuple = LOSS_TERMS
     weights: dict = field(default_factory=lambda: {"pc": 1.0, "cs": 1.0, "ps": 1.0})
-    style_weight: float = 1.0  # scales w(adaptation) (module docstring), relative to the first PSA loss
+    style_weight: float = 2.0  # scales w(adaptation) (module docstring), relative to the first PSA loss
     adaptation: float = 0.5  # 0: keep my look (brightness too), 1: whatever this surface can show
     lr: float = 0.01
-    field_lr: float = 0.05  # Adam step of the tone field's parameters
+    field_lr: float = 0.1  # Adam step of the tone field's parameters
     tone_field: bool = True  # gradient mode: the look passes through a ToneField that PSA optimises
     lr_step: int = 50
     lr_gamma: float = 0.2

@@ -105,12 +105,12 @@ class AdaptedLook(LGSTBackend):
         return self.field.apply(self.backend.forward())
 
     def render_at(self, surface):
-        """The backend's look at the surface's size, through the field; the black level I- is the
-        working frame's, resized (it is smooth: stray and ambient light)."""
+        """The backend's look at the surface's size, through the field with the working frame's
+        guide (I- and I+) resized: the log of a dim, noisy range would amplify another capture's
+        noise, and the same guide keeps the native look the one PSA chose."""
         look = self.backend.render_at(surface)
         with torch.no_grad():
-            i_min = self.field._at(self.field.i_min, tuple(surface.shape[-2:]))
-            return self.field.apply(look, i_min=i_min, i_max=surface.to(look.dtype))
+            return self.field.apply(look)
 
     def prepare(self, surface, prompt, seed=0, mix=None):
         """Prepare the backend again (a new sample); the field starts at the identity again."""

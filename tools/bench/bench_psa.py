@@ -185,6 +185,11 @@ def _run_table(args, out, surfaces, prompts, ablation_prompts, tag):
         rows += r
         sheets.append(sheet)
         timings[name] = {k: round(v, 1) for k, v in t.items()}
+        # the rows so far, so a long run stopped part way still leaves its finished surfaces
+        partial = os.path.join(out, f"rows{tag or '_paper'}.json")
+        with open(partial + ".tmp", "w") as f:
+            json.dump({"rows": rows, "timings": timings}, f, indent=1, default=float)
+        os.replace(partial + ".tmp", partial)
     return rows, sheets, timings
 
 

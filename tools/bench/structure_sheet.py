@@ -4,7 +4,6 @@ SSIM (the old figure) and structure retention (the new one). A high structure sc
 same style"; SSIM also falls for the brightness and colour moves a surface forces."""
 from __future__ import annotations
 
-import numpy as np
 import torch
 
 from ...lapig_core.common import metrics

@@ -110,8 +110,6 @@ def add_parsers(sub):
                        help="psa: the paper's Table 1/2 surfaces, the hard surfaces of issue 13, or both")
     bench.add_argument("--no-resample", dest="resample", action="store_false",
                        help="psa: leave out the resample baseline (the public code's PSA)")
-    bench.add_argument("--reuse-captures", action="store_true",
-                       help="psa: keep each surface's capture and models from an earlier run into --out")
     ranged_option(bench, "--adaptation", "psa_adaptation", "psa: PSA adaptation (default 0.5)", default=0.5,
                   type=float)
     bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")

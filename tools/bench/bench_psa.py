@@ -12,7 +12,6 @@ stylize without PSA and with it, and project every compensated image with Cycles
 Every table has the public code's resample PSA beside the gradient one (variant "resample"), and
 per row: structure retention (new) beside SSIM retention (old), the share of the look inside
 [I-, I+] before and after PSA and the clamp bound PSNR(clamp(I, I-, I+), I).
-`--reuse-captures` keeps a surface's capture and models from an earlier run into the same --out.
 """
 from __future__ import annotations
 
@@ -61,22 +60,10 @@ def _log(args, msg):
 
 
 def _captured(name, args, out, rig_objects):
-    """The surface's setup folder: captured now, or an earlier run's with --reuse-captures."""
-    marker = os.path.join(out, "data", f"{name}.setup.json")
-    if getattr(args, "reuse_captures", False) and os.path.isfile(marker):
-        try:
-            with open(marker) as f:
-                setup_dir = json.load(f)["setup_dir"]
-        except (OSError, ValueError, KeyError):
-            setup_dir = ""
-        if setup_dir and os.path.isdir(setup_dir):
-            return setup_dir
-    setup_dir = str(capture_surface(*rig_objects, os.path.join(out, "data", name), setup=name, train=args.train,
-                                    seed=args.seed))
-    with open(marker + ".tmp", "w") as f:
-        json.dump({"setup_dir": setup_dir}, f)
-    os.replace(marker + ".tmp", marker)
-    return setup_dir
+    """The surface's setup folder, captured now. (Reusing an earlier process's capture does not work:
+    the rebuilt rig's fingerprint differs and the Cycles render refuses the old capture.)"""
+    return capture_surface(*rig_objects, os.path.join(out, "data", name), setup=name, train=args.train,
+                           seed=args.seed)
 
 
 def run_surface(name, args, out, backend_name, prompts, ablation_prompts, tag=""):

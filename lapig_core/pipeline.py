@@ -20,6 +20,7 @@ from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_s
 from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, get_backend
 from .native_output import NativeResult, native_output
 from .psa.adaptation import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
+from .psa.reach import surface_truth
 from .photometric.training_data import SurfaceTensors
 
 
@@ -101,12 +102,16 @@ class StylizeResult:
     settings: PSASettings
     dark_outside: bool = False  # the projector images are black off the object
     backend: LGSTBackend | None = None  # prepared: renders a result's theta at other sizes (native output)
+    truth: dict | None = None  # what the surface can show of the look (psa/reach.surface_truth)
 
     def style_retention(self) -> dict:
+        """The PSA look against the un-adapted one: structure (style at any brightness, the new
+        measure) beside the old SSIM and PSNR."""
         if self.with_psa is None:
             return {}
         a, b = self.with_psa.target, self.without.target
-        return {"ssim": metrics.ssim(a, b), "psnr": metrics.psnr(a, b)}
+        return {"structure": metrics.structure_retention(a, b), "ssim": metrics.ssim(a, b),
+                "psnr": metrics.psnr(a, b)}
 
 
 def on_object_mask(valid) -> torch.Tensor:
@@ -155,7 +160,11 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     if fallback:
         describe["fallback"] = fallback
         describe.setdefault("notes", []).append(fallback)
-    return StylizeResult(plain, adapted, describe, settings, dark_outside, lgst)
+    truth = surface_truth(plain.target, adapted.target if adapted is not None else None, models.i_min,
+                          models.i_max, cs.projector_valid)  # on the object, where it is known
+    # the look that renders the chosen state: with the PSA tone field when PSA ran
+    look = adapted.look if adapted is not None and adapted.look is not None else lgst
+    return StylizeResult(plain, adapted, describe, settings, dark_outside, look, truth)
 
 
 def output_at(cs: CaptureSet, models: SurfaceModels, res: StylizeResult, width: int, height: int,

@@ -1,3 +1,5 @@
+import textwrap
+
 import bpy
 
 from ..lapig_addon.blender import scene_state, storage
@@ -176,7 +178,7 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         row.prop(s, "use_psa")
         sub = row.row()
         sub.enabled = s.use_psa
-        sub.prop(s, "psa_strength")
+        sub.prop(s, "psa_adaptation")
         layout.prop(s, "style_seed")
         layout.prop(s, "dark_outside")
         layout.prop(s, "output_size")
@@ -204,6 +206,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
             # "what the prompt was read as | which word matched nothing": one label each
             for i, part in enumerate(s.result_summary.split(" | ")):
                 layout.label(text=part, icon="INFO" if i else "NONE")
+        if s.result_reach_message:  # most of the look is out of the surface's reach: say so plainly
+            for i, line in enumerate(textwrap.wrap(s.result_reach_message, 60)):
+                layout.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)

@@ -70,6 +70,8 @@ def add_parsers(sub):
     ranged_option(ev, "--iterations", "finetune_iterations",
                   "fine-tuning iterations per network (default: the CPU recipe's); fewer: rough but quick")
     ev.add_argument("--verbose", action="store_true", help="print training progress")
+    ranged_option(ev, "--adaptation", "psa_adaptation", "PSA adaptation, 0 keep my look .. 1 whatever the surface "
+                  "can show (default 0.5)", default=0.5, type=float)
     ev.add_argument("--projector", type=pixels, default=(800, 600), help="projector resolution (default 800x600)")
     ev.add_argument("--throw-ratio", type=float, default=1.5, help="projector throw ratio (default 1.5)")
     ev.add_argument("--wall", type=pair_of(float, "3.6x2"), default=None,
@@ -101,7 +103,7 @@ def add_parsers(sub):
                        help="models: data set root of the benchmark setups (rendered when missing)")
     bench.add_argument("--setups", type=int, default=3, help="models: how many benchmark setups (default 3)")
     ranged_option(bench, "--iterations", "finetune_iterations",
-                  "models: fine-tuning iterations per model (default: the CPU recipe's)")
+                  "models, psa: fine-tuning iterations per model (default: the CPU recipe's)")
     bench.add_argument("--compensate", type=int, default=8, help="models: compensated test images per setup")
     bench.add_argument("--no-timing", dest="timing", action="store_false",
                        help="models: skip the fine-tuning time measurement")
@@ -116,6 +118,12 @@ def add_parsers(sub):
     bench.add_argument("--ablation-prompts", type=int, default=3,
                        help="psa: prompts per surface that also run the loss ablation (default 3)")
     bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
+    bench.add_argument("--table", choices=["paper", "hard", "both"], default="both",
+                       help="psa: the paper's Table 1/2 surfaces, the hard surfaces of issue 13, or both")
+    bench.add_argument("--no-resample", dest="resample", action="store_false",
+                       help="psa: leave out the resample baseline (the public code's PSA)")
+    ranged_option(bench, "--adaptation", "psa_adaptation", "psa: PSA adaptation (default 0.5)", default=0.5,
+                  type=float)
     bench.add_argument("--backend", default="styletransfer", help="psa/ui: LGST backend")
     bench.add_argument("--psa-surfaces", type=int, default=0,
                        help="prompts, style-images: also run PSA (Table 1, Cycles) on this many captured "
@@ -208,7 +216,8 @@ def cmd_eval(args) -> int:
 
     summary = evaluate.run(args)
     print(f"Look at {summary['sheet']}")
-    print_json({k: summary[k] for k in ("with_psa", "without_psa", "native", "style_retention", "timings", "sheet")})
+    keys = ("with_psa", "without_psa", "native", "style_retention", "surface_reach", "timings", "sheet")
+    print_json({k: summary[k] for k in keys})
     return 0
 
 

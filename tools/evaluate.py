@@ -67,7 +67,9 @@ def evaluate_prompt(cs, models, rig_objects, setup_dir, prompt, backend="styletr
         simulated = metrics.psnr(as_image(r.simulated), targets[i])
         out[key] = {**{k: round(v, 4) for k, v in figures.items()}, "simulated_psnr": round(simulated, 4),
                     "iterations": r.iterations, "seconds": round(r.seconds, 2), "stopped": r.stopped}
+    # structure: the style at any brightness (issue 13), beside the old SSIM that pays for darkening
     out["style_retention"] = {k: round(v, 4) for k, v in res.style_retention().items()}
+    out["surface_reach"] = res.truth  # share of the look inside [I-, I+], clamp bound, message
     out["psa_s"], out["render_s"] = round(psa_s, 2), round(render_s, 2)
     images = {"targets": targets, "captured": list(captured), "projector_images": projector_images}
     if output is not None:
@@ -124,7 +126,7 @@ def run(args) -> dict:
     models = surface_models(cs, on_progress=headless.print_progress if args.verbose else None,
                             iterations=args.iterations)
     train_s = time.perf_counter() - t
-    settings = PSASettings(seed=args.seed, max_iterations=args.psa_iterations)
+    settings = PSASettings(seed=args.seed, max_iterations=args.psa_iterations, adaptation=args.adaptation)
     result, images = evaluate_prompt(cs, models, rig_objects, setup_dir, args.prompt, args.backend, args.seed,
                                      settings, output=output)
     sheet = comparison_sheet(cs.cam_white, images, f"'{args.prompt}' ({', '.join(n for n, _ in result['lgst'].get('styles', []))})")

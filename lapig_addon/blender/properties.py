@@ -176,9 +176,12 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                                                    "style image's (0: the image only)")
     use_psa: BoolProperty(name="Surface adaptation (PSA)", default=True,
                           description="Adapt the look to what this surface and projector can show")
-    psa_strength: FloatProperty(name="Strength", default=0.5, subtype="FACTOR", **LIMITS["psa_strength"].bounds(),
-                                description="How far PSA pushes the projection loss down (0.5: to half its "
-                                            "first value)")
+    psa_adaptation: FloatProperty(name="Adaptation", default=0.5, subtype="FACTOR",
+                                  **LIMITS["psa_adaptation"].bounds(),
+                                  description="0: keep my look (its brightness and colour too); 1: whatever this "
+                                              "surface can show (darker on dark parts, tinted on coloured ones). "
+                                              "From 0.5 on, only the style's strokes, edges and colour relations "
+                                              "are kept")
     style_seed: IntProperty(name="Seed", default=0, **LIMITS["style_seed"].bounds())
     dark_outside: BoolProperty(name="Dark outside the object", default=True,
                                description="Black projector pixels where the frame misses the object (the "
@@ -190,6 +193,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     result_dir: StringProperty(name="Result folder", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     result_fingerprint: StringProperty(name="Rig fingerprint of the result")
     result_summary: StringProperty(name="Result")
+    result_reach_message: StringProperty(name="What the surface can show",
+                                         description="Said when most of the look is out of the surface's reach")
     preview_mode: EnumProperty(name="Show", items=PREVIEW_MODES, default="ORIGINAL", update=_preview_mode_changed,
                                description="What the object shows in the viewport")
     # export

@@ -106,7 +106,7 @@ def capture_settings(scene, **overrides) -> CaptureSettings:
 def generate_request(scene, **overrides) -> GenerateRequest:
     s = scene.lapig
     request = GenerateRequest(prompt=s.prompt, backend=s.backend, mix=s.style_override, psa=s.use_psa,
-                              strength=s.psa_strength, seed=s.style_seed, ip2p_model=preferences.ip2p_model(),
+                              adaptation=s.psa_adaptation, seed=s.style_seed, ip2p_model=preferences.ip2p_model(),
                               dark_outside=s.dark_outside, output_size=s.output_size,
                               style_images=(bpy.path.abspath(s.style_image),) if s.style_image.strip() else (),
                               style_prompt_weight=s.style_prompt_weight)
@@ -157,9 +157,11 @@ def record_models(scene, fingerprint: str, status: str | None = None):
         s.models_status = status
 
 
-def record_result(scene, folder, summary_line: str):
+def record_result(scene, folder, summary_line: str, reach_message: str = ""):
+    """reach_message: the plain sentence when most of the look is out of the surface's reach."""
     s = scene.lapig
     s.result_dir, s.result_summary = storage.stored_path(folder), summary_line
+    s.result_reach_message = reach_message
     s.result_fingerprint = read_rig(scene).fingerprint
 
 
@@ -178,7 +180,7 @@ def write_stylize_settings(scene, request: GenerateRequest):
     """Set the Stylize panel to a request (a scene built for it, such as the demo's, then shows it)."""
     s = scene.lapig
     s.prompt, s.backend, s.style_override = request.prompt, request.backend, request.mix
-    s.use_psa, s.psa_strength, s.style_seed = request.psa, request.strength, request.seed
+    s.use_psa, s.psa_adaptation, s.style_seed = request.psa, request.adaptation, request.seed
     s.dark_outside, s.output_size = request.dark_outside, request.output_size
     s.style_image = request.style_images[0] if request.style_images else ""  # the panel holds one
     s.style_prompt_weight = request.style_prompt_weight

@@ -179,7 +179,7 @@ def cmd_stylize(args) -> int:
         raise ValueError("stylize needs --prompt (or --style-image)")
     scene = _open_scene(args)
     request = scene_state.generate_request(scene, prompt=prompt, backend=args.backend, mix=args.mix,
-                                           psa=args.psa, strength=args.strength, seed=args.seed,
+                                           psa=args.psa, adaptation=args.adaptation, seed=args.seed,
                                            ip2p_model=args.ip2p_model, style_images=style_images,
                                            style_prompt_weight=args.style_prompt_weight)
     job = GenerateJob(scene, request, _iterations(args, scene))

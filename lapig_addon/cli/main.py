@@ -63,7 +63,9 @@ def _parser():
                   "share of the prompt's own look mixed into the style images' (default: the scene's)", type=float)
     ranged_option(st, "--seed", "style_seed", "style seed (default: the scene's)")
     st.add_argument("--no-psa", dest="psa", action="store_false", default=None, help="skip the surface adaptation")
-    ranged_option(st, "--strength", "psa_strength", "PSA strength (default: the scene's)", type=float)
+    ranged_option(st, "--adaptation", "psa_adaptation",
+                  "PSA adaptation, 0 keep my look .. 1 whatever this surface can show (default: the scene's)",
+                  type=float)
     st.add_argument("--ip2p-model", help="InstructPix2Pix weights folder (default: the add-on preferences')")
     iterations_arg(st, "the scene's")
     st.add_argument("--render", action="store_true", help="also render the real capture with Cycles")

@@ -64,6 +64,7 @@ def metadata(scene, folder: str, summary: dict) -> dict:
     return {"prompt": summary.get("prompt"), "backend": summary.get("backend"), "seed": summary.get("seed"),
             "styles": summary.get("lgst", {}).get("styles"), "psa": summary.get("psa"),
             "psa_settings": summary.get("psa_settings"), "metrics": summary.get("metrics"),
+            "surface_reach": summary.get("surface_reach"),
             **scene_state.rig_metadata(scene),
             # 8 for results stored before results were 16-bit: a 16-bit file then holds 8 bits of data
             "result_bit_depth": stored_bit_depth(folder, output_name(folder, "projector")),

@@ -37,7 +37,7 @@ LIMITS = {  # keyed by the scene property's name (blender/properties.py) where t
     "samples": Limit("Samples", 1, 64),
     "seed": Limit("Pattern seed", 0),
     "finetune_iterations": Limit("Fine-tuning iterations", 0, 100000),  # 0: the standard recipe
-    "psa_strength": Limit("PSA strength", 0.05, 0.95),
+    "psa_adaptation": Limit("Adaptation", 0.0, 1.0),  # 0: keep my look, 1: whatever the surface can show
     "style_seed": Limit("Style seed", 0),
     "style_prompt_weight": Limit("Prompt share of the style image's look", 0.0, 1.0),
     "crossfade_frames": Limit("Crossfade frames", 2, 10000),

@@ -101,7 +101,7 @@ def style_name(specs) -> str:
 
 
 def psa_settings_from(request: GenerateRequest) -> PSASettings:
-    return PSASettings(stop_ratio=1.0 - request.strength, seed=request.seed)
+    return PSASettings(adaptation=request.adaptation, seed=request.seed)
 
 
 class GenerateJob(WorkerJob):
@@ -182,7 +182,8 @@ class GenerateJob(WorkerJob):
         compensator = output["summary"].get("compensator") or {}
         scene_state.record_models(self.scene, output["summary"].get("fingerprint") or "",  # trained on the way
                                   f"Fine-tuned; {compensator['line']}" if compensator.get("line") else None)
-        scene_state.record_result(self.scene, output["folder"], output["summary_line"])
+        reach = output["summary"].get("surface_reach") or {}
+        scene_state.record_result(self.scene, output["folder"], output["summary_line"], reach.get("message", ""))
         result_preview.show_result_on_projector(self.scene)  # the stored image, as Export will write it
         mode = scene_state.read(self.scene).preview_mode
         if mode != "ORIGINAL":
@@ -205,6 +206,20 @@ def _native_summary(native) -> dict:
     return {"frame": [w, h], "seconds": round(native.seconds, 2), "tile": native.tile}
 
 
+def reach_line(truth: dict | None) -> str:
+    """'; surface shows 34% -> 88% of the look' for the panel's one result line ('' without figures)."""
+    if not truth:
+        return ""
+    before, after = truth["before_psa"], truth.get("after_psa")
+    shown = f"{before['reachability']:.0%}" + (f" -> {after['reachability']:.0%}" if after else "")
+    return f"; surface shows {shown} of the look"
+
+
+def _tone_field_summary(res) -> dict | None:
+    field = getattr(getattr(res, "backend", None), "field", None)
+    return field.summary() if field is not None and res.with_psa is not None else None
+
+
 def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     """Write the result folder (worker-thread safe: files only) and return a short summary.
 
@@ -223,6 +238,9 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
                "style_mix_override": job.get("mix"), "lgst": res.describe, "psa": job["psa"],
                "psa_settings": res.settings.to_dict(), "dark_outside": res.dark_outside,
                "native_output": _native_summary(native), "capture": job["capture"],
+               # what the surface can show of the look, before and after PSA, and the artist's message
+               "surface_reach": res.truth,
+               "tone_field": _tone_field_summary(res),
                "fingerprint": cs.meta.get("fingerprint"),
                "compensator": models.choice.to_dict() if getattr(models, "choice", None) else None,
                "metrics": {"simulated_psnr": metrics.psnr(images["simulated"], images["target"]),
@@ -232,11 +250,14 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
                            "problem_area_fraction": float((problem > 1e-3).mean()),
                            **({"style_retention_" + k: v for k, v in res.style_retention().items()})},
                "created": datetime.datetime.now().isoformat(timespec="seconds")}
+    if res.truth and res.truth.get("message"):
+        summary["notes"] = list(summary["notes"]) + [res.truth["message"]]
     folder = str(write_new_result(job["results"], job["name"], images, summary))
     styles = ", ".join(f"{n} {w:.2f}" for n, w in res.describe.get("styles", [])[:3])
     # what the prompt was read as (medium; colours; mood | a word that matched nothing), then the figure
     understood, _, missed = (res.describe.get("understood_line") or styles or job["backend"]).partition(" | ")
     line = f"{understood}; simulated {summary['metrics']['simulated_psnr']:.1f} dB"
+    line += reach_line(res.truth)
     if summary["compensator"]:
         line += f"; compensated by {summary['compensator']['chosen']}"
     if missed:  # last: the panel shows what follows " | " on a line of its own

@@ -71,7 +71,7 @@ class GenerateRequest:
     backend: str
     mix: str  # an explicit style mix instead of the prompt's; '' for the prompt's own
     psa: bool
-    strength: float  # how far PSA pushes the projection loss down, within LIMITS["psa_strength"]
+    adaptation: float  # PSA: 0 keeps the look (brightness too), 1 takes whatever the surface can show
     seed: int
     ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
     dark_outside: bool = True  # black projector pixels where the frame misses the object
@@ -88,7 +88,7 @@ class GenerateRequest:
         redraw): a style image is only checked to be a file here; Generate reads it before any model."""
         if not self.prompt.strip() and not self.mix.strip() and not self.style_images:
             return "Type a prompt"
-        problem = first_problem({"psa_strength": self.strength, "style_seed": self.seed,
+        problem = first_problem({"psa_adaptation": self.adaptation, "style_seed": self.seed,
                                  "style_prompt_weight": self.style_prompt_weight})
         if problem:
             return problem

@@ -136,3 +136,60 @@ def sharpness(img, mask=None, sigma: float = 0.0) -> float:
     if mask is not None:
         lap = lap[np.asarray(mask, bool)]
     return float(lap.var()) if lap.size else math.nan
+
+
+# Style retention that separates style from what a surface forbids (issue 13). SSIM's luminance and
+# contrast terms pay for any darkening; a dark surface *needs* a darker look. So the look is compared
+# after dividing it by its own local mean brightness (a Weber image: darkening by a factor leaves it
+# as it was), and only SSIM's contrast-structure term is kept, on luminance (strokes, edges, relative
+# lightness) and on two opponent colour channels (hue relations). A uniform tint or a lower
+# saturation moves the opponent channels' means, not their local pattern, so they are nearly free;
+# scrambling, blurring away or flattening the pattern is not.
+STRUCTURE_WEIGHTS = (0.6, 0.2, 0.2)  # luminance, red-green, yellow-blue
+STRUCTURE_EPS = 4.0 / 255  # brightness floor of the Weber division: below it is sensor noise
+STRUCTURE_C = 0.03 ** 2 / 4  # stabiliser of the relative (Weber) statistics, as SSIM's C2 / 4
+
+
+def opponent_channels(x: torch.Tensor) -> torch.Tensor:
+    """NCHW RGB -> N3HW luminance, red-green, yellow-blue (linear, so gradients pass)."""
+    r, g, b = x[:, 0:1], x[:, 1:2], x[:, 2:3]
+    return torch.cat([0.299 * r + 0.587 * g + 0.114 * b, r - g, 0.5 * (r + g) - b], 1)
+
+
+def structure_retention_map(x: torch.Tensor, y: torch.Tensor, win_size: int = SSIM_WIN_SIZE,
+                            sigma: float = SSIM_SIGMA) -> torch.Tensor:
+    """Differentiable per-window contrast-structure similarity of two NCHW RGB images' Weber
+    images, (N,3,h,w) for the three opponent channels (valid region)."""
+    n, c, h, w = x.shape
+    if c != 3:
+        raise ValueError(f"structure retention needs RGB images, got {c} channels")
+    if min(h, w) < win_size:
+        raise ValueError(f"structure retention needs images at least {win_size}px, got {h}x{w}")
+    g = gaussian_window(win_size, sigma, x.dtype, x.device)
+    gh, gv = g.view(1, 1, 1, -1).repeat(3, 1, 1, 1), g.view(1, 1, -1, 1).repeat(3, 1, 1, 1)
+
+    def blur(z):
+        return F.conv2d(F.conv2d(z, gh, groups=3), gv, groups=3)
+
+    ox, oy = opponent_channels(x), opponent_channels(y)
+    mx, my = blur(ox), blur(oy)
+    # local brightness of each image (its luminance mean), the divisor of all three channels
+    bx, by = mx[:, :1].clamp_min(0) + STRUCTURE_EPS, my[:, :1].clamp_min(0) + STRUCTURE_EPS
+    vx = (blur(ox * ox) - mx * mx).clamp_min(0) / (bx * bx)
+    vy = (blur(oy * oy) - my * my).clamp_min(0) / (by * by)
+    cxy = (blur(ox * oy) - mx * my) / (bx * by)
+    return (2 * cxy + STRUCTURE_C) / (vx + vy + STRUCTURE_C)
+
+
+def structure_retention_torch(x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+    """Differentiable scalar in [-1, 1] (1: the same strokes, edges and colour relations at any
+    brightness): the weighted mean of structure_retention_map."""
+    m = structure_retention_map(x, y).mean(dim=(0, 2, 3))
+    w = torch.tensor(STRUCTURE_WEIGHTS, dtype=m.dtype, device=m.device)
+    return (m * w).sum()
+
+
+def structure_retention(pred, target) -> float:
+    """structure_retention_torch of numpy (channel-last) or torch images, as a float."""
+    p, t = _pair(pred, target)
+    return float(structure_retention_torch(p, t))

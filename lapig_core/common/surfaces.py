@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-SURFACE_NAMES = ("stripe", "wood", "clouds", "sakura", "spray", "bench")
+# the last three are the hard surfaces of issue 13: a mostly black one with small bright features, a
+# saturated red one and a high-contrast black-and-white one
+SURFACE_NAMES = ("stripe", "wood", "clouds", "sakura", "spray", "bench", "black_dots", "red", "black_white")
 
 
 def _smooth_noise(rng, size, scale):
@@ -59,6 +61,24 @@ def make_surface(name: str, size: int = 512, seed: int = 0) -> np.ndarray:
             d = np.hypot(x - cx, y - cy)
             blob = np.exp(-(d / r) ** 2)[..., None]
             img = img * (1 - 0.9 * blob) + 0.9 * blob * colour
+    elif name == "black_dots":  # near black, with a few small pale spots and thin bright scratches
+        img = np.ones((size, size, 3), np.float32) * 0.03
+        for _ in range(18):
+            cx, cy, r = rng.random(), rng.random(), 0.01 + 0.03 * rng.random()
+            spot = np.clip(1 - np.hypot(x - cx, y - cy) / r, 0, 1)[..., None] ** 0.4
+            img = img * (1 - spot) + spot * (0.6 + 0.35 * rng.random(3))
+        for _ in range(4):
+            a, c = rng.random() * np.pi, rng.random()
+            line = np.exp(-((np.cos(a) * (x - c) + np.sin(a) * (y - c)) / 0.004) ** 2)[..., None]
+            img = np.maximum(img, 0.7 * line)
+    elif name == "red":  # saturated red paint with darker brush marks
+        n = _fractal(rng, size)
+        img = np.stack([0.75 + 0.2 * n, 0.04 + 0.05 * n, 0.05 + 0.04 * n], -1)
+    elif name == "black_white":  # hard black-and-white blocks and a bold diagonal band
+        cells = (np.floor(x * 5) + np.floor(y * 4)) % 2
+        band = (np.abs(x - y) < 0.12).astype(np.float32)
+        v = np.abs(cells - band)
+        img = np.repeat((0.03 + 0.92 * v)[..., None], 3, -1)
     else:  # bench: slats with grain and dark gaps
         n = _fractal(rng, size)
         slat = ((y * 7) % 1.0 > 0.12).astype(np.float32)

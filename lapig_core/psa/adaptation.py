@@ -6,14 +6,27 @@
     L   = w_pc L_pc + w_cs L_cs + w_ps L_ps + w_style L_style
 
 L_style keeps the look the prompt asked for: the three PSA losses alone are minimised by a bland
-target (NOTES section 1), so PSA pays for every step away from the un-adapted stylization I0
-(1 - SSIM(I, I0) plus the backend's own parameter distance when it has one).
+target (NOTES section 1), so PSA pays for every step away from the un-adapted stylization I0. What it
+pays for is set by `adaptation` (the artist's "Adaptation", 0 = keep my look, 1 = whatever this
+surface can show):
 
-Adam on theta with the paper's schedule (lr / 5 every 50 iterations); stops when the total loss
+    L_style = w(a) [ max(0, 1 - 2a) (1 - SSIM(I, I0)) + min(1, 2a) (1 - R(I, I0)) + theta distance ]
+
+R is the structure retention (common/metrics.structure_retention_torch): strokes, edges and colour
+relations at any brightness, so from a = 0.5 on a darker or tinted look is not paid as lost style,
+only a look whose pattern is gone. w(a) falls from 1.75 to 0.25 (never 0: the bland-target trap).
+
+Every backend's look passes through a ToneField (psa/tone_field.py, a smooth per-channel gain and
+offset field guided by the surface's range), optimised together with theta: the fast path for the
+large tonal moves a dark or saturated surface needs.
+
+Adam on theta and the field (its normalised steps are the paper's Algorithm 1's; the field has its own
+step, `field_lr`) with the paper's schedule (lr / 5 every 50 iterations); stops when the total loss
 falls to `stop_ratio` x the first PSA loss (L_pc + L_cs + L_ps, weighted), or at `max_iterations`,
-and returns the iterate with the lowest total loss. The style term is weighted relative to the
-first PSA loss, so the same weight means the same trade-off on every surface and prompt. `mode="resample"` re-does the public code's procedure instead:
-re-sample the backend with new seeds until the loss halves, at most `max_iterations` samples.
+and returns the iterate with the lowest total loss. The style term is weighted relative to the first
+PSA loss, so the same weight means the same trade-off on every surface and prompt. `mode="resample"`
+re-does the public code's procedure instead: re-sample the backend with new seeds until the loss
+halves, at most `max_iterations` samples (no field, no gradient: the baseline).
 """
 from __future__ import annotations
 
@@ -22,7 +35,9 @@ from dataclasses import asdict, dataclass, field
 
 import torch
 
+from ..common.metrics import structure_retention_torch
 from ..photometric import losses
+from .tone_field import AdaptedLook
 
 LOSS_TERMS = ("pc", "cs", "ps")
 ABLATIONS = {  # name -> active PSA terms (the paper's Table 2)
@@ -35,18 +50,38 @@ class PSASettings:
     mode: str = "gradient"  # "gradient" or "resample"
     terms: tuple = LOSS_TERMS
     weights: dict = field(default_factory=lambda: {"pc": 1.0, "cs": 1.0, "ps": 1.0})
-    style_weight: float = 1.0  # L_style = (1 - SSIM(I, I0)) + theta distance, relative to the first PSA loss
+    style_weight: float = 2.0  # scales w(adaptation) (module docstring), relative to the first PSA loss
+    adaptation: float = 0.5  # 0: keep my look (brightness too), 1: whatever this surface can show
     lr: float = 0.01
+    field_lr: float = 0.1  # Adam step of the tone field's parameters
+    tone_field: bool = True  # gradient mode: the look passes through a ToneField that PSA optimises
     lr_step: int = 50
     lr_gamma: float = 0.2
-    stop_ratio: float = 0.5
+    stop_ratio: float | None = None  # None: from adaptation (stop_ratio_for)
     max_iterations: int = 25
     seed: int = 0
+
+    def __post_init__(self):
+        if not 0.0 <= self.adaptation <= 1.0:
+            raise ValueError(f"adaptation must be between 0 and 1, got {self.adaptation}")
+        if self.stop_ratio is None:
+            self.stop_ratio = stop_ratio_for(self.adaptation)
+
+    def style_mix(self) -> tuple[float, float, float]:
+        """(weight of 1 - SSIM, weight of 1 - structure retention, w(a)) for this adaptation."""
+        a = self.adaptation
+        return max(0.0, 1.0 - 2.0 * a), min(1.0, 2.0 * a), self.style_weight * (0.25 + 1.5 * (1.0 - a))
 
     def to_dict(self) -> dict:
         d = asdict(self)
         d["terms"] = list(self.terms)
         return d
+
+
+def stop_ratio_for(adaptation: float) -> float:
+    """How far the total loss must fall before PSA stops: 0.7 x the first PSA loss when the look is
+    kept, 0.1 x when the surface decides (0.4 at the default 0.5)."""
+    return round(0.7 - 0.6 * adaptation, 4)
 
 
 @dataclass
@@ -60,7 +95,8 @@ class PSAResult:
     history: list
     best_iteration: int
     stopped: str  # "threshold", "max_iterations", "cancelled"
-    state: dict = None  # the backend's best theta
+    state: dict = None  # the backend's best theta (and the tone field's, under "tone_field")
+    look: object = None  # what renders `state` (the AdaptedLook in gradient mode, else the backend)
 
 
 @dataclass
@@ -109,10 +145,30 @@ def _psa_loss(parts, settings) -> torch.Tensor:
     return sum(settings.weights.get(t, 1.0) * parts[t] for t in settings.terms)
 
 
-def _style_loss(target, anchor, backend) -> torch.Tensor:
-    value = losses.ssim_loss(target, anchor)
+def _style_loss(target, anchor, backend, settings) -> torch.Tensor:
+    """L_style / w(a): what PSA pays for moving away from the un-adapted look (module docstring)."""
+    w_ssim, w_structure, _ = settings.style_mix()
+    value = torch.zeros((), dtype=target.dtype)
+    if w_ssim > 0:
+        value = value + w_ssim * losses.ssim_loss(target, anchor)
+    if w_structure > 0:
+        value = value + w_structure * (1.0 - structure_retention_torch(target, anchor))
     distance = getattr(backend, "theta_distance", None)
     return value + (distance() if distance is not None else 0.0)
+
+
+def adapted_look(backend, models: SurfaceModels) -> AdaptedLook:
+    """The backend with a ToneField for this surface after it (identity until PSA moves it)."""
+    return backend if isinstance(backend, AdaptedLook) else AdaptedLook(backend, models.i_min, models.i_max)
+
+
+def _optimiser(look, settings):
+    if isinstance(look, AdaptedLook):
+        groups = [{"params": look.backend_parameters(), "lr": settings.lr},
+                  {"params": look.field_parameters(), "lr": settings.field_lr}]
+    else:
+        groups = [{"params": look.parameters(), "lr": settings.lr}]
+    return torch.optim.Adam(groups)
 
 
 def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None, on_progress=None,
@@ -128,8 +184,9 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
         raise ValueError(f"unknown PSA mode '{settings.mode}': use 'gradient' or 'resample'")
     torch.manual_seed(settings.seed)
     t0 = time.perf_counter()
-    theta = backend.parameters()
-    opt = torch.optim.Adam(theta, lr=settings.lr)
+    backend = adapted_look(backend, models) if settings.tone_field else backend
+    _, _, style_weight = settings.style_mix()
+    opt = _optimiser(backend, settings)
     sched = torch.optim.lr_scheduler.StepLR(opt, settings.lr_step, settings.lr_gamma)
     with torch.no_grad():
         anchor = backend.forward().detach()
@@ -143,9 +200,9 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
         psa = _psa_loss(parts, settings)
         psa_value = float(psa.detach())
         first = psa_value if first is None else first
-        style = _style_loss(target, anchor, backend)
+        style = _style_loss(target, anchor, backend, settings)
         # the style term is scaled by the first PSA loss, so one weight fits every prompt and surface
-        total = psa + settings.style_weight * max(first, 1e-8) * style
+        total = psa + style_weight * max(first, 1e-8) * style
         if not torch.isfinite(total):
             stopped = "non-finite loss"
             break
@@ -170,7 +227,8 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
     entry, state, target, comp, sim = best
     backend.load_state(state)
     return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,
-                     history=history, best_iteration=entry["iteration"], stopped=stopped, state=state)
+                     history=history, best_iteration=entry["iteration"], stopped=stopped, state=state,
+                     look=backend)
 
 
 def _run_resample(backend, models, settings, on_progress, cancel_event) -> PSAResult:
@@ -205,7 +263,7 @@ def _run_resample(backend, models, settings, on_progress, cancel_event) -> PSARe
     if k_best != len(history) - 1:
         backend.prepare(surface, prompt, seed=settings.seed + k_best)
     return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,
-                     history=history, best_iteration=k_best, stopped=stopped, state=state)
+                     history=history, best_iteration=k_best, stopped=stopped, state=state, look=backend)
 
 
 def without_psa(backend, models: SurfaceModels) -> PSAResult:
@@ -217,4 +275,4 @@ def without_psa(backend, models: SurfaceModels) -> PSAResult:
     entry = {"iteration": 0, "psa_loss": float(sum(parts[t] for t in LOSS_TERMS)),
              **{t: float(parts[t]) for t in LOSS_TERMS}}
     return PSAResult(target, parts["comp"], parts["sim"], target, 0, time.perf_counter() - t0, [entry], 0,
-                     "not run", backend.state())
+                     "not run", backend.state(), look=backend)

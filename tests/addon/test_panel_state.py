@@ -86,7 +86,7 @@ def test_models_wait_for_torch_then_for_the_capture(state, panel_state, captured
 
 def _request(state, **kw):
     return state.GenerateRequest(**{"prompt": "Make it a stained glass artwork", "backend": "styletransfer",
-                                    "mix": "", "psa": True, "strength": 0.5, "seed": 0, **kw})
+                                    "mix": "", "psa": True, "adaptation": 0.5, "seed": 0, **kw})
 
 
 def test_generate_waits_for_the_capture_then_for_a_prompt(state, panel_state, captured, with_torch):

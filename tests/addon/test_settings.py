@@ -26,25 +26,25 @@ def test_overrides_replace_what_is_given_and_keep_the_scene_for_the_rest(state, 
 
 def _request(state, **kw):
     return state.GenerateRequest(**{"prompt": "Make it a stained glass artwork", "backend": "styletransfer",
-                                    "mix": "", "psa": True, "strength": 0.5, "seed": 0, **kw})
+                                    "mix": "", "psa": True, "adaptation": 0.5, "seed": 0, **kw})
 
 
 def test_generate_request_from_the_scene_and_the_command_line(state):
     scene = _request(state, backend="instruct-pix2pix", psa=False, seed=3)
-    cli = state.overridden(scene, prompt="Render it as charcoal", backend=None, mix=None, psa=None, strength=0.3,
+    cli = state.overridden(scene, prompt="Render it as charcoal", backend=None, mix=None, psa=None, adaptation=0.3,
                            seed=None, ip2p_model=None)
     assert cli == _request(state, prompt="Render it as charcoal", backend="instruct-pix2pix", psa=False,
-                           strength=0.3, seed=3)
+                           adaptation=0.3, seed=3)
 
 
 @pytest.mark.parametrize("change, problem", [
     ({}, ""),
     ({"prompt": "   "}, "Type a prompt"),
     ({"prompt": "", "mix": "charcoal_wash:1"}, ""),
-    ({"strength": 0.05}, ""),  # the panel's own range, both ends included (services/limits.py)
-    ({"strength": 0.95}, ""),
-    ({"strength": 0.01}, "PSA strength must be between 0.05 and 0.95, got 0.01"),
-    ({"strength": 1.0}, "PSA strength must be between 0.05 and 0.95"),
+    ({"adaptation": 0.0}, ""),  # the panel's own range, both ends included (services/limits.py)
+    ({"adaptation": 1.0}, ""),
+    ({"adaptation": -0.1}, "Adaptation must be between 0.0 and 1.0, got -0.1"),
+    ({"adaptation": 1.5}, "Adaptation must be between 0.0 and 1.0"),
     ({"seed": -1}, "Style seed must be at least 0, got -1"),
 ])
 def test_generate_request_problems(state, change, problem):

@@ -183,7 +183,7 @@ def test_a_damaged_fine_tuned_checkpoint_is_retrained_and_said(capfd, project, n
     (["capture", "--out", "{dir}/data", "--size", "100000"], "--size: Working size must be between 32 and 1024"),
     (["capture", "--out", "{dir}/data", "--train", "0"], "--train: Training images must be between 1 and 2000"),
     (["stylize", *MIX, "--seed", "-5"], "--seed: Style seed must be at least 0, got -5"),
-    (["stylize", *MIX, "--strength", "0.01"], "--strength: PSA strength must be between 0.05 and 0.95, got 0.01"),
+    (["stylize", *MIX, "--adaptation", "1.5"], "--adaptation: Adaptation must be between 0.0 and 1.0, got 1.5"),
     (["stylize", "--prompt", "stained glass", "--backend", "nope"], "unknown LGST backend 'nope'"),
     (["export", "--out", "{dir}/p.png", "--crossfade", "{dir}/fade", "--frames", "0"],
      "--frames: Crossfade frames must be between 2 and 10000, got 0"),

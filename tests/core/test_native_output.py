@@ -88,7 +88,8 @@ def test_native_output_renders_theta_and_compensates_it_at_the_output_size(wide_
     # strokes (the style net turns the references' sensor noise into slightly different fine texture)
     pool = lambda t: torch.nn.functional.avg_pool2d(t, 8)  # noqa: E731
     assert float((pool(out.target) - pool(res.with_psa.target)).abs().mean()) < 0.02
-    assert out.projector_image[0][:, ~out.valid].abs().max() == 0 and out.projector_image.mean() > 0.02
+    # light on the object (one PSA step may already darken the look through the tone field)
+    assert out.projector_image[0][:, ~out.valid].abs().max() == 0 and out.projector_image.mean() > 0.01
     assert out.tile == 64  # one tile
     in_tiles = native_output(setup_dir, models, res.backend, state, 64, 36, tile=16)
     assert float((in_tiles.projector_image - out.projector_image).abs().max()) < 1e-4

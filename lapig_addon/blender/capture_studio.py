@@ -287,7 +287,7 @@ class CaptureStudio:
         difference is the bounce light alone (the direct light and its anti-aliasing cancel), which
         lapig_core.optics.transport.indirect_from_passes smooths and scales up to the capture."""
         t = self.transport
-        scene, r, c = self.scene, self.scene.render, self.scene.cycles
+        r, c = self.scene.render, self.scene.cycles
         saved = (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
                  c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
                  self.camera.data.dof.use_dof)

@@ -11,9 +11,8 @@ def _matrix(obj):
     return np.round(np.array(obj.matrix_world), 5).tolist()
 
 
-def rig_fingerprint(projector, camera, target) -> str:
-    from .scene_state import light_transport  # scene_state imports this module
-
+def rig_fingerprint(projector, camera, target, transport: dict) -> str:
+    """transport: the rig's LightTransport.state() (scene_state.rig_fingerprint reads it)."""
     p, c = projector.lapig_projector, camera.lapig_camera
     state = {
         "projector": [_matrix(projector), p.resolution_x, p.resolution_y, round(p.throw_ratio, 5),
@@ -22,6 +21,6 @@ def rig_fingerprint(projector, camera, target) -> str:
         "camera": [_matrix(camera), c.resolution_x, c.resolution_y, round(camera.data.lens, 4),
                    round(camera.data.sensor_width, 4), round(c.response_gamma, 4)],
         "target": [_matrix(target), len(target.data.vertices), target.name],
-        "transport": light_transport(projector, camera).state(),
+        "transport": transport,
     }
     return hashlib.sha1(json.dumps(state, sort_keys=True).encode()).hexdigest()[:16]

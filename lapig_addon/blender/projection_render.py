@@ -16,9 +16,8 @@ from ...lapig_core.capture.registration import Registration
 from ...lapig_core.optics.projector_model import quantised_frame
 from ..services.capture_job import CaptureError, check_rig
 from .cycles_device import CyclesCaptureDevice
-from .fingerprint import rig_fingerprint
 from .preview import real_surface
-from .scene_state import projector_model
+from .scene_state import projector_model, rig_fingerprint
 
 
 def render_working_images(scene, projector, camera, target, setup_dir, images, samples=None, seed=0,

@@ -15,7 +15,7 @@ from ...lapig_core.optics.transport import LightTransport
 from ..services.state import (CameraSettings, ExportSettings, GenerateRequest, Rig, SceneState,
                               overridden)
 from . import preferences, storage
-from .fingerprint import rig_fingerprint
+from . import fingerprint
 
 
 def projector_model(obj) -> ProjectorModel:
@@ -33,6 +33,11 @@ def light_transport(projector, camera) -> LightTransport:
     return LightTransport(mode=p.transport_mode, bounces=p.bounces, indirect_samples=p.indirect_samples,
                           indirect_downscale=p.indirect_downscale, projector_focus_m=p.focus_distance,
                           projector_lens_radius_mm=p.lens_radius_mm, **lens)
+
+
+def rig_fingerprint(projector, camera, target) -> str:
+    """The short hash of everything the rig's captures depend on, its light transport included."""
+    return fingerprint.rig_fingerprint(projector, camera, target, light_transport(projector, camera).state())
 
 
 def write_light_transport(projector, camera, transport: LightTransport):

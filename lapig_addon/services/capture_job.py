@@ -10,9 +10,8 @@ from ...lapig_core.capture.sequence import run_capture
 from ...lapig_core.capture.settings import CaptureError, CaptureSettings  # noqa: F401 (re-exported)
 from ..blender import preview
 from ..blender.cycles_device import CyclesCaptureDevice
-from ..blender.fingerprint import rig_fingerprint
 from .jobs import Job
-from ..blender.scene_state import read_rig
+from ..blender.scene_state import read_rig, rig_fingerprint
 from .limits import first_problem
 from .panel_state import rig_blocker
 

@@ -116,7 +116,7 @@ class ArbitraryStyleBackend(ThetaBackend):
     def _prompt_vector(self, surface, prompt, seed, mix, notes) -> tuple[torch.Tensor | None, list]:
         """The style vector of the catalogue look the offline backend picks for the prompt (or the
         explicit mix), rendered on this surface; None with a note when that cannot be made here."""
-        from . import get_backend
+        from .base import get_backend
 
         try:
             look_backend = get_backend("styletransfer", internal_size=256, blend=0.0)

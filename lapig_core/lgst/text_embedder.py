@@ -68,5 +68,5 @@ def embed_texts(texts: list[str], embedder: Embedder | None = None) -> torch.Ten
         vectors = _e5_model().query([f"{t}" for t in texts])
         out = torch.from_numpy(vectors.copy()).float()
         return torch.nn.functional.normalize(out.reshape(len(texts), -1), dim=1)
-    from .prompt_mapping import embed
+    from .minilm import embed
     return embed(list(texts))

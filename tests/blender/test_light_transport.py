@@ -91,7 +91,6 @@ def test_projector_defocus_blurs_off_the_focal_plane_and_keeps_it_sharp(lapig_re
     target.rotation_euler.z = math.radians(55)
     bpy.context.view_layer.update()
     rig.focus_on_object(projector, camera, target)
-    x = np.arange(160)
     stripes = np.repeat(((np.arange(120) // 2) % 2 * 255).astype(np.uint8)[:, None], 160, 1)[..., None].repeat(3, -1)
     sharp, blurred = (_linear(setup, t, [stripes])[0].mean(-1)
                       for t in (FAST, _realistic(bounces=0, projector_lens_radius_mm=60.0)))

@@ -213,7 +213,7 @@ def style_sheet(refs, out_dir) -> str:
                     u8 = lambda a: (np.clip(a, 0, 1) * 255 + 0.5).astype(np.uint8)
                     ref = np.asarray(engine.stylize_with(u8(surface), u8(img)), np.float32) / 255
                     tiles.append(ref)
-                    labels.append(f"package int8, 384 px")
+                    labels.append("package int8, 384 px")
                 else:
                     tiles.append(np.zeros_like(surface))
                     labels.append("onnxruntime not installed")

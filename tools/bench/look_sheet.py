@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import sys
 
-import numpy as np
 import torch
 
 from ...lapig_core.common.imageio import write_png

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from .ops import blur, luminance, normalised_edges, px, ramp, stretched_luminance
+from .ops import blur, normalised_edges, px, ramp, stretched_luminance
 from .stage import Stage, tensor
 
 NEON = ((1.0, 0.1, 0.75), (0.1, 0.9, 1.0), (0.75, 1.0, 0.2))  # magenta, cyan, acid green

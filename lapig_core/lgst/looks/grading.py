@@ -6,7 +6,6 @@ PSA moves them like any other parameter.
 """
 from __future__ import annotations
 
-import torch
 
 from .ops import luminance, saturate
 from .stage import Stage, tensor

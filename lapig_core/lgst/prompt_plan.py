@@ -125,7 +125,9 @@ _FILLER |= {"fais", "faire", "transforme", "transformez", "une", "des", "les", "
             "del", "con", "como", "estilo", "fallo", "fai", "trasforma", "rendilo", "della", "dello", "nel",
             "nella", "faça", "transforme", "uma", "num", "numa", "estilo", "maak", "het", "een", "tot", "met",
             "stijl", "por", "para", "sur", "aux", "vom", "zum", "zur", "mais", "molto", "muy", "sehr", "très",
-            "bei", "een", "ein", "ins", "en", "le", "la", "il", "un", "im", "am", "und", "y", "et", "e"}
+            "bei", "een", "ein", "ins", "en", "le", "la", "il", "un", "im", "am", "und", "y", "et", "e",
+            "wie", "über", "unter", "auf", "aus", "es", "sous", "au", "du", "de", "sobre", "bajo", "di", "da",
+            "sotto", "sopra", "como", "op", "van", "onder", "boven"}
 
 
 _CJK_ANY = re.compile(r"[\u3040-\u30ff\u3400-\u9fff]")
@@ -228,6 +230,7 @@ def _report_unmatched(plan: PromptPlan, words: list[str], candidates, embedder) 
     words = [w for w in words if w.lower() not in known and not any(g in w.lower() for g in glossed)]
     if glossed:  # CJK text has no spaces: what is left of a glossed run is grammar, not an art word
         words = [w for w in words if not _CJK_ANY.search(w)]
+    words = list(dict.fromkeys(words))  # a word said twice is reported once
     if not words:
         return
     # a word also counts as matched inside a two-word name ("Van Gogh", "pop art")

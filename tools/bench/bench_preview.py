@@ -32,8 +32,8 @@ def _generate_to_preview(scene, prompt, iterations) -> dict:
     summary = generated["summary"]
     return {"prompt": prompt, "seconds": round(total, 2), "generate_seconds": round(generated_s, 2),
             "preview_seconds": round(total - generated_s, 2), "previewed": bool(shown),
-            "psa_seconds": summary.get("psa", {}).get("seconds"),
-            "psa_iterations": summary.get("psa", {}).get("iterations"),
+            "psa_seconds": summary["metrics"].get("psa_seconds"),
+            "psa_iterations": summary["metrics"].get("psa_iterations"),
             "native_output": summary.get("native_output")}
 
 

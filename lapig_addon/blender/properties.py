@@ -186,7 +186,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     dark_outside: BoolProperty(name="Dark outside the object", default=True,
                                description="Black projector pixels where the frame misses the object (the "
                                            "capture found no surface there), so no stray light lands behind it")
-    output_size: IntProperty(name="Output size", default=0, min=0, max=8192,
+    output_size: IntProperty(name="Output size", default=0, **LIMITS["output_size"].bounds(),
                              description="Long side of the final projector image, up to the projector's "
                                          "resolution; 0 for its native resolution. The look and its "
                                          "compensation are computed at this size after the adaptation")

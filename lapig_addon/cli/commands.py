@@ -181,7 +181,8 @@ def cmd_stylize(args) -> int:
     request = scene_state.generate_request(scene, prompt=prompt, backend=args.backend, mix=args.mix,
                                            psa=args.psa, adaptation=args.adaptation, seed=args.seed,
                                            ip2p_model=args.ip2p_model, style_images=style_images,
-                                           style_prompt_weight=args.style_prompt_weight)
+                                           style_prompt_weight=args.style_prompt_weight,
+                                           output_size=args.output_size, dark_outside=args.dark_outside)
     job = GenerateJob(scene, request, _iterations(args, scene))
     out = job.run_to_completion(on_progress=headless.print_progress)
     summary = dict(out["summary"]["metrics"])

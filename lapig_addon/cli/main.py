@@ -67,6 +67,14 @@ def _parser():
                   "PSA adaptation, 0 keep my look .. 1 whatever this surface can show (default: the scene's)",
                   type=float)
     st.add_argument("--ip2p-model", help="InstructPix2Pix weights folder (default: the add-on preferences')")
+    ranged_option(st, "--output-size", "output_size",
+                  "long side of the final projector image, 0 for the projector's native frame (default: the "
+                  "scene's)")
+    outside = st.add_mutually_exclusive_group()
+    outside.add_argument("--dark-outside", dest="dark_outside", action="store_true", default=None,
+                         help="black projector pixels where the frame misses the object (default: the scene's)")
+    outside.add_argument("--light-outside", dest="dark_outside", action="store_false",
+                         help="project the look over the whole frame, off the object too")
     iterations_arg(st, "the scene's")
     st.add_argument("--render", action="store_true", help="also render the real capture with Cycles")
 

@@ -40,6 +40,7 @@ LIMITS = {  # keyed by the scene property's name (blender/properties.py) where t
     "psa_adaptation": Limit("Adaptation", 0.0, 1.0),  # 0: keep my look, 1: whatever the surface can show
     "style_seed": Limit("Style seed", 0),
     "style_prompt_weight": Limit("Prompt share of the style image's look", 0.0, 1.0),
+    "output_size": Limit("Output size", 0, 8192),  # 0: the projector's native frame
     "crossfade_frames": Limit("Crossfade frames", 2, 10000),
     # developer commands only
     "psa_iterations": Limit("PSA iterations", 1, 1000),

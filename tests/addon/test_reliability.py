@@ -182,3 +182,18 @@ def test_export_into_an_existing_folder_is_refused_and_writes_nothing_beside_it(
     frames = crossfade_sequence(tmp_path / "fade", working, working, frames=3, width=16, height=12,
                                 on_progress=lambda p, m: progress.append(m))
     assert len(frames) == 3 and progress[-1] == "wrote crossfade frame 3/3"
+
+
+def test_stylize_takes_the_output_size_and_what_happens_outside_the_object(cli):
+    parser = cli._parser()
+    args = parser.parse_args(["stylize", "--prompt", "x", "--output-size", "640", "--light-outside"])
+    assert (args.output_size, args.dark_outside) == (640, False)
+    args = parser.parse_args(["stylize", "--prompt", "x"])
+    assert (args.output_size, args.dark_outside) == (None, None)  # the scene's values stay
+    assert parser.parse_args(["stylize", "--prompt", "x", "--dark-outside"]).dark_outside is True
+    with pytest.raises(ValueError, match="--output-size: Output size must be between 0 and 8192"):
+        cli.check_ranges(parser.parse_args(["stylize", "--prompt", "x", "--output-size", "9000"]))
+    state = _addon("services.state")
+    scene_request = state.GenerateRequest("x", "styletransfer", "", True, 0.5, 0)
+    request = state.overridden(scene_request, output_size=640, dark_outside=False)
+    assert (request.output_size, request.dark_outside) == (640, False)

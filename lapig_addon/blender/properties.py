@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
-                       StringProperty)
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, IntVectorProperty,
+                       PointerProperty, StringProperty)
 
 from ..services.limits import LIMITS
 from .compat import RELATIVE_PATH_OPTIONS
@@ -153,6 +153,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     last_capture_fingerprint: StringProperty(name="Scene fingerprint of the last capture")
     last_capture_transport: StringProperty(name="Light transport of the last capture")
+    last_capture_projector_size: IntVectorProperty(name="Projector resolution of the last capture", size=2,
+                                                   default=(0, 0))
     # models
     finetune_iterations: IntProperty(name="Iterations", default=0, **LIMITS["finetune_iterations"].bounds(),
                                      description="Fine-tuning iterations per network; 0 for the standard "

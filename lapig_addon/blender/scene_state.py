@@ -90,6 +90,8 @@ def read(scene) -> SceneState:
     s = scene.lapig
     return SceneState(rig=read_rig(scene), capture_dir=storage.resolve_capture_dir(s.last_capture_dir),
                       capture_fingerprint=s.last_capture_fingerprint, capture_transport=s.last_capture_transport,
+                      capture_projector_size=tuple(s.last_capture_projector_size)
+                      if all(s.last_capture_projector_size) else None,
                       models_fingerprint=s.models_fingerprint,
                       models_status=s.models_status, result_dir=storage.resolve_result_dir(s.result_dir),
                       result_fingerprint=s.result_fingerprint, preview_mode=s.preview_mode)
@@ -152,6 +154,9 @@ def record_capture(scene, folder, fingerprint: str, transport: str = ""):
     s = scene.lapig
     s.last_capture_dir, s.last_capture_fingerprint = storage.stored_path(folder), fingerprint
     s.last_capture_transport = transport
+    # for the stale reason when the projector's resolution changes later (tied to this rig only)
+    size = read_rig(scene).projector_size if fingerprint else None
+    s.last_capture_projector_size = size or (0, 0)
 
 
 def record_models(scene, fingerprint: str, status: str | None = None):

@@ -29,12 +29,20 @@ def rig_blocker(rig: Rig) -> str:
     return ""
 
 
+def _projector_resized(state: SceneState) -> bool:
+    return bool(state.capture_projector_size and state.rig.projector_size
+                and tuple(state.capture_projector_size) != tuple(state.rig.projector_size))
+
+
 def capture_status(state: SceneState) -> StepStatus:
     if not state.capture_dir:
         return StepStatus("MISSING", "No capture yet")
     if state.capture_fingerprint and state.rig.fingerprint and state.rig.fingerprint != state.capture_fingerprint:
         if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
             return StepStatus("STALE", f"Captured in {state.capture_transport}; the rig is now {state.rig.transport}")
+        if _projector_resized(state):
+            (w0, h0), (w1, h1) = state.capture_projector_size, state.rig.projector_size
+            return StepStatus("STALE", f"Captured for a {w0}x{h0} projector; it is now {w1}x{h1}")
         return StepStatus("STALE", "The rig or the object changed since the capture")
     return StepStatus("DONE", state.capture_dir)
 
@@ -50,6 +58,8 @@ def capture_blocker(state: SceneState) -> str:
     if status == "STALE":
         if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
             return "The light transport changed: capture again"
+        if _projector_resized(state):
+            return "The projector's resolution changed: capture again"
         return "The rig or the object moved: capture again"
     return ""
 

@@ -57,6 +57,7 @@ class SceneState:
     capture_dir: str = ""  # the last capture, found again beside a moved .blend; '' when it is gone
     capture_fingerprint: str = ""  # the rig's fingerprint when it was captured; '' for an imported capture
     capture_transport: str = ""  # the light transport's label when it was captured; '' when unknown
+    capture_projector_size: tuple[int, int] | None = None  # the projector's (width, height) then; None: unknown
     models_fingerprint: str = ""  # the capture fingerprint the models were fine-tuned for
     models_status: str = ""
     result_dir: str = ""  # the last generated result, found again like the capture

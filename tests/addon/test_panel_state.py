@@ -34,6 +34,20 @@ def test_a_changed_light_transport_makes_the_capture_stale_and_says_so(state, pa
     assert panel_state.capture_status(scene("rig-1", "Fast (direct light, pinhole lenses)")).state == "DONE"
 
 
+def test_a_changed_projector_resolution_makes_the_capture_stale_and_says_so(state, panel_state):
+    def scene(rig_fp, size):
+        rig = state.Rig(projector="Projector", camera="Camera", target="Wall", scene="Scene", fingerprint=rig_fp,
+                        projector_size=size)
+        return state.SceneState(rig=rig, capture_dir="/data/Wall", capture_fingerprint="rig-1",
+                                capture_projector_size=(800, 600))
+    stale = scene("rig-2", (1920, 1080))
+    assert panel_state.capture_status(stale).text == "Captured for a 800x600 projector; it is now 1920x1080"
+    assert panel_state.capture_blocker(stale) == "The projector's resolution changed: capture again"
+    assert panel_state.capture_status(scene("rig-2", (800, 600))).text == \
+        "The rig or the object changed since the capture"  # same resolution: something else changed
+    assert panel_state.capture_status(scene("rig-1", (800, 600))).state == "DONE"
+
+
 def test_rig_blockers(state, panel_state, rig):
     assert panel_state.rig_blocker(state.Rig()) == "Add the projector and camera first"
     assert panel_state.rig_blocker(state.Rig(projector="Projector", target="Wall")) == \

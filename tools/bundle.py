@@ -23,7 +23,7 @@ import sys
 import tempfile
 from dataclasses import dataclass, field
 
-from .packaging import ROOT, blender_ext_cli, tracked_files, validate_zip
+from .packaging import ROOT, blender_ext_cli, copy_tracked_files, validate_zip
 
 LOCK_FILE = os.path.join(ROOT, "requirements-bundle.txt")
 BUNDLE_INFO = "lapig_addon/bundle.json"  # what a zip carries and lacks, read by the preferences
@@ -94,26 +94,35 @@ def _normal(name: str) -> str:
     return re.sub(r"[-_.]+", "-", name).lower()
 
 
-def lock_from_environment() -> list[str]:
-    """name==version for BUNDLE_ROOTS and everything they need (markers evaluated here), from the
-    installed distributions, plus NO_DEPS; numpy excluded. Local version labels (+cpu) dropped: the
-    package index's name for the same release."""
+def installed_closure(roots) -> dict:
+    """{normalised name: installed Distribution} for `roots` and everything they require here (markers
+    evaluated in this environment, no extras)."""
     import importlib.metadata as metadata
 
     from packaging.requirements import Requirement
 
-    seen: dict[str, str] = {}
-    stack = list(BUNDLE_ROOTS)
+    seen: dict = {}
+    stack = list(roots)
     while stack:
         name = stack.pop()
         if _normal(name) in seen:
             continue
         dist = metadata.distribution(name)
-        seen[_normal(name)] = dist.version.split("+")[0]
+        seen[_normal(name)] = dist
         for text in dist.requires or []:
             req = Requirement(text)
             if req.marker is None or req.marker.evaluate({"extra": ""}):
                 stack.append(req.name)
+    return seen
+
+
+def lock_from_environment() -> list[str]:
+    """name==version for BUNDLE_ROOTS and everything they need, from the installed distributions, plus
+    NO_DEPS; numpy excluded. Local version labels (+cpu) dropped: the package index's name for the same
+    release."""
+    import importlib.metadata as metadata
+
+    seen = {name: dist.version.split("+")[0] for name, dist in installed_closure(BUNDLE_ROOTS).items()}
     for name in NO_DEPS:
         seen[_normal(name)] = metadata.distribution(name).version
     return [f"{n}=={v}" for n, v in sorted(seen.items()) if n not in NEVER_BUNDLED]
@@ -255,10 +264,7 @@ def build_platform_zip(platform: str, python_tag: str, out_dir: str, cache_root:
     os.makedirs(out_dir, exist_ok=True)
     cli = blender_ext_cli()
     with tempfile.TemporaryDirectory(prefix="lapig_bundle_") as staging:
-        for name in tracked_files():
-            target = os.path.join(staging, name)
-            os.makedirs(os.path.dirname(target), exist_ok=True)
-            shutil.copy2(os.path.join(ROOT, name), target)
+        copy_tracked_files(staging)
         os.makedirs(os.path.join(staging, "wheels"))
         for w in wheels:
             shutil.copy2(w, os.path.join(staging, "wheels"))

@@ -34,6 +34,14 @@ def tracked_files(root: str = ROOT) -> list[str]:
     return [n for n in names if os.path.isfile(os.path.join(root, n))]  # deleted but not committed: skip
 
 
+def copy_tracked_files(staging: str) -> None:
+    """The git-tracked files of the checkout, copied into staging as they are in the working tree."""
+    for name in tracked_files():
+        target = os.path.join(staging, name)
+        os.makedirs(os.path.dirname(target), exist_ok=True)
+        shutil.copy2(os.path.join(ROOT, name), target)
+
+
 def build_extension(out_dir: str) -> str:
     """Build the zip from the git-tracked files into out_dir, validate it, return its path.
 
@@ -41,10 +49,7 @@ def build_extension(out_dir: str) -> str:
     os.makedirs(out_dir, exist_ok=True)
     cli = blender_ext_cli()
     with tempfile.TemporaryDirectory(prefix="lapig_build_") as staging:
-        for name in tracked_files():
-            target = os.path.join(staging, name)
-            os.makedirs(os.path.dirname(target), exist_ok=True)
-            shutil.copy2(os.path.join(ROOT, name), target)
+        copy_tracked_files(staging)
         subprocess.run([sys.executable, cli, "build", "--source-dir", staging, "--output-dir", out_dir],
                        check=True, capture_output=True, text=True)
     zips = sorted(glob.glob(os.path.join(out_dir, "lapig-*.zip")), key=os.path.getmtime)

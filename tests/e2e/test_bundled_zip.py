@@ -5,11 +5,9 @@ artist's whole path: Capture, Train, Generate, preview, export, disable.
 Building the zip downloads its wheels once into build/wheels/ (torch's CPU build comes from this machine's
 disk where pip finds it there); LAPIG_SKIP_BUNDLE=1 skips the test on a machine without the package index.
 """
-import importlib.metadata as metadata
 import importlib.util
 import json
 import os
-import re
 import subprocess
 import sys
 
@@ -17,24 +15,6 @@ import pytest
 
 pytest.importorskip("bpy")
 pytestmark = [pytest.mark.e2e, pytest.mark.torch]  # builds from the torch of this venv's lock
-
-
-def _closure(name: str) -> list:
-    """The distribution `name` and every distribution it requires here (markers evaluated)."""
-    from packaging.requirements import Requirement
-
-    seen, stack = {}, [name]
-    while stack:
-        dist = metadata.distribution(stack.pop())
-        key = re.sub(r"[-_.]+", "-", dist.metadata["Name"]).lower()
-        if key in seen:
-            continue
-        seen[key] = dist
-        for text in dist.requires or []:
-            req = Requirement(text)
-            if req.marker is None or req.marker.evaluate({"extra": ""}):
-                stack.append(req.name)
-    return list(seen.values())
 
 
 def bare_blender_python(folder) -> str:
@@ -45,7 +25,9 @@ def bare_blender_python(folder) -> str:
     venv.EnvBuilder(with_pip=False).create(str(folder / "venv"))
     only = folder / "site"
     only.mkdir()
-    for dist in _closure("bpy"):
+    from lapig.tools.bundle import installed_closure
+
+    for dist in installed_closure(["bpy"]).values():
         for top in {str(f).split("/")[0] for f in dist.files or []}:
             source = dist.locate_file(top)
             if top not in ("..", "bin") and os.path.exists(source) and not os.path.exists(only / top):

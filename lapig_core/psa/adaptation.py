@@ -20,6 +20,13 @@ Every backend's look passes through a ToneField (psa/tone_field.py, a smooth per
 offset field guided by the surface's range), optimised together with theta: the fast path for the
 large tonal moves a dark or saturated surface needs.
 
+Before the joint steps, a warm start moves the field alone (`warm_start_steps`) on the frozen look,
+against a proxy of the PSA loss that needs no network (the per-pixel classical model's L_pc, L_cs
+and L_ps, `proxy_psa_loss`) plus the same style term.
+Each step costs milliseconds, so the large tonal move a near-black surface needs (the look dark
+where the surface is dark, the strokes kept) is made before the first network backward; the joint
+steps then refine it with the real losses.
+
 Adam on theta and the field (its normalised steps are the paper's Algorithm 1's; the field has its own
 step, `field_lr`) with the paper's schedule (lr / 5 every 50 iterations); stops when the total loss
 falls to `stop_ratio` x the first PSA loss (L_pc + L_cs + L_ps, weighted), or at `max_iterations`,
@@ -53,8 +60,11 @@ class PSASettings:
     style_weight: float = 2.0  # scales w(adaptation) (module docstring), relative to the first PSA loss
     adaptation: float = 0.5  # 0: keep my look (brightness too), 1: whatever this surface can show
     lr: float = 0.01
-    field_lr: float = 0.1  # Adam step of the tone field's parameters
+    field_lr: float = 0.03  # Adam step of the tone field's parameters in the joint steps (after the warm start)
     tone_field: bool = True  # gradient mode: the look passes through a ToneField that PSA optimises
+    keep_light_weight: float = 1.0  # the light the surface can show is not given up (keep_light_loss)
+    warm_start_steps: int = 80  # field-only steps on the frozen look before the joint ones (0: none)
+    warm_start_lr: float = 0.15
     lr_step: int = 50
     lr_gamma: float = 0.2
     stop_ratio: float | None = None  # None: from adaptation (stop_ratio_for)
@@ -97,6 +107,8 @@ class PSAResult:
     stopped: str  # "threshold", "max_iterations", "cancelled"
     state: dict = None  # the backend's best theta (and the tone field's, under "tone_field")
     look: object = None  # what renders `state` (the AdaptedLook in gradient mode, else the backend)
+    warm_start_steps: int = 0  # field-only steps before the joint ones (gradient mode)
+    first_psa_loss: float | None = None  # the un-adapted look's PSA loss (the stop rule's reference)
 
 
 @dataclass
@@ -157,6 +169,16 @@ def _style_loss(target, anchor, backend, settings) -> torch.Tensor:
     return value + (distance() if distance is not None else 0.0)
 
 
+def keep_light_loss(target, anchor, models: SurfaceModels) -> torch.Tensor:
+    """What the look lost below the light the surface can show: the mean squared shortfall of the
+    target under clamp(I0, I-, I+), as a share of that light's energy. The structure term is blind to brightness, so without this a look
+    darkened to black (which every PSA loss likes) would count as the same style; with it, PSA
+    darkens only where the surface cannot reach the look."""
+    reachable = torch.minimum(torch.maximum(anchor, models.i_min), models.i_max)
+    # as a share of the reachable light's energy, so it weighs like the style term on any surface
+    return (torch.relu(reachable - target) ** 2).mean() / (reachable ** 2).mean().clamp_min(1e-8)
+
+
 def adapted_look(backend, models: SurfaceModels) -> AdaptedLook:
     """The backend with a ToneField for this surface after it (identity until PSA moves it)."""
     return backend if isinstance(backend, AdaptedLook) else AdaptedLook(backend, models.i_min, models.i_max)
@@ -169,6 +191,57 @@ def _optimiser(look, settings):
     else:
         groups = [{"params": look.parameters(), "lr": settings.lr}]
     return torch.optim.Adam(groups)
+
+
+def proxy_psa_loss(target, models: SurfaceModels, settings: PSASettings) -> torch.Tensor:
+    """The PSA loss as the per-pixel classical model sees it, with no network: the compensation is
+    (I - I-) / (I+ - I-), so L_cs is its distance outside [0, 1], and the capture is
+    clamp(I, I-, I+), so L_pc = L_ps. Close to the learned losses (L_cs dominates both on a dark
+    surface), and milliseconds to evaluate."""
+    ps = losses.physical_saturation_loss(target, models.i_min, models.i_max)
+    span = (models.i_max - models.i_min).clamp_min(0.01)
+    parts = {"pc": ps, "ps": ps, "cs": losses.compensation_saturation_loss((target - models.i_min) / span)}
+    return _psa_loss(parts, settings)
+
+
+def warm_start_field(look: AdaptedLook, anchor, models: SurfaceModels, settings: PSASettings,
+                     cancel_event=None) -> int:
+    """Field-only steps on the frozen look (module docstring); returns how many ran. Keeps the
+    field's best proxy iterate, so it can only lower the proxy from the identity."""
+    if settings.warm_start_steps <= 0:
+        return 0
+    _, _, style_weight = settings.style_mix()
+    params = look.field_parameters()
+    opt = torch.optim.Adam(params, lr=settings.warm_start_lr)
+    # the step falls linearly to a tenth, so the field settles instead of circling the minimum
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda k: 1.0 - 0.9 * k / settings.warm_start_steps)
+    base = anchor.detach()
+    with torch.no_grad():  # the proxy's own first value scales the style term, as `first` does later
+        scale = max(float(proxy_psa_loss(base, models, settings)), 1e-8)
+    best, steps = None, 0
+    for step in range(settings.warm_start_steps + 1):
+        if cancel_event is not None and cancel_event.is_set():
+            break
+        adapted = look.field.apply(base)
+        proxy = proxy_psa_loss(adapted, models, settings)
+        total = proxy + style_weight * scale * (_style_loss(adapted, base, look, settings)
+                                                + settings.keep_light_weight * keep_light_loss(adapted, base, models))
+        value = float(total.detach())
+        if best is None or value < best[0]:
+            best = (value, [p.detach().clone() for p in params])
+        if step == settings.warm_start_steps:
+            break
+        opt.zero_grad(set_to_none=True)
+        total.backward()
+        opt.step()
+        sched.step()
+        steps += 1
+    if best is None:  # cancelled before the first step: the field stays the identity
+        return 0
+    with torch.no_grad():
+        for p, v in zip(params, best[1]):
+            p.copy_(v)
+    return steps
 
 
 def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None, on_progress=None,
@@ -186,22 +259,29 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
     t0 = time.perf_counter()
     backend = adapted_look(backend, models) if settings.tone_field else backend
     _, _, style_weight = settings.style_mix()
-    opt = _optimiser(backend, settings)
-    sched = torch.optim.lr_scheduler.StepLR(opt, settings.lr_step, settings.lr_gamma)
     with torch.no_grad():
         anchor = backend.forward().detach()
-    history, best, first, stopped = [], None, None, "max_iterations"
+        # the first PSA loss is the un-adapted look's, so the stop rule and the style scale do not
+        # move with the warm start
+        first = float(_psa_loss(psa_losses(anchor, models), settings))
+    warm_steps = 0
+    if isinstance(backend, AdaptedLook):
+        warm_steps = warm_start_field(backend, anchor, models, settings, cancel_event)
+    opt = _optimiser(backend, settings)
+    sched = torch.optim.lr_scheduler.StepLR(opt, settings.lr_step, settings.lr_gamma)
+    history, best, stopped = [], None, "max_iterations"
     for it in range(settings.max_iterations + 1):
-        if cancel_event is not None and cancel_event.is_set():
+        # the first iterate is always evaluated, so a cancelled run still returns a result
+        if it > 0 and cancel_event is not None and cancel_event.is_set():
             stopped = "cancelled"
             break
         target = backend.forward()
         parts = psa_losses(target, models)
         psa = _psa_loss(parts, settings)
         psa_value = float(psa.detach())
-        first = psa_value if first is None else first
         style = _style_loss(target, anchor, backend, settings)
         # the style term is scaled by the first PSA loss, so one weight fits every prompt and surface
+        style = style + settings.keep_light_weight * keep_light_loss(target, anchor, models)
         total = psa + style_weight * max(first, 1e-8) * style
         if not torch.isfinite(total):
             stopped = "non-finite loss"
@@ -215,7 +295,7 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
             on_progress(min(it / settings.max_iterations, 1.0),
                         f"PSA iteration {it}: loss {entry['psa_loss']:.5f} (first {first:.5f})")
         # the paper's rule on the total loss: style drift counts against reaching the threshold
-        if entry["total"] <= settings.stop_ratio * first and it > 0:
+        if entry["total"] <= settings.stop_ratio * first and (it > 0 or warm_steps):
             stopped = "threshold"
             break
         if it == settings.max_iterations:
@@ -228,7 +308,7 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
     backend.load_state(state)
     return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,
                      history=history, best_iteration=entry["iteration"], stopped=stopped, state=state,
-                     look=backend)
+                     look=backend, warm_start_steps=warm_steps, first_psa_loss=first)
 
 
 def _run_resample(backend, models, settings, on_progress, cancel_event) -> PSAResult:

@@ -5,14 +5,14 @@ backend's look passes through (issue 13).
     G  = up(g) + beta_c * log(r / mean r)     r = I+ - I-, the surface's reachable range
     O  = up(o) + gamma_c * I-
 
-g, o: (1,3,GRID,GRID) low-resolution fields, upsampled bicubically (smooth: they move the tone of whole
+g, o: (1,1,GRID,GRID) low-resolution fields (shared by the channels), upsampled bicubically (smooth: they move the tone of whole
 regions, never the strokes). beta, gamma: one number per channel that let the look follow the
 surface's own range at full resolution (a small bright feature on a black surface is where the look
 may stay bright). Everything starts at the identity (zeros), so an un-adapted look passes through
 unchanged, and is differentiable: PSA optimises it together with the backend's theta.
 
 The backend's theta cannot make a large tonal move in PSA's budget (it moves the style network's
-normalisation, a little per step); these 2 x 3 x GRID^2 + 6 numbers can, in a few steps.
+normalisation, a little per step); these 2 x GRID^2 + 6 numbers can, in a few steps.
 """
 from __future__ import annotations
 
@@ -33,8 +33,11 @@ class ToneField(torch.nn.Module):
     def __init__(self, i_min: torch.Tensor, i_max: torch.Tensor, grid: int = GRID):
         super().__init__()
         self.grid = grid
-        self.gain = torch.nn.Parameter(torch.zeros(1, 3, grid, grid))
-        self.offset = torch.nn.Parameter(torch.zeros(1, 3, grid, grid))
+        # one gain and one offset for all three channels: the field moves tone, not hue, so the
+        # look's colour relations stay (a per-channel offset crushed whole channels on a dark
+        # surface: a yellow look went green). Colour follows only the surface's own range (beta).
+        self.gain = torch.nn.Parameter(torch.zeros(1, 1, grid, grid))
+        self.offset = torch.nn.Parameter(torch.zeros(1, 1, grid, grid))
         self.beta = torch.nn.Parameter(torch.zeros(1, 3, 1, 1))
         self.gamma = torch.nn.Parameter(torch.zeros(1, 3, 1, 1))
         self.i_min, self.i_max = i_min.detach(), i_max.detach()
@@ -72,8 +75,8 @@ class ToneField(torch.nn.Module):
         """What the field did, in words a person can read in result.json: the mean gain (x) and
         offset per channel, and how much the look follows the surface's range (beta)."""
         with torch.no_grad():
-            gain = torch.exp(SCALE["gain"] * self.gain).mean(dim=(0, 2, 3))
-            offset = (SCALE["offset"] * self.offset).mean(dim=(0, 2, 3))
+            gain = torch.exp(SCALE["gain"] * self.gain).mean(dim=(0, 2, 3)).expand(3)
+            offset = (SCALE["offset"] * self.offset).mean(dim=(0, 2, 3)).expand(3)
             beta = (SCALE["beta"] * self.beta).flatten()
             gamma = (SCALE["gamma"] * self.gamma).flatten()
         r = lambda t: [round(float(v), 3) for v in t]  # noqa: E731

@@ -61,7 +61,7 @@ def test_losses_are_differentiable_in_theta(models):
 def test_psa_lowers_loss_stops_and_returns_best(models):
     settings = psa.PSASettings(lr=0.05, max_iterations=60, style_weight=0.0)
     result = psa.run_psa(_backend(models), models, settings)
-    first = result.history[0]["psa_loss"]
+    first = result.first_psa_loss  # the un-adapted look's (history[0] is after the warm start)
     best = min(result.history, key=lambda e: e["total"])
     assert result.best_iteration == best["iteration"]
     assert best["psa_loss"] < first
@@ -96,7 +96,7 @@ def test_cancel_event_stops_after_first_iterate(models):
         seen.append(m)
         stop.set()
 
-    result = psa.run_psa(_backend(models), models, psa.PSASettings(max_iterations=20), on_progress=progress,
+    result = psa.run_psa(_backend(models), models, psa.PSASettings(max_iterations=20, stop_ratio=0.0), on_progress=progress,
                          cancel_event=stop)
     assert result.stopped == "cancelled" and len(result.history) == 1
 
@@ -115,3 +115,10 @@ def test_ablation_terms_and_loss_maps(models):
     maps = psa.loss_maps(_backend(models).forward(), models)
     assert maps["cs"].shape == (SIZE, SIZE) and maps["ps"].shape == (SIZE, SIZE)
     assert float(maps["ps"].sum()) > 0  # gain 1.6 pushes the target above I+
+
+
+def test_cancel_before_start_still_returns_the_first_iterate(models):
+    stop = threading.Event()
+    stop.set()  # cancelled during the warm start: the un-moved field, one iterate, no traceback
+    result = psa.run_psa(_backend(models), models, psa.PSASettings(max_iterations=20), cancel_event=stop)
+    assert result.stopped == "cancelled" and len(result.history) == 1 and result.warm_start_steps == 0

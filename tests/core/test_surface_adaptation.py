@@ -175,3 +175,35 @@ def test_psa_with_the_field_darkens_a_bright_look_on_a_dark_surface():
         assert torch.allclose(look.forward(), result.target, atol=1e-6)
     no_field = psa.run_psa(_bright_backend(models), models, psa.PSASettings(max_iterations=3, tone_field=False))
     assert not isinstance(no_field.look, AdaptedLook)
+
+
+def test_warm_start_darkens_where_the_surface_is_dark_keeps_strokes_and_hue():
+    """The field-only warm start (no network) makes the large move on its own: the look falls into
+    the surface's reach, its pattern and its colour ratios stay, and light the surface can show is
+    not given up."""
+    torch.manual_seed(0)
+    s = torch.full((1, 3, 32, 32), 0.03)
+    s[..., :, 16:] = 0.6  # the right half can show a bright look, the left half cannot
+    models = psa.SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, s * 0.1, s)
+    look = psa.adapted_look(_bright_backend(models), models)
+    with torch.no_grad():
+        anchor = look.forward()
+    settings = psa.PSASettings()
+    before = float(psa.proxy_psa_loss(anchor, models, settings))
+    steps = psa.warm_start_field(look, anchor, models, settings)
+    with torch.no_grad():
+        adapted = look.forward()
+    assert steps == settings.warm_start_steps
+    assert float(psa.proxy_psa_loss(adapted, models, settings)) < 0.2 * before
+    left, right = adapted[..., :16].mean(), adapted[..., 16:].mean()
+    assert float(left) < 0.5 * float(anchor[..., :16].mean())  # dark where the surface is dark
+    assert float(right) > 2 * float(left)  # and not where it can show the light
+    assert metrics.structure_retention(adapted, anchor) > 0.7
+    ratio = lambda x: x.mean(dim=(0, 2, 3)) / x.mean()  # noqa: E731  (hue: the channels' ratios)
+    assert torch.allclose(ratio(adapted), ratio(anchor), atol=0.1)
+
+
+def test_structure_retention_counts_a_look_darkened_to_nothing_as_lost():
+    x = _image("wood")
+    assert metrics.structure_retention(x * 1e-4, x) < 0.3  # invisible strokes are not kept strokes
+    assert metrics.structure_retention(x * 0.3, x) > 0.95

@@ -89,7 +89,8 @@ def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, canc
         comp, sim = trained["CompenNeSt"], trained["PCNet"]
         chosen, classical = trained["choice"], trained["classical"]
     surf = SurfaceTensors.from_capture_set(cs)
-    models = SurfaceModels(chosen_compensator(comp, chosen, classical), sim, surf.s, surf.i_min, surf.i_max)
+    models = SurfaceModels(chosen_compensator(comp, chosen, classical), sim, surf.s, surf.i_min, surf.i_max,
+                           on_object=psa_mask(cs.projector_valid))
     models.choice = chosen  # which compensator, and by how much: the panel and result.json show it
     return models
 
@@ -112,6 +113,18 @@ class StylizeResult:
         a, b = self.with_psa.target, self.without.target
         return {"structure": metrics.structure_retention(a, b), "ssim": metrics.ssim(a, b),
                 "psnr": metrics.psnr(a, b)}
+
+
+MIN_ON_OBJECT_SHARE = 0.02  # below this the registration found (almost) no object: PSA uses the frame
+
+
+def psa_mask(valid) -> torch.Tensor | None:
+    """The on-object mask PSA's losses use, or None where the set has no registration (public
+    sets) or the object covers almost none of the frame."""
+    if valid is None:
+        return None
+    mask = on_object_mask(valid)
+    return mask if float(mask.mean()) >= MIN_ON_OBJECT_SHARE else None
 
 
 def on_object_mask(valid) -> torch.Tensor:

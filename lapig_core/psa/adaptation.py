@@ -120,6 +120,9 @@ class SurfaceModels:
     s: torch.Tensor
     i_min: torch.Tensor
     i_max: torch.Tensor
+    # (1,1,H,W) the projector pixels that land on the object, or None (all): PSA's losses count only
+    # those, so the frame around a statue (black in the projector image) does not steer the look
+    on_object: torch.Tensor | None = None
 
     def __post_init__(self):
         for net in (self.compensator, self.simulator):
@@ -135,13 +138,22 @@ class SurfaceModels:
         return self.simulator(projector_image, self.s, self.i_min, self.i_max)
 
 
+def _mean_on_object(per_pixel: torch.Tensor, models: SurfaceModels) -> torch.Tensor:
+    """The mean of a (1,C,H,W) per-pixel loss over the object's pixels (all without a mask)."""
+    if models.on_object is None:
+        return per_pixel.mean()
+    m = models.on_object.to(per_pixel.dtype)
+    return (per_pixel * m).sum() / (m.sum().clamp_min(1.0) * per_pixel.shape[1])
+
+
 def psa_losses(target, models: SurfaceModels) -> dict:
-    """All three PSA losses of a target (tensors, differentiable), plus I* and I^."""
+    """All three PSA losses of a target (tensors, differentiable, on the object's pixels), plus I*
+    and I^. Without a mask they are the paper's means over the frame."""
     comp, raw = models.compensate(target, return_raw=True)
     sim = models.simulate(comp)
-    return {"pc": losses.projection_consistency_loss(sim, target),
-            "cs": losses.compensation_saturation_loss(raw),
-            "ps": losses.physical_saturation_loss(target, models.i_min, models.i_max),
+    return {"pc": _mean_on_object((sim - target) ** 2, models),
+            "cs": _mean_on_object(losses.compensation_saturation_map(raw), models),
+            "ps": _mean_on_object(losses.physical_saturation_map(target, models.i_min, models.i_max), models),
             "comp": comp, "sim": sim}
 
 
@@ -198,9 +210,10 @@ def proxy_psa_loss(target, models: SurfaceModels, settings: PSASettings) -> torc
     (I - I-) / (I+ - I-), so L_cs is its distance outside [0, 1], and the capture is
     clamp(I, I-, I+), so L_pc = L_ps. Close to the learned losses (L_cs dominates both on a dark
     surface), and milliseconds to evaluate."""
-    ps = losses.physical_saturation_loss(target, models.i_min, models.i_max)
+    ps = _mean_on_object(losses.physical_saturation_map(target, models.i_min, models.i_max), models)
     span = (models.i_max - models.i_min).clamp_min(0.01)
-    parts = {"pc": ps, "ps": ps, "cs": losses.compensation_saturation_loss((target - models.i_min) / span)}
+    cs = _mean_on_object(losses.compensation_saturation_map((target - models.i_min) / span), models)
+    parts = {"pc": ps, "ps": ps, "cs": cs}
     return _psa_loss(parts, settings)
 
 

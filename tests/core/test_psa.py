@@ -122,3 +122,20 @@ def test_cancel_before_start_still_returns_the_first_iterate(models):
     stop.set()  # cancelled during the warm start: the un-moved field, one iterate, no traceback
     result = psa.run_psa(_backend(models), models, psa.PSASettings(max_iterations=20), cancel_event=stop)
     assert result.stopped == "cancelled" and len(result.history) == 1 and result.warm_start_steps == 0
+
+
+def test_psa_losses_count_only_the_object_pixels(models):
+    mask = torch.zeros(1, 1, SIZE, SIZE)
+    mask[..., : SIZE // 2] = 1.0  # the object covers the left half of the frame
+    masked = psa.SurfaceModels(models.compensator, models.simulator, models.s, models.i_min, models.i_max,
+                               on_object=mask)
+    target = torch.rand(1, 3, SIZE, SIZE, generator=torch.Generator().manual_seed(3))
+    changed = target.clone()
+    changed[..., SIZE // 2:] = 1.0 - changed[..., SIZE // 2:]  # only off the object
+    with torch.no_grad():
+        a, b = psa.psa_losses(target, masked), psa.psa_losses(changed, masked)
+        full_a, full_b = psa.psa_losses(target, models), psa.psa_losses(changed, models)
+    # the compensator sees a neighbourhood, so the border columns may move a little
+    for term in psa.LOSS_TERMS:
+        assert float(a[term]) == pytest.approx(float(b[term]), rel=0.05, abs=1e-6)
+    assert any(abs(float(full_a[t]) - float(full_b[t])) > 0.05 * abs(float(full_a[t])) for t in psa.LOSS_TERMS)

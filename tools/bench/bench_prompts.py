@@ -267,6 +267,7 @@ def run_psa_check(args, out) -> dict:
     return {"gain_db": round(mean(with_psa, "psnr") - mean(without, "psnr"), 3),
             "with_psa_psnr": mean(with_psa, "psnr"), "without_psa_psnr": mean(without, "psnr"),
             "style_retention_ssim": mean(with_psa, "retention_ssim"),
+            "style_retention_structure": mean(with_psa, "retention_structure"),
             "psa_seconds_mean": mean(with_psa, "seconds"),
             "psa_seconds_max": round(max(r["seconds"] for r in with_psa), 2),
             "per_surface_gain_db": {s: round(mean([r for r in with_psa if r["surface"] == s], "psnr") -

@@ -246,6 +246,7 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
                "metrics": {"simulated_psnr": metrics.psnr(images["simulated"], images["target"]),
                            "simulated_psnr_nopsa": metrics.psnr(images["simulated_nopsa"], images["target_nopsa"]),
                            "psa_iterations": res.with_psa.iterations if res.with_psa else 0,
+                           "psa_warm_start_steps": res.with_psa.warm_start_steps if res.with_psa else 0,
                            "psa_seconds": round(res.with_psa.seconds, 2) if res.with_psa else 0.0,
                            "problem_area_fraction": float((problem > 1e-3).mean()),
                            **({"style_retention_" + k: v for k, v in res.style_retention().items()})},

@@ -11,6 +11,7 @@ import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from .photometric import checkpoints, choice as compensator_choice
@@ -90,7 +91,7 @@ def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, canc
         chosen, classical = trained["choice"], trained["classical"]
     surf = SurfaceTensors.from_capture_set(cs)
     models = SurfaceModels(chosen_compensator(comp, chosen, classical), sim, surf.s, surf.i_min, surf.i_max,
-                           on_object=psa_mask(cs.projector_valid))
+                           on_object=psa_mask(cs))
     models.choice = chosen  # which compensator, and by how much: the panel and result.json show it
     return models
 
@@ -115,16 +116,37 @@ class StylizeResult:
                 "psnr": metrics.psnr(a, b)}
 
 
-MIN_ON_OBJECT_SHARE = 0.02  # below this the registration found (almost) no object: PSA uses the frame
+# The registration's valid map is the object's footprint only where the Gray code decodes: on a
+# near-black surface it decodes on the bright features alone (5% of the frame on `black_dots`,
+# where the geometry says 100%). Below this share of the geometric coverage the map is not the
+# object, so nothing is darkened outside and PSA's losses use the whole frame.
+MIN_VALID_OF_COVERAGE = 0.6
 
 
-def psa_mask(valid) -> torch.Tensor | None:
-    """The on-object mask PSA's losses use, or None where the set has no registration (public
-    sets) or the object covers almost none of the frame."""
-    if valid is None:
+def unreliable_footprint(cs: CaptureSet) -> str | None:
+    """Why the registration's valid map cannot stand for the object (None when it can, or when
+    the set has no map at all)."""
+    if cs.projector_valid is None:
         return None
-    mask = on_object_mask(valid)
-    return mask if float(mask.mean()) >= MIN_ON_OBJECT_SHARE else None
+    valid = float(np.mean(cs.projector_valid))
+    covered = float((cs.meta.get("coverage") or {}).get("projector_on_object", valid))
+    if valid >= MIN_VALID_OF_COVERAGE * covered and valid > 0.0:
+        return None
+    return (f"the registration found the object on only {valid:.0%} of the projector frame, where the rig's "
+            f"geometry puts it on {covered:.0%} (a very dark surface decodes poorly): the projector image "
+            "is not darkened outside the object, and PSA weighs the whole frame")
+
+
+def object_footprint(cs: CaptureSet):
+    """The (H, W) valid map where it stands for the object, else None (the whole frame)."""
+    return None if unreliable_footprint(cs) else cs.projector_valid
+
+
+def psa_mask(cs: CaptureSet) -> torch.Tensor | None:
+    """The on-object mask PSA's losses use, or None where the set has no registration (public
+    sets) or its valid map is not the object (unreliable_footprint)."""
+    footprint = object_footprint(cs)
+    return None if footprint is None else on_object_mask(footprint)
 
 
 def on_object_mask(valid) -> torch.Tensor:
@@ -164,7 +186,8 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     adapted = None
     if psa:
         adapted = run_psa(lgst, models, settings, on_progress=on_progress, cancel_event=cancel_event)
-    dark_outside = dark_outside and cs.projector_valid is not None
+    footprint_note = unreliable_footprint(cs) if dark_outside else None
+    dark_outside = dark_outside and cs.projector_valid is not None and footprint_note is None
     if dark_outside:
         mask = on_object_mask(cs.projector_valid)
         plain = darkened_outside(plain, mask, models)
@@ -173,8 +196,10 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     if fallback:
         describe["fallback"] = fallback
         describe.setdefault("notes", []).append(fallback)
+    if footprint_note:
+        describe.setdefault("notes", []).append(footprint_note)
     truth = surface_truth(plain.target, adapted.target if adapted is not None else None, models.i_min,
-                          models.i_max, cs.projector_valid)  # on the object, where it is known
+                          models.i_max, object_footprint(cs))  # on the object, where it is known
     # the look that renders the chosen state: with the PSA tone field when PSA ran
     look = adapted.look if adapted is not None and adapted.look is not None else lgst
     return StylizeResult(plain, adapted, describe, settings, dark_outside, look, truth)

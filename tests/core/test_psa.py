@@ -2,6 +2,8 @@
 """PSA at 32 px with small random networks: gradients reach theta, the stop rule, best iterate, cancel."""
 import threading
 
+import numpy as np
+
 import pytest
 
 torch = pytest.importorskip("torch")
@@ -139,3 +141,24 @@ def test_psa_losses_count_only_the_object_pixels(models):
     for term in psa.LOSS_TERMS:
         assert float(a[term]) == pytest.approx(float(b[term]), rel=0.05, abs=1e-6)
     assert any(abs(float(full_a[t]) - float(full_b[t])) > 0.05 * abs(float(full_a[t])) for t in psa.LOSS_TERMS)
+
+
+def test_a_valid_map_far_below_the_geometric_coverage_is_not_the_object():
+    """On a near-black surface the Gray code decodes on the bright features only: that map must
+    neither darken the object nor mask PSA's losses."""
+    from types import SimpleNamespace
+
+    from lapig_core import pipeline
+
+    sparse = np.zeros((24, 32), bool)
+    sparse[::6, ::6] = True  # 3% of the frame decoded
+    dark = SimpleNamespace(projector_valid=sparse, meta={"coverage": {"projector_on_object": 1.0}})
+    assert "only 3%" in pipeline.unreliable_footprint(dark)
+    assert pipeline.psa_mask(dark) is None and pipeline.object_footprint(dark) is None
+    statue = np.zeros((24, 32), bool)
+    statue[4:20, 10:22] = True  # a statue's silhouette: 25% decoded, the geometry says 26%
+    lit = SimpleNamespace(projector_valid=statue, meta={"coverage": {"projector_on_object": 0.26}})
+    assert pipeline.unreliable_footprint(lit) is None
+    assert float(pipeline.psa_mask(lit).sum()) == statue.sum()
+    public = SimpleNamespace(projector_valid=None, meta={})
+    assert pipeline.unreliable_footprint(public) is None and pipeline.psa_mask(public) is None

@@ -28,7 +28,7 @@ from ...lapig_core.common import metrics
 from ...lapig_core.capture.dataset import load_capture_set
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.lgst import get_backend
-from ...lapig_core.pipeline import as_image, surface_models
+from ...lapig_core.pipeline import as_image, object_footprint, surface_models
 from ...lapig_core.psa.adaptation import ABLATIONS, PSASettings, run_psa, without_psa
 from ...lapig_core.psa.reach import clamp_bound_psnr, reachability
 from ...lapig_core.common.sheets import labelled_grid
@@ -104,7 +104,7 @@ def run_surface(name, args, out, backend_name, prompts, ablation_prompts, tag=""
     render_s = time.perf_counter() - t
     rows = []
     by_prompt = {}
-    valid = cs.projector_valid
+    valid = object_footprint(cs)  # the valid map where it is the object (not on a near-black surface)
     for (prompt, variant, res, describe), cap in zip(runs, captured):
         target = as_image(res.target)
         row = {"surface": name, "prompt": prompt, "variant": variant, **metrics.evaluate(cap, target),

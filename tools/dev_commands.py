@@ -129,7 +129,7 @@ def add_parsers(sub):
                        help="prompts, style-images: also run PSA (Table 1, Cycles) on this many captured "
                             "surfaces (default 0: prompts: adherence and sheets; style-images: parity, timing, sheet)")
     ranged_option(bench, "--train", "train_count", "psa: captured training pairs per surface", default=125)
-    ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 25)")
+    ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 20)")
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
     bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
     ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")

@@ -69,6 +69,8 @@ class PSASettings:
     lr_step: int = 50
     lr_gamma: float = 0.2
     stop_ratio: float | None = None  # None: from adaptation (stop_ratio_for)
+    resample_jitter: float = 0.1  # resample mode: theta noise of each new sample (the offline backends
+    # are deterministic in their seed alone; the paper's InstructPix2Pix samples differ by seed)
     max_iterations: int = 20  # joint steps after the warm start (about 0.6 s each at 256x192 on 2 cores)
     seed: int = 0
 
@@ -348,12 +350,13 @@ def _run_resample(backend, models, settings, on_progress, cancel_event) -> PSARe
     t0 = time.perf_counter()
     surface, prompt = getattr(backend, "surface", None), backend.describe().get("prompt", "")
     history, best, first, stopped, anchor = [], None, None, "max_iterations", None
+    plain_jitter = getattr(backend, "jitter", None)
     for k in range(settings.max_iterations + 1):
         if cancel_event is not None and cancel_event.is_set():
             stopped = "cancelled"
             break
         if k > 0:
-            backend.prepare(surface, prompt, seed=settings.seed + k)
+            _prepare_sample(backend, surface, prompt, settings.seed + k, plain_jitter, settings.resample_jitter)
         with torch.no_grad():
             target = backend.forward()
             anchor = target if anchor is None else anchor
@@ -370,9 +373,24 @@ def _run_resample(backend, models, settings, on_progress, cancel_event) -> PSARe
             break
     _, k_best, state, target, comp, sim = best
     if k_best != len(history) - 1:
-        backend.prepare(surface, prompt, seed=settings.seed + k_best)
+        if k_best == 0:  # the un-jittered first sample
+            _prepare_sample(backend, surface, prompt, settings.seed, plain_jitter, 0.0)
+        else:
+            _prepare_sample(backend, surface, prompt, settings.seed + k_best, plain_jitter, settings.resample_jitter)
     return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,
                      history=history, best_iteration=k_best, stopped=stopped, state=state, look=backend)
+
+
+def _prepare_sample(backend, surface, prompt, seed, plain_jitter, jitter):
+    """Prepare one resample: a deterministic backend (jitter 0) gets `jitter` for this sample only."""
+    if plain_jitter is not None and plain_jitter == 0.0:
+        backend.jitter = jitter
+        try:
+            backend.prepare(surface, prompt, seed=seed)
+        finally:
+            backend.jitter = plain_jitter
+    else:
+        backend.prepare(surface, prompt, seed=seed)
 
 
 def without_psa(backend, models: SurfaceModels) -> PSAResult:

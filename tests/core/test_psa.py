@@ -162,3 +162,36 @@ def test_a_valid_map_far_below_the_geometric_coverage_is_not_the_object():
     assert float(pipeline.psa_mask(lit).sum()) == statue.sum()
     public = SimpleNamespace(projector_valid=None, meta={})
     assert pipeline.unreliable_footprint(public) is None and pipeline.psa_mask(public) is None
+
+
+def test_resample_draws_different_samples_from_a_deterministic_backend(models):
+    """A backend whose look depends on its seed only through jitter (as the offline style net): the
+    baseline jitters theta for its new samples, or it would re-draw its first sample every time, and
+    the backend's own jitter is left as it was."""
+
+    class Deterministic(LGSTBackend):
+        name = "deterministic-test"
+        jitter = 0.0
+
+        def prepare(self, surface, prompt, seed=0, mix=None):
+            self.surface, self.prompt = surface, prompt
+            noise = torch.randn(1, 3, 1, 1, generator=torch.Generator().manual_seed(seed))
+            self.gain = (torch.ones(1, 3, 1, 1) + self.jitter * noise).requires_grad_(True)
+
+        def parameters(self):
+            return [self.gain]
+
+        def forward(self):
+            return (self.surface * self.gain).clamp(0, 1)
+
+        def describe(self):
+            return {"backend": self.name, "prompt": self.prompt, "styles": []}
+
+    backend = Deterministic()
+    backend.prepare(models.s, "p")
+    result = psa.run_psa(backend, models, psa.PSASettings(mode="resample", max_iterations=4, stop_ratio=0.0))
+    losses = [e["psa_loss"] for e in result.history]
+    assert len(set(round(v, 9) for v in losses)) == 5  # five different samples
+    assert backend.jitter == 0.0 and result.best_iteration == losses.index(min(losses))
+    with torch.no_grad():  # the backend is left on the best sample
+        assert torch.allclose(backend.forward(), result.target)

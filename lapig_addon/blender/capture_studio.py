@@ -14,6 +14,7 @@ import tempfile
 import bpy
 import numpy as np
 
+from ...lapig_core.common.exr import read_exr_layer
 from ...lapig_core.common.scratch import ScratchFolder
 from ...lapig_core.optics.transport import FAST, LightTransport, indirect_from_passes
 from . import projector_nodes
@@ -84,6 +85,7 @@ class CaptureStudio:
         self._saved_image = None
         self._chunk = 0
         self._saved_dof = None
+        self._albedo_linear = None
 
     # -- lifecycle -------------------------------------------------------------------------
     def __enter__(self):
@@ -305,8 +307,43 @@ class CaptureStudio:
             (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
              c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
              self.camera.data.dof.use_dof) = saved
+        albedo = self._albedo() if t.bounce_albedo_guide else None
         return [indirect_from_passes(b, d, (self.width, self.height), t.indirect_smooth_px, low_coverage=a,
-                                     coverage=full) for b, (d, a), full in zip(bounced, direct, coverage)]
+                                     coverage=full, albedo=albedo) for b, (d, a), full in zip(bounced, direct, coverage)]
+
+    def _albedo(self) -> np.ndarray:
+        """The surfaces' diffuse colour at the capture's size (Cycles' Diffuse Color pass), rendered once:
+        it does not depend on the projector image. Written as an uncompressed multilayer EXR, which
+        lapig_core.common.exr reads (OpenCV sees only a file's plain RGBA channels)."""
+        if self._albedo_linear is not None:
+            return self._albedo_linear
+        scene, layer = self.scene, self.scene.view_layers[0]
+        settings = scene.render.image_settings
+        saved = layer.use_pass_diffuse_color, settings.file_format, getattr(settings, "media_type", None)
+        path_dir = os.path.join(self.work_dir, f"albedo_{self._chunk:05d}")
+        os.makedirs(path_dir, exist_ok=True)
+        try:
+            layer.use_pass_diffuse_color = True
+            if hasattr(settings, "media_type"):  # 5.0 on: the multilayer format is under its own media type
+                settings.media_type = "MULTI_LAYER_IMAGE"
+            settings.file_format = "OPEN_EXR_MULTILAYER"
+            settings.exr_codec = "NONE"
+            scene.frame_start = scene.frame_end = 1
+            scene.frame_set(1)
+            scene.render.filepath = os.path.join(path_dir, "albedo_")
+            with bpy.context.temp_override(scene=scene):
+                bpy.ops.render.render(animation=True, scene=scene.name)
+            self._albedo_linear = read_exr_layer(os.path.join(path_dir, "albedo_0001.exr"),
+                                                ("Diffuse Color", "DiffCol"))
+        finally:
+            layer.use_pass_diffuse_color = saved[0]
+            if saved[2] is not None:
+                settings.media_type = saved[2]
+            settings.file_format = saved[1]
+            settings.color_mode, settings.color_depth = "RGBA", "32"
+            settings.exr_codec = "NONE"
+            shutil.rmtree(path_dir, ignore_errors=True)
+        return self._albedo_linear
 
     def _load_patterns(self, chunk_dir, frames):
         for i, frame in enumerate(frames, start=1):

@@ -28,6 +28,7 @@ class LightTransport:
     indirect_samples: int = 16  # samples per pixel of the indirect pass
     indirect_downscale: int = 4  # the indirect pass renders at 1/this of the capture size
     indirect_smooth_px: float = 1.5  # Gaussian sigma on the low-resolution bounce light (0: raw; references)
+    bounce_albedo_guide: bool = True  # the full-size albedo puts back the texture the bounce light falls on
     projector_focus_m: float = 3.0
     projector_lens_radius_mm: float = 5.0  # 0: pinhole projector
     camera_dof: bool = False
@@ -81,7 +82,8 @@ class LightTransport:
         return ["REALISTIC", self.bounces, self.indirect_samples, self.indirect_downscale, self.indirect_smooth_px,
                 round(self.projector_focus_m, 4), round(self.projector_lens_radius_mm, 4),
                 self.camera_dof, round(self.camera_focus_m, 4), round(self.camera_f_number, 3),
-                self.camera_dof_samples, round(self.vignetting, 4), self.subsurface_samples]
+                self.camera_dof_samples, round(self.vignetting, 4), self.subsurface_samples,
+                self.bounce_albedo_guide]
 
     def to_dict(self) -> dict:
         return {**asdict(self), "label": self.label()}
@@ -163,7 +165,7 @@ def vignetting_map(width: int, height: int, half_width_tan: float, strength: flo
 # -- inter-reflection ------------------------------------------------------------------------
 def indirect_from_passes(with_bounces: np.ndarray, direct: np.ndarray, size: tuple[int, int],
                          smooth_px: float = 1.0, low_coverage: np.ndarray | None = None,
-                         coverage: np.ndarray | None = None) -> np.ndarray:
+                         coverage: np.ndarray | None = None, albedo: np.ndarray | None = None) -> np.ndarray:
     """The bounce light of a low-resolution pass, at the capture's (width, height).
 
     Both passes render at the same samples and seed, so their direct light (and its anti-aliasing)
@@ -173,8 +175,17 @@ def indirect_from_passes(with_bounces: np.ndarray, direct: np.ndarray, size: tup
 
     low_coverage (h, w) and coverage (H, W): where the passes and the capture see a surface (the
     renders' alpha). The blur and the upscale are then normalised by coverage, so the empty
-    background does not darken the bounce light at the object's outline, and nothing lands off it."""
+    background does not darken the bounce light at the object's outline, and nothing lands off it.
+
+    albedo (H, W, 3): the surface's diffuse colour at the capture's size (Cycles' Diffuse Color pass).
+    Bounce light is the albedo times a smooth irradiance, so with it the low-resolution pass gives only
+    the irradiance (its light over its area-averaged albedo) and the full-size albedo puts back the
+    texture the bounced light falls on, which a low-resolution pass alone smooths away. Where the
+    surface has almost no diffuse colour (black, or gloss only) the unguided bounce light is kept."""
     import cv2
+
+    if albedo is not None:
+        return _albedo_guided(with_bounces, direct, size, smooth_px, low_coverage, coverage, albedo)
 
     indirect = np.asarray(with_bounces, np.float32) - np.asarray(direct, np.float32)
     weight = None if low_coverage is None else np.asarray(low_coverage, np.float32)[..., None]
@@ -194,3 +205,29 @@ def indirect_from_passes(with_bounces: np.ndarray, direct: np.ndarray, size: tup
     if coverage is not None:
         indirect = indirect * np.asarray(coverage, np.float32)[..., None]
     return indirect
+
+
+GUIDE_MIN_ALBEDO = 0.02  # below this diffuse colour the bounce light is mostly gloss: not guided
+
+
+def _albedo_guided(with_bounces, direct, size, smooth_px, low_coverage, coverage, albedo) -> np.ndarray:
+    import cv2
+
+    unguided = indirect_from_passes(with_bounces, direct, size, smooth_px, low_coverage, coverage)
+    albedo = np.asarray(albedo, np.float32)
+    width, height = size
+    if albedo.shape[:2] != (height, width):
+        raise ValueError(f"the albedo pass is {albedo.shape[1]}x{albedo.shape[0]}, the capture {width}x{height}")
+    bounce = np.asarray(with_bounces, np.float32) - np.asarray(direct, np.float32)
+    low_h, low_w = bounce.shape[:2]
+    # both carry the pixels' coverage (the film is transparent off the surface), so their ratio does not
+    low_albedo = cv2.resize(albedo, (low_w, low_h), interpolation=cv2.INTER_AREA)
+    if smooth_px > 0:
+        bounce = cv2.GaussianBlur(bounce, (0, 0), smooth_px)
+        low_albedo = cv2.GaussianBlur(low_albedo, (0, 0), smooth_px)
+    guided_here = low_albedo > GUIDE_MIN_ALBEDO
+    irradiance = np.where(guided_here, bounce / np.maximum(low_albedo, GUIDE_MIN_ALBEDO), 0.0).astype(np.float32)
+    irradiance = cv2.resize(irradiance, (width, height), interpolation=cv2.INTER_LINEAR)
+    guided_here = cv2.resize(guided_here.astype(np.float32), (width, height), interpolation=cv2.INTER_LINEAR)
+    guided = albedo * irradiance
+    return (guided_here * guided + (1 - guided_here) * unguided).astype(np.float32)

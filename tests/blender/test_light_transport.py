@@ -135,3 +135,33 @@ def test_gloss_and_subsurface_materials_survive_in_the_capture(lapig_registered,
     spread = {k: float(r[beside].mean() / r[on_line].mean()) for k, r in rows.items()}
     assert spread["marble", "realistic"] > 5 * spread["matte", "realistic"], spread
     assert spread["marble", "fast"] > 5 * spread["matte", "fast"], spread  # even direct light keeps it
+
+
+def test_the_bounce_light_carries_the_texture_of_the_wall_it_falls_on(lapig_registered, tmp_path):
+    """One wall lit, the other lit only by its bounce: the bounce light on the dark wall shows that
+    wall's texture (the full-size albedo guide), which a low-resolution bounce pass alone smooths away."""
+    import cv2
+
+    from lapig.lapig_core.optics.transport import FAST
+
+    corner = _setup(tmp_path, "corner", surface="wood", camera=(160, 120))
+    white = _linear(corner, FAST, [WHITE])[0].mean(-1)
+    half = WHITE.copy()
+    half[:, 80:] = 0
+    direct = _linear(corner, FAST, [half])[0].mean(-1)
+    bounce = {guide: _linear(corner, _realistic(bounces=2, bounce_albedo_guide=guide), [half])[0].mean(-1) - direct
+              for guide in (True, False)}
+    dark_wall = (white > 1e-4) & (direct < 0.05 * white)  # (a few speckles of stray direct light)
+    dark_wall = cv2.erode(dark_wall.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    assert dark_wall.sum() > 500
+
+    on = (white > 1e-4).astype(np.float32)
+
+    def texture(im):  # detail at a few pixels: the image over its own blur on the object, in log
+        im = np.log(np.maximum(im, 1e-6)) * on
+        return im - cv2.GaussianBlur(im, (0, 0), 3.0) / np.maximum(cv2.GaussianBlur(on, (0, 0), 3.0), 1e-6)
+
+    corr = {g: float(np.corrcoef(texture(b)[dark_wall], texture(white)[dark_wall])[0, 1]) for g, b in bounce.items()}
+    assert corr[True] > 0.6, corr
+    assert corr[False] < corr[True] - 0.3, corr
+    assert bounce[True][dark_wall].mean() == pytest.approx(bounce[False][dark_wall].mean(), rel=0.15)

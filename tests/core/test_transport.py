@@ -73,3 +73,28 @@ def test_the_mode_and_its_settings_change_the_state_a_capture_depends_on():
     assert not FAST.uses_bounces and not FAST.uses_projector_defocus and not FAST.uses_vignetting
     with pytest.raises(ValueError, match="unknown light transport mode"):
         LightTransport(mode="SLOW")
+
+
+def test_the_albedo_guide_puts_back_the_texture_the_bounce_light_falls_on():
+    import cv2
+
+    h, w = 64, 96
+    yy, xx = np.mgrid[0:h, 0:w]
+    albedo = np.where(((yy // 3 + xx // 3) % 2)[..., None] == 0, 0.8, 0.2).astype(np.float32) * np.ones(3)
+    irradiance = (0.05 + 0.1 * xx / w).astype(np.float32)[..., None] * np.ones(3, np.float32)
+    bounce_full = (albedo * irradiance).astype(np.float32)
+    low = (w // 4, h // 4)
+    direct_low = np.full((h // 4, w // 4, 3), 0.3, np.float32)
+    with_bounces_low = direct_low + cv2.resize(bounce_full, low, interpolation=cv2.INTER_AREA)
+    guided = light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0, albedo=albedo.astype(np.float32))
+    unguided = light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0)
+    inner = (slice(8, -8), slice(8, -8))
+    error = lambda x: np.abs(x[inner] - bounce_full[inner]).mean() / bounce_full[inner].mean()
+    assert error(guided) < 0.05  # the checker the bounce light falls on is back
+    assert error(unguided) > 0.3  # a low-resolution pass alone smooths it away
+    # no diffuse colour (black, or gloss only): the bounce light is kept unguided, not divided by ~0
+    black = np.zeros_like(albedo, np.float32)
+    kept = light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0, albedo=black)
+    assert np.allclose(kept, unguided, atol=1e-6)
+    with pytest.raises(ValueError, match="albedo pass"):
+        light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0, albedo=albedo[:32])

@@ -118,8 +118,9 @@ def add_parsers(sub):
     bench.add_argument("--ablation-prompts", type=int, default=3,
                        help="psa: prompts per surface that also run the loss ablation (default 3)")
     bench.add_argument("--sheet-prompts", type=int, default=5, help="psa: prompts per surface on the sheets")
-    bench.add_argument("--table", choices=["paper", "hard", "both"], default="both",
-                       help="psa: the paper's Table 1/2 surfaces, the hard surfaces of issue 13, or both")
+    bench.add_argument("--table", choices=["paper", "hard", "both", "realistic"], default="both",
+                       help="psa: the paper's Table 1/2 surfaces, the hard surfaces of issue 13, both, or Table 1 "
+                            "on the realistic-transport corner and bust (issue 16)")
     bench.add_argument("--no-resample", dest="resample", action="store_false",
                        help="psa: leave out the resample baseline (the public code's PSA)")
     ranged_option(bench, "--adaptation", "psa_adaptation", "psa: PSA adaptation (default 0.5)", default=0.5,
@@ -150,6 +151,9 @@ def add_parsers(sub):
                        help="transport: the projector's lens radius for the defocus figure (default 60)")
     bench.add_argument("--min-blur-px", type=float, default=1.0,
                        help="transport: smallest predicted blur radius counted in the defocus error (default 1)")
+    bench.add_argument("--interreflection-camera", type=lambda t: tuple(int(v) for v in t.lower().split("x")),
+                       default=(480, 360), help="transport: camera size of the inter-reflection figure (default "
+                                                "480x360, the captures'; its reference takes minutes)")
     bench.add_argument("--reference-samples", type=int, default=1024,
                        help="transport: samples of the converged inter-reflection reference (default 1024)")
     for name, func in (("dataset", cmd_dataset), ("pretrain", cmd_pretrain), ("eval", cmd_eval),

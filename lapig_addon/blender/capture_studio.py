@@ -6,6 +6,7 @@ for a sequence of patterns, and undoes all of it on close, even after an error o
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import shutil
@@ -14,13 +15,24 @@ import tempfile
 import bpy
 import numpy as np
 
-from ...lapig_core.common.exr import read_exr_layer
+from ...lapig_core.common.exr import ExrError, pass_rgb, read_exr_channels
 from ...lapig_core.common.scratch import ScratchFolder
-from ...lapig_core.optics.transport import FAST, LightTransport, indirect_from_passes
+from ...lapig_core.optics.transport import (FAST, LightTransport, NormalGuide, indirect_from_light_passes,
+                                            indirect_from_passes)
 from . import projector_nodes
 from .geometry_probe import renderable_objects
 
 STUDIO_NAME = "LAPIG capture studio"
+INDIRECT_PASSES = ("use_pass_normal", "use_pass_diffuse_indirect", "use_pass_glossy_indirect", "use_pass_glossy_color",
+                   "use_pass_transmission_indirect", "use_pass_transmission_color",
+                   "use_pass_subsurface_indirect", "use_pass_subsurface_color")
+# each pass's name in Blender 5 and in 4.x's multilayer files
+INDIRECT_NAMES = {"diffuse": ("Diffuse Indirect", "DiffInd"), "diffuse_colour": ("Diffuse Color", "DiffCol"),
+                  "glossy": ("Glossy Indirect", "GlossInd"), "glossy_colour": ("Glossy Color", "GlossCol"),
+                  "transmission": ("Transmission Indirect", "TransInd"),
+                  "transmission_colour": ("Transmission Color", "TransCol"),
+                  "subsurface": ("Subsurface Indirect", "SubsurfaceInd"),
+                  "subsurface_colour": ("Subsurface Color", "SubsurfaceCol")}
 
 
 def read_exr_rgba(path) -> tuple[np.ndarray, np.ndarray]:
@@ -86,6 +98,7 @@ class CaptureStudio:
         self._chunk = 0
         self._saved_dof = None
         self._albedo_linear = None
+        self._guide = None  # transport.NormalGuide of the bounce pass, built with its first frame
 
     # -- lifecycle -------------------------------------------------------------------------
     def __enter__(self):
@@ -273,76 +286,109 @@ class CaptureStudio:
             shutil.rmtree(chunk_dir, ignore_errors=True)
 
     def _render_pass(self, chunk_dir, count, prefix, with_alpha=False) -> list:
+        paths = self._render_paths(chunk_dir, count, prefix)
+        return [read_exr_rgba(p) for p in paths] if with_alpha else [read_exr_rgb(p) for p in paths]
+
+    def _indirect_pass(self, chunk_dir, count, coverage) -> list[np.ndarray]:
+        """The light the projector's light bounced, at a lower resolution and more samples.
+
+        'passes' (the default): one render with bounces, read as Cycles' light-path passes: the diffuse
+        irradiance, scaled up and multiplied by the full-size albedo, plus the glossy, transmitted and
+        subsurface bounce light (lapig_core.optics.transport.indirect_from_light_passes).
+        'difference' (the converged references): two renders of the same size, samples and seed, one
+        with bounces and one without; their difference is the bounce light alone
+        (transport.indirect_from_passes)."""
+        t = self.transport
+        r, c = self.scene.render, self.scene.cycles
+        saved = (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
+                 c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
+                 self.camera.data.dof.use_dof)
+        size = (self.width, self.height)
+        try:
+            r.resolution_x, r.resolution_y = t.indirect_size(self.width, self.height)
+            c.samples, c.filter_width = t.indirect_samples, 1.0
+            self.camera.data.dof.use_dof = False  # the bounce light is smooth: a lens changes nothing in it
+            if t.bounce_method == "difference":
+                c.max_bounces = 0
+                direct = self._render_pass(chunk_dir, count, "direct_low_", with_alpha=True)
+            c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = t.bounces
+            c.transparent_max_bounces, c.volume_bounces = max(t.bounces, 4), 0
+            if t.bounce_method == "difference":
+                bounced = self._render_pass(chunk_dir, count, "bounced_low_")
+            else:
+                with self._multilayer(INDIRECT_PASSES):
+                    bounced = [read_exr_channels(p) for p in self._render_paths(chunk_dir, count, "bounced_low_")]
+        finally:
+            (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
+             c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
+             self.camera.data.dof.use_dof) = saved
+        if t.bounce_method == "difference":
+            return [indirect_from_passes(b, d, size, t.indirect_smooth_px, low_coverage=a, coverage=full)
+                    for b, (d, a), full in zip(bounced, direct, coverage)]
+        albedo, normal = self._albedo()
+        out = []
+        for channels, full in zip(bounced, coverage):
+            irradiance = pass_rgb(channels, *INDIRECT_NAMES["diffuse"])
+            other = np.zeros_like(irradiance)
+            for light, colour in (("glossy", "glossy_colour"), ("transmission", "transmission_colour"),
+                                  ("subsurface", "subsurface_colour")):
+                try:  # a release without one of these passes has none of that light to add
+                    other += pass_rgb(channels, *INDIRECT_NAMES[light]) * pass_rgb(channels, *INDIRECT_NAMES[colour])
+                except ExrError:
+                    continue
+            alpha = next(v for k, v in channels.items() if k.endswith("Combined.A"))
+            if self._guide is None or self._guide.low_shape != alpha.shape:  # the geometry's: built once
+                self._guide = NormalGuide(alpha, pass_rgb(channels, "Normal"), normal, size, t.indirect_smooth_px)
+            out.append(indirect_from_light_passes(irradiance, other, albedo, size, t.indirect_smooth_px,
+                                                  low_coverage=alpha, coverage=full, guide=self._guide))
+        return out
+
+    def _render_paths(self, chunk_dir, count, prefix) -> list[str]:
         scene = self.scene
         scene.frame_start, scene.frame_end = 1, count
         scene.frame_set(1)
         scene.render.filepath = os.path.join(chunk_dir, prefix)
         with bpy.context.temp_override(scene=scene):
             bpy.ops.render.render(animation=True, scene=scene.name)
-        paths = [os.path.join(chunk_dir, f"{prefix}{i:04d}.exr") for i in range(1, count + 1)]
-        return [read_exr_rgba(p) for p in paths] if with_alpha else [read_exr_rgb(p) for p in paths]
+        return [os.path.join(chunk_dir, f"{prefix}{i:04d}.exr") for i in range(1, count + 1)]
 
-    def _indirect_pass(self, chunk_dir, count, coverage) -> list[np.ndarray]:
-        """The light the projector's light bounced, at a lower resolution and more samples.
-
-        Two renders of the same size, samples and seed, one with bounces and one without: their
-        difference is the bounce light alone (the direct light and its anti-aliasing cancel), which
-        lapig_core.optics.transport.indirect_from_passes smooths and scales up to the capture."""
-        t = self.transport
-        r, c = self.scene.render, self.scene.cycles
-        saved = (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
-                 c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
-                 self.camera.data.dof.use_dof)
+    @contextlib.contextmanager
+    def _multilayer(self, passes):
+        """Renders write these view-layer passes into uncompressed multilayer EXR files meanwhile
+        (lapig_core.common.exr reads them: OpenCV sees only a file's plain RGBA channels)."""
+        layer, settings = self.scene.view_layers[0], self.scene.render.image_settings
+        saved = {name: getattr(layer, name) for name in passes if hasattr(layer, name)}
+        media = getattr(settings, "media_type", None)
         try:
-            r.resolution_x = max(1, self.width // t.indirect_downscale)
-            r.resolution_y = max(1, self.height // t.indirect_downscale)
-            c.samples, c.filter_width = t.indirect_samples, 1.0
-            self.camera.data.dof.use_dof = False  # the bounce light is smooth: a lens changes nothing in it
-            c.max_bounces = 0
-            direct = self._render_pass(chunk_dir, count, "direct_low_", with_alpha=True)
-            c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = t.bounces
-            c.transparent_max_bounces, c.volume_bounces = max(t.bounces, 4), 0
-            bounced = self._render_pass(chunk_dir, count, "bounced_low_")
-        finally:
-            (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
-             c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
-             self.camera.data.dof.use_dof) = saved
-        albedo = self._albedo() if t.bounce_albedo_guide else None
-        return [indirect_from_passes(b, d, (self.width, self.height), t.indirect_smooth_px, low_coverage=a,
-                                     coverage=full, albedo=albedo) for b, (d, a), full in zip(bounced, direct, coverage)]
-
-    def _albedo(self) -> np.ndarray:
-        """The surfaces' diffuse colour at the capture's size (Cycles' Diffuse Color pass), rendered once:
-        it does not depend on the projector image. Written as an uncompressed multilayer EXR, which
-        lapig_core.common.exr reads (OpenCV sees only a file's plain RGBA channels)."""
-        if self._albedo_linear is not None:
-            return self._albedo_linear
-        scene, layer = self.scene, self.scene.view_layers[0]
-        settings = scene.render.image_settings
-        saved = layer.use_pass_diffuse_color, settings.file_format, getattr(settings, "media_type", None)
-        path_dir = os.path.join(self.work_dir, f"albedo_{self._chunk:05d}")
-        os.makedirs(path_dir, exist_ok=True)
-        try:
-            layer.use_pass_diffuse_color = True
-            if hasattr(settings, "media_type"):  # 5.0 on: the multilayer format is under its own media type
+            for name in saved:
+                setattr(layer, name, True)
+            if media is not None:  # 5.0 on: the multilayer format is under its own media type
                 settings.media_type = "MULTI_LAYER_IMAGE"
             settings.file_format = "OPEN_EXR_MULTILAYER"
-            settings.exr_codec = "NONE"
-            scene.frame_start = scene.frame_end = 1
-            scene.frame_set(1)
-            scene.render.filepath = os.path.join(path_dir, "albedo_")
-            with bpy.context.temp_override(scene=scene):
-                bpy.ops.render.render(animation=True, scene=scene.name)
-            self._albedo_linear = read_exr_layer(os.path.join(path_dir, "albedo_0001.exr"),
-                                                ("Diffuse Color", "DiffCol"))
+            settings.color_depth, settings.exr_codec = "32", "NONE"
+            yield
         finally:
-            layer.use_pass_diffuse_color = saved[0]
-            if saved[2] is not None:
-                settings.media_type = saved[2]
-            settings.file_format = saved[1]
-            settings.color_mode, settings.color_depth = "RGBA", "32"
-            settings.exr_codec = "NONE"
-            shutil.rmtree(path_dir, ignore_errors=True)
+            for name, value in saved.items():
+                setattr(layer, name, value)
+            if media is not None:
+                settings.media_type = media
+            settings.file_format = "OPEN_EXR"
+            settings.color_mode, settings.color_depth, settings.exr_codec = "RGBA", "32", "NONE"
+
+    def _albedo(self) -> tuple[np.ndarray, np.ndarray]:
+        """(diffuse colour, surface normal) at the capture's size (Cycles' Diffuse Color and Normal
+        passes), rendered once: neither depends on the projector image."""
+        if self._albedo_linear is None:
+            path_dir = os.path.join(self.work_dir, "albedo")
+            os.makedirs(path_dir, exist_ok=True)
+            try:
+                with self._multilayer(("use_pass_diffuse_color", "use_pass_normal")):
+                    path = self._render_paths(path_dir, 1, "albedo_")[0]
+                channels = read_exr_channels(path)
+                self._albedo_linear = (pass_rgb(channels, *INDIRECT_NAMES["diffuse_colour"]),
+                                       pass_rgb(channels, "Normal"))
+            finally:
+                shutil.rmtree(path_dir, ignore_errors=True)
         return self._albedo_linear
 
     def _load_patterns(self, chunk_dir, frames):

@@ -104,17 +104,24 @@ def read_exr_channels(path) -> dict[str, np.ndarray]:
     return out
 
 
-def read_exr_layer(path, names) -> np.ndarray:
-    """The (H, W, 3) RGB of the pass whose channels end with '<name>.R/.G/.B'; names: one pass name or
-    several spellings of it (Blender 5 writes 'Diffuse Color', 4.x 'DiffCol')."""
-    channels = read_exr_channels(path)
-    for name in (names,) if isinstance(names, str) else tuple(names):
+def pass_rgb(channels: dict[str, np.ndarray], *names: str) -> np.ndarray:
+    """The (H, W, 3) RGB (or XYZ, for a vector) of the pass whose channels end with '<name>.R/.G/.B', for
+    the first of `names` found (a pass's spellings: Blender 5 writes 'Diffuse Color', 4.x 'DiffCol')."""
+    for name in names:
         found = {}
         for channel in channels:
             stem, _, component = channel.rpartition(".")
-            if component in ("R", "G", "B") and (stem == name or stem.endswith("." + name)):
+            if stem == name or stem.endswith("." + name):
                 found[component] = channel
-        if set(found) == {"R", "G", "B"}:
-            return np.stack([channels[found[c]] for c in "RGB"], axis=-1)
-    wanted = names if isinstance(names, str) else " or ".join(names)
-    raise ExrError(f"{path} has no {wanted} pass (channels: {', '.join(sorted(channels))})")
+        for components in ("RGB", "XYZ"):  # a colour, or a vector (the Normal pass)
+            if all(c in found for c in components):
+                return np.stack([channels[found[c]] for c in components], axis=-1)
+    raise ExrError(f"no {' or '.join(names)} pass (channels: {', '.join(sorted(channels))})")
+
+
+def read_exr_layer(path, *names: str) -> np.ndarray:
+    """pass_rgb of a file."""
+    try:
+        return pass_rgb(read_exr_channels(path), *names)
+    except ExrError as error:
+        raise ExrError(f"{path}: {error}") from None

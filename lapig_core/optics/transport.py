@@ -3,8 +3,8 @@
 
 Two modes. FAST is direct light through pinhole lenses (what the classical per-pixel model
 assumes; quick to iterate). REALISTIC adds what a real room and real lenses do:
-  * diffuse (and glossy) inter-reflection, rendered as a separate indirect pass (see
-    `indirect_from_passes`);
+  * diffuse (and glossy) inter-reflection, rendered as a separate low-resolution pass whose
+    irradiance the full-size albedo multiplies (see `indirect_from_light_passes`);
   * projector defocus: a thin lens focused at `projector_focus_m` with an aperture of
     `projector_lens_radius_mm`. Every surface point at depth z along the projector's axis gathers
     the projector image over a disk of radius R |1/f - 1/z| (in tan units; times the focal length
@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 MODES = ("REALISTIC", "FAST")
+BOUNCE_METHODS = ("passes", "difference")
 
 
 @dataclass(frozen=True)
@@ -26,9 +27,12 @@ class LightTransport:
     mode: str = "REALISTIC"
     bounces: int = 3  # diffuse / glossy / transmission bounces of the indirect pass
     indirect_samples: int = 16  # samples per pixel of the indirect pass
-    indirect_downscale: int = 4  # the indirect pass renders at 1/this of the capture size
-    indirect_smooth_px: float = 1.5  # Gaussian sigma on the low-resolution bounce light (0: raw; references)
-    bounce_albedo_guide: bool = True  # the full-size albedo puts back the texture the bounce light falls on
+    indirect_downscale: int = 4  # the indirect pass renders at 1/this of the capture size...
+    indirect_min_width: int = 120  # ...but never narrower than this (a small capture's pass is not coarser)
+    indirect_smooth_px: float = 2.5  # Gaussian sigma on the low-resolution bounce light (0: raw; references)
+    # "passes": one render's light-path passes, the irradiance times the full-size albedo (keeps the
+    # texture the bounce light falls on); "difference": two renders, with and without bounces (references)
+    bounce_method: str = "passes"
     projector_focus_m: float = 3.0
     projector_lens_radius_mm: float = 5.0  # 0: pinhole projector
     camera_dof: bool = False
@@ -41,6 +45,8 @@ class LightTransport:
     def __post_init__(self):
         if self.mode not in MODES:
             raise ValueError(f"unknown light transport mode '{self.mode}': choose {' or '.join(MODES)}")
+        if self.bounce_method not in BOUNCE_METHODS:
+            raise ValueError(f"unknown bounce method '{self.bounce_method}': choose {' or '.join(BOUNCE_METHODS)}")
 
     @property
     def realistic(self) -> bool:
@@ -62,6 +68,11 @@ class LightTransport:
     def uses_vignetting(self) -> bool:
         return self.realistic and self.vignetting > 0
 
+    def indirect_size(self, width: int, height: int) -> tuple[int, int]:
+        """The bounce pass's render size for a capture of (width, height)."""
+        scale = min(float(self.indirect_downscale), max(1.0, width / max(self.indirect_min_width, 1)))
+        return max(1, round(width / scale)), max(1, round(height / scale))
+
     def label(self) -> str:
         """One line for the panel: which mode, and what it includes."""
         if not self.realistic:
@@ -79,11 +90,12 @@ class LightTransport:
         """What a capture depends on, rounded, for the rig's fingerprint."""
         if not self.realistic:
             return ["FAST"]
-        return ["REALISTIC", self.bounces, self.indirect_samples, self.indirect_downscale, self.indirect_smooth_px,
+        return ["REALISTIC", self.bounces, self.indirect_samples, self.indirect_downscale, self.indirect_min_width,
+                self.indirect_smooth_px,
                 round(self.projector_focus_m, 4), round(self.projector_lens_radius_mm, 4),
                 self.camera_dof, round(self.camera_focus_m, 4), round(self.camera_f_number, 3),
                 self.camera_dof_samples, round(self.vignetting, 4), self.subsurface_samples,
-                self.bounce_albedo_guide]
+                self.bounce_method]
 
     def to_dict(self) -> dict:
         return {**asdict(self), "label": self.label()}
@@ -163,71 +175,169 @@ def vignetting_map(width: int, height: int, half_width_tan: float, strength: flo
 
 
 # -- inter-reflection ------------------------------------------------------------------------
+def _smooth_and_scale_up(low: np.ndarray, size: tuple[int, int], smooth_px: float,
+                         low_coverage: np.ndarray | None) -> np.ndarray:
+    """A low-resolution (h, w, 3) light, blurred and scaled up to (width, height), both normalised by
+    the coverage (so the empty background does not darken it at an outline); 0 where nothing is."""
+    import cv2
+
+    light = np.asarray(low, np.float32)
+    weight = None if low_coverage is None else np.asarray(low_coverage, np.float32)
+    if smooth_px > 0:
+        light = cv2.GaussianBlur(light, (0, 0), smooth_px)
+        if weight is not None:
+            weight = cv2.GaussianBlur(weight, (0, 0), smooth_px)
+    width, height = size
+    if light.shape[1] != width or light.shape[0] != height:
+        light = cv2.resize(light, (width, height), interpolation=cv2.INTER_LINEAR)
+        if weight is not None:
+            weight = cv2.resize(weight, (width, height), interpolation=cv2.INTER_LINEAR)
+    if weight is None:
+        return light
+    return np.where(weight[..., None] > 1e-3, light / np.maximum(weight, 1e-3)[..., None], 0.0).astype(np.float32)
+
+
+NORMAL_SIGMA = 0.25  # the normal difference (unit vectors) at which a neighbour's weight falls to e^-1/2
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-6)
+
+
+def _similar(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.exp(-np.sum((a - b) ** 2, axis=-1) / (2 * NORMAL_SIGMA ** 2)).astype(np.float32)
+
+
+class NormalGuide:
+    """A cross-bilateral blur and a joint bilateral upsampling, both guided by the surface normal.
+
+    The bounce light on two walls of a corner differs sharply at the crease: a plain blur carries one
+    wall's light onto the other. Here a neighbour counts by its distance (a Gaussian of `smooth_px`
+    low-resolution pixels), its coverage and how close its normal is to the pixel's own, at low
+    resolution (which averages the path-tracing noise within each surface); then each capture pixel
+    takes its four low-resolution neighbours by the bilinear weights times the same normal closeness
+    to its own full-size normal.
+
+    The weights depend on the geometry only (coverage and normals), so one guide serves every frame
+    of a capture. low_coverage, low_normal: (h, w), (h, w, 3) as rendered (coverage-weighted); normal:
+    (H, W, 3) at the capture's size (width, height)."""
+
+    def __init__(self, low_coverage: np.ndarray, low_normal: np.ndarray, normal: np.ndarray,
+                 size: tuple[int, int], smooth_px: float):
+        width, height = size
+        cov = np.asarray(low_coverage, np.float32)
+        h, w = cov.shape
+        self.low_shape, self.size = (h, w), (width, height)
+        n_low = _unit(np.asarray(low_normal, np.float32) / np.maximum(cov, 1e-6)[..., None])
+        sigma = float(smooth_px)
+        self.radius = r = int(np.ceil(2 * sigma)) if sigma > 0 else 0
+        self.taps = []  # (dy, dx, weight (h, w)) of the low-resolution blur
+        weight = np.zeros((h, w), np.float32)
+        p_cov, p_n = self._pad(cov), self._pad(n_low)
+        for dy in range(-r, r + 1):
+            for dx in range(-r, r + 1):
+                near = np.exp(-(dy * dy + dx * dx) / (2 * sigma * sigma)) if sigma > 0 else 1.0
+                if near < 0.01:
+                    continue
+                window = (slice(r + dy, r + dy + h), slice(r + dx, r + dx + w))
+                wgt = (near * _similar(p_n[window], n_low)).astype(np.float32)
+                self.taps.append((window, wgt))
+                weight += wgt * p_cov[window]
+        self.inv_weight = np.where(weight > 1e-4, 1.0 / np.maximum(weight, 1e-4), 0.0).astype(np.float32)
+        support = cov * (weight > 1e-4)
+        n_full = _unit(np.asarray(normal, np.float32))
+        u = (np.arange(width, dtype=np.float32) + 0.5) * w / width - 0.5
+        v = (np.arange(height, dtype=np.float32) + 0.5) * h / height - 0.5
+        u0, v0 = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
+        fu, fv = u - u0, v - v0
+        self.corners = []  # (flat low-resolution index (H, W), weight (H, W)) of the four neighbours
+        total = np.zeros((height, width), np.float32)
+        for oy, by in ((0, 1 - fv), (1, fv)):
+            ly = np.clip(v0 + oy, 0, h - 1)
+            for ox, bx in ((0, 1 - fu), (1, fu)):
+                lx = np.clip(u0 + ox, 0, w - 1)
+                flat = ly[:, None] * w + lx[None, :]
+                bilinear = (by[:, None] * bx[None, :]) * support.reshape(-1)[flat]
+                # (a sliver whose four neighbours all face elsewhere still takes them, bilinearly)
+                wgt = (bilinear * (_similar(n_low.reshape(-1, 3)[flat], n_full) + 1e-4)).astype(np.float32)
+                self.corners.append((flat, wgt))
+                total += wgt
+        inv = np.where(total > 1e-6, 1.0 / np.maximum(total, 1e-6), 0.0).astype(np.float32)
+        self.corners = [(flat, wgt * inv) for flat, wgt in self.corners]
+
+    def _pad(self, x):
+        r = self.radius
+        return np.pad(x, ((r, r), (r, r)) + ((0, 0),) * (x.ndim - 2), mode="edge")
+
+    def scale_up(self, low: np.ndarray) -> np.ndarray:
+        """(h, w, C) coverage-weighted light -> (H, W, C), per surface, 0 where no surface is near."""
+        light = np.asarray(low, np.float32)
+        if light.shape[:2] != self.low_shape:
+            raise ValueError(f"the guide is for {self.low_shape[1]}x{self.low_shape[0]} passes, "
+                             f"not {light.shape[1]}x{light.shape[0]}")
+        padded = self._pad(light)
+        blurred = np.zeros_like(light)
+        for window, wgt in self.taps:
+            blurred += wgt[..., None] * padded[window]
+        blurred *= self.inv_weight[..., None]
+        flat = blurred.reshape(-1, light.shape[-1])
+        width, height = self.size
+        out = np.zeros((height, width, light.shape[-1]), np.float32)
+        for index, wgt in self.corners:
+            out += wgt[..., None] * flat[index]
+        return out
+
+
 def indirect_from_passes(with_bounces: np.ndarray, direct: np.ndarray, size: tuple[int, int],
                          smooth_px: float = 1.0, low_coverage: np.ndarray | None = None,
-                         coverage: np.ndarray | None = None, albedo: np.ndarray | None = None) -> np.ndarray:
-    """The bounce light of a low-resolution pass, at the capture's (width, height).
+                         coverage: np.ndarray | None = None) -> np.ndarray:
+    """The bounce light of a low-resolution pair of renders ('difference' method), at the capture's
+    (width, height).
 
-    Both passes render at the same samples and seed, so their direct light (and its anti-aliasing)
-    is the same and cancels exactly; what is left is the light that bounced. It is smooth, so a
-    small blur and a bilinear upscale take the rest of its path-tracing noise away without
-    softening anything the direct pass carries (edges, texture, highlights of the projector).
+    Both renders use the same samples and seed, so their direct light (and its anti-aliasing)
+    is the same and cancels exactly; what is left is the light that bounced. A small blur and a
+    bilinear upscale take the rest of its path-tracing noise away. It cannot keep the texture the
+    bounce light falls on (see `indirect_from_light_passes`); the converged references use it at full
+    size, where it is exact.
 
     low_coverage (h, w) and coverage (H, W): where the passes and the capture see a surface (the
-    renders' alpha). The blur and the upscale are then normalised by coverage, so the empty
-    background does not darken the bounce light at the object's outline, and nothing lands off it.
-
-    albedo (H, W, 3): the surface's diffuse colour at the capture's size (Cycles' Diffuse Color pass).
-    Bounce light is the albedo times a smooth irradiance, so with it the low-resolution pass gives only
-    the irradiance (its light over its area-averaged albedo) and the full-size albedo puts back the
-    texture the bounced light falls on, which a low-resolution pass alone smooths away. Where the
-    surface has almost no diffuse colour (black, or gloss only) the unguided bounce light is kept."""
-    import cv2
-
-    if albedo is not None:
-        return _albedo_guided(with_bounces, direct, size, smooth_px, low_coverage, coverage, albedo)
-
-    indirect = np.asarray(with_bounces, np.float32) - np.asarray(direct, np.float32)
-    weight = None if low_coverage is None else np.asarray(low_coverage, np.float32)[..., None]
-    if weight is not None:
-        indirect = indirect * weight
-    if smooth_px > 0:
-        indirect = cv2.GaussianBlur(indirect, (0, 0), smooth_px)
-        if weight is not None:
-            weight = cv2.GaussianBlur(weight[..., 0], (0, 0), smooth_px)[..., None]
-    width, height = size
-    if indirect.shape[1] != width or indirect.shape[0] != height:
-        indirect = cv2.resize(indirect, (width, height), interpolation=cv2.INTER_LINEAR)
-        if weight is not None:
-            weight = cv2.resize(weight[..., 0], (width, height), interpolation=cv2.INTER_LINEAR)[..., None]
-    if weight is not None:
-        indirect = np.where(weight > 1e-3, indirect / np.maximum(weight, 1e-3), 0.0).astype(np.float32)
+    renders' alpha): nothing lands off the surface."""
+    light = np.asarray(with_bounces, np.float32) - np.asarray(direct, np.float32)
+    light = _smooth_and_scale_up(light, size, smooth_px, low_coverage)
     if coverage is not None:
-        indirect = indirect * np.asarray(coverage, np.float32)[..., None]
-    return indirect
+        light = light * np.asarray(coverage, np.float32)[..., None]
+    return light
 
 
-GUIDE_MIN_ALBEDO = 0.02  # below this diffuse colour the bounce light is mostly gloss: not guided
+def indirect_from_light_passes(diffuse_irradiance: np.ndarray, other_indirect: np.ndarray | None,
+                               albedo: np.ndarray, size: tuple[int, int], smooth_px: float = 1.0,
+                               low_coverage: np.ndarray | None = None,
+                               coverage: np.ndarray | None = None, guide: NormalGuide | None = None) -> np.ndarray:
+    """The bounce light from one low-resolution render's light-path passes ('passes' method).
 
-
-def _albedo_guided(with_bounces, direct, size, smooth_px, low_coverage, coverage, albedo) -> np.ndarray:
-    import cv2
-
-    unguided = indirect_from_passes(with_bounces, direct, size, smooth_px, low_coverage, coverage)
+    diffuse_irradiance (h, w, 3): Cycles' Diffuse Indirect pass, the bounced light arriving at
+    diffuse surfaces before their colour is applied. It is smooth (what varies at a few pixels is the
+    surface's texture, which the pass leaves out), so it is blurred and scaled up, then multiplied by
+    the full-size albedo (H, W, 3; the Diffuse Color pass): the bounce light keeps the texture it
+    falls on. other_indirect (h, w, 3): the glossy, transmitted and subsurface bounce light, colour
+    included, blurred and scaled up as it is. With a NormalGuide (the surface normals, low and full
+    size) the blur and the scale-up stop at creases."""
     albedo = np.asarray(albedo, np.float32)
     width, height = size
     if albedo.shape[:2] != (height, width):
         raise ValueError(f"the albedo pass is {albedo.shape[1]}x{albedo.shape[0]}, the capture {width}x{height}")
-    bounce = np.asarray(with_bounces, np.float32) - np.asarray(direct, np.float32)
-    low_h, low_w = bounce.shape[:2]
-    # both carry the pixels' coverage (the film is transparent off the surface), so their ratio does not
-    low_albedo = cv2.resize(albedo, (low_w, low_h), interpolation=cv2.INTER_AREA)
-    if smooth_px > 0:
-        bounce = cv2.GaussianBlur(bounce, (0, 0), smooth_px)
-        low_albedo = cv2.GaussianBlur(low_albedo, (0, 0), smooth_px)
-    guided_here = low_albedo > GUIDE_MIN_ALBEDO
-    irradiance = np.where(guided_here, bounce / np.maximum(low_albedo, GUIDE_MIN_ALBEDO), 0.0).astype(np.float32)
-    irradiance = cv2.resize(irradiance, (width, height), interpolation=cv2.INTER_LINEAR)
-    guided_here = cv2.resize(guided_here.astype(np.float32), (width, height), interpolation=cv2.INTER_LINEAR)
-    guided = albedo * irradiance
-    return (guided_here * guided + (1 - guided_here) * unguided).astype(np.float32)
+    def scale_up(x):
+        return guide.scale_up(x) if guide is not None else _smooth_and_scale_up(x, size, smooth_px, low_coverage)
+
+    if other_indirect is not None and not np.any(other_indirect):
+        other_indirect = None  # matte surfaces: only diffuse light bounces
+    if other_indirect is not None:  # one pass over both
+        both = scale_up(np.concatenate([diffuse_irradiance, other_indirect], axis=-1))
+        light, other = albedo * both[..., :3], both[..., 3:]
+    else:
+        light = albedo * scale_up(diffuse_irradiance)
+    if other_indirect is not None:
+        if coverage is not None:
+            other = other * np.asarray(coverage, np.float32)[..., None]
+        light = light + other
+    return light.astype(np.float32)

@@ -139,7 +139,8 @@ def test_gloss_and_subsurface_materials_survive_in_the_capture(lapig_registered,
 
 def test_the_bounce_light_carries_the_texture_of_the_wall_it_falls_on(lapig_registered, tmp_path):
     """One wall lit, the other lit only by its bounce: the bounce light on the dark wall shows that
-    wall's texture (the full-size albedo guide), which a low-resolution bounce pass alone smooths away."""
+    wall's texture (the 'passes' method: irradiance times the full-size albedo), which the difference of
+    two low-resolution renders smooths away."""
     import cv2
 
     from lapig.lapig_core.optics.transport import FAST
@@ -149,8 +150,8 @@ def test_the_bounce_light_carries_the_texture_of_the_wall_it_falls_on(lapig_regi
     half = WHITE.copy()
     half[:, 80:] = 0
     direct = _linear(corner, FAST, [half])[0].mean(-1)
-    bounce = {guide: _linear(corner, _realistic(bounces=2, bounce_albedo_guide=guide), [half])[0].mean(-1) - direct
-              for guide in (True, False)}
+    bounce = {method == "passes": _linear(corner, _realistic(bounces=2, bounce_method=method), [half])[0].mean(-1)
+              - direct for method in ("passes", "difference")}
     dark_wall = (white > 1e-4) & (direct < 0.05 * white)  # (a few speckles of stray direct light)
     dark_wall = cv2.erode(dark_wall.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
     assert dark_wall.sum() > 500

@@ -42,7 +42,7 @@ def test_reads_every_channel_of_a_multilayer_file(tmp_path):
     assert set(read) == set(planes)
     for name, plane in planes.items():
         assert np.array_equal(read[name], plane)
-    albedo = read_exr_layer(path, ("Diffuse Color", "DiffCol"))
+    albedo = read_exr_layer(path, "Diffuse Color", "DiffCol")
     assert albedo.shape == (5, 7, 3)
     assert np.array_equal(albedo[..., 1], planes["ViewLayer.DiffCol.G"])
 
@@ -65,5 +65,5 @@ def test_what_it_cannot_read_gets_a_clear_error(tmp_path):
         read_exr_channels(not_exr)
     plain = tmp_path / "plain.exr"
     _write_exr(plain, {c: np.zeros((2, 2)) for c in "RGB"})
-    with pytest.raises(ExrError, match="no DiffCol pass"):
-        read_exr_layer(plain, "DiffCol")
+    with pytest.raises(ExrError, match="no Diffuse Color or DiffCol pass"):
+        read_exr_layer(plain, "Diffuse Color", "DiffCol")

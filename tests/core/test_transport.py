@@ -75,26 +75,61 @@ def test_the_mode_and_its_settings_change_the_state_a_capture_depends_on():
         LightTransport(mode="SLOW")
 
 
-def test_the_albedo_guide_puts_back_the_texture_the_bounce_light_falls_on():
+def test_the_light_passes_put_back_the_texture_the_bounce_light_falls_on():
     import cv2
 
     h, w = 64, 96
     yy, xx = np.mgrid[0:h, 0:w]
-    albedo = np.where(((yy // 3 + xx // 3) % 2)[..., None] == 0, 0.8, 0.2).astype(np.float32) * np.ones(3)
+    albedo = np.where(((yy // 3 + xx // 3) % 2)[..., None] == 0, 0.8, 0.2).astype(np.float32) * np.ones(3, np.float32)
     irradiance = (0.05 + 0.1 * xx / w).astype(np.float32)[..., None] * np.ones(3, np.float32)
-    bounce_full = (albedo * irradiance).astype(np.float32)
+    bounce_full = albedo * irradiance
     low = (w // 4, h // 4)
+    # what a low-resolution render with bounces writes: its Diffuse Indirect pass, and its Combined light
+    irradiance_low = cv2.resize(irradiance, low, interpolation=cv2.INTER_AREA)
     direct_low = np.full((h // 4, w // 4, 3), 0.3, np.float32)
     with_bounces_low = direct_low + cv2.resize(bounce_full, low, interpolation=cv2.INTER_AREA)
-    guided = light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0, albedo=albedo.astype(np.float32))
-    unguided = light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0)
+    passes = light.indirect_from_light_passes(irradiance_low, None, albedo, (w, h), 1.0)
+    difference = light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0)
     inner = (slice(8, -8), slice(8, -8))
     error = lambda x: np.abs(x[inner] - bounce_full[inner]).mean() / bounce_full[inner].mean()
-    assert error(guided) < 0.05  # the checker the bounce light falls on is back
-    assert error(unguided) > 0.3  # a low-resolution pass alone smooths it away
-    # no diffuse colour (black, or gloss only): the bounce light is kept unguided, not divided by ~0
-    black = np.zeros_like(albedo, np.float32)
-    kept = light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0, albedo=black)
-    assert np.allclose(kept, unguided, atol=1e-6)
+    assert error(passes) < 0.05  # the checker the bounce light falls on is back
+    assert error(difference) > 0.3  # a low-resolution difference alone smooths it away
+    gloss = np.full_like(irradiance_low, 0.01)  # glossy (and other) bounce light is added as it is
+    assert np.allclose(light.indirect_from_light_passes(irradiance_low, gloss, albedo, (w, h), 1.0) - passes, 0.01,
+                       atol=1e-5)
     with pytest.raises(ValueError, match="albedo pass"):
-        light.indirect_from_passes(with_bounces_low, direct_low, (w, h), 1.0, albedo=albedo[:32])
+        light.indirect_from_light_passes(irradiance_low, None, albedo[:32], (w, h), 1.0)
+    with pytest.raises(ValueError, match="bounce method"):
+        LightTransport(bounce_method="denoise")
+
+
+def test_the_normal_guide_keeps_each_wall_of_a_corner_to_its_own_bounce_light():
+    h, w, scale = 16, 32, 4
+    normal_low = np.zeros((h, w, 3), np.float32)
+    normal_low[:, : w // 2] = (1, 0, 0)
+    normal_low[:, w // 2:] = (0, 1, 0)  # two walls at 90 degrees, the crease in the middle
+    light_low = np.where(np.arange(w)[None, :, None] < w // 2, 1.0, 0.1).astype(np.float32) * np.ones((h, 1, 3))
+    cover = np.ones((h, w), np.float32)
+    normal = np.repeat(np.repeat(normal_low, scale, 0), scale, 1)
+    size = (w * scale, h * scale)
+    guide = light.NormalGuide(cover, normal_low, normal, size, smooth_px=2.5)
+    guided = guide.scale_up(light_low)[..., 0]
+    plain = light._smooth_and_scale_up(light_low, size, 2.5, cover)[..., 0]
+    beside = (w // 2) * scale  # the first column of the dim wall
+    assert guided[:, beside] == pytest.approx(0.1, abs=0.01)  # the bright wall's light stays on it
+    assert guided[:, beside - 1] == pytest.approx(1.0, abs=0.01)
+    assert plain[:, beside].mean() > 0.4  # a plain blur carries it across the crease
+    # a flat surface: the guide is a smooth interpolation that keeps the light's level
+    flat = light.NormalGuide(cover, np.tile(np.float32([0, 0, 1]), (h, w, 1)), np.tile(np.float32([0, 0, 1]),
+                             (h * scale, w * scale, 1)), size, 2.5)
+    assert np.allclose(flat.scale_up(np.full((h, w, 3), 0.3, np.float32)), 0.3, atol=1e-5)
+    with pytest.raises(ValueError, match="guide is for"):
+        guide.scale_up(light_low[:8])
+
+
+def test_a_small_capture_keeps_a_bounce_pass_of_its_own_size():
+    t = LightTransport()
+    assert t.indirect_size(480, 360) == (120, 90)
+    assert t.indirect_size(160, 120) == (120, 90)
+    assert t.indirect_size(96, 72) == (96, 72)
+    assert t.indirect_size(1920, 1080) == (480, 270)

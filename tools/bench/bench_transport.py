@@ -123,11 +123,12 @@ def defocus_run(args, out) -> dict:
 # -- inter-reflection ------------------------------------------------------------------------
 def interreflection_run(args, out) -> dict:
     scene, projector, camera, target = headless.build_demo_setup("corner", "wood", folder=out,
-                                                                 camera_resolution=(160, 120))
+                                                                 camera_resolution=args.interreflection_camera)
     camera.lapig_camera.noise = 0.0
     camera.lapig_camera.auto_exposure = False
     ours_t = LightTransport(projector_lens_radius_mm=0.0, vignetting=0.0)
-    ref_t = LightTransport(projector_lens_radius_mm=0.0, vignetting=0.0, bounces=12,
+    # the reference is the other method (two renders, with and without bounces), converged, at full size
+    ref_t = LightTransport(projector_lens_radius_mm=0.0, vignetting=0.0, bounces=12, bounce_method="difference",
                            indirect_samples=args.reference_samples, indirect_downscale=1, indirect_smooth_px=0.0)
     white = np.full((600, 800, 3), 235, np.uint8)
     half = white.copy()
@@ -164,6 +165,7 @@ def interreflection_run(args, out) -> dict:
     write_png(os.path.join(out, "interreflection_sheet.png"), sheet)
     return {"interreflection_error_pct": max(f["block_l1_pct"] for f in figures.values()),
             "interreflection": figures, "interreflection_reference_samples": args.reference_samples,
+            "interreflection_camera": list(args.interreflection_camera), "bounce_method": ours_t.bounce_method,
             "interreflection_render_s": {k: round(v, 2) for k, v in times.items()}}
 
 

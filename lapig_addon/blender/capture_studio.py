@@ -23,16 +23,18 @@ from . import projector_nodes
 from .geometry_probe import renderable_objects
 
 STUDIO_NAME = "LAPIG capture studio"
-INDIRECT_PASSES = ("use_pass_normal", "use_pass_diffuse_indirect", "use_pass_glossy_indirect", "use_pass_glossy_color",
-                   "use_pass_transmission_indirect", "use_pass_transmission_color",
-                   "use_pass_subsurface_indirect", "use_pass_subsurface_color")
+# the view-layer passes the 'passes' bounce method reads (lapig_core.common.exr reads the file)
+LIGHT_PASSES = ("use_pass_normal", "use_pass_diffuse_indirect", "use_pass_diffuse_color",
+                "use_pass_glossy_indirect", "use_pass_glossy_color")
+TRANSMISSION_PASSES = ("use_pass_transmission_indirect", "use_pass_transmission_color")
+SUBSURFACE_PASSES = ("use_pass_subsurface_indirect", "use_pass_subsurface_color")
 # each pass's name in Blender 5 and in 4.x's multilayer files
-INDIRECT_NAMES = {"diffuse": ("Diffuse Indirect", "DiffInd"), "diffuse_colour": ("Diffuse Color", "DiffCol"),
-                  "glossy": ("Glossy Indirect", "GlossInd"), "glossy_colour": ("Glossy Color", "GlossCol"),
-                  "transmission": ("Transmission Indirect", "TransInd"),
-                  "transmission_colour": ("Transmission Color", "TransCol"),
-                  "subsurface": ("Subsurface Indirect", "SubsurfaceInd"),
-                  "subsurface_colour": ("Subsurface Color", "SubsurfaceCol")}
+PASS_NAMES = {"diffuse": ("Diffuse Indirect", "DiffInd"), "diffuse_colour": ("Diffuse Color", "DiffCol"),
+              "glossy": ("Glossy Indirect", "GlossInd"), "glossy_colour": ("Glossy Color", "GlossCol"),
+              "transmission": ("Transmission Indirect", "TransInd"),
+              "transmission_colour": ("Transmission Color", "TransCol"),
+              "subsurface": ("Subsurface Indirect", "SubsurfaceInd"),
+              "subsurface_colour": ("Subsurface Color", "SubsurfaceCol")}
 
 
 def read_exr_rgba(path) -> tuple[np.ndarray, np.ndarray]:
@@ -65,19 +67,29 @@ def write_pattern(path, emitted: np.ndarray):
         raise OSError(f"could not write the projector pattern {path} (disk full?)")
 
 
-def has_subsurface(objects) -> bool:
-    """Whether any of the objects' materials scatters light under its surface."""
+def _materials_use(objects, node_types: tuple, principled_input: str) -> bool:
     for ob in objects:
         for slot in getattr(ob, "material_slots", []):
             tree = slot.material.node_tree if slot.material else None
             for node in (tree.nodes if tree else []):
-                if node.bl_idname == "ShaderNodeSubsurfaceScattering":
+                if node.bl_idname in node_types:
                     return True
-                weight = node.inputs.get("Subsurface Weight") if node.bl_idname == "ShaderNodeBsdfPrincipled" \
+                weight = node.inputs.get(principled_input) if node.bl_idname == "ShaderNodeBsdfPrincipled" \
                     else None
                 if weight is not None and (weight.is_linked or weight.default_value > 0):
                     return True
     return False
+
+
+def has_subsurface(objects) -> bool:
+    """Whether any of the objects' materials scatters light under its surface."""
+    return _materials_use(objects, ("ShaderNodeSubsurfaceScattering",), "Subsurface Weight")
+
+
+def has_transmission(objects) -> bool:
+    """Whether any of the objects' materials lets light through (glass, refraction, transmission)."""
+    return _materials_use(objects, ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction", "ShaderNodeBsdfTransparent",
+                                    "ShaderNodeBsdfTranslucent"), "Transmission Weight")
 
 
 class CaptureStudio:
@@ -97,7 +109,6 @@ class CaptureStudio:
         self._saved_image = None
         self._chunk = 0
         self._saved_dof = None
-        self._albedo_linear = None
         self._guide = None  # transport.NormalGuide of the bounce pass, built with its first frame
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -279,6 +290,8 @@ class CaptureStudio:
             count = max(1, len(frames))
             if not with_indirect:
                 return self._render_pass(chunk_dir, count, "render_")
+            if self.transport.bounce_method == "passes":
+                return self._render_with_light_passes(chunk_dir, count)
             direct = self._render_pass(chunk_dir, count, "render_", with_alpha=True)
             indirect = self._indirect_pass(chunk_dir, count, [alpha for _, alpha in direct])
             return [d + i for (d, _), i in zip(direct, indirect)]
@@ -289,59 +302,86 @@ class CaptureStudio:
         paths = self._render_paths(chunk_dir, count, prefix)
         return [read_exr_rgba(p) for p in paths] if with_alpha else [read_exr_rgb(p) for p in paths]
 
-    def _indirect_pass(self, chunk_dir, count, coverage) -> list[np.ndarray]:
-        """The light the projector's light bounced, at a lower resolution and more samples.
+    def _render_with_light_passes(self, chunk_dir, count) -> list[np.ndarray]:
+        """One render with bounces per frame, read as Cycles' light-path passes ('passes', the default).
 
-        'passes' (the default): one render with bounces, read as Cycles' light-path passes: the diffuse
-        irradiance, scaled up and multiplied by the full-size albedo, plus the glossy, transmitted and
-        subsurface bounce light (lapig_core.optics.transport.indirect_from_light_passes).
-        'difference' (the converged references): two renders of the same size, samples and seed, one
-        with bounces and one without; their difference is the bounce light alone
-        (transport.indirect_from_passes)."""
+        The direct light is the render less its indirect passes (each light times its colour; exact at
+        one sample per pixel, the default capture's: a 480x360 capture's 4x4 blocks hold 16 samples). The bounce light is the Diffuse Indirect pass (the irradiance,
+        without the surface's colour) averaged over blocks of pixels, so a block's samples make one
+        low-resolution pixel, blurred and scaled up under a surface-normal guide, times the full-size
+        Diffuse Color: it keeps the texture it falls on and does not cross a crease. The glossy,
+        transmitted and subsurface bounce light is added the same way, colour included
+        (lapig_core.optics.transport.indirect_from_light_passes)."""
+        import cv2
+
+        t = self.transport
+        c = self.scene.cycles
+        low = t.indirect_size(self.width, self.height)
+        saved = (c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces,
+                 c.transparent_max_bounces, c.volume_bounces)
+        try:
+            # (the direct pass's own samples: pixel centres, as Fast; a small capture's blocks hold fewer)
+            c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = t.bounces
+            c.transparent_max_bounces, c.volume_bounces = max(t.bounces, 4), 0
+            objects = self.scene.collection.objects
+            passes = LIGHT_PASSES + (TRANSMISSION_PASSES if has_transmission(objects) else ()) \
+                + (SUBSURFACE_PASSES if has_subsurface(objects) else ())  # fewer channels to write and read
+            with self._multilayer(passes):
+                paths = self._render_paths(chunk_dir, count, "render_")
+        finally:
+            (c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces,
+             c.transparent_max_bounces, c.volume_bounces) = saved
+        size = (self.width, self.height)
+        area = lambda x: cv2.resize(x, low, interpolation=cv2.INTER_AREA) if x.shape[1] != low[0] else x
+        out = []
+        for path in paths:
+            channels = read_exr_channels(path)
+            combined = pass_rgb(channels, "Combined")
+            alpha = next(v for k, v in channels.items() if k.endswith("Combined.A"))
+            albedo = pass_rgb(channels, *PASS_NAMES["diffuse_colour"])
+            irradiance = pass_rgb(channels, *PASS_NAMES["diffuse"])
+            other = np.zeros_like(irradiance)
+            for light, colour in (("glossy", "glossy_colour"), ("transmission", "transmission_colour"),
+                                  ("subsurface", "subsurface_colour")):
+                try:  # a release without one of these passes has none of that light to add
+                    other += pass_rgb(channels, *PASS_NAMES[light]) * pass_rgb(channels, *PASS_NAMES[colour])
+                except ExrError:
+                    continue
+            direct = np.maximum(combined - albedo * irradiance - other, 0.0)
+            low_alpha = area(alpha)
+            if self._guide is None or self._guide.low_shape != low_alpha.shape:  # the geometry's: built once
+                normal = pass_rgb(channels, "Normal")
+                self._guide = NormalGuide(low_alpha, area(normal), normal, size, t.indirect_smooth_px)
+            out.append(direct + indirect_from_light_passes(area(irradiance), area(other), albedo, size,
+                                                           t.indirect_smooth_px, low_coverage=low_alpha,
+                                                           coverage=alpha, guide=self._guide))
+        return out
+
+    def _indirect_pass(self, chunk_dir, count, coverage) -> list[np.ndarray]:
+        """The light the projector's light bounced ('difference', the converged references): two
+        renders of a lower resolution, the same samples and seed, one with bounces and one without;
+        their difference is the bounce light alone (the direct light and its anti-aliasing cancel),
+        which lapig_core.optics.transport.indirect_from_passes smooths and scales up to the capture."""
         t = self.transport
         r, c = self.scene.render, self.scene.cycles
         saved = (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
                  c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
                  self.camera.data.dof.use_dof)
-        size = (self.width, self.height)
         try:
             r.resolution_x, r.resolution_y = t.indirect_size(self.width, self.height)
             c.samples, c.filter_width = t.indirect_samples, 1.0
             self.camera.data.dof.use_dof = False  # the bounce light is smooth: a lens changes nothing in it
-            if t.bounce_method == "difference":
-                c.max_bounces = 0
-                direct = self._render_pass(chunk_dir, count, "direct_low_", with_alpha=True)
+            c.max_bounces = 0
+            direct = self._render_pass(chunk_dir, count, "direct_low_", with_alpha=True)
             c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = t.bounces
             c.transparent_max_bounces, c.volume_bounces = max(t.bounces, 4), 0
-            if t.bounce_method == "difference":
-                bounced = self._render_pass(chunk_dir, count, "bounced_low_")
-            else:
-                with self._multilayer(INDIRECT_PASSES):
-                    bounced = [read_exr_channels(p) for p in self._render_paths(chunk_dir, count, "bounced_low_")]
+            bounced = self._render_pass(chunk_dir, count, "bounced_low_")
         finally:
             (r.resolution_x, r.resolution_y, c.samples, c.filter_width, c.max_bounces, c.diffuse_bounces,
              c.glossy_bounces, c.transmission_bounces, c.transparent_max_bounces, c.volume_bounces,
              self.camera.data.dof.use_dof) = saved
-        if t.bounce_method == "difference":
-            return [indirect_from_passes(b, d, size, t.indirect_smooth_px, low_coverage=a, coverage=full)
-                    for b, (d, a), full in zip(bounced, direct, coverage)]
-        albedo, normal = self._albedo()
-        out = []
-        for channels, full in zip(bounced, coverage):
-            irradiance = pass_rgb(channels, *INDIRECT_NAMES["diffuse"])
-            other = np.zeros_like(irradiance)
-            for light, colour in (("glossy", "glossy_colour"), ("transmission", "transmission_colour"),
-                                  ("subsurface", "subsurface_colour")):
-                try:  # a release without one of these passes has none of that light to add
-                    other += pass_rgb(channels, *INDIRECT_NAMES[light]) * pass_rgb(channels, *INDIRECT_NAMES[colour])
-                except ExrError:
-                    continue
-            alpha = next(v for k, v in channels.items() if k.endswith("Combined.A"))
-            if self._guide is None or self._guide.low_shape != alpha.shape:  # the geometry's: built once
-                self._guide = NormalGuide(alpha, pass_rgb(channels, "Normal"), normal, size, t.indirect_smooth_px)
-            out.append(indirect_from_light_passes(irradiance, other, albedo, size, t.indirect_smooth_px,
-                                                  low_coverage=alpha, coverage=full, guide=self._guide))
-        return out
+        return [indirect_from_passes(b, d, (self.width, self.height), t.indirect_smooth_px, low_coverage=a,
+                                     coverage=full) for b, (d, a), full in zip(bounced, direct, coverage)]
 
     def _render_paths(self, chunk_dir, count, prefix) -> list[str]:
         scene = self.scene
@@ -374,22 +414,6 @@ class CaptureStudio:
                 settings.media_type = media
             settings.file_format = "OPEN_EXR"
             settings.color_mode, settings.color_depth, settings.exr_codec = "RGBA", "32", "NONE"
-
-    def _albedo(self) -> tuple[np.ndarray, np.ndarray]:
-        """(diffuse colour, surface normal) at the capture's size (Cycles' Diffuse Color and Normal
-        passes), rendered once: neither depends on the projector image."""
-        if self._albedo_linear is None:
-            path_dir = os.path.join(self.work_dir, "albedo")
-            os.makedirs(path_dir, exist_ok=True)
-            try:
-                with self._multilayer(("use_pass_diffuse_color", "use_pass_normal")):
-                    path = self._render_paths(path_dir, 1, "albedo_")[0]
-                channels = read_exr_channels(path)
-                self._albedo_linear = (pass_rgb(channels, *INDIRECT_NAMES["diffuse_colour"]),
-                                       pass_rgb(channels, "Normal"))
-            finally:
-                shutil.rmtree(path_dir, ignore_errors=True)
-        return self._albedo_linear
 
     def _load_patterns(self, chunk_dir, frames):
         for i, frame in enumerate(frames, start=1):

@@ -50,6 +50,27 @@ def _header(data: bytes, pos: int) -> tuple[dict, int]:
     return header, pos + 1
 
 
+def _contiguous_rows(data, channels, width, height, ymin, offsets, row_bytes, prefix):
+    """The common case at numpy speed: every scanline in order, back to back, with one pixel type.
+    None when the file is laid out otherwise (the general loop reads it then)."""
+    dtypes = {dtype for _, dtype, *_ in channels}
+    chunk = prefix + 8 + row_bytes
+    if len(dtypes) != 1 or height == 0:
+        return None
+    start = int(offsets[0])
+    if not np.array_equal(offsets.astype(np.int64), start + chunk * np.arange(height, dtype=np.int64)):
+        return None
+    if start + chunk * height > len(data):
+        raise ExrError("the file is cut short")
+    rows = np.frombuffer(data, np.uint8, count=chunk * height, offset=start).reshape(height, chunk)
+    ys = rows[:, prefix:prefix + 4].copy().view("<i4")[:, 0]
+    if not np.array_equal(ys, ymin + np.arange(height)):
+        return None
+    dtype = dtypes.pop()
+    pixels = rows[:, prefix + 8:].copy().view(dtype).reshape(height, len(channels), width)
+    return {name: pixels[:, i].astype(np.float32) for i, (name, *_) in enumerate(channels)}
+
+
 def read_exr_channels(path) -> dict[str, np.ndarray]:
     """{channel name: (H, W) float32} of an uncompressed scanline EXR, single- or multi-part
     (Blender writes its multilayer files as multi-part)."""
@@ -85,8 +106,12 @@ def read_exr_channels(path) -> dict[str, np.ndarray]:
         parts.append((channels, width, height, ymin, offsets))
     out = {}
     for index, (channels, width, height, ymin, offsets) in enumerate(parts):
-        planes = {name: np.empty((height, width), np.float32) for name, *_ in channels}
         row_bytes = sum(dtype.itemsize for _, dtype, *_ in channels) * width
+        fast = _contiguous_rows(data, channels, width, height, ymin, offsets, row_bytes, 4 if multipart else 0)
+        if fast is not None:
+            out.update(fast)
+            continue
+        planes = {name: np.empty((height, width), np.float32) for name, *_ in channels}
         for offset in offsets:
             at = int(offset)
             if multipart:

@@ -26,7 +26,7 @@ BOUNCE_METHODS = ("passes", "difference")
 class LightTransport:
     mode: str = "REALISTIC"
     bounces: int = 3  # diffuse / glossy / transmission bounces of the indirect pass
-    indirect_samples: int = 16  # samples per pixel of the indirect pass
+    indirect_samples: int = 16  # samples per pixel of the "difference" bounce pass ("passes": one per capture pixel)
     indirect_downscale: int = 4  # the indirect pass renders at 1/this of the capture size...
     indirect_min_width: int = 120  # ...but never narrower than this (a small capture's pass is not coarser)
     indirect_smooth_px: float = 2.5  # Gaussian sigma on the low-resolution bounce light (0: raw; references)

@@ -11,7 +11,7 @@ def _attribute(name, kind, value: bytes) -> bytes:
     return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
 
 
-def _write_exr(path, channels: dict, compression=0, pixel_type=2):
+def _write_exr(path, channels: dict, compression=0, pixel_type=2, rows_reversed=False):
     """A scanline EXR as the format's spec lays it out (channels sorted by name, one line per chunk)."""
     names = sorted(channels)
     h, w = next(iter(channels.values())).shape
@@ -24,12 +24,12 @@ def _write_exr(path, channels: dict, compression=0, pixel_type=2):
               + _attribute("lineOrder", "lineOrder", b"\0") + b"\0")
     rows = [struct.pack("<ii", y, w * len(names) * np.dtype(dtype).itemsize)
             + b"".join(np.asarray(channels[n][y], dtype).tobytes() for n in names) for y in range(h)]
-    start = len(header) + 8 * h
-    offsets, pos = [], start
-    for row in rows:
-        offsets.append(pos)
-        pos += len(row)
-    path.write_bytes(header + struct.pack(f"<{h}Q", *offsets) + b"".join(rows))
+    order = list(range(h))[::-1] if rows_reversed else list(range(h))  # a writer may lay lines out as it likes
+    offsets, pos = [0] * h, len(header) + 8 * h
+    for y in order:
+        offsets[y] = pos
+        pos += len(rows[y])
+    path.write_bytes(header + struct.pack(f"<{h}Q", *offsets) + b"".join(rows[y] for y in order))
 
 
 def test_reads_every_channel_of_a_multilayer_file(tmp_path):
@@ -45,6 +45,16 @@ def test_reads_every_channel_of_a_multilayer_file(tmp_path):
     albedo = read_exr_layer(path, "Diffuse Color", "DiffCol")
     assert albedo.shape == (5, 7, 3)
     assert np.array_equal(albedo[..., 1], planes["ViewLayer.DiffCol.G"])
+
+
+def test_scanlines_out_of_order_and_mixed_pixel_types_read_the_same(tmp_path):
+    rng = np.random.default_rng(1)
+    planes = {c: rng.random((6, 5)).astype(np.float32) for c in "RGB"}
+    path = tmp_path / "reversed.exr"
+    _write_exr(path, planes, rows_reversed=True)
+    read = read_exr_channels(path)
+    for name, plane in planes.items():
+        assert np.array_equal(read[name], plane)
 
 
 def test_half_floats_read_as_float32(tmp_path):

@@ -305,11 +305,11 @@ class CaptureStudio:
     def _render_with_light_passes(self, chunk_dir, count) -> list[np.ndarray]:
         """One render with bounces per frame, read as Cycles' light-path passes ('passes', the default).
 
-        The direct light is the render less its indirect passes (each light times its colour; exact at
-        one sample per pixel, the default capture's: a 480x360 capture's 4x4 blocks hold 16 samples). The bounce light is the Diffuse Indirect pass (the irradiance,
-        without the surface's colour) averaged over blocks of pixels, so a block's samples make one
-        low-resolution pixel, blurred and scaled up under a surface-normal guide, times the full-size
-        Diffuse Color: it keeps the texture it falls on and does not cross a crease. The glossy,
+        The direct light is the render less its indirect passes (each light times its colour). The
+        bounce light is the Diffuse Indirect pass (the irradiance, without the surface's colour)
+        averaged over blocks of pixels, so a block's samples make one low-resolution pixel (a 480x360
+        capture's 4x4 blocks hold 16), blurred and scaled up under a surface-normal guide, times the
+        full-size Diffuse Color: it keeps the texture it falls on and does not cross a crease. The glossy,
         transmitted and subsurface bounce light is added the same way, colour included
         (lapig_core.optics.transport.indirect_from_light_passes)."""
         import cv2

@@ -207,3 +207,25 @@ def test_pcnet_deterministic():
         with torch.no_grad():
             outs.append(PCNet()(x, s))
     assert torch.equal(outs[0], outs[1])
+
+
+def test_compennest_graph_free_forward_equals_the_graph_one():
+    """Without a graph, forward() writes each step over its input (speed at native resolution): the
+    same numbers as the graph's forward, raw output included, and the inputs and cache untouched."""
+    torch.manual_seed(2)
+    net = CompenNeSt().eval()
+    x, s = _imgs(2, 48, 64, seed=3)
+    x_before, s_before = x.clone(), s.clone()
+    out_graph, raw_graph = net(x, s, return_raw=True)
+    with torch.no_grad():
+        out, raw = net(x, s, return_raw=True)
+        net.cache_surface(s[:1])
+        cached = [f.clone() for f in net._cache["feats"]]
+        out_cached = net(x)
+        net(x)  # twice: the cached features must not have been written over
+        for f, kept in zip(net._cache["feats"], cached):
+            assert torch.equal(f, kept)
+    assert torch.equal(out, out_graph.detach()) and torch.equal(raw, raw_graph.detach())
+    torch.testing.assert_close(out_cached, net(x, s[:1].expand_as(x)).detach())
+    assert torch.equal(x, x_before) and torch.equal(s, s_before)
+    assert raw.min() < 0 and out.min() >= 0 and out.max() <= 1  # raw is the pre-ReLU output, not the clamped one

@@ -135,8 +135,8 @@ def add_parsers(sub):
     bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
     ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
     bench.add_argument("--parts", default="",
-                       help="transport: comma-separated parts (look, defocus, interreflection, noise, speed, compensation; "
-                            "default: all)")
+                       help="transport: comma-separated parts (look, defocus, interreflection, noise, speed, compensation, "
+                            "pcnet; default: all but pcnet)")
     bench.add_argument("--transport-data", default="out/transport_data",
                        help="transport: data set root of the realistic setups (rendered when missing)")
     bench.add_argument("--realistic-setups", type=lambda t: [n.strip() for n in t.split(",") if n.strip()],

@@ -308,8 +308,9 @@ class CaptureStudio:
         The direct light is the render less its indirect passes (each light times its colour). The
         bounce light is the Diffuse Indirect pass (the irradiance, without the surface's colour)
         averaged over blocks of pixels, so a block's samples make one low-resolution pixel (a 480x360
-        capture's 4x4 blocks hold 16), blurred and scaled up under a surface-normal guide, times the
-        full-size Diffuse Color: it keeps the texture it falls on and does not cross a crease. The glossy,
+        capture's 4x4 blocks hold 16), smoothed (a local plane fit) and scaled up under a surface-normal
+        guide, times the full-size Diffuse Color: it keeps the texture it falls on and does not cross a
+        crease. The glossy,
         transmitted and subsurface bounce light is added the same way, colour included
         (lapig_core.optics.transport.indirect_from_light_passes)."""
         import cv2
@@ -351,7 +352,8 @@ class CaptureStudio:
             low_alpha = area(alpha)
             if self._guide is None or self._guide.low_shape != low_alpha.shape:  # the geometry's: built once
                 normal = pass_rgb(channels, "Normal")
-                self._guide = NormalGuide(low_alpha, area(normal), normal, size, t.indirect_smooth_px)
+                self._guide = NormalGuide(low_alpha, area(normal), normal, size, t.indirect_smooth_px,
+                                          first_order=t.indirect_fit == "linear")
             out.append(direct + indirect_from_light_passes(area(irradiance), area(other), albedo, size,
                                                            t.indirect_smooth_px, low_coverage=low_alpha,
                                                            coverage=alpha, guide=self._guide))

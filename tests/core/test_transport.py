@@ -127,6 +127,33 @@ def test_the_normal_guide_keeps_each_wall_of_a_corner_to_its_own_bounce_light():
         guide.scale_up(light_low[:8])
 
 
+def test_the_first_order_fit_follows_the_bounce_light_rising_into_a_crease():
+    """Next to a crease all of a pixel's neighbours lie on one side: their mean falls short of light
+    that rises towards the crease, a fitted plane does not (and keeps a flat light flat)."""
+    h, w, scale = 16, 40, 4
+    normal_low = np.zeros((h, w, 3), np.float32)
+    normal_low[:, : w // 2] = (1, 0, 0)
+    normal_low[:, w // 2:] = (0, 1, 0)
+    x = np.arange(w, dtype=np.float32)
+    ramp = np.where(x < w // 2, 0.2 + 0.02 * x, 0.3)  # the left wall brightens towards the crease
+    light_low = np.repeat(ramp[None, :, None], h, 0).repeat(3, -1).astype(np.float32)
+    cover = np.ones((h, w), np.float32)
+    normal = np.repeat(np.repeat(normal_low, scale, 0), scale, 1)
+    size = (w * scale, h * scale)
+    mean = light.NormalGuide(cover, normal_low, normal, size, 3.0, first_order=False)
+    plane = light.NormalGuide(cover, normal_low, normal, size, 3.0)
+    last = w // 2 - 1  # the last low-resolution column before the crease
+    truth = 0.2 + 0.02 * last
+    by_mean = mean.scale_up(light_low)[h * scale // 2, last * scale + scale // 2, 0]
+    by_plane = plane.scale_up(light_low)[h * scale // 2, last * scale + scale // 2, 0]
+    assert truth - by_mean > 0.03  # the mean lags the rise by more than a tenth of it
+    assert by_plane == pytest.approx(truth, abs=0.005)
+    right = plane.scale_up(light_low)[:, (w // 2 + 1) * scale:, 0]
+    assert np.allclose(right, 0.3, atol=1e-4)  # the flat wall stays flat, and takes nothing across
+    with pytest.raises(ValueError, match="bounce light fit"):
+        LightTransport(indirect_fit="cubic")
+
+
 def test_a_small_capture_keeps_a_bounce_pass_of_its_own_size():
     t = LightTransport()
     assert t.indirect_size(480, 360) == (120, 90)

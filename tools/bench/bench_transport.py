@@ -9,6 +9,7 @@
   * inter-reflection: on the concave corner, the bounce light of the capture's indirect pass against
     a converged reference (full resolution, 1024 samples, 12 bounces, no smoothing);
   * speed: registered captures per second, Realistic and Fast, on the demo wall and the corner;
+  * pcnet (only when asked for): the paper's PCNet table on the realistic setups;
   * noise floor and compensation on the realistic setups (synthetic_setups.REALISTIC_SETUPS):
     uncompensated, classical, CompenNeSt on 8 and on 125 pairs, and the compensator the setup
     chose by measurement (lapig_core.photometric.choice), each beside the setup's noise floor;
@@ -291,6 +292,38 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
     return per_setup, sheet
 
 
+# -- the PCNet table on the realistic setups ----------------------------------------------------
+def pcnet_run(args, data) -> dict:
+    """The paper's PCNet table (PCNet, CompenNeSt reversed and the classical model on 8 / 48 / 125 pairs,
+    simulating the held-out test captures) on the realistic setups (the same captures as the
+    compensation part: rendered on first use)."""
+    from ...lapig_core.photometric.finetune import CPU_ITERATIONS
+    from ...lapig_core.photometric.targets import reachable_mask
+    from ...lapig_core.photometric.training_data import SurfaceTensors
+    from .bench_models import PAPER, SIZES, simulation_table
+
+    specs = [s for s in syn.REALISTIC_SETUPS if not args.realistic_setups or s.name in args.realistic_setups]
+    syn.render_synthetic_setups(specs, data, train=args.train_pairs, test=args.test_pairs, seed=600,
+                                skip_existing=True)
+    iterations = args.iterations or CPU_ITERATIONS["PCNet"]
+    tables = {}
+    for spec in specs:
+        cs = syn.load_setup(data, spec.name)
+        table, _ = simulation_table(cs, SurfaceTensors.from_capture_set(cs), reachable_mask(cs.cam_black, cs.cam_white),
+                                    iterations, args)
+        tables[spec.name] = table
+        _log(args, f"  PCNet table {spec.name}: {table}")
+    out = {"pcnet_table_per_setup": tables, "pcnet_table_iterations": iterations,
+           "pcnet_table_paper": PAPER}
+    for n in SIZES:
+        for key in ("pcnet", "compennest_reversed", "classical"):
+            for m in ("psnr", "ssim", "psnr_masked"):
+                out[f"{key}_{m}_{n}"] = round(float(np.mean([t[f"{key}_{n}"][m] for t in tables.values()])), 4)
+    out["pcnet_ahead_of_reversed_at_every_size"] = all(
+        out[f"pcnet_psnr_{n}"] > out[f"compennest_reversed_psnr_{n}"] for n in SIZES)
+    return out
+
+
 def look_run(args, data, out) -> str:
     """Raw captures of the corner, the vase and the bust under a projected image, Fast against Realistic."""
     import cv2
@@ -340,6 +373,8 @@ def run(args) -> dict:
         summary.update(bounce_noise_run(args, out))
     if "speed" in parts:
         summary.update(speed_run(args, out))
+    if "pcnet" in parts:
+        summary.update(pcnet_run(args, data))
     if "compensation" in parts:
         per_setup, sheet = compensation_run(args, data, out)
         first = args.pair_counts[0]

@@ -59,8 +59,10 @@ def gaussian_window(size: int = SSIM_WIN_SIZE, sigma: float = SSIM_SIGMA, dtype=
 
 
 def ssim_torch(x: torch.Tensor, y: torch.Tensor, data_range: float = 1.0,
-               win_size: int = SSIM_WIN_SIZE, sigma: float = SSIM_SIGMA, k=SSIM_K) -> torch.Tensor:
-    """Differentiable mean SSIM of NCHW tensors (valid region), in the input dtype."""
+               win_size: int = SSIM_WIN_SIZE, sigma: float = SSIM_SIGMA, k=SSIM_K,
+               reduce: bool = True) -> torch.Tensor:
+    """Differentiable mean SSIM of NCHW tensors (valid region), in the input dtype; reduce=False: the
+    SSIM map itself (N, C, H - win_size + 1, W - win_size + 1)."""
     n, c, h, w = x.shape
     if min(h, w) < win_size:
         raise ValueError(f"SSIM needs images at least {win_size}px, got {h}x{w}")
@@ -77,7 +79,7 @@ def ssim_torch(x: torch.Tensor, y: torch.Tensor, data_range: float = 1.0,
     syy = blur(y * y) - my * my
     sxy = blur(x * y) - mx * my
     smap = ((2 * mx * my + c1) * (2 * sxy + c2)) / ((mx * mx + my * my + c1) * (sxx + syy + c2))
-    return smap.mean()
+    return smap.mean() if reduce else smap
 
 
 def mse(pred, target) -> float:
@@ -120,6 +122,26 @@ def masked_psnr(pred, target, mask) -> float:
     err = ((p - t) ** 2).mean(dim=1)[:, m]
     value = float(err.mean())
     return math.inf if value == 0 else 10.0 * math.log10(1.0 / value)
+
+
+def masked_ssim(pred, target, mask) -> float:
+    """Mean SSIM over the windows centred on pixels where mask (H, W) is true."""
+    p, t = _pair(pred, target)
+    smap = ssim_torch(p, t, reduce=False)
+    half = SSIM_WIN_SIZE // 2
+    m = torch.as_tensor(np.asarray(mask, bool))[half:half + smap.shape[-2], half:half + smap.shape[-1]]
+    return float(smap.mean(dim=1)[:, m].mean()) if m.any() else math.nan
+
+
+def evaluate_on(pred, target, mask) -> dict:
+    """evaluate() over the pixels where mask (H, W) is true (the object, where the frame misses part
+    of it): off the object a capture is dark whatever the projector image, so counting those pixels
+    measures the frame's shape, not the compensation."""
+    p, t = _pair(pred, target)
+    m = torch.as_tensor(np.asarray(mask, bool))
+    err = float(((p - t) ** 2).mean(dim=1)[:, m].mean()) if m.any() else math.nan
+    return {"psnr": masked_psnr(pred, target, mask), "rmse": math.sqrt(p.shape[1] * err),
+            "ssim": masked_ssim(pred, target, mask)}
 
 
 def sharpness(img, mask=None, sigma: float = 0.0) -> float:

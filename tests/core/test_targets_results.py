@@ -42,6 +42,25 @@ def test_masked_psnr_ignores_pixels_outside_the_mask():
     assert metrics.psnr(b, a) < 5
 
 
+@pytest.mark.torch
+def test_figures_on_the_object_leave_the_frame_around_it_out():
+    from lapig_core.common import metrics
+
+    rng = np.random.default_rng(0)
+    target = rng.random((48, 64, 3)).astype(np.float32)
+    capture = target.copy()
+    capture[:, 40:] = 0.0  # off the object: dark whatever was projected
+    capture[:, :40] += 0.05  # on it: a small, even error
+    mask = np.zeros((48, 64), bool)
+    mask[:, :40] = True
+    on = metrics.evaluate_on(capture, target, mask)
+    assert on["psnr"] == pytest.approx(26.02, abs=0.01)  # 10 log10(1 / 0.05^2)
+    assert on["rmse"] == pytest.approx(0.05 * np.sqrt(3), abs=1e-4)
+    assert on["ssim"] > 0.95 > metrics.ssim(capture, target)
+    assert metrics.evaluate(capture, target)["psnr"] < 10
+    assert metrics.masked_ssim(target, target, mask) == pytest.approx(1.0)
+
+
 def test_result_folder_round_trip(tmp_path):
     img = np.full((32, 32, 3), 0.5, np.float32)
     heat = heat_overlay(img, np.linspace(0, 1, 32 * 32).reshape(32, 32))

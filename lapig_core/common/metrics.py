@@ -136,7 +136,9 @@ def masked_ssim(pred, target, mask) -> float:
 def evaluate_on(pred, target, mask) -> dict:
     """evaluate() over the pixels where mask (H, W) is true (the object, where the frame misses part
     of it): off the object a capture is dark whatever the projector image, so counting those pixels
-    measures the frame's shape, not the compensation."""
+    measures the frame's shape, not the compensation. PSNR and RMSE count the masked pixels; SSIM the
+    11x11 windows centred on them (so within 5 px of the outline a window still sees some of the
+    frame around the object)."""
     p, t = _pair(pred, target)
     m = torch.as_tensor(np.asarray(mask, bool))
     err = float(((p - t) ** 2).mean(dim=1)[:, m].mean()) if m.any() else math.nan

@@ -248,7 +248,10 @@ class NormalGuide:
         self.taps = []  # (window, weight (h, w), dx, dy) of the low-resolution blur
         weight = np.zeros((h, w), np.float32)
         moments = np.zeros((h, w, 3, 3), np.float64)  # of (1, dx, dy), for the first-order fit
-        p_cov, p_n = self._pad(cov), self._pad(n_low)
+        # past the frame's edge there is no light: the plane fit pads with nothing there (an edge copy
+        # would flatten a gradient that reaches the edge); the mean keeps its edge copies, as before
+        self.first_order = bool(first_order) and r > 0
+        p_cov, p_n = self._pad(cov, zero=self.first_order), self._pad(n_low)
         for dy in range(-r, r + 1):
             for dx in range(-r, r + 1):
                 near = np.exp(-(dy * dy + dx * dx) / (2 * sigma * sigma)) if sigma > 0 else 1.0
@@ -259,12 +262,12 @@ class NormalGuide:
                 self.taps.append((window, wgt, dx, dy))
                 counted = wgt * p_cov[window]
                 weight += counted
-                if first_order:
+                if self.first_order:
                     basis = np.array([1.0, dx, dy])
                     moments += counted[..., None, None].astype(np.float64) * np.outer(basis, basis)
         self.inv_weight = np.where(weight > 1e-4, 1.0 / np.maximum(weight, 1e-4), 0.0).astype(np.float32)
         self.fit = None  # (h, w, 3): the fitted plane's value at the pixel = fit . (sum w, sum w dx, sum w dy)
-        if first_order and r > 0:
+        if self.first_order:
             # a little ridge on the slopes: a sliver of support (one row of pixels) cannot tilt the plane
             moments[..., 1, 1] += FIT_RIDGE * moments[..., 0, 0]
             moments[..., 2, 2] += FIT_RIDGE * moments[..., 0, 0]
@@ -290,9 +293,9 @@ class NormalGuide:
         inv = np.where(total > 1e-6, 1.0 / np.maximum(total, 1e-6), 0.0).astype(np.float32)
         self.corners = [(flat, wgt * inv) for flat, wgt in self.corners]
 
-    def _pad(self, x):
+    def _pad(self, x, zero: bool = False):
         r = self.radius
-        return np.pad(x, ((r, r), (r, r)) + ((0, 0),) * (x.ndim - 2), mode="edge")
+        return np.pad(x, ((r, r), (r, r)) + ((0, 0),) * (x.ndim - 2), mode="constant" if zero else "edge")
 
     def scale_up(self, low: np.ndarray) -> np.ndarray:
         """(h, w, C) coverage-weighted light -> (H, W, C), per surface, 0 where no surface is near."""
@@ -300,7 +303,7 @@ class NormalGuide:
         if light.shape[:2] != self.low_shape:
             raise ValueError(f"the guide is for {self.low_shape[1]}x{self.low_shape[0]} passes, "
                              f"not {light.shape[1]}x{light.shape[0]}")
-        padded = self._pad(light)
+        padded = self._pad(light, zero=self.fit is not None)
         if self.fit is None:
             blurred = np.zeros_like(light)
             for window, wgt, _, _ in self.taps:

@@ -229,3 +229,6 @@ def test_compennest_graph_free_forward_equals_the_graph_one():
     torch.testing.assert_close(out_cached, net(x, s[:1].expand_as(x)).detach())
     assert torch.equal(x, x_before) and torch.equal(s, s_before)
     assert raw.min() < 0 and out.min() >= 0 and out.max() <= 1  # raw is the pre-ReLU output, not the clamped one
+    with torch.no_grad():  # a batch of surfaces for one image still broadcasts, as the graph's forward does
+        many = net(x[:1], s)
+    torch.testing.assert_close(many, net(x[:1].expand_as(s), s).detach())

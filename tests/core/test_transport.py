@@ -148,6 +148,8 @@ def test_the_first_order_fit_follows_the_bounce_light_rising_into_a_crease():
     by_plane = plane.scale_up(light_low)[h * scale // 2, last * scale + scale // 2, 0]
     assert truth - by_mean > 0.03  # the mean lags the rise by more than a tenth of it
     assert by_plane == pytest.approx(truth, abs=0.005)
+    # the ramp also reaches the frame's left edge: nothing is past it, so the plane keeps it there too
+    assert plane.scale_up(light_low)[h * scale // 2, scale // 2, 0] == pytest.approx(0.2, abs=0.005)
     right = plane.scale_up(light_low)[:, (w // 2 + 1) * scale:, 0]
     assert np.allclose(right, 0.3, atol=1e-4)  # the flat wall stays flat, and takes nothing across
     with pytest.raises(ValueError, match="bounce light fit"):

@@ -313,8 +313,9 @@ def pcnet_run(args, data) -> dict:
                                     iterations, args)
         tables[spec.name] = table
         _log(args, f"  PCNet table {spec.name}: {table}")
-    out = {"pcnet_table_per_setup": tables, "pcnet_table_iterations": iterations,
-           "pcnet_table_paper": PAPER}
+    # a column's pairs are min(size, the captured pairs): say so where fewer were captured than it names
+    out = {"pcnet_table_per_setup": tables, "pcnet_table_iterations": iterations, "pcnet_table_paper": PAPER,
+           "pcnet_table_pairs_used": {str(n): min(n, args.train_pairs) for n in SIZES}}
     for n in SIZES:
         for key in ("pcnet", "compennest_reversed", "classical"):
             for m in ("psnr", "ssim", "psnr_masked"):

@@ -107,7 +107,7 @@ class CompenNeSt(nn.Module):
         compensation saturation loss needs (the clamp has zero gradient outside).
         """
         r1s, r2s, h3s = self._surface_features(s, x)
-        if not torch.is_grad_enabled():
+        if not torch.is_grad_enabled() and r1s.shape[0] <= x.shape[0]:  # (in place: x's batch sets the shape)
             return self._forward_in_place(x, (r1s, r2s, h3s), return_raw)
         r1x, r2x, h3x = self.encode(x)
         h = h3x - h3s

@@ -34,6 +34,32 @@ def test_the_classical_model_is_chosen_where_the_learned_one_measures_worse():
     assert exact.chosen == choice.LEARNED
 
 
+def test_clipped_captures_do_not_decide_the_choice():
+    """Where a capture sits at I- or I+ many projector values make it: the choice counts only the
+    pixels whose capture identifies the projector value."""
+    rng = np.random.default_rng(3)
+    black, white = np.full((32, 32, 3), 0.1, np.float32), np.full((32, 32, 3), 0.9, np.float32)
+    prj = rng.uniform(0, 1, (6, 32, 32, 3)).astype(np.float32)
+    prj[:, :, :16] = np.where(prj[:, :, :16] > 0.5, 1.0, 0.0)  # the left half: black or white only
+    cam = np.clip(prj, 0.1, 0.9).astype(np.float32)  # ...so the left half's captures are clipped
+    clipped = (cam <= 0.1 + choice.UNCLIPPED_MARGIN) | (cam >= 0.9 - choice.UNCLIPPED_MARGIN)
+    assert not choice.identifiable(cam, black, white, None)[clipped].any()
+
+    def right_where_identifiable(c):  # exact inside the range, wrong at its ends
+        return np.where(clipped, 0.5, prj).astype(np.float32)
+
+    def right_where_clipped(c):  # exact at the ends (where nothing can be known), off inside
+        return np.where(clipped, prj, np.clip(prj + 0.08, 0, 1)).astype(np.float32)
+
+    blind = choice.choose(right_where_clipped, right_where_identifiable, cam, prj)  # without I- and I+
+    assert blind.chosen == choice.LEARNED  # the clipped half decided it
+    picked = choice.choose(right_where_clipped, right_where_identifiable, cam, prj, None, black, white)
+    assert picked.chosen == choice.CLASSICAL and picked.classical_psnr == choice.MAX_PSNR
+    nothing = choice.choose(right_where_clipped, right_where_identifiable, cam[:, :, :16], prj[:, :, :16], None,
+                            black[:, :16], white[:, :16])
+    assert nothing.chosen == choice.LEARNED and "clipped everywhere" in nothing.line()
+
+
 def test_no_held_back_pairs_keeps_the_learned_one_and_says_why():
     prj, cam = _pairs(4, 1)
     picked = choice.choose(lambda c: c, lambda c: c, cam[:0], prj[:0])

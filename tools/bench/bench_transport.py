@@ -262,7 +262,7 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
         first = args.pair_counts[0]
         picked = choice.choose(choice.learned_compensate(learned[first], surf.s), classical.compensate,
-                               cs.cam_test[val], cs.prj_test[val], cs.projector_valid)
+                               cs.cam_test[val], cs.prj_test[val], cs.projector_valid, cs.cam_black, cs.cam_white)
         images = {f"compennest_{p}": to_numpy(predict(learned[p], to_tensor(targets), surf.s)) for p in learned}
         images["classical"] = classical.compensate(targets)
         images["uncompensated"] = targets

@@ -31,7 +31,7 @@ def setup_dir_of(cs: CaptureSet) -> Path:
 
 def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
                  iterations: int | None = None) -> dict:
-    """Fine-tune CompenNeSt (8 pairs) and PCNet (all pairs) from the pretrained weights.
+    """Fine-tune CompenNeSt and PCNet on all the captured training pairs, from the pretrained weights.
 
     iterations: per network (default: the CPU recipe's); fewer give a rough, quick fine-tune.
     """

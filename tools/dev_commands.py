@@ -145,8 +145,9 @@ def add_parsers(sub):
     bench.add_argument("--test-pairs", type=int, default=16,
                        help="transport: test pairs per setup (the first --compensate are compensated, the rest "
                             "validate the choice)")
-    bench.add_argument("--pair-counts", type=lambda t: [int(n) for n in t.split(",")], default=[8, 125],
-                       help="transport: CompenNeSt fine-tuning pair counts (default 8,125; the first is the app's)")
+    bench.add_argument("--pair-counts", type=lambda t: [int(n) for n in t.split(",")], default=[125, 8],
+                       help="transport: CompenNeSt fine-tuning pair counts (default 125,8: the first is the app's, "
+                            "all the captured pairs; 8 is the paper's)")
     bench.add_argument("--lens-radius-mm", type=float, default=60.0,
                        help="transport: the projector's lens radius for the defocus figure (default 60)")
     bench.add_argument("--min-blur-px", type=float, default=1.0,

@@ -50,7 +50,7 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
                              train_seconds=round(result.seconds, 2))
         out[arch] = model
     # the learned and the classical compensation, validated on the held-back pairs: the better one is used
-    chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"])
+    chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"], out["PCNet"])
     if save:
         compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
     out["choice"], out["classical"] = chosen, classical
@@ -77,7 +77,7 @@ def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, canc
         sim, _ = load_setup_model(setup_dir_of(cs), "PCNet", "simulation", fingerprint)
         saved = compensator_choice.load_choice(setup_dir_of(cs) / "models")
         if saved is None:  # models fine-tuned before the choice existed: measure it now
-            chosen, classical = compensator_choice.fit_and_choose(cs, comp)
+            chosen, classical = compensator_choice.fit_and_choose(cs, comp, sim)
             compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
         else:
             chosen, classical = saved

@@ -60,6 +60,29 @@ def test_clipped_captures_do_not_decide_the_choice():
     assert nothing.chosen == choice.LEARNED and "clipped everywhere" in nothing.line()
 
 
+def test_the_choice_in_simulated_captures_picks_what_the_camera_would_see_better():
+    """Judged in camera space: the compensator whose projected (simulated) images come nearer the
+    desired captures wins, even one the projector-space comparison cannot rank."""
+    prj, cam = _pairs(24, 4)
+    classical = ClassicalModel.fit(prj[:16], cam[:16])
+    black = classical.simulate(np.zeros((1,) + prj.shape[1:], np.float32))[0]
+    white = classical.simulate(np.ones((1,) + prj.shape[1:], np.float32))[0]
+
+    def blurred(c):  # a compensator that is right on average but loses detail
+        import cv2
+        return np.stack([cv2.GaussianBlur(x, (0, 0), 2.0) for x in classical.compensate(c)])
+
+    picked = choice.choose_by_simulation(blurred, classical.compensate, classical.simulate, prj[16:], black, white)
+    assert picked.chosen == choice.CLASSICAL and picked.judge == choice.PCNET_JUDGE
+    assert picked.classical_psnr > picked.learned_psnr + 3
+    assert "simulated captures" in picked.line() and "held-back images" in picked.line()
+    # the camera sees the sharper one better, whichever side it is on
+    swapped = choice.choose_by_simulation(classical.compensate, blurred, classical.simulate, prj[16:], black, white)
+    assert swapped.chosen == choice.LEARNED
+    none = choice.choose_by_simulation(blurred, classical.compensate, classical.simulate, prj[:0], black, white)
+    assert none.chosen == choice.LEARNED and "no held-back" in none.line()
+
+
 def test_no_held_back_pairs_keeps_the_learned_one_and_says_why():
     prj, cam = _pairs(4, 1)
     picked = choice.choose(lambda c: c, lambda c: c, cam[:0], prj[:0])
@@ -78,7 +101,7 @@ def test_the_classical_compensator_module_matches_the_model_at_any_size(tmp_path
     big = torch.nn.functional.interpolate(t, (64, 64), mode="bilinear", align_corners=False)
     assert module(big, None, *module.frame_inputs(64, 64)).shape == (2, 3, 64, 64)
     # saved and loaded beside the models
-    picked = choice.CompensatorChoice(choice.CLASSICAL, 20.0, 22.5, 8)
+    picked = choice.CompensatorChoice(choice.CLASSICAL, 20.0, 22.5, 8, "", choice.PCNET_JUDGE)
     choice.save_choice(tmp_path, picked, model)
     loaded, again = choice.load_choice(tmp_path)
     assert loaded == picked and np.allclose(again.M, model.M)

@@ -261,8 +261,14 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
             _log(args, f"  CompenNeSt on {n} pairs: {seconds[pairs]} s")
         classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
         first = args.pair_counts[0]
-        picked = choice.choose(choice.learned_compensate(learned[first], surf.s), classical.compensate,
-                               cs.cam_test[val], cs.prj_test[val], cs.projector_valid, cs.cam_black, cs.cam_white)
+        # the app's choice: in the simulated captures of the setup's PCNet, fine-tuned on all pairs as Train does
+        simulator, _ = finetune(cs, "PCNet", "simulation", recipe=cpu_recipe("PCNet", "simulation", args.iterations))
+        picked = choice.choose_by_simulation(
+            choice.learned_compensate(learned[first], surf.s), classical.compensate,
+            choice.learned_simulate(simulator, surf.s, surf.i_min, surf.i_max), cs.prj_test[val], cs.cam_black,
+            cs.cam_white, cs.projector_valid)
+        by_pairs = choice.choose(choice.learned_compensate(learned[first], surf.s), classical.compensate,
+                                 cs.cam_test[val], cs.prj_test[val], cs.projector_valid, cs.cam_black, cs.cam_white)
         images = {f"compennest_{p}": to_numpy(predict(learned[p], to_tensor(targets), surf.s)) for p in learned}
         images["classical"] = classical.compensate(targets)
         images["uncompensated"] = targets
@@ -274,7 +280,8 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         again = render_working_images(scene, projector, camera, target, setup_dir_of(cs), targets, seed=8)
         row = {k: figures(caps[k], targets, mask) for k in names}
         chosen_key = "classical" if picked.chosen == choice.CLASSICAL else f"compennest_{first}"
-        row["chosen"] = {**row[chosen_key], "which": picked.chosen, "validation": picked.to_dict()}
+        row["chosen"] = {**row[chosen_key], "which": picked.chosen, "validation": picked.to_dict(),
+                         "projector_space_choice": by_pairs.to_dict()}
         floor = noise_floor(caps["uncompensated"], again, mask)
         row.update(floor)
         row.update(below_floor(row, floor["noise_floor_psnr"]))

@@ -1,19 +1,22 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Choose the setup's compensator by measurement: the learned one (CompenNeSt) or the classical one.
 
-After fine-tuning, both compensate the held-back test captures of the setup (their projector
-images are known), and the one that recovers those projector images better compensates this setup.
-Only the pixels and channels where a capture lies inside the surface's range (above I- and below I+
-by UNCLIPPED_MARGIN) count: where the capture sits at the black or the white end, many projector
-values make the same capture, so no compensator can recover the one that was shown, and the
-comparison there is noise. Those are also the values a compensated look never asks for (it is made
-to lie inside the range). Over all registered pixels the comparison had picked CompenNeSt by 0.9 dB
-on the tilted relief, where its rendered compensation is 4.5 dB behind the classical one; over the
-identifiable ones it picks the classical model there by 3.6 dB, and on every realistic setup it
-agrees with the rendered outcome. Where direct light is all there is, the per-pixel
-classical model is exact and often wins; where light bounces, blurs or scatters, the network can
-follow it. A user never gets the worse one silently: the choice and its margin go into the
-panel's model status and result.json.
+After fine-tuning (Train), the held-back test images become desired captures inside the surface's
+range, both compensators compensate them, and the setup's fine-tuned PCNet predicts what the camera
+would see of each (`choose_by_simulation`): the one nearer the targets compensates this setup. This
+judges them where it counts, in camera space, and by a model of the capture that the classical
+compensation is not the inverse of. On the five realistic setups it picked the rendered winner on
+all five (BENCHMARKS, "Compensation on all five realistic setups").
+
+Without a PCNet (`choose`), both recover the projector images of the held-back captures, counted only
+where a capture lies inside the surface's range (above I- and below I+ by UNCLIPPED_MARGIN): where it
+sits at the black or the white end many projector values make the same capture, and the comparison
+there is noise (over all registered pixels it had picked CompenNeSt on the tilted relief, 4.5 dB
+behind rendered). That comparison still misses the subsurface bust, where CompenNeSt is better on
+smooth targets but the per-pixel inverse recovers random patterns better.
+
+A user never gets the worse one silently: the choice, its judge and its margin go into the panel's
+model status and result.json.
 """
 from __future__ import annotations
 

@@ -8,10 +8,10 @@ judges them where it counts, in camera space, and by a model of the capture that
 compensation is not the inverse of. On the five realistic setups it picked the rendered winner on
 all five (BENCHMARKS, "Compensation on all five realistic setups").
 
-Without a PCNet (`choose`), both recover the projector images of the held-back captures, counted only
-where a capture lies inside the surface's range (above I- and below I+ by UNCLIPPED_MARGIN): where it
-sits at the black or the white end many projector values make the same capture, and the comparison
-there is noise (over all registered pixels it had picked CompenNeSt on the tilted relief, 4.5 dB
+The projector-space comparison (`choose`; the benchmarks record it beside the choice): both recover
+the projector images of the held-back captures, counted only where a capture lies inside the
+surface's range (above I- and below I+ by UNCLIPPED_MARGIN): where it sits at the black or the white
+end many projector values make the same capture, and the comparison there is noise (over all registered pixels it had picked CompenNeSt on the tilted relief, 4.5 dB
 behind rendered). That comparison still misses the subsurface bust, where CompenNeSt is better on
 smooth targets but the per-pixel inverse recovers random patterns better.
 
@@ -155,23 +155,17 @@ def learned_simulate(model, s: torch.Tensor, i_min: torch.Tensor, i_max: torch.T
     return lambda prj: to_numpy(predict(model, to_tensor(prj), s, i_min, i_max))
 
 
-def fit_and_choose(cs, learned_model, simulator=None) -> tuple[CompensatorChoice, ClassicalModel]:
-    """Fit the classical model on the setup's training pairs and choose against the fine-tuned network:
-    in PCNet's simulated captures when the setup's fine-tuned PCNet (``simulator``) is given, else on
-    the held-back pairs in projector space."""
+def fit_and_choose(cs, learned_model, simulator) -> tuple[CompensatorChoice, ClassicalModel]:
+    """Fit the classical model on the setup's training pairs and choose against the fine-tuned network,
+    in the simulated captures of the setup's fine-tuned PCNet (``simulator``)."""
     from .training_data import SurfaceTensors
 
     classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
     surf = SurfaceTensors.from_capture_set(cs)
-    mask = cs.projector_valid
-    learned = learned_compensate(learned_model, surf.s)
-    if simulator is not None:
-        images = cs.prj_test if cs.has_test else cs.prj_test[:0]
-        return choose_by_simulation(learned, classical.compensate,
-                                    learned_simulate(simulator, surf.s, surf.i_min, surf.i_max), images,
-                                    cs.cam_black, cs.cam_white, mask), classical
-    cam, prj = (cs.cam_test, cs.prj_test) if cs.has_test else (cs.cam_test[:0], cs.prj_test[:0])
-    return choose(learned, classical.compensate, cam, prj, mask, cs.cam_black, cs.cam_white), classical
+    images = cs.prj_test if cs.has_test else cs.prj_test[:0]
+    return choose_by_simulation(learned_compensate(learned_model, surf.s), classical.compensate,
+                                learned_simulate(simulator, surf.s, surf.i_min, surf.i_max), images,
+                                cs.cam_black, cs.cam_white, cs.projector_valid), classical
 
 
 def save_choice(models_dir, choice: CompensatorChoice, classical: ClassicalModel):

@@ -51,6 +51,19 @@ PRETRAIN_SETUPS = (
     SetupSpec("p10_bench_panel_tilt", "panel", "bench", 10, tilt_deg=10, orbit_deg=-8),
     SetupSpec("p11_stripe_statue_red", "statue", "stripe", 11, tint=(1.0, 0.55, 0.5), orbit_deg=-15),
     SetupSpec("p12_clouds_box_dark", "box", "clouds", 12, tint=(0.25, 0.25, 0.25), ambient=0.0),
+    # Realistic transport (issue 16): bounce light, defocus, gloss and subsurface, on shapes and finishes
+    # of REALISTIC_SETUPS but with other textures, seeds, tints and poses (the benchmark stays unseen).
+    SetupSpec("p13_stripe_corner_real", "corner", "stripe", 13, tint=(0.8, 0.9, 1.0), ambient=0.04,
+              orbit_deg=-6, transport="REALISTIC"),
+    SetupSpec("p14_bench_bowl_real", "bowl", "bench", 14, ambient=0.03, tilt_deg=5, transport="REALISTIC"),
+    SetupSpec("p15_wood_glazed_vase", "vase", "wood", 15, ambient=0.02, orbit_deg=10, finish="glazed",
+              transport="REALISTIC"),
+    SetupSpec("p16_spray_relief_defocus", "relief", "spray", 16, ambient=0.03, orbit_deg=-30,
+              lens_radius_mm=15.0, transport="REALISTIC"),
+    SetupSpec("p17_clouds_panel_dark_real", "panel", "clouds", 17, tint=(0.5, 0.45, 0.4), ambient=0.02,
+              orbit_deg=5, lens_radius_mm=10.0, transport="REALISTIC"),
+    SetupSpec("p18_wood_marble_statue", "statue", "wood", 18, tint=(1.2, 1.2, 1.15), ambient=0.03, orbit_deg=12,
+              finish="marble", transport="REALISTIC"),
 )
 
 BENCH_SETUPS = (

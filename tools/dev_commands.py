@@ -134,6 +134,9 @@ def add_parsers(sub):
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
     bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
     ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
+    bench.add_argument("--weights", default=None,
+                       help="models, transport: folder of the pretrained weights the fine-tunes start from "
+                            "(default: the shipped lapig_core/photometric/weights)")
     bench.add_argument("--parts", default="",
                        help="transport: comma-separated parts (look, defocus, interreflection, noise, speed, compensation, "
                             "pcnet; default: all but pcnet)")

@@ -332,6 +332,16 @@ class ClassicalModel:
         out = np.power(np.clip(x, 0.0, 1.0), np.float32(1.0 / self.gamma_p)).astype(np.float32)
         return out[0] if single else out
 
+    def reachable(self, target: np.ndarray, tolerance: float = 0.01) -> np.ndarray:
+        """(N,H,W) bool (or (H,W)): pixels whose target this model reaches without clipping the
+        projector to [0,1], every channel within `tolerance`. Elsewhere no compensation can show the
+        target, by this model's account, and every method's error there is mostly the surface's limit."""
+        t, single = self._check(target, "target")
+        rhs = np.power(t, np.float32(self.gamma_c)) - self.o
+        x = np.einsum("hwij,nhwj->nhwi", self._pseudo_inverse(), rhs)
+        inside = ((x >= -tolerance) & (x <= 1.0 + tolerance)).all(axis=-1)
+        return inside[0] if single else inside
+
     # ------------------------------------------------------------------ storage
     def save(self, path) -> None:
         """Write an .npz at exactly `path` (numpy would otherwise append .npz to other names)."""

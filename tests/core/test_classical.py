@@ -88,6 +88,16 @@ def test_compensate_clips_unreachable_targets(fitted):
     assert np.all(fitted.compensate(white).max(axis=-1) == 1)
 
 
+def test_reachable_marks_targets_inside_the_projector_range(fitted):
+    inside = fitted.simulate(_patterns(3, seed=9, lo=0.1, hi=0.9))
+    assert inside.shape[:3] == (3, H, W) and fitted.reachable(inside).all()
+    white, black = np.ones((H, W, 3), np.float32), np.zeros((H, W, 3), np.float32)
+    assert not fitted.reachable(white).any() and not fitted.reachable(black).any()
+    half = np.where(np.arange(W)[None, :, None] < W // 2, inside[0], white)
+    assert fitted.reachable(half).shape == (H, W)
+    np.testing.assert_array_equal(fitted.reachable(half).all(axis=0), np.arange(W) < W // 2)
+
+
 def test_dead_and_saturated_pixels_give_no_nan(truth):
     prj = _patterns(12, seed=8)
     cam = truth.simulate(prj)

@@ -56,7 +56,7 @@ def simulation_table(cs, surf, mask, iterations, args) -> tuple[dict, object]:
         n_used = min(n, len(cs.prj_train))
         for key, arch in (("pcnet", "PCNet"), ("compennest_reversed", "CompenNeSt")):
             model, result = finetune(cs, arch, "simulation", count=n_used,
-                                     recipe=cpu_recipe(arch, "simulation", iterations))
+                                     recipe=cpu_recipe(arch, "simulation", iterations), weights_dir=getattr(args, "weights", None))
             bounds = (surf.i_min, surf.i_max) if arch == "PCNet" else (None, None)
             pred = to_numpy(predict(model, test_x, surf.s, *bounds))
             rows[f"{key}_{n}"] = {**_figures(pred, cs.cam_test, mask), "train_s": round(result.seconds, 1)}
@@ -75,7 +75,7 @@ def compensation_run(spec, cs, surf, mask, pcnet, iterations, args, textures) ->
     pairs = min(args.compensation_pairs, len(cs.prj_train))
     targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
     model, result = finetune(cs, "CompenNeSt", "compensation", count=pairs,
-                             recipe=cpu_recipe("CompenNeSt", "compensation", iterations))
+                             recipe=cpu_recipe("CompenNeSt", "compensation", iterations), weights_dir=getattr(args, "weights", None))
     learned = to_numpy(predict(model, to_tensor(targets), surf.s))
     # the classical model on the same pairs as CompenNeSt, and on all of them
     classical_same = ClassicalModel.fit(cs.prj_train[:max(pairs, 4)], cs.cam_train[:max(pairs, 4)]).compensate(targets)
@@ -124,7 +124,8 @@ def timing_run(cs, iterations, args) -> dict:
         curves = {}
         for start in ("pretrained", "scratch"):
             _, result = finetune(cs, arch, role, recipe=cpu_recipe(arch, role, long), val_count=8,
-                                 eval_every=max(10, long // 30), from_pretrained=start == "pretrained")
+                                 eval_every=max(10, long // 30), from_pretrained=start == "pretrained",
+                                 weights_dir=getattr(args, "weights", None))
             curves[start] = result.history
         converged = max(e.get("val_psnr", -np.inf) for e in curves["pretrained"])
         out[f"{key}_converged_psnr"] = round(converged, 3)
@@ -198,5 +199,6 @@ def run(args) -> dict:
     summary.update({"sheet": sheet_path, "setups": [s.name for s in specs], "per_setup": per_setup,
                     "paper": PAPER, "iterations": iterations, "crop": cpu_recipe("PCNet", "simulation").crop,
                     "bench_total_s": round(time.perf_counter() - t0, 1), "cpu_threads": torch.get_num_threads(),
-                    "machine": platform.processor() or platform.machine(), "blender": bpy.app.version_string})
+                    "machine": platform.processor() or platform.machine(), "blender": bpy.app.version_string,
+                    "pretrained_weights": getattr(args, "weights", None) or "shipped"})
     return summary

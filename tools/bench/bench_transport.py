@@ -238,9 +238,19 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
                                 skip_existing=True)
     per_setup, sheet = {}, []
 
-    def figures(pred, target, mask):
-        return {"psnr_masked": round(metrics.masked_psnr(pred, target, mask), 4),
-                "psnr": round(metrics.psnr(pred, target), 4), "ssim": round(metrics.ssim(pred, target), 4)}
+    def psnr_on(pred, target, sel):  # over the (N, H, W) pixels sel
+        if not sel.any():
+            return None
+        err = float(((np.asarray(pred) - np.asarray(target)) ** 2).mean(-1)[sel].mean())
+        return round(10 * np.log10(1.0 / max(err, 1e-12)), 4)
+
+    def figures(pred, target, mask, reach=None):
+        out = {"psnr_masked": round(metrics.masked_psnr(pred, target, mask), 4),
+               "psnr": round(metrics.psnr(pred, target), 4), "ssim": round(metrics.ssim(pred, target), 4)}
+        if reach is not None:  # where the classical model reaches the target, and where it would clip
+            out["psnr_reachable"] = psnr_on(pred, target, reach)
+            out["psnr_unreachable"] = psnr_on(pred, target, mask[None] & ~reach)
+        return out
 
     for spec in specs:
         _log(args, f"{spec.name}:")
@@ -255,14 +265,16 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         for pairs in args.pair_counts:
             n = min(pairs, len(cs.prj_train))
             model, result = finetune(cs, "CompenNeSt", "compensation", count=n,
-                                     recipe=cpu_recipe("CompenNeSt", "compensation", args.iterations))
+                                     recipe=cpu_recipe("CompenNeSt", "compensation", args.iterations),
+                                     weights_dir=getattr(args, "weights", None))
             learned[pairs] = model
             seconds[pairs] = round(result.seconds, 1)
             _log(args, f"  CompenNeSt on {n} pairs: {seconds[pairs]} s")
         classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
         first = args.pair_counts[0]
         # the app's choice: in the simulated captures of the setup's PCNet, fine-tuned on all pairs as Train does
-        simulator, _ = finetune(cs, "PCNet", "simulation", recipe=cpu_recipe("PCNet", "simulation", args.iterations))
+        simulator, _ = finetune(cs, "PCNet", "simulation", recipe=cpu_recipe("PCNet", "simulation", args.iterations),
+                                weights_dir=getattr(args, "weights", None))
         picked = choice.choose_by_simulation(
             choice.learned_compensate(learned[first], surf.s), classical.compensate,
             choice.learned_simulate(simulator, surf.s, surf.i_min, surf.i_max), cs.prj_test[val], cs.cam_black,
@@ -278,11 +290,14 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
                                          np.concatenate([images[k] for k in names]), seed=7)
         caps = {k: rendered[i * count:(i + 1) * count] for i, k in enumerate(names)}
         again = render_working_images(scene, projector, camera, target, setup_dir_of(cs), targets, seed=8)
-        row = {k: figures(caps[k], targets, mask) for k in names}
+        reach = classical.reachable(targets) & mask[None]
+        row = {k: figures(caps[k], targets, mask, reach) for k in names}
+        row["reachable_share"] = round(float(reach.sum() / max(1, mask.sum() * count)), 4)
         chosen_key = "classical" if picked.chosen == choice.CLASSICAL else f"compennest_{first}"
         row["chosen"] = {**row[chosen_key], "which": picked.chosen, "validation": picked.to_dict(),
                          "projector_space_choice": by_pairs.to_dict()}
         floor = noise_floor(caps["uncompensated"], again, mask)
+        floor["noise_floor_psnr_reachable"] = psnr_on(again, caps["uncompensated"], reach)
         row.update(floor)
         row.update(below_floor(row, floor["noise_floor_psnr"]))
         best = max(row["classical"]["psnr_masked"], row[f"compennest_{first}"]["psnr_masked"])
@@ -405,5 +420,6 @@ def run(args) -> dict:
                                             columns=5, cell=220, title="rendered compensation, realistic setups"))
         summary["compensation_sheet"] = sheet_path
     summary.update({"bench_total_s": round(time.perf_counter() - t0, 1), "cpu_threads": torch.get_num_threads(),
-                    "machine": platform.processor() or platform.machine(), "blender": bpy.app.version_string})
+                    "machine": platform.processor() or platform.machine(), "blender": bpy.app.version_string,
+                    "pretrained_weights": getattr(args, "weights", None) or "shipped"})
     return summary

@@ -28,3 +28,20 @@ def test_the_command_line_with_the_developer_commands_parses(capsys):
     assert all(name in text for name in dev.BENCHMARKS)
     args = parser.parse_args(["build", "--platform", "linux-x64", "--python", "py311"])
     assert args.platform == ["linux-x64"] and args.python == "py311"
+
+
+def test_pretraining_mixes_both_transports_and_never_sees_a_benchmark_texture():
+    syn = importlib.import_module("lapig.tools.synthetic_setups")
+    modes = {s.transport for s in syn.PRETRAIN_SETUPS}
+    assert modes == {"FAST", "REALISTIC"}  # issue 16: the weights learn realistic transport too
+    held_out = syn.BENCH_SETUPS + syn.REALISTIC_SETUPS
+    seen = {(s.surface, s.seed) for s in syn.PRETRAIN_SETUPS}
+    assert not seen & {(s.surface, s.seed) for s in held_out}
+    assert "sakura" not in {s.surface for s in syn.PRETRAIN_SETUPS}
+    assert len(syn.ALL_SETUPS) == len(syn.PRETRAIN_SETUPS) + len(held_out)  # no name used twice
+
+
+def test_bench_weights_option_reaches_the_parser():
+    cli = importlib.import_module("lapig.lapig_addon.cli.main")
+    args = cli._parser().parse_args(["bench", "transport", "--parts", "headroom", "--weights", "w"])
+    assert args.weights == "w" and args.parts == "headroom"

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Render the 12 synthetic pretraining setups with our own capture code, then pretrain CompenNeSt,
-# PCNet and CompenNeSt reversed on them. The weights land in lapig_core/photometric/weights/ (about 25-40 min of
-# rendering and 30-60 min of training on 2 CPU cores; set OMP_NUM_THREADS=1 to share the machine).
+# Render the 18 synthetic pretraining setups with our own capture code (12 direct-light, 6 with realistic
+# transport: bounce light, defocus, gloss, subsurface), then pretrain CompenNeSt, PCNet and CompenNeSt
+# reversed on them. The weights land in lapig_core/photometric/weights/ (about 30-50 min of rendering, the
+# subsurface marble statue alone 15 min, and 30-60 min of training on 2 CPU cores; OMP_NUM_THREADS=1 shares
+# the machine).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh

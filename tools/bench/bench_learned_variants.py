@@ -1,0 +1,158 @@
+"""`python -m lapig_addon bench learned-variants --json [--realistic-setups NAME,...]`: three ways of making
+the learned compensation beat the per-pixel (classical) one on the realistic setups, rendered side by side.
+
+A design study for issue 16 (not a path of the app). Each variant is fitted on all the captured training pairs of
+a realistic setup (rendered on first use, the same captures as `bench transport`), then 8 test images are
+compensated, projected and captured through the same rig (masked PSNR against the target, as `bench transport`),
+also split into the pixels the classical model reaches and those where it would clip the projector:
+  * classical: the per-pixel model (the reference);
+  * compennest: CompenNeSt as the app fine-tunes it (projector-space l1, then l1+SSIM; the CPU recipe);
+  * compennest_camera_loss: the same network, start and budget, with the error measured as the camera sees it,
+    M (f_p(P_hat) - f_p(P)) through the setup's classical M and gamma_p, over the projector-reachable pixels.
+    In projector space the loss is ruled by dark pixels, where capture noise maps to large projector errors;
+  * residual_on_classical: the classical compensation plus a small CNN's correction (zero at the start), with
+    the camera-space loss: it cannot start worse than the classical model, and learns what the per-pixel model
+    leaves (bounce light, blur, scattering) where the training pairs show it.
+"""
+from __future__ import annotations
+
+import os
+import platform
+import time
+
+import numpy as np
+import torch
+from torch import nn
+
+from .. import synthetic_setups as syn
+from .bench_transport import _log
+
+ITERATIONS = 300
+
+
+class ResidualOnClassical(nn.Module):
+    """clamp(base + correction(x, base, s)): base is the classical compensation, given as channels 3-5 of x."""
+
+    def __init__(self, width: int = 32):
+        super().__init__()
+        self.body = nn.Sequential(
+            nn.Conv2d(9, width, 3, 1, 1), nn.ReLU(),
+            nn.Conv2d(width, width, 3, 1, 2, dilation=2), nn.ReLU(),
+            nn.Conv2d(width, width, 3, 1, 4, dilation=4), nn.ReLU(),
+            nn.Conv2d(width, width, 3, 1, 1), nn.ReLU())
+        self.head = nn.Conv2d(width, 3, 3, 1, 1)
+        nn.init.zeros_(self.head.weight)  # starts as the classical compensation
+        nn.init.zeros_(self.head.bias)
+
+    def forward(self, x6, s):
+        x, base = x6[:, :3], x6[:, 3:]
+        return (base + self.head(self.body(torch.cat([x, base, s.expand_as(x)], 1)))).clamp(0, 1)
+
+
+def train_camera_loss(model, x, y, s, classical, mask, iterations=ITERATIONS, crop=64, seed=0):
+    """Adam 1e-3 (x0.2 at 70 %), batch 8, random crops; loss |M (P_hat^gp - P^gp)| over mask."""
+    gp = float(classical.gamma_p)
+    m = torch.from_numpy(np.ascontiguousarray(classical.M)).permute(2, 3, 0, 1)  # (3, 3, H, W), rows: camera
+    w = torch.from_numpy(mask.astype(np.float32))[None, None]
+    opt = torch.optim.Adam(model.parameters(), lr=1e-3)
+    gen = torch.Generator().manual_seed(seed)
+    h, wd = x.shape[-2:]
+    for it in range(iterations):
+        if it == int(iterations * 0.7):
+            for group in opt.param_groups:
+                group["lr"] = 2e-4
+        idx = torch.randint(len(x), (min(8, len(x)),), generator=gen)
+        top = int(torch.randint(0, h - crop + 1, (1,), generator=gen)) // 4 * 4
+        left = int(torch.randint(0, wd - crop + 1, (1,), generator=gen)) // 4 * 4
+        sl = (Ellipsis, slice(top, top + crop), slice(left, left + crop))
+        model.train()
+        pred = model(x[idx][sl], s[sl])
+        diff = pred.clamp_min(1e-6) ** gp - y[idx][sl] ** gp
+        err = (m[sl][None] * diff[:, None]).sum(2)  # (B, 3, crop, crop) linear capture units
+        loss = (err.abs() * w[sl]).sum() / (w[sl].sum() * 3 * len(idx) + 1)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+    model.eval()
+    return model
+
+
+def run(args) -> dict:
+    from ...lapig_addon.blender.projection_render import render_working_images
+    from ...lapig_core.common import metrics
+    from ...lapig_core.photometric.classical import ClassicalModel
+    from ...lapig_core.photometric.finetune import cpu_recipe, finetune, start_model
+    from ...lapig_core.photometric.targets import desired_targets, reachable_mask
+    from ...lapig_core.photometric.training import predict
+    from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
+    from ...lapig_core.pipeline import setup_dir_of
+
+    t0 = time.perf_counter()
+    torch.manual_seed(0)
+    data = os.path.abspath(args.transport_data)
+    iterations = args.iterations or ITERATIONS
+    specs = [s for s in syn.REALISTIC_SETUPS if not args.realistic_setups or s.name in args.realistic_setups]
+    syn.render_synthetic_setups(specs, data, train=args.train_pairs, test=args.test_pairs, seed=600,
+                                skip_existing=True)
+
+    def psnr_on(pred, target, sel):
+        err = float(((pred - target) ** 2).mean(-1)[sel].mean()) if sel.any() else float("nan")
+        return round(10 * np.log10(1.0 / max(err, 1e-12)), 4)
+
+    per_setup = {}
+    for spec in specs:
+        cs = syn.load_setup(data, spec.name)
+        surf = SurfaceTensors.from_capture_set(cs)
+        mask = reachable_mask(cs.cam_black, cs.cam_white)
+        count = min(args.compensate, len(cs.prj_test))
+        targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
+        classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
+        x, y = to_tensor(cs.cam_train), to_tensor(cs.prj_train)
+        images, seconds = {"classical": classical.compensate(targets)}, {}
+
+        t = time.perf_counter()
+        model, _ = finetune(cs, "CompenNeSt", "compensation",
+                            recipe=cpu_recipe("CompenNeSt", "compensation", iterations),
+                            weights_dir=getattr(args, "weights", None))
+        images["compennest"] = to_numpy(predict(model, to_tensor(targets), surf.s))
+        seconds["compennest"] = round(time.perf_counter() - t, 1)
+
+        t = time.perf_counter()
+        model = train_camera_loss(start_model("CompenNeSt", "compensation", weights_dir=getattr(args, "weights", None)),
+                                  x, y, surf.s, classical, mask, iterations, crop=64)
+        images["compennest_camera_loss"] = to_numpy(predict(model, to_tensor(targets), surf.s))
+        seconds["compennest_camera_loss"] = round(time.perf_counter() - t, 1)
+
+        t = time.perf_counter()
+        base = to_tensor(classical.compensate(cs.cam_train))
+        model = train_camera_loss(ResidualOnClassical(), torch.cat([x, base], 1), y, surf.s, classical, mask,
+                                  iterations, crop=96)
+        x6 = torch.cat([to_tensor(targets), to_tensor(images["classical"])], 1)
+        images["residual_on_classical"] = to_numpy(predict(model, x6, surf.s))
+        seconds["residual_on_classical"] = round(time.perf_counter() - t, 1)
+
+        images["uncompensated"] = targets
+        names = list(images)
+        scene, projector, camera, target = syn.build_setup(spec, os.path.join(data, "textures"))
+        rendered = render_working_images(scene, projector, camera, target, setup_dir_of(cs),
+                                         np.concatenate([images[k] for k in names]), seed=7)
+        reach = classical.reachable(targets) & mask[None]
+        row = {"reachable_share": round(float(reach.sum() / max(1, mask.sum() * count)), 4),
+               "train_seconds": seconds}
+        for i, k in enumerate(names):
+            cap = rendered[i * count:(i + 1) * count]
+            row[k] = {"psnr_masked": round(metrics.masked_psnr(cap, targets, mask), 4),
+                      "psnr_reachable": psnr_on(cap, targets, reach),
+                      "psnr_unreachable": psnr_on(cap, targets, mask[None] & ~reach)}
+        for k in names[1:-1]:
+            row[f"{k}_minus_classical_db"] = round(row[k]["psnr_masked"] - row["classical"]["psnr_masked"], 4)
+        per_setup[spec.name] = row
+        _log(args, f"{spec.name}: {row}")
+    summary = {"per_setup": per_setup, "iterations": iterations}
+    for k in ("compennest", "compennest_camera_loss", "residual_on_classical"):
+        summary[f"{k}_minus_classical_db_mean"] = round(float(np.mean(
+            [r[f"{k}_minus_classical_db"] for r in per_setup.values()])), 4)
+    summary.update({"bench_total_s": round(time.perf_counter() - t0, 1), "cpu_threads": torch.get_num_threads(),
+                    "machine": platform.processor() or platform.machine(),
+                    "pretrained_weights": getattr(args, "weights", None) or "shipped"})
+    return summary

@@ -110,7 +110,8 @@ def evaluate(pred, target) -> dict:
 
 
 def masked_psnr(pred, target, mask) -> float:
-    """PSNR over the pixels where mask (H, W) is true: the part of the frame the projector can change.
+    """PSNR over the pixels where mask is true: (H, W), the part of the frame the projector can change,
+    the same for every image; or (N, H, W), a mask per image.
 
     Full-frame figures include pixels that are black in every image (off the object), which
     inflates them; this one does not.
@@ -119,7 +120,8 @@ def masked_psnr(pred, target, mask) -> float:
     m = torch.as_tensor(np.asarray(mask, bool))
     if not m.any():
         return math.nan
-    err = ((p - t) ** 2).mean(dim=1)[:, m]
+    err = ((p - t) ** 2).mean(dim=1)
+    err = err[m] if m.ndim == 3 else err[:, m]
     value = float(err.mean())
     return math.inf if value == 0 else 10.0 * math.log10(1.0 / value)
 

@@ -326,19 +326,22 @@ class ClassicalModel:
         Solves M x = target^gamma_c - o per pixel; unreachable targets are clipped to the
         projector's range [0,1] (a simple projection, not a box-constrained least squares).
         """
-        t, single = self._check(target, "target")
-        rhs = np.power(t, np.float32(self.gamma_c)) - self.o
-        x = np.einsum("hwij,nhwj->nhwi", self._pseudo_inverse(), rhs)
+        x, single = self._unclipped_inverse(target)
         out = np.power(np.clip(x, 0.0, 1.0), np.float32(1.0 / self.gamma_p)).astype(np.float32)
         return out[0] if single else out
+
+    def _unclipped_inverse(self, target: np.ndarray) -> tuple[np.ndarray, bool]:
+        """M^+ (target^gamma_c - o) per pixel, (N,H,W,3) in linear projector units, before the clip to
+        the projector's range; and whether a single image was given."""
+        t, single = self._check(target, "target")
+        rhs = np.power(t, np.float32(self.gamma_c)) - self.o
+        return np.einsum("hwij,nhwj->nhwi", self._pseudo_inverse(), rhs), single
 
     def reachable(self, target: np.ndarray, tolerance: float = 0.01) -> np.ndarray:
         """(N,H,W) bool (or (H,W)): pixels whose target this model reaches without clipping the
         projector to [0,1], every channel within `tolerance`. Elsewhere no compensation can show the
         target, by this model's account, and every method's error there is mostly the surface's limit."""
-        t, single = self._check(target, "target")
-        rhs = np.power(t, np.float32(self.gamma_c)) - self.o
-        x = np.einsum("hwij,nhwj->nhwi", self._pseudo_inverse(), rhs)
+        x, single = self._unclipped_inverse(target)
         inside = ((x >= -tolerance) & (x <= 1.0 + tolerance)).all(axis=-1)
         return inside[0] if single else inside
 

@@ -43,6 +43,22 @@ def test_masked_psnr_ignores_pixels_outside_the_mask():
 
 
 @pytest.mark.torch
+def test_masked_psnr_takes_a_mask_per_image():
+    from lapig_core.common import metrics
+
+    target = np.zeros((2, 8, 8, 3), np.float32)
+    pred = target.copy()
+    pred[0, :4], pred[0, 4:], pred[1] = 1.0, 0.1, 0.01  # image 0: bad top, image 1: good everywhere
+    masks = np.zeros((2, 8, 8), bool)
+    masks[0, 4:], masks[1] = True, True  # 32 + 64 pixels at errors 0.01 and 0.0001
+    expected = 10 * np.log10(1 / ((32 * 0.01 + 64 * 1e-4) / 96))
+    assert metrics.masked_psnr(pred, target, masks) == pytest.approx(expected, abs=1e-3)
+    # one (H, W) mask is the same mask on every image
+    assert metrics.masked_psnr(pred, target, masks[0]) == pytest.approx(
+        metrics.masked_psnr(pred, target, np.stack([masks[0]] * 2)), abs=1e-6)
+
+
+@pytest.mark.torch
 def test_figures_on_the_object_leave_the_frame_around_it_out():
     from lapig_core.common import metrics
 

@@ -25,7 +25,7 @@ import torch
 from torch import nn
 
 from .. import synthetic_setups as syn
-from .bench_transport import _log
+from .bench_transport import _log, psnr_over, realistic_specs
 
 ITERATIONS = 300
 
@@ -79,7 +79,6 @@ def train_camera_loss(model, x, y, s, classical, mask, iterations=ITERATIONS, cr
 
 def run(args) -> dict:
     from ...lapig_addon.blender.projection_render import render_working_images
-    from ...lapig_core.common import metrics
     from ...lapig_core.photometric.classical import ClassicalModel
     from ...lapig_core.photometric.finetune import cpu_recipe, finetune, start_model
     from ...lapig_core.photometric.targets import desired_targets, reachable_mask
@@ -91,13 +90,9 @@ def run(args) -> dict:
     torch.manual_seed(0)
     data = os.path.abspath(args.transport_data)
     iterations = args.iterations or ITERATIONS
-    specs = [s for s in syn.REALISTIC_SETUPS if not args.realistic_setups or s.name in args.realistic_setups]
+    specs = realistic_specs(args)
     syn.render_synthetic_setups(specs, data, train=args.train_pairs, test=args.test_pairs, seed=600,
                                 skip_existing=True)
-
-    def psnr_on(pred, target, sel):
-        err = float(((pred - target) ** 2).mean(-1)[sel].mean()) if sel.any() else float("nan")
-        return round(10 * np.log10(1.0 / max(err, 1e-12)), 4)
 
     per_setup = {}
     for spec in specs:
@@ -141,9 +136,8 @@ def run(args) -> dict:
                "train_seconds": seconds}
         for i, k in enumerate(names):
             cap = rendered[i * count:(i + 1) * count]
-            row[k] = {"psnr_masked": round(metrics.masked_psnr(cap, targets, mask), 4),
-                      "psnr_reachable": psnr_on(cap, targets, reach),
-                      "psnr_unreachable": psnr_on(cap, targets, mask[None] & ~reach)}
+            row[k] = {"psnr_masked": psnr_over(cap, targets, mask), "psnr_reachable": psnr_over(cap, targets, reach),
+                      "psnr_unreachable": psnr_over(cap, targets, mask[None] & ~reach)}
         for k in names[1:-1]:
             row[f"{k}_minus_classical_db"] = round(row[k]["psnr_masked"] - row["classical"]["psnr_masked"], 4)
         per_setup[spec.name] = row

@@ -46,6 +46,18 @@ def _log(args, msg):
         print(msg, flush=True)
 
 
+def realistic_specs(args) -> list:
+    """The realistic setups --realistic-setups names (all of them when it names none)."""
+    return [s for s in syn.REALISTIC_SETUPS if not args.realistic_setups or s.name in args.realistic_setups]
+
+
+def psnr_over(pred, target, selection):
+    """metrics.masked_psnr over (N, H, W) or (H, W) selected pixels, rounded for the JSON; None where none is."""
+    from ...lapig_core.common import metrics
+
+    return round(metrics.masked_psnr(pred, target, selection), 4) if np.any(selection) else None
+
+
 def _linear(device, frames):
     return device._linear(frames)
 
@@ -238,23 +250,17 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
     from .noise_floor import below_floor, noise_floor
 
     torch.manual_seed(0)
-    specs = [s for s in syn.REALISTIC_SETUPS if not args.realistic_setups or s.name in args.realistic_setups]
+    specs = realistic_specs(args)
     syn.render_synthetic_setups(specs, data, train=args.train_pairs, test=args.test_pairs, seed=600,
                                 skip_existing=True)
     per_setup, sheet = {}, []
-
-    def psnr_on(pred, target, sel):  # over the (N, H, W) pixels sel
-        if not sel.any():
-            return None
-        err = float(((np.asarray(pred) - np.asarray(target)) ** 2).mean(-1)[sel].mean())
-        return round(10 * np.log10(1.0 / max(err, 1e-12)), 4)
 
     def figures(pred, target, mask, reach=None):
         out = {"psnr_masked": round(metrics.masked_psnr(pred, target, mask), 4),
                "psnr": round(metrics.psnr(pred, target), 4), "ssim": round(metrics.ssim(pred, target), 4)}
         if reach is not None:  # where the classical model reaches the target, and where it would clip
-            out["psnr_reachable"] = psnr_on(pred, target, reach)
-            out["psnr_unreachable"] = psnr_on(pred, target, mask[None] & ~reach)
+            out["psnr_reachable"] = psnr_over(pred, target, reach)
+            out["psnr_unreachable"] = psnr_over(pred, target, mask[None] & ~reach)
         return out
 
     for spec in specs:
@@ -302,7 +308,7 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         row["chosen"] = {**row[chosen_key], "which": picked.chosen, "validation": picked.to_dict(),
                          "projector_space_choice": by_pairs.to_dict()}
         floor = noise_floor(caps["uncompensated"], again, mask)
-        floor["noise_floor_psnr_reachable"] = psnr_on(again, caps["uncompensated"], reach)
+        floor["noise_floor_psnr_reachable"] = psnr_over(again, caps["uncompensated"], reach)
         row.update(floor)
         row.update(below_floor(row, floor["noise_floor_psnr"]))
         best = max(row["classical"]["psnr_masked"], row[f"compennest_{first}"]["psnr_masked"])
@@ -326,7 +332,7 @@ def headroom_run(args, data) -> dict:
     from ...lapig_core.photometric.classical import ClassicalModel
     from ...lapig_core.photometric.targets import reachable_mask
 
-    specs = [s for s in syn.REALISTIC_SETUPS if not args.realistic_setups or s.name in args.realistic_setups]
+    specs = realistic_specs(args)
     twins = [replace(s, name=f"{s.name}_fast_twin", transport="FAST") for s in specs]
     syn.render_synthetic_setups(specs + twins, data, train=args.train_pairs, test=args.test_pairs, seed=600,
                                 skip_existing=True)
@@ -337,8 +343,7 @@ def headroom_run(args, data) -> dict:
             cs = syn.load_setup(data, name)
             mask = reachable_mask(cs.cam_black, cs.cam_white)
             model = ClassicalModel.fit(cs.prj_train, cs.cam_train)
-            err = float(((model.simulate(cs.prj_test) - cs.cam_test) ** 2).mean(-1)[:, mask].mean())
-            row[f"classical_sim_psnr_masked_{label}"] = round(10 * np.log10(1.0 / err), 4)
+            row[f"classical_sim_psnr_masked_{label}"] = psnr_over(model.simulate(cs.prj_test), cs.cam_test, mask)
             row[f"classical_fit_residual_{label}"] = round(model.residual, 5)
         row["transport_cost_db"] = round(row["classical_sim_psnr_masked_fast"]
                                          - row["classical_sim_psnr_masked_realistic"], 4)
@@ -358,7 +363,7 @@ def pcnet_run(args, data) -> dict:
     from ...lapig_core.photometric.training_data import SurfaceTensors
     from .bench_models import PAPER, SIZES, simulation_table
 
-    specs = [s for s in syn.REALISTIC_SETUPS if not args.realistic_setups or s.name in args.realistic_setups]
+    specs = realistic_specs(args)
     syn.render_synthetic_setups(specs, data, train=args.train_pairs, test=args.test_pairs, seed=600,
                                 skip_existing=True)
     iterations = args.iterations or CPU_ITERATIONS["PCNet"]

@@ -17,6 +17,7 @@ import torch
 from .photometric import checkpoints, choice as compensator_choice
 from .common import metrics
 from .capture.dataset import CaptureSet
+from .photometric.classical import ClassicalModel
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
 from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, get_backend
 from .native_output import NativeResult, native_output
@@ -36,13 +37,15 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
     iterations: per network (default: the CPU recipe's); fewer give a rough, quick fine-tune.
     """
     out, t0 = {}, time.perf_counter()
+    # first: the compensation's camera-space loss measures its error through the classical model
+    classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
     for i, (arch, role) in enumerate((("CompenNeSt", "compensation"), ("PCNet", "simulation"))):
         def progress(p, msg, i=i, arch=arch):
             if on_progress:
                 on_progress((i + p) / 2, f"{arch}: {msg}")
 
         model, result = finetune(cs, arch, role, recipe=cpu_recipe(arch, role, iterations), on_progress=progress,
-                                 cancel_event=cancel_event)
+                                 cancel_event=cancel_event, classical=classical)
         if result.cancelled:
             raise InterruptedError("training cancelled")
         if save:
@@ -50,7 +53,7 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
                              train_seconds=round(result.seconds, 2))
         out[arch] = model
     # the learned and the classical compensation, validated on the held-back pairs: the better one is used
-    chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"], out["PCNet"])
+    chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"], out["PCNet"], classical)
     if save:
         compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
     out["choice"], out["classical"] = chosen, classical

@@ -155,12 +155,14 @@ def learned_simulate(model, s: torch.Tensor, i_min: torch.Tensor, i_max: torch.T
     return lambda prj: to_numpy(predict(model, to_tensor(prj), s, i_min, i_max))
 
 
-def fit_and_choose(cs, learned_model, simulator) -> tuple[CompensatorChoice, ClassicalModel]:
-    """Fit the classical model on the setup's training pairs and choose against the fine-tuned network,
-    in the simulated captures of the setup's fine-tuned PCNet (``simulator``)."""
+def fit_and_choose(cs, learned_model, simulator, classical: ClassicalModel | None = None
+                   ) -> tuple[CompensatorChoice, ClassicalModel]:
+    """Fit the classical model on the setup's training pairs (unless given, fitted on them already) and
+    choose against the fine-tuned network, in the simulated captures of the setup's fine-tuned PCNet
+    (``simulator``)."""
     from .training_data import SurfaceTensors
 
-    classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
+    classical = classical or ClassicalModel.fit(cs.prj_train, cs.cam_train)
     surf = SurfaceTensors.from_capture_set(cs)
     images = cs.prj_test if cs.has_test else cs.prj_test[:0]
     return choose_by_simulation(learned_compensate(learned_model, surf.s), classical.compensate,

@@ -59,6 +59,44 @@ def photometric_loss(name: str, pred: torch.Tensor, target: torch.Tensor) -> tor
     return sum(_TERMS[t](pred, target) for t in terms)
 
 
+# -- camera-space loss of the compensation fine-tune -------------------------
+
+class CameraSpaceLoss:
+    """|M (f_p(P_hat) - f_p(P))| over the pixels the projector reaches: a compensation's error as the
+    camera sees it, through the setup's fitted per-pixel colour mixing M and projector transfer
+    f_p(P) = P ** gamma_p (photometric/classical).
+
+    The paper's projector-space l1 weighs every projector value alike. Where the surface is dark, a
+    capture-noise step maps to a large projector step, so that loss is ruled by pixels whose error the
+    camera barely sees, and the bright texture the viewer sees best gets little weight. Measured
+    through M the loss weighs each error as the viewer will see it (BENCHMARKS, issue 16: learned
+    variants and the app's fine-tune).
+
+    m: (3, 3, H, W), rows camera channels, columns projector channels; weight: (1, 1, H, W) in [0, 1].
+    """
+
+    def __init__(self, m: torch.Tensor, gamma_p: float, weight: torch.Tensor):
+        if m.dim() != 4 or m.shape[:2] != (3, 3) or weight.shape[-2:] != m.shape[-2:]:
+            raise ValueError(f"M must be (3, 3, H, W) and the weight (1, 1, H, W) of the same size; "
+                             f"got {tuple(m.shape)} and {tuple(weight.shape)}")
+        self.m, self.gamma_p, self.weight = m.float(), float(gamma_p), weight.float()
+
+    @property
+    def size(self) -> tuple:
+        return tuple(self.m.shape[-2:])
+
+    def cropped(self, rows: slice, cols: slice) -> "CameraSpaceLoss":
+        """The same loss on a crop of the frame (the training crops)."""
+        return CameraSpaceLoss(self.m[..., rows, cols], self.gamma_p, self.weight[..., rows, cols])
+
+    def __call__(self, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        # clamp_min: the gradient of P ** gamma_p is unbounded at 0 for gamma_p < 1
+        diff = pred.clamp_min(1e-6) ** self.gamma_p - target.clamp_min(1e-6) ** self.gamma_p
+        seen = (self.m[None] * diff[:, None]).sum(2)  # (B, 3, H, W): per pixel M @ diff
+        w = self.weight.to(seen.dtype)
+        return (seen.abs() * w).sum() / (w.sum() * 3 * len(pred) + 1.0)
+
+
 # -- PSA losses ---------------------------------------------------------------
 
 def projection_consistency_loss(simulated: torch.Tensor, target: torch.Tensor) -> torch.Tensor:

@@ -48,6 +48,8 @@ class Recipe:
                        loss_schedule=tuple((int(round(s * f)), n) for s, n in self.loss_schedule), **changes)
 
 
+CAMERA_LOSS = "camera"  # a loss-schedule name: losses.CameraSpaceLoss, which the Trainer is given
+
 # The paper's recipes (NOTES section 2).
 COMPENNEST_FINETUNE = Recipe(800, loss_schedule=((0, "l1"), (200, "l1+ssim")))
 PCNET_TRAIN = Recipe(1500, lr_steps=(1000,), loss_schedule=((0, "l1+l2"), (600, "l1+l2+ssim")))
@@ -101,10 +103,19 @@ class TrainResult:
 
 class Trainer:
     def __init__(self, model, pairs: PairSet, recipe: Recipe, val_pairs: PairSet | None = None,
-                 eval_every: int = 100, report_every: int = 10, cancel_event=None, max_nan_recoveries=3):
+                 eval_every: int = 100, report_every: int = 10, cancel_event=None, max_nan_recoveries=3,
+                 camera_loss: losses.CameraSpaceLoss | None = None):
+        """camera_loss: the setup's camera-space loss, needed when the recipe's schedule names CAMERA_LOSS."""
         if len(pairs) == 0:
             raise TrainingError("no training pairs")
         h, w = pairs.x.shape[-2:]
+        if any(name == CAMERA_LOSS for _, name in recipe.loss_schedule):
+            if camera_loss is None:
+                raise TrainingError("this recipe's camera-space loss needs the setup's fitted classical model")
+            if camera_loss.size != (h, w):
+                raise TrainingError(f"the camera-space loss is {camera_loss.size[0]}x{camera_loss.size[1]}, "
+                                    f"the training images {h}x{w}")
+        self.camera_loss = camera_loss
         crop = recipe.crop
         if crop is not None and (crop > min(h, w) or crop % 4):
             raise TrainingError(f"crop {crop} must be a multiple of 4 and at most the image size {h}x{w}")
@@ -121,13 +132,19 @@ class Trainer:
         r = self.recipe
         idx = torch.randint(len(self.pairs), (min(r.batch_size, len(self.pairs)),), generator=gen)
         x, s, y = self.pairs.batch(idx)
+        rows = cols = slice(None)
         if r.crop is not None:
             h, w = x.shape[-2:]
             top = int(torch.randint(0, h - r.crop + 1, (1,), generator=gen)) // 4 * 4
             left = int(torch.randint(0, w - r.crop + 1, (1,), generator=gen)) // 4 * 4
-            sl = (Ellipsis, slice(top, top + r.crop), slice(left, left + r.crop))
-            x, s, y = x[sl], s[sl], y[sl]
-        return x, s, y
+            rows, cols = slice(top, top + r.crop), slice(left, left + r.crop)
+            x, s, y = x[..., rows, cols], s[..., rows, cols], y[..., rows, cols]
+        return x, s, y, (rows, cols)
+
+    def _loss(self, name: str, pred, y, crop):
+        if name == CAMERA_LOSS:
+            return self.camera_loss.cropped(*crop)(pred, y)
+        return losses.photometric_loss(name, pred, y)
 
     def _cancelled(self) -> bool:
         return self.cancel_event is not None and self.cancel_event.is_set()
@@ -150,9 +167,9 @@ class Trainer:
             for group in opt.param_groups:
                 group["lr"] = lr
             self.model.train()
-            x, s, y = self._sample(gen)
+            x, s, y, crop = self._sample(gen)
             pred = apply_model(self.model, x, s, self._y_min, self._y_max)
-            loss = losses.photometric_loss(r.loss_at(it), pred, y)
+            loss = self._loss(r.loss_at(it), pred, y, crop)
             if not torch.isfinite(loss):
                 self._recover(opt, good_state, it)
                 continue

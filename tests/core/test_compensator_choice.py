@@ -109,8 +109,9 @@ def test_the_classical_compensator_module_matches_the_model_at_any_size(tmp_path
 
 
 def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp_path):
-    """A barely fine-tuned network (2 iterations) on a direct-light fake rig loses to the classical model:
-    train_models records it, and surface_models hands out the classical compensator with the choice."""
+    """train_models measures the fine-tuned network against the classical model and records the better one,
+    and surface_models hands out that compensator with the choice: the network where it won, the classical
+    model where the saved choice says classical."""
     from lapig_core.capture.dataset import load_capture_set
     from lapig_core.capture.fake_device import FakeDevice
     from lapig_core.capture.sequence import GeometryChecks, run_capture
@@ -128,11 +129,17 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
         cs = load_capture_set(done.value["setup_dir"])
     trained = train_models(cs, iterations=2)
     picked = trained["choice"]
-    assert picked.validation_pairs == 4
-    assert picked.chosen == choice.CLASSICAL, picked
+    assert picked.validation_pairs == 4 and picked.judge == choice.PCNET_JUDGE
+    assert picked.chosen == (choice.CLASSICAL if picked.classical_psnr > picked.learned_psnr else choice.LEARNED)
     assert (setup_dir_of(cs) / "models" / choice.CHOICE_FILE).is_file()
     models = surface_models(cs)
-    assert isinstance(models.compensator, choice.ClassicalCompensator)
     assert models.choice == picked
+    assert isinstance(models.compensator, choice.ClassicalCompensator) == (picked.chosen == choice.CLASSICAL)
+    # a setup whose measurement chose the classical model compensates with it
+    classical_won = choice.CompensatorChoice(choice.CLASSICAL, 20.0, 22.5, 4, "", choice.PCNET_JUDGE)
+    choice.save_choice(setup_dir_of(cs) / "models", classical_won, trained["classical"])
+    models = surface_models(cs)
+    assert isinstance(models.compensator, choice.ClassicalCompensator)
+    assert models.choice == classical_won
     out = models.compensate(models.i_max)
     assert out.shape == models.i_max.shape and 0 <= float(out.min()) and float(out.max()) <= 1

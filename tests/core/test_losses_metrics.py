@@ -203,3 +203,54 @@ def test_sharpness_is_the_laplacian_energy_and_falls_with_blur():
     noisy = wave + 0.02 * rng.standard_normal(wave.shape)
     assert metrics.sharpness(noisy) > 2 * metrics.sharpness(wave)
     assert abs(metrics.sharpness(noisy, sigma=1.0) / metrics.sharpness(wave, sigma=1.0) - 1) < 0.1
+
+
+def _camera_loss(h=8, w=8, diag=(1.0, 1.0, 1.0), gamma_p=1.0, weight=None):
+    from lapig_core.photometric.losses import CameraSpaceLoss
+
+    m = torch.diag(torch.tensor(diag))[:, :, None, None].expand(3, 3, h, w).clone()
+    weight = torch.ones(1, 1, h, w) if weight is None else weight
+    return CameraSpaceLoss(m, gamma_p, weight)
+
+
+def test_camera_space_loss_is_the_error_the_camera_sees():
+    torch.manual_seed(0)
+    pred, target = torch.rand(2, 3, 8, 8), torch.rand(2, 3, 8, 8)
+    # identity M, linear projector: the l1 of the projector images (up to the +1 guarding an empty weight)
+    loss = _camera_loss()(pred, target)
+    assert loss == pytest.approx(float((pred - target).abs().sum() / (8 * 8 * 3 * 2 + 1)), rel=1e-5)
+    assert float(_camera_loss()(target, target)) == 0.0
+    # an error in a projector channel the camera does not see costs nothing
+    shifted = target.clone()
+    shifted[:, 1] += 0.3
+    assert float(_camera_loss(diag=(1.0, 0.0, 1.0))(shifted, target)) == 0.0
+    assert float(_camera_loss()(shifted, target)) > 0.05
+    # pixels outside the weight (the projector cannot reach them) cost nothing, and get no gradient
+    weight = torch.zeros(1, 1, 8, 8)
+    weight[..., :, :4] = 1
+    pred.requires_grad_(True)
+    _camera_loss(weight=weight)(pred, target).backward()
+    assert float(pred.grad[..., 4:].abs().sum()) == 0.0 and float(pred.grad[..., :4].abs().sum()) > 0
+    # through the projector's transfer: a gamma_p > 1 makes dark projector errors cheap
+    dark, bright = torch.full((1, 3, 8, 8), 0.1), torch.full((1, 3, 8, 8), 0.9)
+    gamma = _camera_loss(gamma_p=2.2)
+    assert float(gamma(dark + 0.05, dark)) < 0.2 * float(gamma(bright + 0.05, bright))
+
+
+def test_camera_space_loss_crops_with_its_images_and_checks_shapes():
+    from lapig_core.photometric.losses import CameraSpaceLoss
+
+    torch.manual_seed(1)
+    m = torch.rand(3, 3, 16, 12)
+    weight = (torch.rand(1, 1, 16, 12) > 0.3).float()
+    loss = CameraSpaceLoss(m, 1.7, weight)
+    pred, target = torch.rand(2, 3, 16, 12), torch.rand(2, 3, 16, 12)
+    rows, cols = slice(4, 12), slice(0, 8)
+    alone = CameraSpaceLoss(m[..., rows, cols], 1.7, weight[..., rows, cols])
+    assert float(loss.cropped(rows, cols)(pred[..., rows, cols], target[..., rows, cols])) == \
+        pytest.approx(float(alone(pred[..., rows, cols], target[..., rows, cols])))
+    assert loss.size == (16, 12)
+    with pytest.raises(ValueError, match="3, 3, H, W"):
+        CameraSpaceLoss(torch.rand(3, 16, 12), 1.0, weight)
+    with pytest.raises(ValueError, match="same size"):
+        CameraSpaceLoss(m, 1.0, torch.ones(1, 1, 8, 8))

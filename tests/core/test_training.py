@@ -163,3 +163,44 @@ def test_finetune_at_a_working_size_below_the_crop(capture_set, tmp_path):
     model, result = finetune.finetune(capture_set, "PCNet", "simulation", weights_dir=out,
                                       recipe=finetune.cpu_recipe("PCNet", "simulation", 2))  # crop 64 > 32 px
     assert result.iterations == 2
+
+
+def test_the_compensation_fine_tune_measures_its_error_as_the_camera_sees_it(capture_set):
+    from lapig_core.photometric.classical import ClassicalModel
+    from lapig_core.photometric.training import CAMERA_LOSS
+
+    recipe = finetune.cpu_recipe("CompenNeSt", "compensation", 20)
+    assert recipe.loss_schedule == ((0, CAMERA_LOSS),) and recipe.lr_steps == (14,) and finetune.cpu_recipe("CompenNeSt", "compensation").iterations == 1000 and recipe.weight_decay == 0
+    paper = finetune.cpu_recipe("CompenNeSt", "compensation", 20, loss=finetune.PAPER_LOSS)
+    assert paper.loss_at(19) == "l1+ssim"
+    assert finetune.cpu_recipe("PCNet", "simulation", 20).loss_at(0) == "l1+l2"  # already in camera space
+    with pytest.raises(ValueError, match="unknown fine-tuning loss"):
+        finetune.cpu_recipe("CompenNeSt", "compensation", loss="l7")
+
+    pairs = pairs_from_capture_sets([capture_set], "compensation")
+    with pytest.raises(TrainingError, match="classical model"):
+        Trainer(finetune.start_model("CompenNeSt", "compensation"), pairs, recipe)
+    classical = ClassicalModel.fit(capture_set.prj_train, capture_set.cam_train)
+    camera = finetune.camera_space_loss(capture_set, classical)
+    assert camera.size == (32, 32) and 0 < float(camera.weight.mean()) <= 1
+    with pytest.raises(TrainingError, match="camera-space loss is 16x16"):
+        Trainer(finetune.start_model("CompenNeSt", "compensation"), pairs, recipe,
+                camera_loss=camera.cropped(slice(0, 16), slice(0, 16)))
+
+    def camera_error(model):
+        from lapig_core.photometric.training import predict
+        return float(camera(predict(model, pairs.x, capture_set_surface(capture_set)), pairs.y))
+
+    start = finetune.start_model("CompenNeSt", "compensation")
+    before = camera_error(start)
+    model, result = finetune.finetune(capture_set, "CompenNeSt", "compensation", recipe=recipe, classical=classical)
+    assert result.iterations == 20 and camera_error(model) < 0.8 * before
+    # without a classical model given, the fine-tune fits one on the same pairs
+    _, result = finetune.finetune(capture_set, "CompenNeSt", "compensation", count=4,
+                                  recipe=finetune.cpu_recipe("CompenNeSt", "compensation", 2))
+    assert result.iterations == 2
+
+
+def capture_set_surface(cs):
+    from lapig_core.photometric.training_data import SurfaceTensors
+    return SurfaceTensors.from_capture_set(cs).s

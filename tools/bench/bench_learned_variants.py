@@ -6,9 +6,11 @@ a realistic setup (rendered on first use, the same captures as `bench transport`
 compensated, projected and captured through the same rig (masked PSNR against the target, as `bench transport`),
 also split into the pixels the classical model reaches and those where it would clip the projector:
   * classical: the per-pixel model (the reference);
-  * compennest: CompenNeSt as the app fine-tunes it (projector-space l1, then l1+SSIM; the CPU recipe);
+  * compennest: CompenNeSt with the paper's loss (projector-space l1, then l1+SSIM; the CPU recipe), as the app
+    fine-tuned it before it took the camera-space loss of the next variant;
   * compennest_camera_loss: the same network, start and budget, with the error measured as the camera sees it,
-    M (f_p(P_hat) - f_p(P)) through the setup's classical M and gamma_p, over the projector-reachable pixels.
+    M (f_p(P_hat) - f_p(P)) through the setup's classical M and gamma_p, over the projector-reachable pixels
+    (this study's own loop; the app's fine-tune now uses losses.CameraSpaceLoss, the same loss);
     In projector space the loss is ruled by dark pixels, where capture noise maps to large projector errors;
   * residual_on_classical: the classical compensation plus a small CNN's correction (zero at the start), with
     the camera-space loss: it cannot start worse than the classical model, and learns what the per-pixel model
@@ -80,7 +82,7 @@ def train_camera_loss(model, x, y, s, classical, mask, iterations=ITERATIONS, cr
 def run(args) -> dict:
     from ...lapig_addon.blender.projection_render import render_working_images
     from ...lapig_core.photometric.classical import ClassicalModel
-    from ...lapig_core.photometric.finetune import cpu_recipe, finetune, start_model
+    from ...lapig_core.photometric.finetune import PAPER_LOSS, cpu_recipe, finetune, start_model
     from ...lapig_core.photometric.targets import desired_targets, reachable_mask
     from ...lapig_core.photometric.training import predict
     from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
@@ -107,7 +109,7 @@ def run(args) -> dict:
 
         t = time.perf_counter()
         model, _ = finetune(cs, "CompenNeSt", "compensation",
-                            recipe=cpu_recipe("CompenNeSt", "compensation", iterations),
+                            recipe=cpu_recipe("CompenNeSt", "compensation", iterations, loss=PAPER_LOSS),
                             weights_dir=getattr(args, "weights", None))
         images["compennest"] = to_numpy(predict(model, to_tensor(targets), surf.s))
         seconds["compennest"] = round(time.perf_counter() - t, 1)

@@ -4,7 +4,7 @@ Per benchmark setup (synthetic_setups.BENCH_SETUPS, rendered on first use):
   * the paper's PCNet table: PCNet, CompenNeSt reversed and the classical per-pixel model, each
     trained on 8 / 48 / 125 pairs, simulating the held-out test captures;
   * compensation measured for real: desired appearances are compensated by CompenNeSt (fine-tuned
-    on 8 pairs) and by the classical model, projected and captured with Cycles through the same
+    on 8 pairs with the app's camera-space loss, and with the paper's loss beside it) and by the classical model, projected and captured with Cycles through the same
     rig, and compared with the desired images; the uncompensated projection is rendered beside them;
   * fine-tuning time: both models from the pretrained weights to within 0.5 dB of the figure a
     run twice as long converges to, and the same budget from scratch.
@@ -21,7 +21,7 @@ import torch
 
 from ...lapig_core.common import metrics
 from ...lapig_core.photometric.classical import ClassicalModel
-from ...lapig_core.photometric.finetune import CPU_ITERATIONS, cpu_recipe, finetune
+from ...lapig_core.photometric.finetune import CPU_ITERATIONS, PAPER_LOSS, cpu_recipe, finetune
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.pipeline import setup_dir_of
 from ...lapig_core.common.sheets import labelled_grid
@@ -75,19 +75,26 @@ def compensation_run(spec, cs, surf, mask, pcnet, iterations, args, textures) ->
     pairs = min(args.compensation_pairs, len(cs.prj_train))
     targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
     model, result = finetune(cs, "CompenNeSt", "compensation", count=pairs,
-                             recipe=cpu_recipe("CompenNeSt", "compensation", iterations), weights_dir=getattr(args, "weights", None))
+                             recipe=cpu_recipe("CompenNeSt", "compensation", args.iterations),
+                             weights_dir=getattr(args, "weights", None))
     learned = to_numpy(predict(model, to_tensor(targets), surf.s))
+    # beside the app's camera-space loss: the paper's loss, same network, start, pairs and iterations
+    paper_model, _ = finetune(cs, "CompenNeSt", "compensation", count=pairs,
+                              recipe=cpu_recipe("CompenNeSt", "compensation", args.iterations, loss=PAPER_LOSS),
+                              weights_dir=getattr(args, "weights", None))
+    paper = to_numpy(predict(paper_model, to_tensor(targets), surf.s))
     # the classical model on the same pairs as CompenNeSt, and on all of them
     classical_same = ClassicalModel.fit(cs.prj_train[:max(pairs, 4)], cs.cam_train[:max(pairs, 4)]).compensate(targets)
     classical_all = ClassicalModel.fit(cs.prj_train, cs.cam_train).compensate(targets)
     # project and capture them all for real, through the same rig
     scene, projector, camera, target = syn.build_setup(spec, textures)
     rendered = render_working_images(scene, projector, camera, target, setup_dir_of(cs),
-                                     np.concatenate([learned, classical_same, classical_all, targets]), seed=7)
-    ours, same, theirs, plain = (rendered[i * count:(i + 1) * count] for i in range(4))
+                                     np.concatenate([learned, classical_same, classical_all, targets, paper]), seed=7)
+    ours, same, theirs, plain, ours_paper = (rendered[i * count:(i + 1) * count] for i in range(5))
     # the same uncompensated images again, other noise seeds: the setup's repeatability limit
     again = render_working_images(scene, projector, camera, target, setup_dir_of(cs), targets, seed=8)
     figures = {"compensated": _figures(ours, targets, mask),
+               "compensated_paper_loss": _figures(ours_paper, targets, mask),
                "classical_compensated_same_pairs": _figures(same, targets, mask),
                "classical_compensated": _figures(theirs, targets, mask),
                "uncompensated": _figures(plain, targets, mask), "compensation_pairs": pairs,
@@ -184,20 +191,22 @@ def run(args) -> dict:
                     summary[f"{key}_{m}_{n}"] = mean(("simulation", f"{key}_{n}", m))
         summary["pcnet_ahead_of_reversed_at_every_size"] = all(
             summary[f"pcnet_psnr_{n}"] > summary[f"compennest_reversed_psnr_{n}"] for n in SIZES)
-    for key in ("compensated", "classical_compensated", "classical_compensated_same_pairs", "uncompensated") + \
-            (() if args.compensation_only else ("simulated",)):
+    for key in ("compensated", "compensated_paper_loss", "classical_compensated", "classical_compensated_same_pairs",
+                "uncompensated") + (() if args.compensation_only else ("simulated",)):
         for m in ("psnr", "ssim", "rmse", "psnr_masked"):
             summary[f"{key}_{m}"] = mean(("compensation", key, m))
     summary["compensation_pairs"] = args.compensation_pairs
     summary["noise_floor_psnr"] = mean(("compensation", "noise_floor_psnr"))
-    for key in ("compensated", "classical_compensated", "classical_compensated_same_pairs", "uncompensated"):
+    for key in ("compensated", "compensated_paper_loss", "classical_compensated", "classical_compensated_same_pairs",
+                "uncompensated"):
         summary[f"{key}_below_noise_floor_db"] = round(summary["noise_floor_psnr"] - summary[f"{key}_psnr_masked"], 3)
     summary.update(timing)
     sheet_path = os.path.join(out, "models_sheet.png")
     write_png(sheet_path, labelled_grid([im for im, _ in sheet], [lb.split(": ")[1] for _, lb in sheet],
                                         columns=5 if args.compensation_only else 6, cell=200, title="bench models: " + ", ".join(s.name for s in specs)))
     summary.update({"sheet": sheet_path, "setups": [s.name for s in specs], "per_setup": per_setup,
-                    "paper": PAPER, "iterations": iterations, "crop": cpu_recipe("PCNet", "simulation").crop,
+                    "paper": PAPER, "iterations": iterations,
+                    "compensation_iterations": cpu_recipe("CompenNeSt", "compensation", args.iterations).iterations, "crop": cpu_recipe("PCNet", "simulation").crop,
                     "bench_total_s": round(time.perf_counter() - t0, 1), "cpu_threads": torch.get_num_threads(),
                     "machine": platform.processor() or platform.machine(), "blender": bpy.app.version_string,
                     "pretrained_weights": getattr(args, "weights", None) or "shipped"})

@@ -11,8 +11,8 @@
   * speed: registered captures per second, Realistic and Fast, on the demo wall and the corner;
   * pcnet (only when asked for): the paper's PCNet table on the realistic setups;
   * noise floor and compensation on the realistic setups (synthetic_setups.REALISTIC_SETUPS):
-    uncompensated, classical, CompenNeSt on 8 and on 125 pairs, and the compensator the setup
-    chose by measurement (lapig_core.photometric.choice), each beside the setup's noise floor;
+    uncompensated, classical, CompenNeSt on 8 and on 125 pairs (the app's camera-space loss), CompenNeSt on
+    125 pairs with the paper's loss beside it, and the compensator the setup chose by measurement (lapig_core.photometric.choice), each beside the setup's noise floor;
   * a sheet of raw captures (corner, vase, bust) under a projected pattern, Fast against Realistic;
   * headroom (only when asked for): how much of the captures the per-pixel (classical) model misses
     because of the realistic transport: each realistic setup is also rendered Fast (same object, rig,
@@ -242,6 +242,7 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
     from ...lapig_core.common import metrics
     from ...lapig_core.photometric import choice
     from ...lapig_core.photometric.classical import ClassicalModel
+    from ...lapig_core.photometric import finetune as finetune_loss
     from ...lapig_core.photometric.finetune import cpu_recipe, finetune
     from ...lapig_core.photometric.targets import desired_targets, reachable_mask
     from ...lapig_core.photometric.training import predict
@@ -273,16 +274,21 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         val = slice(count, None) if len(cs.prj_test) - count >= 4 else slice(None)
         targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
         learned, seconds = {}, {}
-        for pairs in args.pair_counts:
-            n = min(pairs, len(cs.prj_train))
-            model, result = finetune(cs, "CompenNeSt", "compensation", count=n,
-                                     recipe=cpu_recipe("CompenNeSt", "compensation", args.iterations),
-                                     weights_dir=getattr(args, "weights", None))
-            learned[pairs] = model
-            seconds[pairs] = round(result.seconds, 1)
-            _log(args, f"  CompenNeSt on {n} pairs: {seconds[pairs]} s")
         classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
         first = args.pair_counts[0]
+        # the app's fine-tune (camera-space loss) at every pair count, and beside it the paper's loss on the
+        # app's pair count: the same network, start, pairs and iterations
+        runs = [(p, finetune_loss.CAMERA_SPACE) for p in args.pair_counts] + [(first, finetune_loss.PAPER_LOSS)]
+        for pairs, loss in runs:
+            n = min(pairs, len(cs.prj_train))
+            key = pairs if loss == finetune_loss.CAMERA_SPACE else f"{pairs}_paper_loss"
+            model, result = finetune(cs, "CompenNeSt", "compensation", count=n,
+                                     recipe=cpu_recipe("CompenNeSt", "compensation", args.iterations, loss=loss),
+                                     weights_dir=getattr(args, "weights", None),
+                                     classical=classical if n == len(cs.prj_train) else None)
+            learned[key] = model
+            seconds[key] = round(result.seconds, 1)
+            _log(args, f"  CompenNeSt on {n} pairs, {loss} loss: {seconds[key]} s")
         # the app's choice: in the simulated captures of the setup's PCNet, fine-tuned on all pairs as Train does
         simulator, _ = finetune(cs, "PCNet", "simulation", recipe=cpu_recipe("PCNet", "simulation", args.iterations),
                                 weights_dir=getattr(args, "weights", None))
@@ -315,13 +321,16 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         row["chosen_behind_best_db"] = round(best - row["chosen"]["psnr_masked"], 4)
         row["learned_minus_classical_db"] = round(row[f"compennest_{first}"]["psnr_masked"]
                                                   - row["classical"]["psnr_masked"], 4)
+        row["paper_loss_minus_classical_db"] = round(row[f"compennest_{first}_paper_loss"]["psnr_masked"]
+                                                     - row["classical"]["psnr_masked"], 4)
         row["compennest_train_s"] = seconds
         per_setup[spec.name] = row
         _log(args, f"  {row}")
         i = 0
         sheet += [(targets[i], f"{spec.name}: target"), (caps["uncompensated"][i], "uncompensated"),
                   (caps["classical"][i], "classical"), (caps[f"compennest_{first}"][i], f"CompenNeSt {first}"),
-                  (caps[f"compennest_{args.pair_counts[-1]}"][i], f"CompenNeSt {args.pair_counts[-1]}")]
+                  (caps[f"compennest_{args.pair_counts[-1]}"][i], f"CompenNeSt {args.pair_counts[-1]}"),
+                  (caps[f"compennest_{first}_paper_loss"][i], f"CompenNeSt {first}, paper loss")]
     return per_setup, sheet
 
 
@@ -449,16 +458,25 @@ def run(args) -> dict:
             last = args.pair_counts[-1]
             summary[f"learned_{last}_minus_classical_db"] = round(float(np.mean(
                 [v[f"compennest_{last}"]["psnr_masked"] - v["classical"]["psnr_masked"] for v in per_setup.values()])), 4)
+        summary["paper_loss_minus_classical_db"] = round(float(np.mean(
+            [v["paper_loss_minus_classical_db"] for v in per_setup.values()])), 4)
+        from ...lapig_core.photometric.finetune import CAMERA_SPACE, PAPER_LOSS, cpu_recipe
+
+        summary["compensation_iterations"] = {
+            loss: cpu_recipe("CompenNeSt", "compensation", args.iterations, loss=loss).iterations
+            for loss in (CAMERA_SPACE, PAPER_LOSS)}
+        summary["compensation_loss"] = "camera-space (the app's); paper_loss_*: the paper's l1 / l1+SSIM"
         summary["chosen_behind_best_db_max"] = max(v["chosen_behind_best_db"] for v in per_setup.values())
         summary["chosen"] = {k: v["chosen"]["which"] for k, v in per_setup.items()}
-        for key in ["uncompensated", "classical", "chosen"] + [f"compennest_{p}" for p in args.pair_counts]:
+        for key in ["uncompensated", "classical", "chosen", f"compennest_{first}_paper_loss"] + \
+                [f"compennest_{p}" for p in args.pair_counts]:
             summary[f"{key}_psnr_masked_mean"] = round(float(np.mean([v[key]["psnr_masked"] for v in per_setup.values()])), 4)
             summary[f"{key}_ssim_mean"] = round(float(np.mean([v[key]["ssim"] for v in per_setup.values()])), 4)
         summary["compensation_pairs_learned"] = first
         summary["per_setup"] = per_setup
         sheet_path = os.path.join(out, "transport_compensation_sheet.png")
         write_png(sheet_path, labelled_grid([im for im, _ in sheet], [lb.split(": ")[-1] for _, lb in sheet],
-                                            columns=5, cell=220, title="rendered compensation, realistic setups"))
+                                            columns=6, cell=220, title="rendered compensation, realistic setups"))
         summary["compensation_sheet"] = sheet_path
     summary.update({"bench_total_s": round(time.perf_counter() - t0, 1), "cpu_threads": torch.get_num_threads(),
                     "machine": platform.processor() or platform.machine(), "blender": bpy.app.version_string,

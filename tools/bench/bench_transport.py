@@ -281,7 +281,7 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         runs = [(p, finetune_loss.CAMERA_SPACE) for p in args.pair_counts] + [(first, finetune_loss.PAPER_LOSS)]
         for pairs, loss in runs:
             n = min(pairs, len(cs.prj_train))
-            key = pairs if loss == finetune_loss.CAMERA_SPACE else f"{pairs}_paper_loss"
+            key = f"{pairs}" if loss == finetune_loss.CAMERA_SPACE else f"{pairs}_paper_loss"  # JSON keys: str
             model, result = finetune(cs, "CompenNeSt", "compensation", count=n,
                                      recipe=cpu_recipe("CompenNeSt", "compensation", args.iterations, loss=loss),
                                      weights_dir=getattr(args, "weights", None),
@@ -293,10 +293,10 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         simulator, _ = finetune(cs, "PCNet", "simulation", recipe=cpu_recipe("PCNet", "simulation", args.iterations),
                                 weights_dir=getattr(args, "weights", None))
         picked = choice.choose_by_simulation(
-            choice.learned_compensate(learned[first], surf.s), classical.compensate,
+            choice.learned_compensate(learned[f"{first}"], surf.s), classical.compensate,
             choice.learned_simulate(simulator, surf.s, surf.i_min, surf.i_max), cs.prj_test[val], cs.cam_black,
             cs.cam_white, cs.projector_valid)
-        by_pairs = choice.choose(choice.learned_compensate(learned[first], surf.s), classical.compensate,
+        by_pairs = choice.choose(choice.learned_compensate(learned[f"{first}"], surf.s), classical.compensate,
                                  cs.cam_test[val], cs.prj_test[val], cs.projector_valid, cs.cam_black, cs.cam_white)
         images = {f"compennest_{p}": to_numpy(predict(learned[p], to_tensor(targets), surf.s)) for p in learned}
         images["classical"] = classical.compensate(targets)

@@ -112,6 +112,8 @@ class Trainer:
         if any(name == CAMERA_LOSS for _, name in recipe.loss_schedule):
             if camera_loss is None:
                 raise TrainingError("this recipe's camera-space loss needs the setup's fitted classical model")
+            if len(pairs.surfaces) != 1:
+                raise TrainingError("the camera-space loss is one setup's: train on that setup's pairs alone")
             if camera_loss.size != (h, w):
                 raise TrainingError(f"the camera-space loss is {camera_loss.size[0]}x{camera_loss.size[1]}, "
                                     f"the training images {h}x{w}")

@@ -183,6 +183,9 @@ def test_the_compensation_fine_tune_measures_its_error_as_the_camera_sees_it(cap
     classical = ClassicalModel.fit(capture_set.prj_train, capture_set.cam_train)
     camera = finetune.camera_space_loss(capture_set, classical)
     assert camera.size == (32, 32) and 0 < float(camera.weight.mean()) <= 1
+    two = pairs_from_capture_sets([capture_set, capture_set], "compensation")
+    with pytest.raises(TrainingError, match="one setup's"):
+        Trainer(finetune.start_model("CompenNeSt", "compensation"), two, recipe, camera_loss=camera)
     with pytest.raises(TrainingError, match="camera-space loss is 16x16"):
         Trainer(finetune.start_model("CompenNeSt", "compensation"), pairs, recipe,
                 camera_loss=camera.cropped(slice(0, 16), slice(0, 16)))

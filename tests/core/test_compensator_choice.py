@@ -83,6 +83,31 @@ def test_the_choice_in_simulated_captures_picks_what_the_camera_would_see_better
     assert none.chosen == choice.LEARNED and "no held-back" in none.line()
 
 
+def test_the_learned_compensator_must_lead_by_more_than_the_judges_bias():
+    """PCNet favours CompenNeSt's images: a lead smaller than LEARNED_LEAD_DB keeps the classical model, and the
+    line says why; a larger one picks the network."""
+    prj, cam = _pairs(24, 4)
+    classical = ClassicalModel.fit(prj[:16], cam[:16])
+    black = classical.simulate(np.zeros((1,) + prj.shape[1:], np.float32))[0]
+    white = classical.simulate(np.ones((1,) + prj.shape[1:], np.float32))[0]
+
+    def blurred(c, sigma):
+        import cv2
+        return np.stack([cv2.GaussianBlur(x, (0, 0), sigma) for x in classical.compensate(c)])
+
+    plain = choice.choose_by_simulation(lambda c: blurred(c, 0.7), lambda c: blurred(c, 0.8), classical.simulate,
+                                        prj[16:], black, white, required_lead_db=0.0)
+    lead = plain.learned_psnr - plain.classical_psnr
+    assert plain.chosen == choice.LEARNED and 0 < lead < choice.LEARNED_LEAD_DB
+    held = choice.choose_by_simulation(lambda c: blurred(c, 0.7), lambda c: blurred(c, 0.8), classical.simulate,
+                                       prj[16:], black, white)
+    assert held.chosen == choice.CLASSICAL and held.required_lead_db == choice.LEARNED_LEAD_DB
+    assert f"only {lead:.2f} dB ahead" in held.line() and "1.0 dB it needs" in held.line()
+    far = choice.choose_by_simulation(classical.compensate, lambda c: blurred(c, 2.0), classical.simulate,
+                                      prj[16:], black, white)
+    assert far.chosen == choice.LEARNED and far.learned_psnr > far.classical_psnr + choice.LEARNED_LEAD_DB
+
+
 def test_no_held_back_pairs_keeps_the_learned_one_and_says_why():
     prj, cam = _pairs(4, 1)
     picked = choice.choose(lambda c: c, lambda c: c, cam[:0], prj[:0])
@@ -130,7 +155,9 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
     trained = train_models(cs, iterations=2)
     picked = trained["choice"]
     assert picked.validation_pairs == 4 and picked.judge == choice.PCNET_JUDGE
-    assert picked.chosen == (choice.CLASSICAL if picked.classical_psnr > picked.learned_psnr else choice.LEARNED)
+    assert picked.required_lead_db == choice.LEARNED_LEAD_DB
+    assert picked.chosen == (choice.LEARNED if picked.learned_psnr > picked.classical_psnr + picked.required_lead_db
+                             else choice.CLASSICAL)
     assert (setup_dir_of(cs) / "models" / choice.CHOICE_FILE).is_file()
     models = surface_models(cs)
     assert models.choice == picked

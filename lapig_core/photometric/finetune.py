@@ -33,9 +33,10 @@ PAPER_COMPENSATION_PAIRS = 8
 CPU_ITERATIONS = {"CompenNeSt": 300, "PCNet": 300}  # the paper's recipes at CPU scale
 CPU_CROP = 64
 # The app's compensation fine-tune: the error as the camera sees it (losses.CameraSpaceLoss), Adam 1e-3 x0.2 at
-# 70 %, no weight decay. On the five realistic setups it is ahead of the paper's projector-space l1 / l1+SSIM on
-# every setup at the same network, start, pairs and iterations, and about 5x cheaper per iteration than SSIM
-# (BENCHMARKS, issue 16). PAPER_LOSS names the paper's recipe (the benchmarks that reproduce the paper).
+# 70 %, no weight decay. Rendered, it is 0.8 to 2.4 dB ahead of the paper's projector-space l1 / l1+SSIM (300
+# iterations) on each of the five realistic setups, and 0.9 to 2.4 dB on the three direct-light ones (BENCHMARKS,
+# issue 16, "CompenNeSt fine-tuned in camera space"). PAPER_LOSS names the paper's recipe (the benchmarks that
+# reproduce the paper).
 # 1000 iterations: about 0.05 s each on 2 cores at the realistic setups' working size (~1 min), and 0.1 to
 # 0.8 dB ahead of 300 on the corner, the niche, the vase and the relief (rendered; the bust was not measured).
 CAMERA_SPACE_FINETUNE = Recipe(1000, weight_decay=0.0, lr_steps=(700,), loss_schedule=((0, CAMERA_LOSS),))

@@ -138,9 +138,10 @@ def choose_by_simulation(learned, classical, simulate, images, black, white, mas
     each compensator compensates them, and the setup's fine-tuned PCNet (``simulate``: projector
     images -> captures) predicts what the camera would see; the one whose simulated captures are
     nearer the targets (masked PSNR over the pixels the projector reaches) is chosen; the learned one
-    must be ahead by more than required_lead_db (LEARNED_LEAD_DB: the judge's bias). PCNet is a model of the capture the classical one is not fitted to, so it judges the
-    classical compensation without favouring it; on the five realistic setups it picked the rendered
-    winner on all five, where the projector-space comparison missed the subsurface bust."""
+    must be ahead by more than required_lead_db (LEARNED_LEAD_DB: the judge's bias). PCNet is a model
+    of the capture the classical one is not fitted to, so the classical compensation is not judged by
+    its own model; PCNet does favour the network, hence the lead. With it, on the five realistic
+    setups it picked the rendered winner on all five, where the projector-space comparison missed three."""
     from .targets import desired_targets, reachable_mask
 
     n = len(images)
@@ -177,7 +178,8 @@ def fit_and_choose(cs, learned_model, simulator, classical: ClassicalModel | Non
     (``simulator``)."""
     from .training_data import SurfaceTensors
 
-    classical = classical or ClassicalModel.fit(cs.prj_train, cs.cam_train)
+    if classical is None:
+        classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
     surf = SurfaceTensors.from_capture_set(cs)
     images = cs.prj_test if cs.has_test else cs.prj_test[:0]
     return choose_by_simulation(learned_compensate(learned_model, surf.s), classical.compensate,

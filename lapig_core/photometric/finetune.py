@@ -95,7 +95,7 @@ def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, rec
     if recipe.crop is not None and recipe.crop >= min(train.x.shape[-2:]):
         recipe = replace(recipe, crop=None)  # small working sizes train on whole images
     camera = None
-    if any(name == CAMERA_LOSS for _, name in recipe.loss_schedule):
+    if recipe.needs_camera_loss:
         if classical is None:
             classical = ClassicalModel.fit(cs.prj_train[:count], cs.cam_train[:count])
         camera = camera_space_loss(cs, classical)

@@ -21,6 +21,9 @@ class TrainingError(RuntimeError):
     """Training cannot go on (diverged, bad data); the message says what to do."""
 
 
+CAMERA_LOSS = "camera"  # a loss-schedule name: losses.CameraSpaceLoss, which the Trainer is given
+
+
 @dataclass(frozen=True)
 class Recipe:
     iterations: int
@@ -32,6 +35,11 @@ class Recipe:
     loss_schedule: tuple = ((0, "l1"),)  # (first iteration, loss name), ascending
     crop: int | None = None  # random square crops: the nets are fully convolutional
     seed: int = 0
+
+    @property
+    def needs_camera_loss(self) -> bool:
+        """Whether the schedule names CAMERA_LOSS (the Trainer must then be given the setup's loss)."""
+        return any(name == CAMERA_LOSS for _, name in self.loss_schedule)
 
     def loss_at(self, iteration: int) -> str:
         name = self.loss_schedule[0][1]
@@ -47,8 +55,6 @@ class Recipe:
                        lr_steps=tuple(int(round(s * f)) for s in self.lr_steps),
                        loss_schedule=tuple((int(round(s * f)), n) for s, n in self.loss_schedule), **changes)
 
-
-CAMERA_LOSS = "camera"  # a loss-schedule name: losses.CameraSpaceLoss, which the Trainer is given
 
 # The paper's recipes (NOTES section 2).
 COMPENNEST_FINETUNE = Recipe(800, loss_schedule=((0, "l1"), (200, "l1+ssim")))
@@ -109,7 +115,7 @@ class Trainer:
         if len(pairs) == 0:
             raise TrainingError("no training pairs")
         h, w = pairs.x.shape[-2:]
-        if any(name == CAMERA_LOSS for _, name in recipe.loss_schedule):
+        if recipe.needs_camera_loss:
             if camera_loss is None:
                 raise TrainingError("this recipe's camera-space loss needs the setup's fitted classical model")
             if len(pairs.surfaces) != 1:

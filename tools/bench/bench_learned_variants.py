@@ -51,11 +51,9 @@ class ResidualOnClassical(nn.Module):
         return (base + self.head(self.body(torch.cat([x, base, s.expand_as(x)], 1)))).clamp(0, 1)
 
 
-def train_camera_loss(model, x, y, s, classical, mask, iterations=ITERATIONS, crop=64, seed=0):
-    """Adam 1e-3 (x0.2 at 70 %), batch 8, random crops; loss |M (P_hat^gp - P^gp)| over mask."""
-    gp = float(classical.gamma_p)
-    m = torch.from_numpy(np.ascontiguousarray(classical.M)).permute(2, 3, 0, 1)  # (3, 3, H, W), rows: camera
-    w = torch.from_numpy(mask.astype(np.float32))[None, None]
+def train_camera_loss(model, x, y, s, camera_loss, iterations=ITERATIONS, crop=64, seed=0):
+    """Adam 1e-3 (x0.2 at 70 %), batch 8, random crops; camera_loss: the setup's losses.CameraSpaceLoss,
+    |M (P_hat^gp - P^gp)| over the reachable pixels (finetune.camera_space_loss)."""
     opt = torch.optim.Adam(model.parameters(), lr=1e-3)
     gen = torch.Generator().manual_seed(seed)
     h, wd = x.shape[-2:]
@@ -66,12 +64,10 @@ def train_camera_loss(model, x, y, s, classical, mask, iterations=ITERATIONS, cr
         idx = torch.randint(len(x), (min(8, len(x)),), generator=gen)
         top = int(torch.randint(0, h - crop + 1, (1,), generator=gen)) // 4 * 4
         left = int(torch.randint(0, wd - crop + 1, (1,), generator=gen)) // 4 * 4
-        sl = (Ellipsis, slice(top, top + crop), slice(left, left + crop))
+        rows, cols = slice(top, top + crop), slice(left, left + crop)
         model.train()
-        pred = model(x[idx][sl], s[sl])
-        diff = pred.clamp_min(1e-6) ** gp - y[idx][sl] ** gp
-        err = (m[sl][None] * diff[:, None]).sum(2)  # (B, 3, crop, crop) linear capture units
-        loss = (err.abs() * w[sl]).sum() / (w[sl].sum() * 3 * len(idx) + 1)
+        pred = model(x[idx][..., rows, cols], s[..., rows, cols])
+        loss = camera_loss.cropped(rows, cols)(pred, y[idx][..., rows, cols])
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
@@ -82,7 +78,7 @@ def train_camera_loss(model, x, y, s, classical, mask, iterations=ITERATIONS, cr
 def run(args) -> dict:
     from ...lapig_addon.blender.projection_render import render_working_images
     from ...lapig_core.photometric.classical import ClassicalModel
-    from ...lapig_core.photometric.finetune import PAPER_LOSS, cpu_recipe, finetune, start_model
+    from ...lapig_core.photometric.finetune import PAPER_LOSS, camera_space_loss, cpu_recipe, finetune, start_model
     from ...lapig_core.photometric.targets import desired_targets, reachable_mask
     from ...lapig_core.photometric.training import predict
     from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
@@ -104,6 +100,7 @@ def run(args) -> dict:
         count = min(args.compensate, len(cs.prj_test))
         targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
         classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
+        camera_loss = camera_space_loss(cs, classical)
         x, y = to_tensor(cs.cam_train), to_tensor(cs.prj_train)
         images, seconds = {"classical": classical.compensate(targets)}, {}
 
@@ -116,13 +113,13 @@ def run(args) -> dict:
 
         t = time.perf_counter()
         model = train_camera_loss(start_model("CompenNeSt", "compensation", weights_dir=getattr(args, "weights", None)),
-                                  x, y, surf.s, classical, mask, iterations, crop=64)
+                                  x, y, surf.s, camera_loss, iterations, crop=64)
         images["compennest_camera_loss"] = to_numpy(predict(model, to_tensor(targets), surf.s))
         seconds["compennest_camera_loss"] = round(time.perf_counter() - t, 1)
 
         t = time.perf_counter()
         base = to_tensor(classical.compensate(cs.cam_train))
-        model = train_camera_loss(ResidualOnClassical(), torch.cat([x, base], 1), y, surf.s, classical, mask,
+        model = train_camera_loss(ResidualOnClassical(), torch.cat([x, base], 1), y, surf.s, camera_loss,
                                   iterations, crop=96)
         x6 = torch.cat([to_tensor(targets), to_tensor(images["classical"])], 1)
         images["residual_on_classical"] = to_numpy(predict(model, x6, surf.s))

@@ -4,8 +4,9 @@ Per benchmark setup (synthetic_setups.BENCH_SETUPS, rendered on first use):
   * the paper's PCNet table: PCNet, CompenNeSt reversed and the classical per-pixel model, each
     trained on 8 / 48 / 125 pairs, simulating the held-out test captures;
   * compensation measured for real: desired appearances are compensated by CompenNeSt (fine-tuned
-    on 8 pairs with the app's camera-space loss, and with the paper's loss beside it) and by the classical model, projected and captured with Cycles through the same
-    rig, and compared with the desired images; the uncompensated projection is rendered beside them;
+    on 8 pairs with the app's camera-space loss, and with the paper's loss beside it) and by the
+    classical model, projected and captured with Cycles through the same rig, and compared with the
+    desired images; the uncompensated projection is rendered beside them;
   * fine-tuning time: both models from the pretrained weights to within 0.5 dB of the figure a
     run twice as long converges to, and the same budget from scratch.
 """
@@ -206,7 +207,8 @@ def run(args) -> dict:
                                         columns=5 if args.compensation_only else 6, cell=200, title="bench models: " + ", ".join(s.name for s in specs)))
     summary.update({"sheet": sheet_path, "setups": [s.name for s in specs], "per_setup": per_setup,
                     "paper": PAPER, "iterations": iterations,
-                    "compensation_iterations": cpu_recipe("CompenNeSt", "compensation", args.iterations).iterations, "crop": cpu_recipe("PCNet", "simulation").crop,
+                    "compensation_iterations": cpu_recipe("CompenNeSt", "compensation", args.iterations).iterations,
+                    "crop": cpu_recipe("PCNet", "simulation").crop,
                     "bench_total_s": round(time.perf_counter() - t0, 1), "cpu_threads": torch.get_num_threads(),
                     "machine": platform.processor() or platform.machine(), "blender": bpy.app.version_string,
                     "pretrained_weights": getattr(args, "weights", None) or "shipped"})

@@ -12,7 +12,8 @@
   * pcnet (only when asked for): the paper's PCNet table on the realistic setups;
   * noise floor and compensation on the realistic setups (synthetic_setups.REALISTIC_SETUPS):
     uncompensated, classical, CompenNeSt on 8 and on 125 pairs (the app's camera-space loss), CompenNeSt on
-    125 pairs with the paper's loss beside it, and the compensator the setup chose by measurement (lapig_core.photometric.choice), each beside the setup's noise floor;
+    125 pairs with the paper's loss beside it, and the compensator the setup chose by measurement
+    (lapig_core.photometric.choice), each beside the setup's noise floor;
   * a sheet of raw captures (corner, vase, bust) under a projected pattern, Fast against Realistic;
   * headroom (only when asked for): how much of the captures the per-pixel (classical) model misses
     because of the realistic transport: each realistic setup is also rendered Fast (same object, rig,
@@ -242,8 +243,7 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
     from ...lapig_core.common import metrics
     from ...lapig_core.photometric import choice
     from ...lapig_core.photometric.classical import ClassicalModel
-    from ...lapig_core.photometric import finetune as finetune_loss
-    from ...lapig_core.photometric.finetune import cpu_recipe, finetune
+    from ...lapig_core.photometric.finetune import CAMERA_SPACE, PAPER_LOSS, cpu_recipe, finetune
     from ...lapig_core.photometric.targets import desired_targets, reachable_mask
     from ...lapig_core.photometric.training import predict
     from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
@@ -278,10 +278,10 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         first = args.pair_counts[0]
         # the app's fine-tune (camera-space loss) at every pair count, and beside it the paper's loss on the
         # app's pair count: the same network, start, pairs and iterations
-        runs = [(p, finetune_loss.CAMERA_SPACE) for p in args.pair_counts] + [(first, finetune_loss.PAPER_LOSS)]
+        runs = [(p, CAMERA_SPACE) for p in args.pair_counts] + [(first, PAPER_LOSS)]
         for pairs, loss in runs:
             n = min(pairs, len(cs.prj_train))
-            key = f"{pairs}" if loss == finetune_loss.CAMERA_SPACE else f"{pairs}_paper_loss"  # JSON keys: str
+            key = f"{pairs}" if loss == CAMERA_SPACE else f"{pairs}_paper_loss"  # JSON keys: str
             model, result = finetune(cs, "CompenNeSt", "compensation", count=n,
                                      recipe=cpu_recipe("CompenNeSt", "compensation", args.iterations, loss=loss),
                                      weights_dir=getattr(args, "weights", None),

@@ -61,6 +61,25 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
     return out
 
 
+def models_saved_for(folder) -> bool:
+    """Whether the capture at `folder` has both fine-tuned networks saved for it (its fingerprint), so
+    that Generate need not train them on the way."""
+    from .capture.dataset import DatasetError, read_setup_json, resolve_setup
+
+    try:
+        layout = resolve_setup(folder)
+    except DatasetError:
+        return False
+    setup_dir = layout.setup_dir if (layout.root / "setups").is_dir() else layout.root
+    fingerprint = read_setup_json(layout.setup_json).get("fingerprint")
+    try:
+        for arch, role in (("CompenNeSt", "compensation"), ("PCNet", "simulation")):
+            load_setup_model(setup_dir, arch, role, fingerprint)
+    except checkpoints.CheckpointError:
+        return False
+    return True
+
+
 def chosen_compensator(learned, chosen, classical):
     """The module that compensates this setup: the fine-tuned network, or the classical model where
     it measured better."""

@@ -150,7 +150,7 @@ def cmd_train(args) -> int:
     scene = _open_scene(args)
     out = TrainModelsJob(scene, _iterations(args, scene)).run_to_completion(on_progress=headless.print_progress)
     _save_if_asked(args)
-    print_json({"capture": out["folder"], "train_s": round(out["seconds"], 2)})
+    print_json({"capture": out["folder"], "train_s": round(out["seconds"], 2), "compensation": out["choice"]})
     return 0
 
 

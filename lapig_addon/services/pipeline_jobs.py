@@ -8,6 +8,7 @@ from __future__ import annotations
 import datetime
 import os
 import shutil
+import time
 
 from ...lapig_core.common import metrics
 from ...lapig_core.common.resample import resize_image
@@ -17,7 +18,9 @@ from ...lapig_core.lgst import backend_class
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.native_output import OutputSizeError, output_frame, tile_for
-from ...lapig_core.pipeline import as_image, output_at, stylize, surface_models, train_models
+from ...lapig_core.photometric import choice as compensator_choice
+from ...lapig_core.pipeline import (as_image, models_saved_for, output_at, setup_dir_of, stylize, surface_models,
+                                     train_models)
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
 from ...lapig_core.export.result_files import (folder_name, heat_overlay, output_name, read_output_image,
                                                read_summary, write_new_result, write_result)
@@ -54,7 +57,11 @@ def hold_capture(folder: str, title: str):
 
 
 class TrainModelsJob(WorkerJob):
+    """Fine-tune the networks (worker thread), then choose the compensator by measurement: the rig renders
+    both compensations of the held-back images, as it rendered the capture (main thread, bpy)."""
+
     title = "LAPIG training"
+    TRAIN_SHARE = 0.9  # of the progress bar; the rest is the renders of the choice
 
     def __init__(self, scene, iterations: int | None = None):
         """iterations: fine-tuning iterations per network (None: the standard recipe)."""
@@ -71,12 +78,51 @@ class TrainModelsJob(WorkerJob):
         cs = load_capture_set(folder)
         trained = train_models(cs, on_progress=report, cancel_event=cancel_event, iterations=self.iterations)
         return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder,
-                "choice": trained["choice"].line()}
+                "choice": trained["choice"].line(), "capture_set": cs, "trained": trained}
 
     def finish(self, output):
+        # PCNet's choice, saved with the models: it stands if the renders below cannot run or are cancelled
         scene_state.record_models(self.scene, output["fingerprint"],
                                   f"Fine-tuned in {output['seconds']:.0f} s; {output['choice']}")
         return output
+
+    def steps(self):
+        for progress, message in super().steps():
+            yield self.TRAIN_SHARE * progress, ("models trained" if progress >= 1.0 else message)
+        out = self.result
+        t0 = time.perf_counter()
+        chosen = yield from self._render_choice(out["capture_set"], out["trained"], out["folder"])
+        out["seconds"] += time.perf_counter() - t0
+        if chosen is not None:
+            out["choice"] = chosen.line()
+            scene_state.record_models(self.scene, out["fingerprint"],
+                                      f"Fine-tuned in {out['seconds']:.0f} s; {out['choice']}")
+        # the result goes to the operator and the CLI: not the capture's arrays nor the networks
+        self.result = {k: v for k, v in out.items() if k not in ("capture_set", "trained")}
+
+    def _render_choice(self, cs, trained, folder):
+        """Render both compensations of the held-back images and save the better one as the setup's choice;
+        None when there are no held-back images to measure on."""
+        v = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
+        rig = scene_state.rig_objects(self.scene)
+        if v is None or cs.meta.get("fingerprint") != scene_state.rig_fingerprint(*rig):
+            return None  # nothing held back, or a data set this rig did not capture (imported): PCNet's choice
+        held = hold_capture(folder, self.title)  # no capture may replace the models while this runs
+        steps = iter_render_working_images(self.scene, *rig, folder, v.images, chunk=1)
+        try:
+            count = len(v.images)
+            for done in steps:
+                yield self.TRAIN_SHARE + (1 - self.TRAIN_SHARE) * 0.99 * done, \
+                    f"measuring both compensations in Cycles: {round(done * count)}/{count} rendered"
+            captured, _ = steps.result
+            chosen = compensator_choice.choose_by_captures(v, captured)
+            compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, trained["classical"])
+        except CaptureError as exc:
+            raise PipelineError(f"{exc} (the models are trained; {trained['choice'].line()})") from None
+        finally:
+            steps.close()
+            held.release()
+        return chosen
 
 
 def check_style_images(specs) -> None:
@@ -147,6 +193,32 @@ class GenerateJob(WorkerJob):
 
     def hold(self, job):
         return hold_capture(job["capture"], self.title)
+
+    _training = None  # the TrainModelsJob run first when this capture has no models yet
+
+    def steps(self):
+        """Models first when there are none for this capture: Train's job, whose choice is measured by
+        rendering (on the worker thread, surface_models could only ask PCNet)."""
+        if self._inputs is self._NOT_PREPARED:
+            self._inputs = self.prepare()
+        share = 0.0
+        if not models_saved_for(self._inputs["capture"]):
+            share = 0.5
+            self._training = TrainModelsJob(self.scene, self.iterations)
+            self._training.check()
+            inner = self._training.steps()
+            try:
+                for progress, message in inner:
+                    yield share * progress, f"training: {message}"
+            finally:
+                inner.close()
+        for progress, message in super().steps():
+            yield share + (1.0 - share) * progress, message
+
+    def stop(self):
+        super().stop()  # closes steps(), and with it the training's, which tells its worker to stop
+        if self._training is not None:
+            self._training.stop()  # then waits for that worker
 
     def work(self, job, report, cancel_event):
         cs = load_capture_set(job["capture"])

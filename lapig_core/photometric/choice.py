@@ -35,6 +35,8 @@ from ..common import metrics
 from .classical import ClassicalModel
 
 LEARNED, CLASSICAL = "CompenNeSt", "classical"
+RENDERED_JUDGE = "rendered"  # the rig's own renders of both compensations (Train in Blender)
+VERIFY_IMAGES = 8  # held-back images the rendered choice projects, each compensated both ways
 UNCLIPPED_MARGIN = 0.02  # a capture this far inside (I-, I+) identifies its projector value (noise ~0.003)
 PCNET_JUDGE = "PCNet"
 # PCNet, a network like CompenNeSt, favours CompenNeSt's projector images: against the rendered captures of the
@@ -56,7 +58,7 @@ class CompensatorChoice:
     classical_psnr: float | None
     validation_pairs: int
     reason: str = ""  # why there was nothing to measure, when so
-    judge: str = "projector space"  # how they were compared: "PCNet" (simulated captures) or projector space
+    judge: str = "projector space"  # how they were compared: RENDERED_JUDGE, PCNET_JUDGE or projector space
     required_lead_db: float = 0.0  # how far ahead the learned one had to be to be chosen (LEARNED_LEAD_DB)
 
     @property
@@ -71,8 +73,9 @@ class CompensatorChoice:
         if self.learned_psnr is None or self.classical_psnr is None:
             return f"compensation: {self.chosen} ({self.reason})"
         other = CLASSICAL if self.chosen == LEARNED else LEARNED
-        how = "in PCNet's simulated captures of" if self.judge == PCNET_JUDGE else "on"
-        what = f"{self.validation_pairs} held-back {'images' if self.judge == PCNET_JUDGE else 'pairs'}"
+        how = {PCNET_JUDGE: "in PCNet's simulated captures of", RENDERED_JUDGE: "in Cycles captures of"}.get(
+            self.judge, "on")
+        what = f"{self.validation_pairs} held-back {'pairs' if self.judge not in (PCNET_JUDGE, RENDERED_JUDGE) else 'images'}"
         if self.chosen == CLASSICAL and self.learned_psnr > self.classical_psnr:
             return (f"compensation: {CLASSICAL}; {LEARNED} was only {self.margin_db:.2f} dB ahead {how} {what}, "
                     f"less than the {self.required_lead_db:.1f} dB it needs")
@@ -185,6 +188,58 @@ def fit_and_choose(cs, learned_model, simulator, classical: ClassicalModel | Non
     return choose_by_simulation(learned_compensate(learned_model, surf.s), classical.compensate,
                                 learned_simulate(simulator, surf.s, surf.i_min, surf.i_max), images,
                                 cs.cam_black, cs.cam_white, cs.projector_valid), classical
+
+
+@dataclass(frozen=True)
+class Verification:
+    """What the rendered choice projects: desired captures made from held-back images, the pixels that
+    count (the projector reaches them and they are registered), and each compensator's projector images."""
+
+    targets: np.ndarray  # (N, H, W, 3) desired captures
+    reach: np.ndarray  # (H, W) bool
+    learned: np.ndarray  # (N, H, W, 3) CompenNeSt's projector images
+    classical: np.ndarray  # (N, H, W, 3) the classical model's
+
+    @property
+    def images(self) -> np.ndarray:
+        """The projector images to render, the learned ones first (`choose_by_captures` splits them so)."""
+        return np.concatenate([self.learned, self.classical])
+
+
+def verification(cs, learned_model, classical: ClassicalModel, images=None) -> Verification | None:
+    """Both compensations of the held-back images (default: the first VERIFY_IMAGES test images); None
+    when there is nothing to measure on (no test images, or the projector reaches no registered pixel)."""
+    from .targets import desired_targets, reachable_mask
+    from .training_data import SurfaceTensors
+
+    images = cs.prj_test[:VERIFY_IMAGES] if images is None else images
+    reach = reachable_mask(cs.cam_black, cs.cam_white)
+    if cs.projector_valid is not None:
+        reach = reach & np.asarray(cs.projector_valid, bool)
+    if len(images) == 0 or not reach.any():
+        return None
+    targets = desired_targets(images, cs.cam_black, cs.cam_white, reach)
+    learned = learned_compensate(learned_model, SurfaceTensors.from_capture_set(cs).s)(targets)
+    return Verification(targets, reach, np.clip(learned, 0.0, 1.0).astype(np.float32),
+                        classical.compensate(targets))
+
+
+def choose_by_captures(v: Verification, captures: np.ndarray) -> CompensatorChoice:
+    """The choice by measurement: `captures` are the registered captures of `v.images` (learned first),
+    rendered by the rig that captured the setup; the compensator whose captures are nearer the targets
+    (masked PSNR over v.reach, averaged over the images) compensates this setup. No lead is asked of
+    either: the captures are the thing itself, not a model of it (their noise, ~40 dB on the benchmark
+    setups, is far below the differences that matter). A tie goes to the classical model."""
+    n = len(v.targets)
+    captures = np.asarray(captures, np.float32)
+    if captures.shape != (2 * n,) + v.targets.shape[1:]:
+        raise ValueError(f"expected {2 * n} captures shaped {v.targets.shape[1:]}, got {captures.shape}")
+
+    def score(caps):
+        return float(np.mean([min(MAX_PSNR, metrics.masked_psnr(c, t, v.reach)) for c, t in zip(caps, v.targets)]))
+
+    lp, cp = score(captures[:n]), score(captures[n:])
+    return CompensatorChoice(LEARNED if lp > cp else CLASSICAL, round(lp, 4), round(cp, 4), n, "", RENDERED_JUDGE)
 
 
 def save_choice(models_dir, choice: CompensatorChoice, classical: ClassicalModel):

@@ -254,3 +254,69 @@ def test_generate_from_a_style_image_records_it(captured, tmp_path):
     cv2.imwrite(str(tiny), gray[:8, :8])
     with pytest.raises(PipelineError, match="too small"):  # refused before any model runs
         GenerateJob(scene, scene_state.generate_request(scene, style_images=(str(tiny),))).prepare()
+
+
+@pytest.fixture
+def captured_with_tests(small_setup, tmp_path):
+    """As `captured`, with two held-back test images for the compensator choice."""
+    scene = small_setup[0]
+    s = scene.lapig
+    s.train_count, s.test_count, s.working_size = 6, 2, 64
+    s.finetune_iterations = 4
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
+    assert bpy.ops.lapig.capture() == {"FINISHED"}
+    return bpy.context.scene
+
+
+def _saved_choice(scene):
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_core.photometric import choice
+
+    models = os.path.join(scene_state.read(scene).capture_dir, "models")
+    return json.load(open(os.path.join(models, choice.CHOICE_FILE)))
+
+
+def test_train_chooses_the_compensator_by_rendering_both(captured_with_tests):
+    """After fine-tuning, the rig renders both compensations of the held-back images in Cycles; the better
+    capture decides, and the panel's model status and the saved choice say so."""
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_core.photometric import choice
+
+    scene = captured_with_tests
+    assert bpy.ops.lapig.train_models() == {"FINISHED"}
+    saved = _saved_choice(scene)
+    assert saved["judge"] == choice.RENDERED_JUDGE and saved["validation_pairs"] == 2
+    assert 10 < saved["learned_psnr"] < 60 and 10 < saved["classical_psnr"] < 60
+    assert saved["chosen"] == (choice.LEARNED if saved["learned_psnr"] > saved["classical_psnr"] else choice.CLASSICAL)
+    status = scene_state.read(scene).models_status
+    assert "in Cycles captures of 2 held-back images" in status and saved["line"] in status
+
+
+def test_a_cancel_while_rendering_the_choice_keeps_pcnets_choice(captured_with_tests):
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.services.pipeline_jobs import TrainModelsJob
+    from lapig.lapig_core.photometric import choice
+
+    scene = captured_with_tests
+    job = TrainModelsJob(scene, 4)
+    while job.step() and not job.message.startswith("measuring"):
+        pass
+    assert job.message.startswith("measuring both compensations in Cycles")
+    job.cancel()
+    assert job.state == "CANCELLED"
+    assert _saved_choice(scene)["judge"] == choice.PCNET_JUDGE  # the models' own, saved with them
+    assert "PCNet's simulated captures" in scene_state.read(scene).models_status
+    assert not scene.lapig.result_dir
+
+
+def test_generate_trains_on_the_way_with_the_rendered_choice(captured_with_tests):
+    scene = captured_with_tests
+    _psa_fast(scene)
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
+    from lapig.lapig_core.photometric import choice
+
+    assert _saved_choice(scene)["judge"] == choice.RENDERED_JUDGE
+    from lapig.lapig_addon.blender import scene_state
+
+    summary = json.load(open(os.path.join(scene_state.read(scene).result_dir, "result.json")))
+    assert summary["compensator"]["judge"] == choice.RENDERED_JUDGE

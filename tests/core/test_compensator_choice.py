@@ -170,3 +170,47 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
     assert models.choice == classical_won
     out = models.compensate(models.i_max)
     assert out.shape == models.i_max.shape and 0 <= float(out.min()) and float(out.max()) <= 1
+
+
+def test_the_rendered_choice_takes_the_compensator_whose_captures_come_nearer():
+    """choose_by_captures: the rig's captures of both compensations decide, with no lead asked of either."""
+    rng = np.random.default_rng(5)
+    targets = rng.uniform(0.2, 0.8, (3, 16, 16, 3)).astype(np.float32)
+    reach = np.ones((16, 16), bool)
+    reach[:, :4] = False  # off the object: whatever lands there does not count
+    v = choice.Verification(targets, reach, targets, targets)
+    near = targets + rng.normal(0, 0.01, targets.shape).astype(np.float32)
+    far = targets + rng.normal(0, 0.03, targets.shape).astype(np.float32)
+    far[:, :, :4] = near[:, :, :4] = 0.0
+    learned_won = choice.choose_by_captures(v, np.concatenate([near, far]))
+    assert learned_won.chosen == choice.LEARNED and learned_won.judge == choice.RENDERED_JUDGE
+    assert learned_won.learned_psnr == pytest.approx(40.0, abs=0.3) and learned_won.required_lead_db == 0.0
+    assert "Cycles captures of 3 held-back images" in learned_won.line()
+    classical_won = choice.choose_by_captures(v, np.concatenate([far, near]))
+    assert classical_won.chosen == choice.CLASSICAL
+    assert classical_won.margin_db == pytest.approx(learned_won.margin_db, abs=1e-3)
+    tie = choice.choose_by_captures(v, np.concatenate([near, near]))
+    assert tie.chosen == choice.CLASSICAL
+    with pytest.raises(ValueError, match="expected 6 captures"):
+        choice.choose_by_captures(v, near)
+
+
+def test_the_verification_compensates_held_back_images_both_ways_inside_the_surfaces_range():
+    from lapig_core.capture.dataset import CaptureSet
+    from lapig_core.photometric.checkpoints import new_model
+
+    prj, cam = _pairs(24, 6)
+    classical = ClassicalModel.fit(prj[:16], cam[:16])
+    black = classical.simulate(np.zeros(prj.shape[1:], np.float32))
+    white = classical.simulate(np.ones(prj.shape[1:], np.float32))
+    valid = np.ones(prj.shape[1:3], bool)
+    valid[:4] = False
+    cs = CaptureSet(prj_train=prj[:16], cam_train=cam[:16], prj_test=prj[16:], cam_test=cam[16:], cam_black=black,
+                    cam_white=white, cam_gray=classical.simulate(np.full(prj.shape[1:], 0.5, np.float32)), gray_level=0.5,
+                    projector_valid=valid)
+    v = choice.verification(cs, new_model("CompenNeSt", 0), classical)
+    assert v.targets.shape == (choice.VERIFY_IMAGES,) + prj.shape[1:] and v.images.shape[0] == 2 * choice.VERIFY_IMAGES
+    assert not v.reach[:4].any() and v.reach[4:].all()
+    assert np.allclose(v.classical, classical.compensate(v.targets))
+    assert 0 <= v.learned.min() and v.learned.max() <= 1
+    assert choice.verification(cs, new_model("CompenNeSt", 0), classical, images=prj[:0]) is None

@@ -61,23 +61,26 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
     return out
 
 
-def models_saved_for(folder) -> bool:
-    """Whether the capture at `folder` has both fine-tuned networks saved for it (its fingerprint), so
-    that Generate need not train them on the way."""
+def saved_models_problem(folder) -> str | None:
+    """Why the capture at `folder` has no usable fine-tuned networks for it (its fingerprint): '' when they
+    were never trained, the damage when a saved file cannot be used; None when both are there, so that
+    Generate need not train them on the way."""
     from .capture.dataset import DatasetError, read_setup_json, resolve_setup
 
     try:
         layout = resolve_setup(folder)
-    except DatasetError:
-        return False
+    except DatasetError as exc:
+        return str(exc)
     setup_dir = layout.setup_dir if (layout.root / "setups").is_dir() else layout.root
     fingerprint = read_setup_json(layout.setup_json).get("fingerprint")
     try:
         for arch, role in (("CompenNeSt", "compensation"), ("PCNet", "simulation")):
             load_setup_model(setup_dir, arch, role, fingerprint)
-    except checkpoints.CheckpointError:
-        return False
-    return True
+    except checkpoints.NotTrainedYet:
+        return ""
+    except checkpoints.CheckpointError as exc:
+        return str(exc)
+    return None
 
 
 def chosen_compensator(learned, chosen, classical):

@@ -19,7 +19,7 @@ def _pipeline_jobs():
 
 
 class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
-    """Fine-tune the compensation and simulation networks on this setup's capture (about a minute)"""
+    """Fine-tune the networks on this capture (about two minutes), then render both compensations, keep the better"""
     bl_idname = "lapig.train_models"
     bl_label = "Train Models"
 

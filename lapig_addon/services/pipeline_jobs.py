@@ -19,8 +19,8 @@ from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.native_output import OutputSizeError, output_frame, tile_for
 from ...lapig_core.photometric import choice as compensator_choice
-from ...lapig_core.pipeline import (as_image, models_saved_for, output_at, setup_dir_of, stylize, surface_models,
-                                     train_models)
+from ...lapig_core.pipeline import (as_image, output_at, saved_models_problem, setup_dir_of, stylize,
+                                     surface_models, train_models)
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
 from ...lapig_core.export.result_files import (folder_name, heat_overlay, output_name, read_output_image,
                                                read_summary, write_new_result, write_result)
@@ -202,7 +202,11 @@ class GenerateJob(WorkerJob):
         if self._inputs is self._NOT_PREPARED:
             self._inputs = self.prepare()
         share = 0.0
-        if not models_saved_for(self._inputs["capture"]):
+        problem = saved_models_problem(self._inputs["capture"])
+        if problem is not None:
+            if problem:  # damaged (the same note as surface_models gives)
+                self._inputs["notes"].append(f"the saved models could not be used ({problem}): fine-tuned them "
+                                             f"again and saved over them")
             share = 0.5
             self._training = TrainModelsJob(self.scene, self.iterations)
             self._training.check()

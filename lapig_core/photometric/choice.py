@@ -1,21 +1,25 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Choose the setup's compensator by measurement: the learned one (CompenNeSt) or the classical one.
 
-After fine-tuning (Train), the held-back test images become desired captures inside the surface's
-range, both compensators compensate them, and the setup's fine-tuned PCNet predicts what the camera
-would see of each (`choose_by_simulation`): the one nearer the targets compensates this setup, the
-learned one only when it is ahead by more than LEARNED_LEAD_DB. This judges them where it counts, in
-camera space, and by a model of the capture that the classical compensation is not the inverse of.
-That judge favours the network: once CompenNeSt was fine-tuned in camera space, it put it ahead on
-the corner, the niche and the vase by 0.2-0.6 dB, where it rendered 0.3-1.1 dB behind; with the
-required lead it picks the rendered winner on all five realistic setups (BENCHMARKS, issue 16).
+In Blender, Train measures it with the rig itself (`verification`, `choose_by_captures`): the held-back
+test images become desired captures inside the surface's range (photometric/targets), both compensators
+compensate them, the rig renders both sets of projector images in Cycles as it rendered the capture, and the
+compensator whose captures come nearer the targets (masked PSNR over the pixels the projector reaches)
+compensates this setup. That is the previz's own measurement, with nothing modelled in between.
+
+Without a rig to render with (a data set the scene's rig did not capture, `train_models` on its own, a
+cancelled Train), the setup's fine-tuned PCNet predicts the captures instead (`choose_by_simulation`). That
+judge favours the network: once CompenNeSt was fine-tuned in camera space, it put it ahead on the corner, the
+niche and the vase by 0.2-0.6 dB, where it rendered 0.3-1.1 dB behind; so the learned one is chosen there
+only when it is ahead by more than LEARNED_LEAD_DB, which picks the rendered winner on all five realistic
+setups (BENCHMARKS, issue 16; a threshold set on those same five).
 
 The projector-space comparison (`choose`; the benchmarks record it beside the choice): both recover
 the projector images of the held-back captures, counted only where a capture lies inside the
 surface's range (above I- and below I+ by UNCLIPPED_MARGIN): where it sits at the black or the white
-end many projector values make the same capture, and the comparison there is noise (over all registered pixels it had picked CompenNeSt on the tilted relief, 4.5 dB
-behind rendered). That comparison still misses the subsurface bust, where CompenNeSt is better on
-smooth targets but the per-pixel inverse recovers random patterns better.
+end many projector values make the same capture, and the comparison there is noise (over all registered
+pixels it had picked CompenNeSt on the tilted relief, 4.5 dB behind rendered). It misses three of the five
+realistic setups.
 
 A user never gets the worse one silently: the choice, its judge and its margin go into the panel's
 model status and result.json.
@@ -75,7 +79,8 @@ class CompensatorChoice:
         other = CLASSICAL if self.chosen == LEARNED else LEARNED
         how = {PCNET_JUDGE: "in PCNet's simulated captures of", RENDERED_JUDGE: "in Cycles captures of"}.get(
             self.judge, "on")
-        what = f"{self.validation_pairs} held-back {'pairs' if self.judge not in (PCNET_JUDGE, RENDERED_JUDGE) else 'images'}"
+        unit = "images" if self.judge in (PCNET_JUDGE, RENDERED_JUDGE) else "pairs"
+        what = f"{self.validation_pairs} held-back {unit}"
         if self.chosen == CLASSICAL and self.learned_psnr > self.classical_psnr:
             return (f"compensation: {CLASSICAL}; {LEARNED} was only {self.margin_db:.2f} dB ahead {how} {what}, "
                     f"less than the {self.required_lead_db:.1f} dB it needs")

@@ -206,7 +206,8 @@ def test_the_verification_compensates_held_back_images_both_ways_inside_the_surf
     valid = np.ones(prj.shape[1:3], bool)
     valid[:4] = False
     cs = CaptureSet(prj_train=prj[:16], cam_train=cam[:16], prj_test=prj[16:], cam_test=cam[16:], cam_black=black,
-                    cam_white=white, cam_gray=classical.simulate(np.full(prj.shape[1:], 0.5, np.float32)), gray_level=0.5,
+                    cam_white=white, cam_gray=classical.simulate(np.full(prj.shape[1:], 0.5, np.float32)),
+                    gray_level=0.5,
                     projector_valid=valid)
     v = choice.verification(cs, new_model("CompenNeSt", 0), classical)
     assert v.targets.shape == (choice.VERIFY_IMAGES,) + prj.shape[1:] and v.images.shape[0] == 2 * choice.VERIFY_IMAGES

@@ -320,3 +320,18 @@ def test_generate_trains_on_the_way_with_the_rendered_choice(captured_with_tests
 
     summary = json.load(open(os.path.join(scene_state.read(scene).result_dir, "result.json")))
     assert summary["compensator"]["judge"] == choice.RENDERED_JUDGE
+
+
+def test_a_capture_this_rig_did_not_make_keeps_pcnets_choice(captured_with_tests):
+    """An imported data set (here: one made before the object moved) cannot be rendered by this rig:
+    Train keeps the choice in PCNet's simulated captures, and says so."""
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_core.photometric import choice
+
+    scene = captured_with_tests
+    folder = scene_state.read(scene).capture_dir
+    scene.lapig.target.location.x += 0.05
+    assert bpy.ops.lapig.import_capture(directory=folder) == {"FINISHED"}
+    assert bpy.ops.lapig.train_models() == {"FINISHED"}
+    assert _saved_choice(scene)["judge"] == choice.PCNET_JUDGE
+    assert "PCNet's simulated captures" in scene_state.read(scene).models_status

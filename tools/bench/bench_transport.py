@@ -236,6 +236,16 @@ def speed_run(args, out) -> dict:
 
 
 # -- compensation on the realistic setups ------------------------------------------------------
+def _write_partial(out, part, per_setup):
+    """The part's per-setup rows so far, as out/<part>_partial.json (temp-then-rename)."""
+    import json
+
+    path = os.path.join(out, f"{part}_partial.json")
+    with open(path + ".tmp", "w") as f:
+        json.dump(per_setup, f, indent=1, sort_keys=True, default=float)
+    os.replace(path + ".tmp", path)
+
+
 def compensation_run(args, data, out) -> tuple[dict, list]:
     import torch
 
@@ -336,6 +346,7 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
         row["compennest_train_s"] = seconds
         per_setup[spec.name] = row
         _log(args, f"  {row}")
+        _write_partial(out, "compensation", per_setup)  # a late crash keeps the setups already measured
         i = 0
         sheet += [(targets[i], f"{spec.name}: target"), (caps["uncompensated"][i], "uncompensated"),
                   (caps["classical"][i], "classical"), (caps[f"compennest_{first}"][i], f"CompenNeSt {first}"),

@@ -16,7 +16,8 @@ from ..lapig_addon.cli.output import print_json
 # `bench NAME` runs tools/bench/bench_<module>.py's run(args), which returns the JSON summary
 BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui", "frame": "frame",
               "preview": "preview", "prompts": "prompts", "style-images": "style_images",
-              "transport": "transport", "learned-variants": "learned_variants"}
+              "transport": "transport", "learned-variants": "learned_variants",
+              "pcnet-through": "pcnet_through"}
 
 
 def _ensure_registered():

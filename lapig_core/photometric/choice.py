@@ -139,6 +139,19 @@ def choose(learned, classical, cam_val, prj_val, mask=None, black=None, white=No
     return CompensatorChoice(CLASSICAL if cp > lp else LEARNED, round(lp, 4), round(cp, 4), n)
 
 
+def judged_pixels(black, white, mask=None) -> np.ndarray:
+    """(H, W) bool: where a desired capture is judged: the projector reaches it, and it is registered."""
+    from .targets import reachable_mask
+
+    reach = reachable_mask(black, white)
+    return reach & np.asarray(mask, bool) if mask is not None else reach
+
+
+def mean_capture_psnr(captures, targets, reach) -> float:
+    """Masked PSNR of each capture against its target over `reach`, averaged over the images."""
+    return float(np.mean([min(MAX_PSNR, metrics.masked_psnr(c, t, reach)) for c, t in zip(captures, targets)]))
+
+
 def choose_by_simulation(learned, classical, simulate, images, black, white, mask=None,
                          required_lead_db: float = LEARNED_LEAD_DB) -> CompensatorChoice:
     """Compare two compensators where it counts, in camera space: held-back images become desired
@@ -150,21 +163,19 @@ def choose_by_simulation(learned, classical, simulate, images, black, white, mas
     of the capture the classical one is not fitted to, so the classical compensation is not judged by
     its own model; PCNet does favour the network, hence the lead. With it, on the five realistic
     setups it picked the rendered winner on all five, where the projector-space comparison missed three."""
-    from .targets import desired_targets, reachable_mask
+    from .targets import desired_targets
 
     n = len(images)
     if n == 0:
         return CompensatorChoice(LEARNED, None, None, 0, "no held-back images to compare on", PCNET_JUDGE)
-    reach = reachable_mask(black, white)
-    if mask is not None:
-        reach = reach & np.asarray(mask, bool)
+    reach = judged_pixels(black, white, mask)
     if not reach.any():
         return CompensatorChoice(LEARNED, None, None, n, "the projector reaches no registered pixel", PCNET_JUDGE)
     targets = desired_targets(images, black, white, reach)
 
     def score(compensate):
-        seen = np.asarray(simulate(np.clip(compensate(targets), 0.0, 1.0)), np.float32)
-        return float(np.mean([min(MAX_PSNR, metrics.masked_psnr(p, t, reach)) for p, t in zip(seen, targets)]))
+        return mean_capture_psnr(np.asarray(simulate(np.clip(compensate(targets), 0.0, 1.0)), np.float32), targets,
+                                 reach)
 
     lp, cp = score(learned), score(classical)
     chosen = LEARNED if lp > cp + required_lead_db or (required_lead_db == 0 and lp == cp) else CLASSICAL
@@ -214,13 +225,11 @@ class Verification:
 def verification(cs, learned_model, classical: ClassicalModel, images=None) -> Verification | None:
     """Both compensations of the held-back images (default: the first VERIFY_IMAGES test images); None
     when there is nothing to measure on (no test images, or the projector reaches no registered pixel)."""
-    from .targets import desired_targets, reachable_mask
+    from .targets import desired_targets
     from .training_data import SurfaceTensors
 
     images = cs.prj_test[:VERIFY_IMAGES] if images is None else images
-    reach = reachable_mask(cs.cam_black, cs.cam_white)
-    if cs.projector_valid is not None:
-        reach = reach & np.asarray(cs.projector_valid, bool)
+    reach = judged_pixels(cs.cam_black, cs.cam_white, cs.projector_valid)
     if len(images) == 0 or not reach.any():
         return None
     targets = desired_targets(images, cs.cam_black, cs.cam_white, reach)
@@ -240,10 +249,7 @@ def choose_by_captures(v: Verification, captures: np.ndarray) -> CompensatorChoi
     if captures.shape != (2 * n,) + v.targets.shape[1:]:
         raise ValueError(f"expected {2 * n} captures shaped {v.targets.shape[1:]}, got {captures.shape}")
 
-    def score(caps):
-        return float(np.mean([min(MAX_PSNR, metrics.masked_psnr(c, t, v.reach)) for c, t in zip(caps, v.targets)]))
-
-    lp, cp = score(captures[:n]), score(captures[n:])
+    lp, cp = mean_capture_psnr(captures[:n], v.targets, v.reach), mean_capture_psnr(captures[n:], v.targets, v.reach)
     return CompensatorChoice(LEARNED if lp > cp else CLASSICAL, round(lp, 4), round(cp, 4), n, "", RENDERED_JUDGE)
 
 

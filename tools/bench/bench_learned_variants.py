@@ -27,7 +27,7 @@ import torch
 from torch import nn
 
 from .. import synthetic_setups as syn
-from .bench_transport import _log, psnr_over, realistic_specs
+from .bench_transport import _log, compensation_case, psnr_over, realistic_specs
 
 ITERATIONS = 300
 
@@ -51,20 +51,25 @@ class ResidualOnClassical(nn.Module):
         return (base + self.head(self.body(torch.cat([x, base, s.expand_as(x)], 1)))).clamp(0, 1)
 
 
+def crop_steps(opt, n: int, h: int, w: int, iterations: int, crop: int, lr_after: float, seed: int = 0):
+    """The study's loop: for each iteration, (batch indices, rows, cols): a batch of 8 of the n pairs and a random
+    crop aligned to 4 px, drawn from one seeded generator; the learning rate drops to lr_after at 70 %."""
+    gen = torch.Generator().manual_seed(seed)
+    for it in range(iterations):
+        if it == int(iterations * 0.7):
+            for group in opt.param_groups:
+                group["lr"] = lr_after
+        idx = torch.randint(n, (min(8, n),), generator=gen)
+        top = int(torch.randint(0, h - crop + 1, (1,), generator=gen)) // 4 * 4
+        left = int(torch.randint(0, w - crop + 1, (1,), generator=gen)) // 4 * 4
+        yield idx, slice(top, top + crop), slice(left, left + crop)
+
+
 def train_camera_loss(model, x, y, s, camera_loss, iterations=ITERATIONS, crop=64, seed=0):
     """Adam 1e-3 (x0.2 at 70 %), batch 8, random crops; camera_loss: the setup's losses.CameraSpaceLoss,
     |M (P_hat^gp - P^gp)| over the reachable pixels (finetune.camera_space_loss)."""
     opt = torch.optim.Adam(model.parameters(), lr=1e-3)
-    gen = torch.Generator().manual_seed(seed)
-    h, wd = x.shape[-2:]
-    for it in range(iterations):
-        if it == int(iterations * 0.7):
-            for group in opt.param_groups:
-                group["lr"] = 2e-4
-        idx = torch.randint(len(x), (min(8, len(x)),), generator=gen)
-        top = int(torch.randint(0, h - crop + 1, (1,), generator=gen)) // 4 * 4
-        left = int(torch.randint(0, wd - crop + 1, (1,), generator=gen)) // 4 * 4
-        rows, cols = slice(top, top + crop), slice(left, left + crop)
+    for idx, rows, cols in crop_steps(opt, len(x), *x.shape[-2:], iterations, crop, 2e-4, seed):
         model.train()
         pred = model(x[idx][..., rows, cols], s[..., rows, cols])
         loss = camera_loss.cropped(rows, cols)(pred, y[idx][..., rows, cols])
@@ -77,11 +82,9 @@ def train_camera_loss(model, x, y, s, camera_loss, iterations=ITERATIONS, crop=6
 
 def run(args) -> dict:
     from ...lapig_addon.blender.projection_render import render_working_images
-    from ...lapig_core.photometric.classical import ClassicalModel
     from ...lapig_core.photometric.finetune import PAPER_LOSS, camera_space_loss, cpu_recipe, finetune, start_model
-    from ...lapig_core.photometric.targets import desired_targets, reachable_mask
     from ...lapig_core.photometric.training import predict
-    from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
+    from ...lapig_core.photometric.training_data import to_numpy, to_tensor
     from ...lapig_core.pipeline import setup_dir_of
 
     t0 = time.perf_counter()
@@ -94,12 +97,8 @@ def run(args) -> dict:
 
     per_setup = {}
     for spec in specs:
-        cs = syn.load_setup(data, spec.name)
-        surf = SurfaceTensors.from_capture_set(cs)
-        mask = reachable_mask(cs.cam_black, cs.cam_white)
-        count = min(args.compensate, len(cs.prj_test))
-        targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
-        classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
+        cs, surf, mask, targets, classical = compensation_case(args, data, spec)
+        count = len(targets)
         camera_loss = camera_space_loss(cs, classical)
         x, y = to_tensor(cs.cam_train), to_tensor(cs.prj_train)
         images, seconds = {"classical": classical.compensate(targets)}, {}

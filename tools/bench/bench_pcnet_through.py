@@ -19,7 +19,8 @@ import numpy as np
 import torch
 
 from .. import synthetic_setups as syn
-from .bench_transport import _log, realistic_specs
+from .bench_learned_variants import crop_steps
+from .bench_transport import _log, compensation_case, realistic_specs
 
 EXTRA_ITERATIONS = 300
 
@@ -39,19 +40,10 @@ def train_through_pcnet(app, pcnet, cs, surf, camera_loss, reach, iterations=EXT
     t_all = to_tensor(desired_targets(cs.prj_train, cs.cam_black, cs.cam_white, reach))
     w = torch.from_numpy(reach.astype(np.float32))[None, None]
     opt = torch.optim.Adam(model.parameters(), lr=2e-4)
-    gen = torch.Generator().manual_seed(seed)
-    h, wd = x.shape[-2:]
-    for it in range(iterations):
-        if it == int(iterations * 0.7):
-            for group in opt.param_groups:
-                group["lr"] = 4e-5
-        idx = torch.randint(len(x), (8,), generator=gen)
-        top = int(torch.randint(0, h - crop + 1, (1,), generator=gen)) // 4 * 4
-        left = int(torch.randint(0, wd - crop + 1, (1,), generator=gen)) // 4 * 4
-        rows, cols = slice(top, top + crop), slice(left, left + crop)
+    for idx, rows, cols in crop_steps(opt, len(x), *x.shape[-2:], iterations, crop, 4e-5, seed):
         sl = (Ellipsis, rows, cols)
         model.train()
-        s = surf.s[sl].expand(8, -1, -1, -1)
+        s = surf.s[sl].expand(len(idx), -1, -1, -1)
         loss = 0.0
         if camera_weight:
             loss = camera_weight * camera_loss.cropped(rows, cols)(model(x[idx][sl], s), y[idx][sl])
@@ -70,11 +62,9 @@ def train_through_pcnet(app, pcnet, cs, surf, camera_loss, reach, iterations=EXT
 def run(args) -> dict:
     from ...lapig_addon.blender.projection_render import render_working_images
     from ...lapig_core.common import metrics
-    from ...lapig_core.photometric.classical import ClassicalModel
     from ...lapig_core.photometric.finetune import camera_space_loss, cpu_recipe, finetune
-    from ...lapig_core.photometric.targets import desired_targets, reachable_mask
     from ...lapig_core.photometric.training import predict
-    from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
+    from ...lapig_core.photometric.training_data import to_numpy, to_tensor
     from ...lapig_core.pipeline import setup_dir_of
 
     t0 = time.perf_counter()
@@ -85,12 +75,8 @@ def run(args) -> dict:
     weights = getattr(args, "weights", None)
     per_setup = {}
     for spec in specs:
-        cs = syn.load_setup(data, spec.name)
-        surf = SurfaceTensors.from_capture_set(cs)
-        mask = reachable_mask(cs.cam_black, cs.cam_white)
-        count = min(args.compensate, len(cs.prj_test))
-        targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
-        classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
+        cs, surf, mask, targets, classical = compensation_case(args, data, spec)
+        count = len(targets)
         pcnet, _ = finetune(cs, "PCNet", "simulation", recipe=cpu_recipe("PCNet", "simulation", args.iterations),
                             weights_dir=weights)
         app, _ = finetune(cs, "CompenNeSt", "compensation", classical=classical, weights_dir=weights,

@@ -236,6 +236,21 @@ def speed_run(args, out) -> dict:
 
 
 # -- compensation on the realistic setups ------------------------------------------------------
+def compensation_case(args, data, spec):
+    """One realistic setup as the compensation studies use it: (capture set, surface tensors, reachable pixels,
+    the first args.compensate test images made into desired captures, the classical model fitted on every
+    training pair)."""
+    from ...lapig_core.photometric.classical import ClassicalModel
+    from ...lapig_core.photometric.targets import desired_targets, reachable_mask
+    from ...lapig_core.photometric.training_data import SurfaceTensors
+
+    cs = syn.load_setup(data, spec.name)
+    mask = reachable_mask(cs.cam_black, cs.cam_white)
+    count = min(args.compensate, len(cs.prj_test))
+    targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
+    return cs, SurfaceTensors.from_capture_set(cs), mask, targets, ClassicalModel.fit(cs.prj_train, cs.cam_train)
+
+
 def _write_partial(out, part, per_setup):
     """The part's per-setup rows so far, as out/<part>_partial.json (temp-then-rename)."""
     import json
@@ -252,11 +267,9 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
     from ...lapig_addon.blender.projection_render import render_working_images
     from ...lapig_core.common import metrics
     from ...lapig_core.photometric import choice
-    from ...lapig_core.photometric.classical import ClassicalModel
     from ...lapig_core.photometric.finetune import CAMERA_SPACE, PAPER_LOSS, cpu_recipe, finetune
-    from ...lapig_core.photometric.targets import desired_targets, reachable_mask
     from ...lapig_core.photometric.training import predict
-    from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
+    from ...lapig_core.photometric.training_data import to_numpy, to_tensor
     from ...lapig_core.pipeline import setup_dir_of
     from .noise_floor import below_floor, noise_floor
 
@@ -276,15 +289,11 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
 
     for spec in specs:
         _log(args, f"{spec.name}:")
-        cs = syn.load_setup(data, spec.name)
-        surf = SurfaceTensors.from_capture_set(cs)
-        mask = reachable_mask(cs.cam_black, cs.cam_white)
-        count = min(args.compensate, len(cs.prj_test))
+        cs, surf, mask, targets, classical = compensation_case(args, data, spec)
+        count = len(targets)
         # the held-back pairs the choice validates on are the test pairs after the compensated ones
         val = slice(count, None) if len(cs.prj_test) - count >= 4 else slice(None)
-        targets = desired_targets(cs.prj_test[:count], cs.cam_black, cs.cam_white, mask)
         learned, seconds = {}, {}
-        classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
         first = args.pair_counts[0]
         # the app's fine-tune (camera-space loss) at every pair count, and beside it the paper's loss on the
         # app's pair count: the same network, start, pairs and iterations

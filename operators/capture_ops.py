@@ -3,6 +3,7 @@ import bpy
 from ..lapig_addon.blender import scene_state, storage
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
 from ..lapig_addon.blender.operator_boundary import AsksForFolder
+from ..lapig_addon.blender.scene_store import scene_seams
 from ..lapig_addon.services.capture_job import CaptureJob, check_rig
 from ..lapig_core.capture.dataset import load_capture_set, summarize
 from ..lapig_core.optics.working_frame import check_aspect
@@ -16,17 +17,15 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         require("numpy", "cv2")
-        scene = context.scene
-        check_rig(scene)
+        seams = scene_seams(context.scene)
+        check_rig(seams.store)
         _, temporary = storage.data_root()
         if temporary:
             self.report({"WARNING"}, storage.location_message())
-        return CaptureJob(scene, *scene_state.rig_objects(scene), scene_state.capture_settings(scene))
+        return CaptureJob(seams, seams.store.capture_settings())  # it records the capture in the scene
 
     def on_done(self, context, job):
         folder = str(job.result["setup_dir"])
-        meta = job.result["meta"]
-        scene_state.record_capture(context.scene, folder, meta["fingerprint"], meta.get("transport", {}).get("label", ""))
         err = job.result["meta"]["registration"].get("registration_error_px_median")
         extra = f", registration error {err:.2f} px" if err is not None else ""
         self.report({"INFO"}, f"Captured into {folder}{extra}")

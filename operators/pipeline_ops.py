@@ -7,6 +7,7 @@ from ..lapig_addon.blender import result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
 from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, report_notes
 from ..lapig_addon.blender.properties import PREVIEW_MODES
+from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
 from ..lapig_core.common.deps import require
 
 
@@ -25,7 +26,7 @@ class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         scene = context.scene
-        job = _pipeline_jobs().TrainModelsJob(scene, scene_state.finetune_iterations(scene))
+        job = _pipeline_jobs().TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
         job.check()  # fail now, with the reason, not on the thread
         return job
 
@@ -40,7 +41,7 @@ class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         scene = context.scene
-        job = _pipeline_jobs().GenerateJob(scene, scene_state.generate_request(scene),
+        job = _pipeline_jobs().GenerateJob(scene_seams(scene), scene_state.generate_request(scene),
                                            scene_state.finetune_iterations(scene))
         job.check()  # validates prompt and capture on the main thread, with a clear message
         return job
@@ -57,7 +58,7 @@ class LAPIG_OT_render_result(JobRunnerMixin, bpy.types.Operator):
     bl_label = "Render Real Capture"
 
     def make_job(self, context):
-        return _pipeline_jobs().RenderResultJob(context.scene)
+        return _pipeline_jobs().RenderResultJob(scene_seams(context.scene))
 
     def on_done(self, context, job):
         m = job.result["metrics"]
@@ -117,7 +118,7 @@ class LAPIG_OT_export_image(ReportsErrors, bpy.types.Operator):
         from ..lapig_addon.services import export_result
 
         settings = scene_state.export_settings(context.scene, path=self.filepath or None)
-        written = export_result.export_current(context.scene, settings)
+        written = export_result.export_current(BlenderSceneStore(context.scene), settings)
         self.report({"INFO"}, f"Exported {written['image']}")
         return {"FINISHED"}
 
@@ -130,7 +131,7 @@ class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
     def execute(self, context):
         from ..lapig_addon.services import export_result
 
-        paths = export_result.export_crossfade(context.scene, self.directory,
+        paths = export_result.export_crossfade(BlenderSceneStore(context.scene), bpy.path.abspath(self.directory),
                                                scene_state.export_settings(context.scene))
         self.report({"INFO"}, f"Wrote {len(paths)} frames to {os.path.dirname(paths[0])}")
         return {"FINISHED"}

@@ -1,9 +1,8 @@
 """Show a stylization result on the object and on the projector, reversibly.
 
-The projector light gets the compensated image as the light of the file Export writes (same
-placement, same rounding at the scene's export bit depth), so Cycles renders the projection a real
-projector would show; the object's material is switched between its original and a result image
-cast from the projector (preview.py keeps the original safe).
+The projector light gets the compensated image from result_sinks.ProjectorLightSink; here the object's
+material is switched between its original and a result image cast from the projector (preview.py keeps
+the original safe).
 """
 from __future__ import annotations
 
@@ -37,25 +36,6 @@ def frame_image(name: str, pixels: np.ndarray, non_color: bool = True) -> bpy.ty
     image.pixels.foreach_set(rgba.ravel())
     image.update()
     return image
-
-
-def set_projector_image(projector, working_image: np.ndarray, bit_depth: int) -> bpy.types.Image:
-    """Put a projector image (working frame or native) on the light, as the light it emits when sent
-    as a bit_depth file (placement, rounding, gamma, black level)."""
-    light = projector_model(projector).frame_light(working_image, bit_depth)
-    image = frame_image(IMAGE_PREFIX + "projector image", light)
-    projector_nodes.set_projected_image(projector.data, image)
-    return image
-
-
-def show_result_on_projector(scene) -> bpy.types.Image | None:
-    """The light emits the scene's result projector image at the export bit depth; None without one."""
-    folder = scene_state.read(scene).result_dir
-    projector = scene_state.rig_objects(scene)[0]
-    if not folder or projector is None:
-        return None
-    return set_projector_image(projector, read_output_image(folder, "projector"),
-                               scene_state.export_settings(scene).bit_depth)
 
 
 def _appearance_image(projector, result_dir: str, kind: str) -> bpy.types.Image:

@@ -12,6 +12,7 @@ from ...lapig_core.capture import dataset as ds
 from ...lapig_core.common.imageio import read_image, write_png
 from ...lapig_core.common.sheets import labelled_grid
 from ..blender import addon, result_preview, scene_state, storage
+from ..blender.scene_store import BlenderSceneStore, scene_seams
 from ..services.errors import one_line
 from ..services.panel_state import rig_blocker
 from . import headless
@@ -42,25 +43,24 @@ def cmd_demo(args) -> int:
     scene = bpy.context.scene
     settings = scene_state.capture_settings(scene, train_count=args.train, test_count=args.test, seed=args.seed)
     t = time.perf_counter()
-    result = headless.run_capture(scene, settings, progress=headless.print_progress)
+    result = headless.run_capture(scene, settings, progress=headless.print_progress)  # recorded in the scene
     timings["capture_s"] = round(time.perf_counter() - t, 2)
-    scene_state.record_capture(scene, result["setup_dir"], result["meta"]["fingerprint"],
-                               result["meta"].get("transport", {}).get("label", ""))
     write_png(os.path.join(out, "contact_sheet.png"), contact_sheet(result["setup_dir"]))
     t = time.perf_counter()
-    TrainModelsJob(scene, args.iterations).run_to_completion(on_progress=headless.print_progress)
+    seams = scene_seams(scene)
+    TrainModelsJob(seams, args.iterations).run_to_completion(on_progress=headless.print_progress)
     timings["train_s"] = round(time.perf_counter() - t, 2)
     request = scene_state.generate_request(scene, prompt=args.prompt)
     scene_state.write_stylize_settings(scene, request)  # demo.blend then opens on the prompt of its result
     t = time.perf_counter()
-    generated = GenerateJob(scene, request, args.iterations).run_to_completion(on_progress=headless.print_progress)
+    generated = GenerateJob(seams, request, args.iterations).run_to_completion(on_progress=headless.print_progress)
     timings["stylize_s"] = round(time.perf_counter() - t, 2)
     print_notes(result_notes(generated["summary"]))
     t = time.perf_counter()
-    rendered = RenderResultJob(scene).run_to_completion()
+    rendered = RenderResultJob(seams).run_to_completion()
     timings["render_s"] = round(time.perf_counter() - t, 2)
     exported = export_result.export_current(
-        scene, scene_state.export_settings(scene, path=os.path.join(out, "projector_image.png")))
+        seams.store, scene_state.export_settings(scene, path=os.path.join(out, "projector_image.png")))
     if result_preview.apply_mode(scene, "TARGET"):
         scene_state.record_preview_mode(scene, "TARGET")
     bpy.ops.wm.save_mainfile()
@@ -128,10 +128,16 @@ def _open_scene(args):
 def cmd_capture(args) -> int:
     scene = _open_scene(args)
     settings = scene_state.capture_settings(
-        scene, out_dir=os.path.abspath(args.out), setup_name=args.setup, train_count=args.train,
-        test_count=args.test, working_size=args.size, samples=args.samples,
+        scene, out_dir=os.path.abspath(args.out) if args.out else None, setup_name=args.setup,
+        train_count=args.train, test_count=args.test, working_size=args.size, samples=args.samples,
         pattern_folder=os.path.abspath(args.patterns) if args.patterns else None, seed=args.seed)
-    result = headless.run_capture(scene, settings, progress=headless.print_progress)
+    if args.save and not bpy.data.filepath:  # now, not after the capture
+        raise ValueError("--save needs a .blend opened with --blend")
+    result = headless.run_capture(scene, settings, progress=headless.print_progress)  # recorded in the scene
+    _save_if_asked(args)
+    if not args.save:
+        print_notes([f"this capture is not saved into the .blend (no --save): train it with "
+                     f"'train --capture {result['setup_dir']}'"])
     print_json({"setup_dir": str(result["setup_dir"]), **result["meta"]["registration"],
                 "valid_fraction": result["meta"]["valid_fraction"]})
     return 0
@@ -148,7 +154,9 @@ def cmd_train(args) -> int:
     from ..services.pipeline_jobs import TrainModelsJob
 
     scene = _open_scene(args)
-    out = TrainModelsJob(scene, _iterations(args, scene)).run_to_completion(on_progress=headless.print_progress)
+    capture = _chosen_capture(args, BlenderSceneStore(scene))
+    out = TrainModelsJob(scene_seams(scene), _iterations(args, scene), capture).run_to_completion(
+        on_progress=headless.print_progress)
     _save_if_asked(args)
     print_json({"capture": out["folder"], "train_s": round(out["seconds"], 2), "compensation": out["choice"]})
     return 0
@@ -178,16 +186,18 @@ def cmd_stylize(args) -> int:
     if prompt is None:
         raise ValueError("stylize needs --prompt (or --style-image)")
     scene = _open_scene(args)
+    seams = scene_seams(scene)
+    capture = _chosen_capture(args, seams.store)
     request = scene_state.generate_request(scene, prompt=prompt, backend=args.backend, mix=args.mix,
                                            psa=args.psa, adaptation=args.adaptation, seed=args.seed,
                                            ip2p_model=args.ip2p_model, style_images=style_images,
                                            style_prompt_weight=args.style_prompt_weight,
                                            output_size=args.output_size, dark_outside=args.dark_outside)
-    job = GenerateJob(scene, request, _iterations(args, scene))
+    job = GenerateJob(seams, request, _iterations(args, scene), capture=capture)
     out = job.run_to_completion(on_progress=headless.print_progress)
     summary = dict(out["summary"]["metrics"])
     if args.render:
-        summary.update(RenderResultJob(scene).run_to_completion()["metrics"])
+        summary.update(RenderResultJob(seams).run_to_completion()["metrics"])
     _save_if_asked(args)
     print_notes(result_notes(out["summary"]))
     if not args.save:
@@ -208,13 +218,14 @@ def cmd_export(args) -> int:
     if args.crossfade and not os.path.isdir(os.path.dirname(os.path.abspath(args.crossfade))):
         raise ValueError(f"--crossfade: the folder above {args.crossfade} does not exist")  # before any file
     scene = _open_scene(args)
+    store = BlenderSceneStore(scene)
     result = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     settings = scene_state.export_settings(scene, path=os.path.abspath(args.out), bit_depth=args.bit_depth,
                                            crossfade_frames=args.frames)
-    written = export_result.export_current(scene, settings, result)
+    written = export_result.export_current(store, settings, result)
     summary = {"result": result, **{k: str(v) for k, v in written.items()}}
     if args.crossfade:
-        frames = export_result.export_crossfade(scene, os.path.abspath(args.crossfade), settings, result,
+        frames = export_result.export_crossfade(store, os.path.abspath(args.crossfade), settings, result,
                                                 on_progress=headless.print_progress)
         summary["crossfade_frames"] = len(frames)
     print_json(summary)
@@ -233,6 +244,24 @@ def _scene_result_if_latest(scene) -> str:
         raise ValueError(f"{held}, but stylize made {newest} after it without --save: pass --result {newest} "
                          f"to export that one" + (f", or --result {recorded} for the .blend's" if recorded else ""))
     return recorded
+
+
+def _chosen_capture(args, store) -> str | None:
+    """--capture (absolute), else None for the .blend's own capture, unless a later capture (one without
+    --save) made a newer one: a pipeline that captures and then trains means that one, so say how to choose
+    instead of training on the old capture."""
+    if args.capture:
+        return os.path.abspath(args.capture)
+    from ..services.captures import newest_capture
+
+    state = store.read()
+    recorded = state.capture_dir
+    newest = newest_capture(store.data_root(), state.rig.fingerprint)
+    if newest and os.path.normpath(newest) != os.path.normpath(recorded or ""):
+        held = f"the .blend holds the capture {recorded}" if recorded else "the .blend holds no capture"
+        raise ValueError(f"{held}, but capture made {newest} after it without --save: pass --capture {newest} "
+                         f"to use that one" + (f", or --capture {recorded} for the .blend's" if recorded else ""))
+    return None
 
 
 def _iterations(args, scene) -> int | None:

@@ -5,7 +5,8 @@ import os
 
 import bpy
 
-from ..blender import demo_scene, rig, scene_state
+from ..blender import demo_scene, rig
+from ..blender.scene_store import scene_seams
 from ..services.capture_job import CaptureJob, CaptureSettings
 from .output import print_progress  # noqa: F401 (re-exported)
 
@@ -38,9 +39,10 @@ def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camer
 
 
 def run_capture(scene, settings: CaptureSettings, projector=None, camera=None, target=None, progress=None):
-    """Capture the given rig objects (None: the scene's own) to completion."""
-    own = scene_state.rig_objects(scene)
-    job = CaptureJob(scene, projector or own[0], camera or own[1], target or own[2], settings)
+    """Capture the given rig objects (None: the scene's own) to completion; a capture of the scene's own
+    rig is recorded in the scene, as the panel's."""
+    record = projector is None and camera is None and target is None
+    job = CaptureJob(scene_seams(scene, projector, camera, target), settings, record=record)
     return job.run_to_completion(on_progress=progress)
 
 

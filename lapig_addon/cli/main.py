@@ -30,10 +30,20 @@ def _parser():
     ranged_option(demo, "--seed", "seed", "pattern and style seed", default=0)
     iterations_arg(demo, "the standard recipe")
 
+    def blend_arg(p):
+        p.add_argument("--blend", help=".blend file with a LAPIG rig (default: the open file)")
+        p.add_argument("--save", action="store_true", help="save the .blend afterwards (keeps where you were)")
+
+    def capture_arg(p):
+        p.add_argument("--capture", metavar="DIR",
+                       help="the capture to use: a setup folder (<root>/setups/<name>) this rig made (default: "
+                            "the .blend's; --save then records this one in it)")
+
     # settings a command does not get keep the scene's (its Capture, Stylize and Export panels)
-    cap = sub.add_parser("capture", help="capture the scene's projector-camera setup into a data set")
-    cap.add_argument("--blend", help=".blend file with a LAPIG rig (default: the open file)")
-    cap.add_argument("--out", required=True, help="data set root folder")
+    cap = sub.add_parser("capture", help="capture the scene's projector-camera setup into a data set "
+                                         "(--save records it in the .blend, as the panel does)")
+    blend_arg(cap)
+    cap.add_argument("--out", help="data set root folder (default: the .blend's data folder, as the panel's)")
     cap.add_argument("--setup", default=None, help="setup name (default: the surface object's name)")
     ranged_option(cap, "--train", "train_count", "training captures (default: the scene's)")
     ranged_option(cap, "--test", "test_count", "test captures (default: the scene's)")
@@ -42,16 +52,14 @@ def _parser():
     cap.add_argument("--patterns", help="folder of your own projector images (default: the scene's)")
     ranged_option(cap, "--seed", "seed", "pattern seed (default: the scene's)")
 
-    def blend_arg(p):
-        p.add_argument("--blend", help=".blend file with a LAPIG rig (default: the open file)")
-        p.add_argument("--save", action="store_true", help="save the .blend afterwards (keeps where you were)")
-
     tr = sub.add_parser("train", help="fine-tune CompenNeSt and PCNet on the scene's capture")
     blend_arg(tr)
+    capture_arg(tr)
     iterations_arg(tr, "the scene's")
 
     st = sub.add_parser("stylize", help="turn a prompt into a projector image for the scene's surface")
     blend_arg(st)
+    capture_arg(st)
     st.add_argument("--prompt", help='e.g. "Make it a stained glass artwork" (required unless --style-image)')
     st.add_argument("--backend", help="LGST backend, e.g. styletransfer (default: the scene's)")
     st.add_argument("--mix", help="explicit style mix instead of the prompt's, e.g. 'charcoal_wash:1'")

@@ -1,24 +1,23 @@
-"""Capture a complete, registered data set of one projector-camera setup with Cycles.
+"""Capture a complete, registered data set of one projector-camera setup.
 
-The job checks the rig, opens the Cycles capture device and runs the capture sequence of
-lapig_core.capture.sequence through it, with the viewport preview off so Cycles sees the real
-surface.
+The job checks the settings and the rig, opens the rig's capture device from the device factory
+(ports.DeviceFactory: the Cycles studio, or a real projector and camera) and runs the capture sequence
+of lapig_core.capture.sequence through it, on the thread the device needs; then it records the capture
+in the scene store.
 """
 from __future__ import annotations
 
 from ...lapig_core.capture.sequence import run_capture
 from ...lapig_core.capture.settings import CaptureError, CaptureSettings  # noqa: F401 (re-exported)
-from ..blender import preview
-from ..blender.cycles_device import CyclesCaptureDevice
 from .jobs import Job
-from ..blender.scene_state import read_rig, rig_fingerprint
 from .limits import first_problem
 from .panel_state import rig_blocker
+from .ports import Seams
 
 
-def check_rig(scene, projector=None, camera=None, target=None):
-    """CaptureError unless the rig of these objects (None: the scene's own) can be captured."""
-    blocker = rig_blocker(read_rig(scene, projector, camera, target))
+def check_rig(store):
+    """CaptureError unless the scene's rig can be captured."""
+    blocker = rig_blocker(store.read().rig)
     if blocker:
         raise CaptureError(blocker)
 
@@ -33,24 +32,29 @@ def check_settings(settings: CaptureSettings):
 
 
 class CaptureJob(Job):
+    """record: write the capture into the scene store when it completes (False: a script capturing rig
+    objects other than the scene's own, which must leave the scene as it was)."""
+
     title = "LAPIG capture"
 
-    def __init__(self, scene, projector, camera, target, settings: CaptureSettings):
+    def __init__(self, seams: Seams, settings: CaptureSettings, record: bool = True):
         super().__init__()
-        self.scene, self.projector, self.camera, self.target = scene, projector, camera, target
-        self.settings = settings
+        self.seams, self.settings, self.record = seams, settings, record
+
+    def _capture(self):
+        s, devices = self.settings, self.seams.devices
+        with devices.capture_device(s) as device:
+            # once the device is open (Cycles: the scene evaluated, the rig where it is now)
+            identity = devices.rig_identity()
+            rig_meta = {"fingerprint": identity.key(), "rig": identity.to_dict(), "objects": identity.devices}
+            return (yield from run_capture(device, s, extra_meta=rig_meta, holder=self.title))
 
     def steps(self):
-        s = self.settings
-        check_settings(s)
-        check_rig(self.scene, self.projector, self.camera, self.target)
-        # the viewport preview tints the object's materials: capture the real surface
-        with preview.real_surface(self.target, self.projector), \
-                CyclesCaptureDevice(self.scene, self.projector, self.camera, self.target, samples=s.samples,
-                                    ambient=s.ambient, seed=s.seed) as device:
-            # once the device has evaluated the scene: matrix_world is current
-            rig_meta = {"fingerprint": rig_fingerprint(self.projector, self.camera, self.target),
-                        "transport": device.transport.to_dict(),
-                        "objects": {"projector": self.projector.name, "camera": self.camera.name,
-                                    "target": self.target.name}}
-            self.result = yield from run_capture(device, s, device.geometry_checks(), rig_meta, self.title)
+        check_settings(self.settings)
+        if self.record:
+            check_rig(self.seams.store)
+        self.result = yield from self.drive(self._capture, self.seams.devices.main_thread)
+        if self.record:
+            meta = self.result["meta"]
+            self.seams.store.record_capture(str(self.result["setup_dir"]), meta["fingerprint"],
+                                            meta.get("transport", {}).get("label", ""))

@@ -1,21 +1,19 @@
 """Export the current result for a real projector: native-resolution PNG plus a JSON sidecar.
 
-The file holds the pixels the projector light shows (result_preview.show_result_on_projector):
-both place and round the stored result with lapig_core's one frame function.
+The file holds the pixels the projector light shows (blender/result_sinks.ProjectorLightSink): both
+take the result's ports.ProjectorFrame, placed and rounded by lapig_core's one frame function.
 """
 from __future__ import annotations
 
 import glob
 import os
 
-import bpy
-
 from ...lapig_core.export import projector_image as export
 from ...lapig_core.export.result_files import (output_name, read_output_image, read_result_image, read_summary,
                                                stored_bit_depth)
-from ..blender import scene_state
-from ..blender.scene_state import projector_model
 from .panel_state import result_blocker, rig_blocker
+from .ports import ProjectorFrame
+from .sinks import ProjectorImageFile
 from .state import ExportSettings
 
 
@@ -32,9 +30,9 @@ def addon_version() -> str:
     return "unknown"
 
 
-def result_folder(scene, chosen: str | None = None) -> str:
+def result_folder(store, chosen: str | None = None) -> str:
     """The result to export: `chosen` (a result folder made from the scene's capture), else the scene's."""
-    state = scene_state.read(scene)
+    state = store.read()
     blocker = rig_blocker(state.rig) if chosen else result_blocker(state)
     if blocker:
         raise ValueError(blocker)
@@ -60,44 +58,52 @@ def _check(settings: ExportSettings):
         raise ValueError(problem)
 
 
-def metadata(scene, folder: str, summary: dict) -> dict:
+def metadata(store, folder: str, summary: dict) -> dict:
     return {"prompt": summary.get("prompt"), "backend": summary.get("backend"), "seed": summary.get("seed"),
             "styles": summary.get("lgst", {}).get("styles"), "psa": summary.get("psa"),
             "psa_settings": summary.get("psa_settings"), "metrics": summary.get("metrics"),
             "surface_reach": summary.get("surface_reach"),
-            **scene_state.rig_metadata(scene),
+            **store.rig_metadata(),
             # 8 for results stored before results were 16-bit: a 16-bit file then holds 8 bits of data
             "result_bit_depth": stored_bit_depth(folder, output_name(folder, "projector")),
-            "software_blender": bpy.app.version_string}
+            **store.software()}
 
 
-def export_current(scene, settings: ExportSettings, result: str | None = None) -> dict:
+def result_frame(store, folder: str, bit_depth: int, image=None, summary: dict | None = None) -> ProjectorFrame:
+    """The result's projector frame for the scene's projector; `image`: the stored projector image when the
+    caller holds it already (Generate), else it is read once from the folder."""
+    model = store.projector_model()
+    image = read_output_image(folder, "projector") if image is None else image
+    return ProjectorFrame(image, model.width, model.height, bit_depth, folder=folder,
+                          summary=read_summary(folder) if summary is None else summary)
+
+
+def export_current(store, settings: ExportSettings, result: str | None = None) -> dict:
     """Write the projector image of `result` (None: the scene's result)."""
     _check(settings)
-    folder = result_folder(scene, result)
-    summary = read_summary(folder)
-    model = projector_model(scene_state.rig_objects(scene)[0])
-    return export.export_projector_image(settings.path, read_output_image(folder, "projector"), model.width,
-                                         model.height, bit_depth=settings.bit_depth,
-                                         metadata=metadata(scene, folder, summary), lapig_version=addon_version())
+    folder = result_folder(store, result)
+    frame = result_frame(store, folder, settings.bit_depth)
+    sink = ProjectorImageFile(settings.path, metadata(store, folder, frame.summary), addon_version())
+    sink.show(frame)
+    return sink.written
 
 
-def export_crossfade(scene, directory: str, settings: ExportSettings, result: str | None = None,
+def export_crossfade(store, directory: str, settings: ExportSettings, result: str | None = None,
                      on_progress=None) -> list:
-    """Write the crossfade frames of `result` (None: the scene's result)."""
+    """Write the crossfade frames of `result` (None: the scene's result) into `directory` (absolute)."""
     _check(settings)
-    folder = result_folder(scene, result)
+    folder = result_folder(store, result)
     if not directory:
         raise ValueError("Choose a folder for the crossfade frames")
     summary = read_summary(folder)
-    model = projector_model(scene_state.rig_objects(scene)[0])
+    model = store.projector_model()
     b = read_output_image(folder, "projector")
     try:
         a, labels = read_result_image(folder, "projector_nopsa"), ["without PSA", "with PSA"]
     except FileNotFoundError:
         a, labels = b * 0, ["black", "with PSA"]
-    return export.crossfade_sequence(bpy.path.abspath(directory), a, b, frames=settings.crossfade_frames,
+    return export.crossfade_sequence(directory, a, b, frames=settings.crossfade_frames,
                                      width=model.width, height=model.height,
                                      bit_depth=settings.bit_depth, ease="smooth", gamma=model.gamma,
-                                     metadata=metadata(scene, folder, summary), source_labels=labels,
+                                     metadata=metadata(store, folder, summary), source_labels=labels,
                                      lapig_version=addon_version(), on_progress=on_progress)

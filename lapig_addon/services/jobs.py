@@ -28,6 +28,7 @@ class Job:
         self._gen: Iterator | None = None
         self.started_at = None
         self.finished_at = None
+        self._device_steps = []  # DeviceSteps this job drives: stop() waits for their threads
 
     def steps(self) -> Iterator[tuple[float, str]]:
         """Yield (progress 0..1, message) between chunks of work; set self.result at the end."""
@@ -65,6 +66,19 @@ class Job:
     def stop(self):
         """Cancel and return once no work of this job runs any more."""
         self.cancel()
+        self._join_devices()
+
+    poll_timeout = 0.05  # > 0: synchronous runs (headless, tests) wait for a worker instead of spinning
+
+    def drive(self, make_steps, main_thread: bool) -> "DeviceSteps":
+        """Steps that drive a capture device on the thread it needs (DeviceSteps); `yield from` them."""
+        steps = DeviceSteps(make_steps, main_thread, self.poll_timeout, self.title)
+        self._device_steps.append(steps)
+        return steps
+
+    def _join_devices(self):
+        for steps in self._device_steps:
+            steps.join()
 
     def _finish(self, state, progress, message):
         self.state, self.progress, self.message = state, progress, message
@@ -112,7 +126,6 @@ class WorkerJob(Job):
     poll_timeout > 0 makes synchronous runs (headless, tests) wait instead of spinning.
     """
 
-    poll_timeout = 0.05
     _NOT_PREPARED = object()
     _inputs = _NOT_PREPARED
     _thread = None
@@ -140,6 +153,7 @@ class WorkerJob(Job):
         self.cancel()  # sets cancel_event while the worker runs
         if self._thread is not None:
             self._thread.join()
+        self._join_devices()
 
     def steps(self):
         import queue
@@ -189,3 +203,71 @@ class WorkerJob(Job):
             raise JobCancelled()
         self.result = self.finish(box.get("output"))
         yield 1.0, "done"
+
+
+class DeviceSteps:
+    """Steps that drive a capture device, on the thread the device needs.
+
+    `make_steps()` returns a generator of (progress, message) whose return value is the result.
+    With main_thread (Cycles renders through bpy) it runs where the job is stepped; without, it runs
+    on a worker thread whose steps are relayed here, so a real camera's blocking grab() never freezes
+    Blender. Closing this generator (a cancel) closes the inner one on the thread that runs it, and
+    its `with` blocks close the device; join() waits for that."""
+
+    def __init__(self, make_steps, main_thread: bool, poll_timeout: float = 0.05, title: str = "LAPIG device"):
+        self.make_steps, self.main_thread = make_steps, main_thread
+        self.poll_timeout, self.title = poll_timeout, title
+        self._thread = None
+        self._stop = None
+
+    def __iter__(self):
+        if self.main_thread:
+            return (yield from self.make_steps())
+        return (yield from self._relayed())
+
+    def _relayed(self):
+        import queue
+        import threading
+
+        messages, box = queue.Queue(), {}
+        stop = self._stop = threading.Event()
+
+        def target():
+            steps = self.make_steps()
+            try:
+                while True:
+                    if stop.is_set():
+                        steps.close()  # runs the device's cleanup on its own thread
+                        return
+                    try:
+                        messages.put(next(steps))
+                    except StopIteration as done:
+                        box["result"] = done.value
+                        return
+            except BaseException as exc:  # handed to the job's thread, raised there
+                box["error"] = exc
+
+        thread = self._thread = threading.Thread(target=target, name=self.title, daemon=True)
+        thread.start()
+        progress = (0.0, "starting the device")
+        try:
+            while thread.is_alive() or not messages.empty():
+                try:
+                    progress = messages.get(timeout=self.poll_timeout) if self.poll_timeout \
+                        else messages.get_nowait()
+                    while not messages.empty():  # only the latest matters
+                        progress = messages.get_nowait()
+                except queue.Empty:
+                    pass
+                yield progress
+        finally:
+            stop.set()  # a cancel: the worker closes the device at its next step
+        if "error" in box:
+            raise box["error"]
+        return box.get("result")
+
+    def join(self, timeout: float | None = None):
+        if self._thread is not None:
+            if self._stop is not None:
+                self._stop.set()
+            self._thread.join(timeout)

@@ -12,7 +12,8 @@ import time
 
 from ...lapig_core.common import metrics
 from ...lapig_core.common.resample import resize_image
-from ...lapig_core.capture.dataset import DatasetError, frame_size_of, load_capture_set, resolve_setup
+from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
+                                           resolve_setup)
 from ...lapig_core.capture.staging import hold_root
 from ...lapig_core.lgst import backend_class
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
@@ -22,13 +23,14 @@ from ...lapig_core.photometric import choice as compensator_choice
 from ...lapig_core.pipeline import (as_image, output_at, saved_models_problem, setup_dir_of, stylize,
                                      surface_models, train_models)
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
-from ...lapig_core.export.result_files import (folder_name, heat_overlay, output_name, read_output_image,
-                                               read_summary, write_new_result, write_result)
+from ...lapig_core.export.result_files import (as_stored, folder_name, heat_overlay, output_name,
+                                               read_output_image, read_summary, write_new_result, write_result)
 from . import panel_state
-from ..blender import scene_state, storage
 from .capture_job import CaptureError
+from .export_result import result_frame
 from .jobs import Job, WorkerJob
-from ..blender.projection_render import iter_render_working_images, register_at
+from .ports import Seams
+from .projection import projection_steps, register_at
 from .state import GenerateRequest, SceneState
 
 
@@ -36,18 +38,46 @@ class PipelineError(ValueError):
     """A step that cannot run yet; the message says which step to do first."""
 
 
-def current_capture(state: SceneState) -> str:
-    """The scene's capture folder, checked to exist, to match the rig as it is now and to cover the
-    projector's frame (an imported data set of another aspect cannot)."""
-    blocker = panel_state.capture_blocker(state)
-    if blocker:
-        raise PipelineError(blocker)
+def current_capture(state: SceneState, explicit: str | None = None) -> str:
+    """The capture folder to work on, checked to exist, to match the rig as it is now and to cover the
+    projector's frame (an imported data set of another aspect cannot): `explicit` (a pipeline naming
+    one with --capture), else the scene's."""
+    if explicit:
+        folder = named_capture(state, explicit)
+    else:
+        blocker = panel_state.capture_blocker(state)
+        if blocker:
+            raise PipelineError(blocker)
+        folder = state.capture_dir
     try:
-        check_aspect(frame_size_of(state.capture_dir), state.rig.projector_size, "the capture",
+        check_aspect(frame_size_of(folder), state.rig.projector_size, "the capture",
                      advice="capture this projector's surface, or set its resolution to the capture's aspect")
     except (DatasetError, WorkingFrameError) as exc:
         raise PipelineError(str(exc)) from None
-    return state.capture_dir
+    return folder
+
+
+def named_capture(state: SceneState, folder: str) -> str:
+    """A capture folder named explicitly, checked to be a data set this rig made as it is now (or one
+    captured elsewhere, which is tied to no rig)."""
+    blocker = panel_state.rig_blocker(state.rig)
+    if blocker:
+        raise PipelineError(blocker)
+    try:
+        meta = read_setup_json(resolve_setup(folder).setup_json)
+    except (DatasetError, OSError, ValueError) as exc:
+        raise PipelineError(f"--capture {folder}: {exc}") from None
+    made_by = meta.get("fingerprint") or ""
+    if made_by and state.rig.fingerprint and made_by != state.rig.fingerprint:
+        raise PipelineError(f"{folder} was captured with the rig as it was then; the projector, camera or object "
+                            f"changed since: capture again, or use the .blend it was captured with")
+    return str(folder)
+
+
+def capture_record(folder: str) -> tuple[str, str]:
+    """(fingerprint, light transport label) a capture folder's setup.json records, for the scene store."""
+    meta = read_setup_json(resolve_setup(folder).setup_json)
+    return meta.get("fingerprint") or "", (meta.get("transport") or {}).get("label", "")
 
 
 def hold_capture(folder: str, title: str):
@@ -63,13 +93,14 @@ class TrainModelsJob(WorkerJob):
     title = "LAPIG training"
     TRAIN_SHARE = 0.9  # of the progress bar; the rest is the renders of the choice
 
-    def __init__(self, scene, iterations: int | None = None):
-        """iterations: fine-tuning iterations per network (None: the standard recipe)."""
+    def __init__(self, seams: Seams, iterations: int | None = None, capture: str | None = None):
+        """iterations: fine-tuning iterations per network (None: the standard recipe); capture: a capture
+        folder named explicitly (None: the scene's), recorded as the scene's when the models are."""
         super().__init__()
-        self.scene, self.iterations = scene, iterations
+        self.seams, self.iterations, self.capture = seams, iterations, capture
 
     def prepare(self):
-        return current_capture(scene_state.read(self.scene))
+        return current_capture(self.seams.store.read(), self.capture)
 
     def hold(self, folder):
         return hold_capture(folder, self.title)
@@ -81,9 +112,11 @@ class TrainModelsJob(WorkerJob):
                 "choice": trained["choice"].line(), "capture_set": cs, "trained": trained}
 
     def finish(self, output):
+        store = self.seams.store
+        if self.capture:  # the named capture becomes the scene's, so the models belong to it
+            store.record_capture(output["folder"], *capture_record(output["folder"]))
         # PCNet's choice, saved with the models: it stands if the renders below cannot run or are cancelled
-        scene_state.record_models(self.scene, output["fingerprint"],
-                                  f"Fine-tuned in {output['seconds']:.0f} s; {output['choice']}")
+        store.record_models(output["fingerprint"], f"Fine-tuned in {output['seconds']:.0f} s; {output['choice']}")
         return output
 
     def steps(self):
@@ -95,8 +128,7 @@ class TrainModelsJob(WorkerJob):
         out["seconds"] += time.perf_counter() - t0
         if chosen is not None:
             out["choice"] = chosen.line()
-            scene_state.record_models(self.scene, out["fingerprint"],
-                                      f"Fine-tuned in {out['seconds']:.0f} s; {out['choice']}")
+            self.seams.store.record_models(out["fingerprint"], f"Fine-tuned in {out['seconds']:.0f} s; {out['choice']}")
         # the result goes to the operator and the CLI: not the capture's arrays nor the networks
         self.result = {k: v for k, v in out.items() if k not in ("capture_set", "trained")}
 
@@ -104,23 +136,29 @@ class TrainModelsJob(WorkerJob):
         """Render both compensations of the held-back images and save the better one as the setup's choice;
         None when there are no held-back images to measure on."""
         v = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
-        rig = scene_state.rig_objects(self.scene)
-        if v is None or cs.meta.get("fingerprint") != scene_state.rig_fingerprint(*rig):
+        devices = self.seams.devices
+        if v is None or devices is None or cs.meta.get("fingerprint") != devices.rig_identity().key():
             return None  # nothing held back, or a data set this rig did not capture (imported): PCNet's choice
         held = hold_capture(folder, self.title)  # no capture may replace the models while this runs
-        steps = iter_render_working_images(self.scene, *rig, folder, v.images, chunk=1)
+        count, share = len(v.images), self.TRAIN_SHARE
+
+        def measure():
+            steps = projection_steps(devices, folder, v.images, chunk=1)
+            while True:
+                try:
+                    done = next(steps)
+                except StopIteration as end:
+                    return end.value
+                yield share + (1 - share) * 0.99 * done, \
+                    f"measuring both compensations on the rig: {round(done * count)}/{count} captured"
+
         try:
-            count = len(v.images)
-            for done in steps:
-                yield self.TRAIN_SHARE + (1 - self.TRAIN_SHARE) * 0.99 * done, \
-                    f"measuring both compensations in Cycles: {round(done * count)}/{count} rendered"
-            captured, _ = steps.result
+            captured, _ = yield from self.drive(measure, devices.main_thread)
             chosen = compensator_choice.choose_by_captures(v, captured)
             compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, trained["classical"])
         except CaptureError as exc:
             raise PipelineError(f"{exc} (the models are trained; {trained['choice'].line()})") from None
         finally:
-            steps.close()
             held.release()
         return chosen
 
@@ -155,16 +193,18 @@ class GenerateJob(WorkerJob):
 
     title = "LAPIG generate"
 
-    def __init__(self, scene, request: GenerateRequest, iterations: int | None = None, result_root=None):
-        """iterations: as TrainModelsJob's, for models trained on the way."""
+    def __init__(self, seams: Seams, request: GenerateRequest, iterations: int | None = None, result_root=None,
+                 capture: str | None = None):
+        """iterations: as TrainModelsJob's, for models trained on the way; capture: as TrainModelsJob's."""
         super().__init__()
-        self.scene, self.request, self.iterations = scene, request, iterations
-        self.result_root = result_root
+        self.seams, self.request, self.iterations = seams, request, iterations
+        self.result_root, self.capture = result_root, capture
 
     def prepare(self):
         r = self.request
-        state = scene_state.read(self.scene)
-        folder = current_capture(state)
+        store = self.seams.store
+        state = store.read()
+        folder = current_capture(state, self.capture)
         try:  # refused now, not after PSA: an output over native or over the memory budget
             output = output_frame(r.output_size, *state.rig.projector_size)
             tile_for(*output)
@@ -188,7 +228,8 @@ class GenerateJob(WorkerJob):
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
                 "dark_outside": r.dark_outside, "output_frame": output,
                 "settings": psa_settings_from(r),
-                "results": self.result_root or os.path.join(storage.data_root()[0], "results"),
+                "results": self.result_root or os.path.join(store.data_root(), "results"),
+                "bit_depth": store.export_settings().bit_depth,
                 "name": folder_name(prompt or mix or style_name(r.style_images), datetime.datetime.now())}
 
     def hold(self, job):
@@ -208,7 +249,8 @@ class GenerateJob(WorkerJob):
                 self._inputs["notes"].append(f"the saved models could not be used ({problem}): fine-tuned them "
                                              f"again and saved over them")
             share = 0.5
-            self._training = TrainModelsJob(self.scene, self.iterations)
+            self._training = TrainModelsJob(self.seams, self.iterations, self.capture)
+            self._training.poll_timeout = self.poll_timeout
             self._training.check()
             inner = self._training.steps()
             try:
@@ -249,21 +291,22 @@ class GenerateJob(WorkerJob):
     def finish(self, output):
         if output is None:
             return None
-        from ..blender import result_preview
-
-        blocker = panel_state.rig_blocker(scene_state.read_rig(self.scene))
+        store = self.seams.store
+        blocker = panel_state.rig_blocker(store.read().rig)
         if blocker:  # the rig was deleted while the work ran: keep no result that no scene refers to
             shutil.rmtree(output["folder"], ignore_errors=True)
             raise PipelineError(f"{blocker}: the result was not kept")
+        if self.capture and self._training is None:  # the named capture becomes the scene's (Train's did)
+            store.record_capture(self._inputs["capture"], *capture_record(self._inputs["capture"]))
         compensator = output["summary"].get("compensator") or {}
-        scene_state.record_models(self.scene, output["summary"].get("fingerprint") or "",  # trained on the way
-                                  f"Fine-tuned; {compensator['line']}" if compensator.get("line") else None)
+        store.record_models(output["summary"].get("fingerprint") or "",  # trained on the way
+                            f"Fine-tuned; {compensator['line']}" if compensator.get("line") else None)
         reach = output["summary"].get("surface_reach") or {}
-        scene_state.record_result(self.scene, output["folder"], output["summary_line"], reach.get("message", ""))
-        result_preview.show_result_on_projector(self.scene)  # the stored image, as Export will write it
-        mode = scene_state.read(self.scene).preview_mode
-        if mode != "ORIGINAL":
-            result_preview.apply_mode(self.scene, mode)
+        store.record_result(output["folder"], output["summary_line"], reach.get("message", ""))
+        # the stored image, from memory: the sinks show the pixels Export will write
+        frame = result_frame(store, output["folder"], self._inputs["bit_depth"], output.pop("projector"),
+                             output["summary"])
+        self.seams.show(frame)
         return output
 
 
@@ -339,41 +382,48 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
         line += f"; compensated by {summary['compensator']['chosen']}"
     if missed:  # last: the panel shows what follows " | " on a line of its own
         line += f" | {missed}"
-    return {"folder": folder, "summary": summary, "summary_line": line}
+    # the finest projector image as the folder now holds it (read_output_image's values), for the sinks
+    projector = as_stored(images.get("projector_native", images["projector"]))
+    return {"folder": folder, "summary": summary, "summary_line": line, "projector": projector}
 
 
 class RenderResultJob(Job):
-    """Project the result's projector images with Cycles and capture them: the 'real capture'."""
+    """Project the result's projector images on the rig and capture them: the 'real capture'."""
 
     title = "LAPIG render result"
 
-    def __init__(self, scene):
+    def __init__(self, seams: Seams):
         super().__init__()
-        self.scene = scene
+        self.seams = seams
 
     def steps(self):
-        state = scene_state.read(self.scene)
+        store, devices = self.seams.store, self.seams.devices
+        state = store.read()
         blocker = panel_state.result_blocker(state)
         if blocker:
             raise PipelineError(blocker)
         folder, capture = state.result_dir, current_capture(state)
         summary = read_summary(folder)
         names = [n for n in ("projector", "projector_nopsa") if os.path.isfile(os.path.join(folder, n + ".png"))]
-        yield 0.1, "rendering the projection with Cycles"
+        yield 0.1, "projecting the result on the rig"
         images = [read_output_image(folder, n) for n in names]  # native where the result has it
-        # one image per step, so the UI gets a turn between renders; the frames are the light of
-        # the files Export writes at the scene's bit depth
-        bit_depth = scene_state.export_settings(self.scene).bit_depth
-        steps = iter_render_working_images(self.scene, *scene_state.rig_objects(self.scene), capture, images,
-                                           chunk=1, bit_depth=bit_depth)
+        # one image per step, so the UI gets a turn between renders; the frames are the pixels of the
+        # files Export writes at the scene's bit depth
+        bit_depth = store.export_settings().bit_depth
+
+        def render():
+            steps = projection_steps(devices, capture, images, chunk=1, bit_depth=bit_depth)
+            while True:
+                try:
+                    done = next(steps)
+                except StopIteration as end:
+                    return end.value
+                yield 0.1 + 0.8 * done, f"captured {round(done * len(names))}/{len(names)}"
+
         try:
-            for done in steps:
-                yield 0.1 + 0.8 * done, f"rendered {round(done * len(names))}/{len(names)}"
+            captured, raw = yield from self.drive(render, devices.main_thread)
         except CaptureError as exc:
             raise PipelineError(str(exc)) from None
-        finally:
-            steps.close()
-        captured, raw = steps.result
         yield 0.9, "comparing with the targets"
         rendered = {}
         for name, cap in zip(names, captured):

@@ -14,8 +14,6 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -25,27 +23,12 @@ from ..optics.projector_model import quantised_frame
 from ..optics.working_frame import WorkingFrameError, working_frame
 from . import dataset as ds
 from . import patterns as pat
-from .device import CaptureDevice
+from .device import CaptureDevice, GeometryChecks  # noqa: F401 (GeometryChecks re-exported)
 from .registration import Registration
 from .registration_check import registration_error_px, summarize_errors
 from .settings import CaptureError, CaptureSettings
 from .staging import StagedCapture, check_shared_patterns
 from .structured_light import decode_graycode, graycode_patterns, projector_to_camera_map
-
-
-@dataclass(frozen=True)
-class GeometryChecks:
-    """Ground truth that only a simulated rig knows; a real rig passes none.
-
-    coverage() -> {"projector_on_object": f, "seen_by_camera": f}, shares of the projector's
-    frame; exact_projector_to_camera(points (..., 2) native projector pixels) -> camera
-    pixels (..., 2), NaN where not seen. Coordinates follow OpenCV.
-    """
-
-    surface: str = "the surface"
-    aim_hint: str = "aim the projector and the camera at the object"
-    coverage: Callable[[], dict] | None = None
-    exact_projector_to_camera: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 def pattern_images(s: CaptureSettings, frame: tuple[int, int]) -> np.ndarray:
@@ -70,11 +53,13 @@ def capture_frame(s: CaptureSettings, width: int, height: int) -> tuple[int, int
         raise CaptureError(str(exc)) from None
 
 
-def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryChecks = GeometryChecks(),
+def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryChecks | None = None,
                 extra_meta: dict | None = None, holder: str = "a LAPIG capture"):
-    """Capture through ``device`` into settings.out_dir/setups/<setup_name>; ``extra_meta`` joins
-    setup.json; ``holder`` names the job in the message that refuses another one into the same
-    root meanwhile. A generator: see the module docstring."""
+    """Capture through ``device`` into settings.out_dir/setups/<setup_name>; ``checks``: the device's
+    own (None: device.geometry_checks()); ``extra_meta`` joins setup.json; ``holder`` names the job in
+    the message that refuses another one into the same root meanwhile. A generator: see the module
+    docstring."""
+    checks = device.geometry_checks() if checks is None else checks
     t0 = time.perf_counter()
     width, height = device.describe().projector_size
     frame = capture_frame(s, width, height)
@@ -172,7 +157,7 @@ def _write_captures(staged: StagedCapture, kind, projected, caps, registration, 
 
 def _device_meta(device: CaptureDevice) -> dict:
     info = device.describe()  # after the capture: with the exposure it locked
-    return {"device": info.name, **info.details}
+    return {"device": info.name, "device_timing": info.timing(), **info.details}
 
 
 def _check_coverage(checks: GeometryChecks, minimum: float) -> dict | None:

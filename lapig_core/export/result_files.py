@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..common.imageio import atomic_write_bytes, read_image, write_png
+from ..common.imageio import atomic_write_bytes, read_image, to_bit_depth, to_float, write_png
 from ..common.scratch import ScratchFolder
 from ..common.sheets import labelled_grid
 
@@ -98,6 +98,11 @@ def _json(value):
     if isinstance(value, np.ndarray):
         return value.tolist()
     return str(value)
+
+
+def as_stored(img: np.ndarray) -> np.ndarray:
+    """An image as read_result_image reads it back once written: the same values, without the file."""
+    return to_float(to_bit_depth(img, BIT_DEPTH))
 
 
 def read_summary(folder) -> dict:

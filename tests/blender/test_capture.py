@@ -63,12 +63,13 @@ def test_capture_writes_a_registered_dataset_and_restores_the_scene(small_setup,
 
 @pytest.mark.blender
 def test_cancel_in_the_middle_restores_the_scene(small_setup, tmp_path):
+    from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.services.capture_job import CaptureJob
 
     scene, projector, camera, target = small_setup
     before = _user_state(scene)
     image_before = projector.data.node_tree.nodes["LAPIG projected image"].image
-    job = CaptureJob(scene, projector, camera, target, _settings(tmp_path, chunk=4))
+    job = CaptureJob(scene_seams(scene, projector, camera, target), _settings(tmp_path, chunk=4), record=False)
     for _ in range(4):
         assert job.step()
     assert any(s.name.startswith("LAPIG capture studio") for s in bpy.data.scenes)

@@ -226,11 +226,12 @@ def test_a_deleted_projector_or_camera_is_refused_before_stylizing(capfd, projec
 
 def test_a_rig_deleted_while_generating_leaves_no_result(project, unchanged):
     from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
 
     bpy.ops.wm.open_mainfile(filepath=project.blend)
     scene = bpy.context.scene
-    job = GenerateJob(scene, scene_state.generate_request(scene, prompt="x", mix="charcoal_wash:1", psa=False))
+    job = GenerateJob(scene_seams(scene), scene_state.generate_request(scene, prompt="x", mix="charcoal_wash:1", psa=False))
     job.check()  # started with the rig in place, as the Generate button does
     bpy.data.objects.remove(scene.lapig.projector)
     assert job.run() == "FAILED"

@@ -184,13 +184,14 @@ def test_moved_blend_finds_its_data_again(captured, tmp_path):
 
 def test_cancelled_generate_changes_nothing(captured):
     from lapig.lapig_addon.blender import projector_nodes, scene_state
+    from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
 
     scene = captured
     s = scene.lapig
     _psa_fast(scene)
     before = (s.result_dir, projector_nodes.projected_image(s.projector.data).name)
-    job = GenerateJob(scene, scene_state.generate_request(scene), scene_state.finetune_iterations(scene))
+    job = GenerateJob(scene_seams(scene), scene_state.generate_request(scene), scene_state.finetune_iterations(scene))
     for _ in range(3):
         job.step()
     job.cancel()
@@ -201,6 +202,7 @@ def test_cancelled_generate_changes_nothing(captured):
 def test_unavailable_backend_falls_back_with_a_message(captured, tmp_path):
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
 
     scene = captured
@@ -208,12 +210,13 @@ def test_unavailable_backend_falls_back_with_a_message(captured, tmp_path):
                                            ip2p_model=str(tmp_path / "no model here"))
     warning = panel_state.backend_warning(request)
     assert "no model here" in warning or "diffusers" in warning
-    out = GenerateJob(scene, request, scene_state.finetune_iterations(scene)).run_to_completion()
+    out = GenerateJob(scene_seams(scene), request, scene_state.finetune_iterations(scene)).run_to_completion()
     assert "used 'styletransfer' instead" in out["summary"]["lgst"]["fallback"]
 
 
 def test_cancelled_render_leaves_the_scene_as_it_was(captured):
     from lapig.lapig_addon.blender import capture_studio, projector_nodes
+    from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.services.pipeline_jobs import RenderResultJob
 
     scene = captured
@@ -223,8 +226,8 @@ def test_cancelled_render_leaves_the_scene_as_it_was(captured):
     assert bpy.ops.lapig.generate() == {"FINISHED"}
     image = projector_nodes.projected_image(s.projector.data).name
     scenes = set(bpy.data.scenes.keys())
-    job = RenderResultJob(scene)
-    while job.step() and not job.message.startswith("rendered 1"):
+    job = RenderResultJob(scene_seams(scene))
+    while job.step() and not job.message.startswith("captured 1"):
         pass
     job.cancel()
     assert job.state == "CANCELLED"
@@ -236,6 +239,7 @@ def test_generate_from_a_style_image_records_it(captured, tmp_path):
     import cv2
 
     from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.services.pipeline_jobs import GenerateJob, PipelineError
 
     scene = captured
@@ -243,7 +247,7 @@ def test_generate_from_a_style_image_records_it(captured, tmp_path):
     painting = tmp_path / "gray painting.png"
     cv2.imwrite(str(painting), gray)
     request = scene_state.generate_request(scene, prompt="", style_images=(str(painting),), psa=False)
-    out = GenerateJob(scene, request, scene_state.finetune_iterations(scene)).run_to_completion()
+    out = GenerateJob(scene_seams(scene), request, scene_state.finetune_iterations(scene)).run_to_completion()
     with open(os.path.join(out["folder"], "result.json")) as f:
         lgst = json.load(f)["lgst"]
     assert lgst["backend"] == "arbitrary" and lgst["style_images"][0]["path"] == str(painting)
@@ -253,7 +257,7 @@ def test_generate_from_a_style_image_records_it(captured, tmp_path):
     tiny = tmp_path / "tiny.png"
     cv2.imwrite(str(tiny), gray[:8, :8])
     with pytest.raises(PipelineError, match="too small"):  # refused before any model runs
-        GenerateJob(scene, scene_state.generate_request(scene, style_images=(str(tiny),))).prepare()
+        GenerateJob(scene_seams(scene), scene_state.generate_request(scene, style_images=(str(tiny),))).prepare()
 
 
 @pytest.fixture
@@ -294,14 +298,15 @@ def test_train_chooses_the_compensator_by_rendering_both(captured_with_tests):
 
 def test_a_cancel_while_rendering_the_choice_keeps_pcnets_choice(captured_with_tests):
     from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.services.pipeline_jobs import TrainModelsJob
     from lapig.lapig_core.photometric import choice
 
     scene = captured_with_tests
-    job = TrainModelsJob(scene, 4)
+    job = TrainModelsJob(scene_seams(scene), 4)
     while job.step() and not job.message.startswith("measuring"):
         pass
-    assert job.message.startswith("measuring both compensations in Cycles")
+    assert job.message.startswith("measuring both compensations on the rig")
     job.cancel()
     assert job.state == "CANCELLED"
     assert _saved_choice(scene)["judge"] == choice.PCNET_JUDGE  # the models' own, saved with them

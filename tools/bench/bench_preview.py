@@ -21,6 +21,7 @@ import bpy
 
 from ...lapig_core.psa import adaptation
 from ...lapig_addon.blender import result_preview, scene_state
+from ...lapig_addon.blender.scene_store import scene_seams
 from ...lapig_addon.cli import headless
 from ...lapig_addon.services.pipeline_jobs import GenerateJob, TrainModelsJob
 
@@ -36,7 +37,7 @@ def _generate_to_preview(scene, prompt, iterations, capped=False) -> dict:
         adaptation.stop_ratio_for = lambda _a: 0.0
     try:
         t = time.perf_counter()
-        generated = GenerateJob(scene, request, iterations).run_to_completion()
+        generated = GenerateJob(scene_seams(scene), request, iterations).run_to_completion()
         generated_s = time.perf_counter() - t
     finally:
         adaptation.stop_ratio_for = stop_ratio_for
@@ -58,11 +59,10 @@ def run(args) -> dict:
     scene = bpy.context.scene
     settings = scene_state.capture_settings(scene, train_count=args.train, test_count=0, seed=args.seed)
     t = time.perf_counter()
-    result = headless.run_capture(scene, settings)
-    scene_state.record_capture(scene, result["setup_dir"], result["meta"]["fingerprint"])
+    headless.run_capture(scene, settings)  # recorded in the scene
     capture_s = time.perf_counter() - t
     t = time.perf_counter()
-    TrainModelsJob(scene, args.iterations).run_to_completion()
+    TrainModelsJob(scene_seams(scene), args.iterations).run_to_completion()
     train_s = time.perf_counter() - t
     runs = [_generate_to_preview(scene, prompt, args.iterations) for prompt in PROMPTS]
     capped = _generate_to_preview(scene, PROMPTS[0], args.iterations, capped=True)

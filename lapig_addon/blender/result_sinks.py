@@ -1,0 +1,38 @@
+"""Blender's result sink: the projector light emits the generated frame, and the object shows the
+preview mode the scene was in (services/ports.ResultSink)."""
+from __future__ import annotations
+
+from ..services.export_result import result_frame
+from ..services.ports import ProjectorFrame
+from . import projector_nodes, result_preview, scene_state
+from .scene_state import projector_model
+
+
+class ProjectorLightSink:
+    def __init__(self, scene):
+        self.scene = scene
+
+    def show(self, frame: ProjectorFrame) -> None:
+        projector = scene_state.rig_objects(self.scene)[0]
+        if projector is None:
+            return
+        # the light of the frame's pixels: the same quantised pixels Export writes
+        light = projector_model(projector).emitted(frame.pixels)
+        image = result_preview.frame_image(result_preview.IMAGE_PREFIX + "projector image", light)
+        projector_nodes.set_projected_image(projector.data, image)
+        mode = scene_state.read(self.scene).preview_mode
+        if mode != "ORIGINAL":
+            result_preview.apply_mode(self.scene, mode)
+
+
+def show_scene_result(scene) -> bool:
+    """The light emits the scene's stored result at the export bit depth (after the bit depth changed);
+    False without a result."""
+    from .scene_store import BlenderSceneStore
+
+    folder = scene_state.read(scene).result_dir
+    if not folder or scene_state.rig_objects(scene)[0] is None:
+        return False
+    store = BlenderSceneStore(scene)
+    ProjectorLightSink(scene).show(result_frame(store, folder, store.export_settings().bit_depth))
+    return True

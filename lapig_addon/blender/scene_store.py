@@ -1,0 +1,58 @@
+"""Blender's scene store: the jobs' settings read from scene.lapig and the rig objects, and what the jobs
+made recorded there (services/ports.SceneStore over blender/scene_state)."""
+from __future__ import annotations
+
+import bpy
+
+from . import scene_state, storage
+from .cycles_factory import CyclesDeviceFactory
+from .result_sinks import ProjectorLightSink
+from ..services.ports import Seams
+
+
+class BlenderSceneStore:
+    def __init__(self, scene):
+        self.scene = scene
+
+    def read(self):
+        return scene_state.read(self.scene)
+
+    def capture_settings(self, **overrides):
+        return scene_state.capture_settings(self.scene, **overrides)
+
+    def generate_request(self, **overrides):
+        return scene_state.generate_request(self.scene, **overrides)
+
+    def export_settings(self, **overrides):
+        return scene_state.export_settings(self.scene, **overrides)
+
+    def finetune_iterations(self):
+        return scene_state.finetune_iterations(self.scene)
+
+    def projector_model(self):
+        return scene_state.projector_model(scene_state.rig_objects(self.scene)[0])
+
+    def rig_metadata(self) -> dict:
+        return scene_state.rig_metadata(self.scene)
+
+    def software(self) -> dict:
+        return {"software_blender": bpy.app.version_string}
+
+    def data_root(self) -> str:
+        return storage.data_root()[0]
+
+    def record_capture(self, folder, fingerprint: str, transport: str = ""):
+        scene_state.record_capture(self.scene, folder, fingerprint, transport)
+
+    def record_models(self, fingerprint: str, status: str | None = None):
+        scene_state.record_models(self.scene, fingerprint, status)
+
+    def record_result(self, folder, summary_line: str, reach_message: str = ""):
+        scene_state.record_result(self.scene, folder, summary_line, reach_message)
+
+
+def scene_seams(scene, projector=None, camera=None, target=None, sinks=None) -> Seams:
+    """What the jobs run against in Blender: this scene's store, the Cycles studio of its rig (or of the
+    given objects) and the projector light with the preview (sinks=(): none)."""
+    return Seams(BlenderSceneStore(scene), CyclesDeviceFactory(scene, projector, camera, target),
+                 (ProjectorLightSink(scene),) if sinks is None else tuple(sinks))

@@ -61,26 +61,47 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
     return out
 
 
-def saved_models_problem(folder) -> str | None:
-    """Why the capture at `folder` has no usable fine-tuned networks for it (its fingerprint): '' when they
-    were never trained, the damage when a saved file cannot be used; None when both are there, so that
-    Generate need not train them on the way."""
-    from .capture.dataset import DatasetError, read_setup_json, resolve_setup
+@dataclass
+class SavedModels:
+    """A capture's fine-tuned networks and its compensator choice, loaded once from its models folder."""
+    compensation: object
+    simulation: object
+    choice: object = None  # None: saved before the choice existed (surface_models measures it)
+    classical: object = None
+
+
+def load_saved_models(folder) -> SavedModels:
+    """The capture's saved models, each checkpoint read once; NotTrainedYet when there are none for this
+    very capture (its fingerprint), CheckpointError for a file that cannot be used, DatasetError for a
+    folder that is not a capture."""
+    from .capture.dataset import read_setup_json, resolve_setup
+
+    layout = resolve_setup(folder)
+    setup_dir = layout.setup_dir if (layout.root / "setups").is_dir() else layout.root
+    return _load_saved(setup_dir, read_setup_json(layout.setup_json).get("fingerprint"))
+
+
+def _load_saved(setup_dir, fingerprint) -> SavedModels:
+    comp, _ = load_setup_model(setup_dir, "CompenNeSt", "compensation", fingerprint)
+    sim, _ = load_setup_model(setup_dir, "PCNet", "simulation", fingerprint)
+    saved = compensator_choice.load_choice(Path(setup_dir) / "models")
+    return SavedModels(comp, sim, *(saved if saved is not None else (None, None)))
+
+
+def saved_models_problem(folder) -> tuple[str | None, SavedModels | None]:
+    """(problem, models) for the capture at `folder`: (None, the loaded models) when both networks are
+    saved for it, so that Generate need not train them on the way and loads them only here; ('', None)
+    when they were never trained; (the damage, None) when a saved file cannot be used."""
+    from .capture.dataset import DatasetError
 
     try:
-        layout = resolve_setup(folder)
+        return None, load_saved_models(folder)
     except DatasetError as exc:
-        return str(exc)
-    setup_dir = layout.setup_dir if (layout.root / "setups").is_dir() else layout.root
-    fingerprint = read_setup_json(layout.setup_json).get("fingerprint")
-    try:
-        for arch, role in (("CompenNeSt", "compensation"), ("PCNet", "simulation")):
-            load_setup_model(setup_dir, arch, role, fingerprint)
+        return str(exc), None
     except checkpoints.NotTrainedYet:
-        return ""
+        return "", None
     except checkpoints.CheckpointError as exc:
-        return str(exc)
-    return None
+        return str(exc), None
 
 
 def chosen_compensator(learned, chosen, classical):
@@ -92,20 +113,20 @@ def chosen_compensator(learned, chosen, classical):
 
 
 def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, cancel_event=None,
-                   iterations: int | None = None, notes: list | None = None) -> SurfaceModels:
-    """The setup's fine-tuned models: loaded when saved for this very setup, else trained now
-    (with `iterations` as in train_models). A damaged saved model is trained again and saved over, and
-    `notes` gets a line that says so."""
-    fingerprint = cs.meta.get("fingerprint")
+                   iterations: int | None = None, notes: list | None = None,
+                   saved: SavedModels | None = None) -> SurfaceModels:
+    """The setup's fine-tuned models: `saved` (loaded already), else loaded when saved for this very setup,
+    else trained now (with `iterations` as in train_models). A damaged saved model is trained again and
+    saved over, and `notes` gets a line that says so. A choice is measured on cs's pairs only for models
+    saved before the choice existed."""
     try:
-        comp, _ = load_setup_model(setup_dir_of(cs), "CompenNeSt", "compensation", fingerprint)
-        sim, _ = load_setup_model(setup_dir_of(cs), "PCNet", "simulation", fingerprint)
-        saved = compensator_choice.load_choice(setup_dir_of(cs) / "models")
-        if saved is None:  # models fine-tuned before the choice existed: measure it now
+        saved = saved or _load_saved(setup_dir_of(cs), cs.meta.get("fingerprint"))
+        comp, sim = saved.compensation, saved.simulation
+        if saved.choice is None:  # models fine-tuned before the choice existed: measure it now
             chosen, classical = compensator_choice.fit_and_choose(cs, comp, sim)
             compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
         else:
-            chosen, classical = saved
+            chosen, classical = saved.choice, saved.classical
     except checkpoints.CheckpointError as exc:
         if not train_if_missing:
             raise

@@ -243,7 +243,7 @@ class GenerateJob(WorkerJob):
         if self._inputs is self._NOT_PREPARED:
             self._inputs = self.prepare()
         share = 0.0
-        problem = saved_models_problem(self._inputs["capture"])
+        problem, self._inputs["saved"] = saved_models_problem(self._inputs["capture"])  # each checkpoint read once
         if problem is not None:
             if problem:  # damaged (the same note as surface_models gives)
                 self._inputs["notes"].append(f"the saved models could not be used ({problem}): fine-tuned them "
@@ -267,11 +267,13 @@ class GenerateJob(WorkerJob):
             self._training.stop()  # then waits for that worker
 
     def work(self, job, report, cancel_event):
-        cs = load_capture_set(job["capture"])
+        saved = job.get("saved")
+        # with the models saved and their choice made: the references, the valid map and the metadata only
+        cs = load_capture_set(job["capture"], pairs=saved is None or saved.choice is None)
         report(0.02, "loading the models")
         notes = list(job["notes"])
         models = surface_models(cs, on_progress=lambda p, m: report(0.05 + 0.45 * p, m), cancel_event=cancel_event,
-                                iterations=self.iterations, notes=notes)
+                                iterations=self.iterations, notes=notes, saved=saved)
         if cancel_event.is_set():
             return None
         report(0.5, "stylizing")

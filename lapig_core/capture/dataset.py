@@ -377,18 +377,21 @@ def _projector_valid(layout: DatasetLayout, shape) -> np.ndarray | None:
     return valid
 
 
-def load_capture_set(path, frame: tuple[int, int] | None = None) -> CaptureSet:
+def load_capture_set(path, frame: tuple[int, int] | None = None, pairs: bool = True) -> CaptureSet:
     """Load and validate the training/test data of one setup.
 
     ``path`` is a dataset root with exactly one setup, or <root>/setups/<name>.
     With ``frame`` (width, height) every image is resized to it; without it all
-    images must already share one size. Any problem raises DatasetError.
+    images must already share one size. pairs=False: the references, the valid map and the
+    metadata only (what Generate needs once the models are trained), the training and test
+    pairs left empty (0, H, W, 3) and unread. Any problem raises DatasetError.
     """
     layout = resolve_setup(path)
     _require_dir(layout.setup_dir, "setup")
     meta = read_setup_json(layout.setup_json)
     _check_fingerprint(meta, layout)
-    _check_projector_images(meta, layout)
+    if pairs:  # the hash of the shared projector images guards the pairs only
+        _check_projector_images(meta, layout)
 
     prj_train_dir = _require_dir(layout.prj_dir("train"), "projector training images")
     cam_train_dir = _require_dir(layout.cam_warp_dir("train"), "warped training captures")
@@ -418,11 +421,15 @@ def load_capture_set(path, frame: tuple[int, int] | None = None) -> CaptureSet:
         )
 
     shape: list = []  # filled by the first image read, checked against all others
+    if not pairs:
+        prj_train_files = cam_train_files = prj_test_files = cam_test_files = []
     prj_train = _read_folder_images(prj_train_files, frame, shape)
     cam_train = _read_folder_images(cam_train_files, frame, shape)
     refs = _read_folder_images(ref_files[:REF_GRAY], frame, shape)
     prj_test = _read_folder_images(prj_test_files, frame, shape)
     cam_test = _read_folder_images(cam_test_files, frame, shape)
+    if not pairs:  # empty, but of the frame's size, as a set without test pairs has them
+        prj_train = cam_train = prj_test = cam_test = np.zeros((0, *refs.shape[1:]), np.float32)
     return CaptureSet(
         prj_train=prj_train,
         cam_train=cam_train,

@@ -24,6 +24,7 @@ from ...lapig_addon.blender import result_preview, scene_state
 from ...lapig_addon.blender.scene_store import scene_seams
 from ...lapig_addon.cli import headless
 from ...lapig_addon.services.pipeline_jobs import GenerateJob, TrainModelsJob
+from .io_count import counted_io
 
 # the first Generate is the cold one; the rest are warm, on prompts whose PSA runs to different lengths
 PROMPTS = ("Render it in the style of a Van Gogh oil painting", "Make it a stained glass artwork",
@@ -37,7 +38,8 @@ def _generate_to_preview(scene, prompt, iterations, capped=False) -> dict:
         adaptation.stop_ratio_for = lambda _a: 0.0
     try:
         t = time.perf_counter()
-        generated = GenerateJob(scene_seams(scene), request, iterations).run_to_completion()
+        with counted_io() as io:  # what Generate reads and writes, to the preview
+            generated = GenerateJob(scene_seams(scene), request, iterations).run_to_completion()
         generated_s = time.perf_counter() - t
     finally:
         adaptation.stop_ratio_for = stop_ratio_for
@@ -48,7 +50,7 @@ def _generate_to_preview(scene, prompt, iterations, capped=False) -> dict:
             "preview_seconds": round(total - generated_s, 2), "previewed": bool(shown),
             "psa_seconds": summary["metrics"].get("psa_seconds"),
             "psa_iterations": summary["metrics"].get("psa_iterations"), "capped": capped,
-            "native_output": summary.get("native_output")}
+            "native_output": summary.get("native_output"), "io": io}
 
 
 def run(args) -> dict:
@@ -76,6 +78,7 @@ def run(args) -> dict:
             "prompt_to_preview_seconds_warm_max": max(warm),
             "prompt_to_preview_seconds_cold": runs[0]["seconds"], "goal_seconds": 10.0,
             "prompt_to_preview_seconds_capped": capped["seconds"], "capped_psa_iterations": capped["psa_iterations"],
+            "generate_io_warm": runs[1]["io"],
             "runs": runs + [capped],
             "capture_seconds": round(capture_s, 1), "train_seconds": round(train_s, 1),
             "projector": [scene.lapig.projector.lapig_projector.resolution_x,

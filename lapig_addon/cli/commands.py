@@ -258,9 +258,10 @@ def _chosen_capture(args, store) -> str | None:
     recorded = state.capture_dir
     newest = newest_capture(store.data_root(), state.rig.fingerprint)
     if newest and os.path.normpath(newest) != os.path.normpath(recorded or ""):
-        held = f"the .blend holds the capture {recorded}" if recorded else "the .blend holds no capture"
-        raise ValueError(f"{held}, but capture made {newest} after it without --save: pass --capture {newest} "
-                         f"to use that one" + (f", or --capture {recorded} for the .blend's" if recorded else ""))
+        if recorded:  # two paths, in full, so a pipeline can copy either (one_line keeps 500 characters)
+            raise ValueError(f"capture made a newer capture than the .blend's without --save: pass --capture {newest} "
+                             f"to use it, or --capture {recorded} for the .blend's")
+        raise ValueError(f"the .blend holds no capture, but capture made one without --save: pass --capture {newest}")
     return None
 
 

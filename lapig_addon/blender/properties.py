@@ -118,10 +118,10 @@ def _preview_mode_changed(self, context):
 
 def _export_bit_depth_changed(self, context):
     """The light emits what the export would write, so it follows the bit depth."""
-    from . import result_sinks
+    from . import scene_store
 
     try:
-        result_sinks.show_scene_result(self.id_data)  # the scene these settings belong to
+        scene_store.show_scene_result(self.id_data)  # the scene these settings belong to
     except (OSError, ValueError):  # result gone or unreadable: the light keeps its image
         pass
 

@@ -2,7 +2,6 @@
 preview mode the scene was in (services/ports.ResultSink)."""
 from __future__ import annotations
 
-from ..services.export_result import result_frame
 from ..services.ports import ProjectorFrame
 from . import projector_nodes, result_preview, scene_state
 from .scene_state import projector_model
@@ -24,15 +23,3 @@ class ProjectorLightSink:
         if mode != "ORIGINAL":
             result_preview.apply_mode(self.scene, mode)
 
-
-def show_scene_result(scene) -> bool:
-    """The light emits the scene's stored result at the export bit depth (after the bit depth changed);
-    False without a result."""
-    from .scene_store import BlenderSceneStore
-
-    folder = scene_state.read(scene).result_dir
-    if not folder or scene_state.rig_objects(scene)[0] is None:
-        return False
-    store = BlenderSceneStore(scene)
-    ProjectorLightSink(scene).show(result_frame(store, folder, store.export_settings().bit_depth))
-    return True

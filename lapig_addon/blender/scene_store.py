@@ -7,6 +7,7 @@ import bpy
 from . import scene_state, storage
 from .cycles_factory import CyclesDeviceFactory
 from .result_sinks import ProjectorLightSink
+from ..services.export_result import result_frame
 from ..services.ports import Seams
 
 
@@ -56,3 +57,14 @@ def scene_seams(scene, projector=None, camera=None, target=None, sinks=None) -> 
     given objects) and the projector light with the preview (sinks=(): none)."""
     return Seams(BlenderSceneStore(scene), CyclesDeviceFactory(scene, projector, camera, target),
                  (ProjectorLightSink(scene),) if sinks is None else tuple(sinks))
+
+
+def show_scene_result(scene) -> bool:
+    """The light emits the scene's stored result at the export bit depth (after the bit depth changed);
+    False without a result."""
+    folder = scene_state.read(scene).result_dir
+    if not folder or scene_state.rig_objects(scene)[0] is None:
+        return False
+    store = BlenderSceneStore(scene)
+    ProjectorLightSink(scene).show(result_frame(store, folder, store.export_settings().bit_depth))
+    return True

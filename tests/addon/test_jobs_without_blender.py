@@ -45,7 +45,11 @@ def test_services_import_neither_bpy_nor_the_blender_side():
                     offending.append(f"{path.name}:{node.lineno} imports {module}")
     assert len(list(SERVICES.glob("*.py"))) > 10
     assert offending == []
-    for path in sorted(SERVICES.glob("*.py")):  # and each loads with bpy blocked
+
+
+@pytest.mark.torch
+def test_every_service_loads_with_bpy_blocked():
+    for path in sorted(SERVICES.glob("*.py")):
         if path.stem != "__init__":
             _module(path.stem)
 
@@ -127,6 +131,7 @@ def test_a_device_that_takes_time_to_settle_is_waited_for(seams):
     assert captured["meta"]["device_timing"]["settle_s"] == 0.002
 
 
+@pytest.mark.torch
 def test_the_jobs_refuse_with_the_step_to_do_first(seams):
     capture_job, pipeline_jobs = _module("capture_job"), _module("pipeline_jobs")
     store = seams.store
@@ -144,6 +149,7 @@ def test_the_jobs_refuse_with_the_step_to_do_first(seams):
         pipeline_jobs.GenerateJob(seams, store.generate_request(prompt="")).check()
 
 
+@pytest.mark.torch
 def test_a_capture_named_explicitly_must_be_of_this_rig(seams, tmp_path):
     pipeline_jobs = _module("pipeline_jobs")
     _, captured = _capture(seams, train_count=2, test_count=0)

@@ -12,6 +12,9 @@ from typing import Callable, Iterator
 from .errors import one_line
 
 
+
+THREAD_PREFIX = "LAPIG: "  # every worker thread of a job: tests wait for them between tests
+
 class JobCancelled(Exception):
     pass
 
@@ -177,7 +180,7 @@ class WorkerJob(Job):
             finally:  # when the work has stopped, not when a cancel stops waiting for it
                 release()
 
-        thread = self._thread = threading.Thread(target=target, name=self.title, daemon=True)
+        thread = self._thread = threading.Thread(target=target, name=f"{THREAD_PREFIX}{self.title}", daemon=True)
         try:
             thread.start()
         except BaseException:
@@ -247,7 +250,7 @@ class DeviceSteps:
             except BaseException as exc:  # handed to the job's thread, raised there
                 box["error"] = exc
 
-        thread = self._thread = threading.Thread(target=target, name=self.title, daemon=True)
+        thread = self._thread = threading.Thread(target=target, name=f"{THREAD_PREFIX}{self.title}", daemon=True)
         thread.start()
         progress = (0.0, "starting the device")
         try:

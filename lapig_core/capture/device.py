@@ -73,6 +73,11 @@ class CaptureDevice:
         """The ground truth this device knows of its rig's geometry: none for a real rig."""
         return GeometryChecks()
 
+    def reserved_rows(self) -> tuple[int, int]:
+        """(top, bottom) rows of the projector frame the device uses for itself during a capture (a real
+        rig's frame code): the capture marks them invalid."""
+        return 0, 0
+
     def check_frame(self, frame: np.ndarray) -> int:
         """The frame's bit depth; ValueError when this device does not take frames of it."""
         depth = frame_bit_depth(frame)

@@ -93,6 +93,9 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
         t = time.perf_counter()
         decoded = decode_graycode(sl_caps, width, height)
         cam_xy, valid = projector_to_camera_map(decoded, width, height)
+        top, bottom = device.reserved_rows()  # the rig's frame code, not the patterns, lit these rows
+        valid[:top] = False
+        valid[height - bottom:] = False
         registration = Registration.from_map(cam_xy, valid, width, height, *frame)
         s.timings["registration_build_s"] = time.perf_counter() - t
         if registration.valid.mean() < 0.05:

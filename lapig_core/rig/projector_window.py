@@ -252,7 +252,8 @@ class ProjectorWindow:
                 "requested": self.requested, "size": list(self._size), "sdl_version": self._hello.get("sdl"),
                 "pysdl2": self._hello.get("pysdl2"), "video_driver": self._hello.get("driver"),
                 "framebuffer": self._hello.get("framebuffer"), "pixel_format": self._opened.get("pixel_format"),
-                "frames_shown": self._frames}
+                "frames_shown": self._frames, "helper_pid": self._hello.get("pid"),
+                "x11_window": self._opened.get("x11_window")}
 
     def close(self) -> None:
         with self._lock:

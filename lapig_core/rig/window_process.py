@@ -234,7 +234,16 @@ class Window:
             raise RuntimeError(f"SDL could not draw the window: {self.error()}")
         return {"ok": True, "display": display, "size": [surface.contents.w, surface.contents.h],
                 "pixel_format": self.pixel_format(surface), "sdl": self.sdl_version, "driver": self.driver,
-                "framebuffer": self.framebuffer, "title": title.decode("utf-8")}
+                "framebuffer": self.framebuffer, "title": title.decode("utf-8"), "x11_window": self.x11_window()}
+
+    def x11_window(self):
+        """The X11 window's id (for xdotool and xwininfo), None elsewhere."""
+        sdl2 = self.sdl2
+        info = sdl2.SDL_SysWMinfo()
+        sdl2.SDL_VERSION(info.version)
+        if not sdl2.SDL_GetWindowWMInfo(self.window, info) or info.subsystem != sdl2.SDL_SYSWM_X11:
+            return None
+        return int(info.info.x11.window)
 
     def surface(self):
         surface = self.sdl2.SDL_GetWindowSurface(self.window)

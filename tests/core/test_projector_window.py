@@ -336,3 +336,19 @@ def _assert_gone(pid) -> None:
             return
         time.sleep(0.05)
     raise AssertionError(f"the helper {pid} is still running")
+
+
+@pytest.mark.display
+def test_the_helper_runs_with_a_python_that_has_neither_sdl2_nor_this_venv(two_monitors):
+    """As in Blender: the helper runs with Blender's Python, which finds PySDL2 only through the path the
+    client hands it (the extension's wheels' site-packages)."""
+    bare = getattr(sys, "_base_executable", None)
+    if not bare or sys.prefix == sys.base_prefix:
+        pytest.skip("not in a virtual environment: no bare Python to run the helper with")
+    probe = subprocess.run([bare, "-c", "import sdl2"], capture_output=True, env={"PATH": os.defpath})
+    assert probe.returncode != 0, "the bare Python has PySDL2 of its own: the test would prove nothing"
+    frame = pattern(800, 600, seed=5)
+    with ProjectorWindow("VNC-1", python=bare, env=two_monitors) as window:
+        window.show(frame)
+        image = screenshot(two_monitors)
+    assert np.array_equal(region(image, 1), frame)

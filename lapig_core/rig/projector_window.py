@@ -83,7 +83,7 @@ class _Helper:
                                          env=helper_environment(env), cwd=_EXTENSION_ROOT, **kwargs)
         except OSError as exc:
             raise RigError(f"the projector window's helper could not start with {python}: {exc}") from exc
-        self._kill_on_gc = weakref.finalize(self, _kill, self.proc)
+        weakref.finalize(self, _kill, self.proc)  # at the interpreter's exit at the latest
         threading.Thread(target=self._read_stdout, name="lapig-window-answers", daemon=True).start()
         threading.Thread(target=self._read_stderr, name="lapig-window-stderr", daemon=True).start()
 
@@ -216,6 +216,8 @@ class ProjectorWindow:
         self._frames = 0
         try:
             self._helper, self._hello = _start(self.python, env, start_timeout_s)
+            # a window dropped without close() still ends its helper
+            weakref.finalize(self, _kill, self._helper.proc)
             answer = self._call({"cmd": "open", "display": display}, timeout_s=start_timeout_s)
         except RigError as exc:
             self.close()
@@ -256,17 +258,23 @@ class ProjectorWindow:
                 "x11_window": self._opened.get("x11_window")}
 
     def close(self) -> None:
-        with self._lock:
+        """Close the window and end the helper. From another thread while a call waits: the helper is
+        killed, and that call raises RigError."""
+        got = self._lock.acquire(timeout=1.0)
+        try:
             helper, self._helper = self._helper, None
-        if helper is None:
-            return
-        if helper.alive():
-            try:
-                helper.send({"cmd": "close"}, timeout_s=2.0)
-                helper.proc.wait(timeout=2.0)
-            except (OSError, ValueError, subprocess.TimeoutExpired):
-                pass
-        helper.kill()
+            if helper is None:
+                return
+            if got and helper.alive():
+                try:
+                    helper.send({"cmd": "close"}, timeout_s=2.0)
+                    helper.proc.wait(timeout=2.0)
+                except (OSError, ValueError, subprocess.TimeoutExpired):
+                    pass
+            helper.kill()
+        finally:
+            if got:
+                self._lock.release()
 
     # ---- more
 

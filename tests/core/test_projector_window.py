@@ -321,6 +321,17 @@ def test_a_worker_thread_drives_the_window_and_close_ends_the_helper(two_monitor
     assert not region(screenshot(two_monitors), 1).any()  # the window is gone from the screen
 
 
+@pytest.mark.display
+def test_a_window_dropped_without_close_ends_its_helper(two_monitors):
+    import gc
+
+    window = ProjectorWindow(0, env=two_monitors)
+    pid = window.describe()["helper_pid"]
+    del window
+    gc.collect()
+    _assert_gone(pid)
+
+
 def _assert_gone(pid) -> None:
     deadline = time.monotonic() + 5
     while time.monotonic() < deadline:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import collections
 import importlib.util
-import json
 import os
 import queue
 import subprocess
@@ -41,7 +40,9 @@ def _package_dir(name: str) -> str | None:
         return None
     if spec is None:
         return None
-    origin = spec.origin if spec.origin not in (None, "namespace") else next(iter(spec.submodule_search_locations or []), None)
+    origin = spec.origin
+    if origin in (None, "namespace"):
+        origin = next(iter(spec.submodule_search_locations or []), None)
     if not origin:
         return None
     package = os.path.dirname(origin) if os.path.basename(origin).startswith("__init__") else origin

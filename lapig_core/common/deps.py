@@ -21,6 +21,7 @@ OPTIONAL = (
     ("sentence_transformers", "sentence-transformers", "sentence-transformers==6.2.0: runs the prompt model"),
     ("pytorch_msssim", "pytorch-msssim", "pytorch-msssim==1.0.0: SSIM for training (a built-in fallback exists)"),
     ("diffusers", "diffusers", "for the InstructPix2Pix backend (needs its weights locally)"),
+    ("sdl2", "pysdl2", "pysdl2==0.9.17 with pysdl2-dll==2.32.10: the projector window on a real projector"),
 )
 
 

@@ -3,7 +3,7 @@
 
 - ``projector_window``: the projector output, a borderless full-screen window on a chosen display, run
   by a helper process (``window_process``, SDL2 through PySDL2) because Blender cannot place a window
-  on a monitor; the add-on talks to it over a pipe.
+  on a monitor; the add-on talks to it over a pipe. ``list_displays()`` names the displays SDL sees.
 - ``cameras``: cameras that return what they see: ``OpenCVCamera`` (cv2.VideoCapture by index, URL or
   file, with its settings locked where the backend allows and read back) and ``TetheredFolderCamera``
   (each new image file in a watched folder is the next frame: DSLR tethering programs, gphoto2).

@@ -3,111 +3,38 @@
 
 - ``OpenCVCamera``: cv2.VideoCapture of a camera index, a stream URL (rtsp/http) or a video file,
   its automatic controls locked where the backend allows and every value read back
-  (camera_controls).
-- ``TetheredFolderCamera`` and ``GphotoTrigger`` (tethered.py): each new image file in a watched
-  folder is the next frame (DSLR tethering programs, gphoto2).
+  (camera_controls); the source, the backend and the frames' conversion in camera_sources.
+- ``TetheredFolderCamera`` (tethered.py) and ``GphotoTrigger`` (gphoto.py): each new image file in
+  a watched folder is the next frame (DSLR tethering programs, gphoto2).
 - ``list_cameras()``: the indices that open.
 """
 from __future__ import annotations
 
-import sys
 import threading
 import time
-from pathlib import Path
-from urllib.parse import urlsplit, urlunsplit
 
 import cv2
 import numpy as np
 
 from . import RigError
 from .camera_controls import lock_controls, not_locked, quiet_opencv, reread, set_control
-from .tethered import GphotoTrigger, TetheredFolderCamera
+from .camera_sources import BACKENDS, native_backend, parse_source, redacted, resolve_backend, to_rgb
+from .gphoto import GphotoTrigger
+from .tethered import TetheredFolderCamera
 
-__all__ = ["OpenCVCamera", "TetheredFolderCamera", "GphotoTrigger", "list_cameras", "BACKENDS"]
+__all__ = ["OpenCVCamera", "TetheredFolderCamera", "GphotoTrigger", "list_cameras", "BACKENDS",
+           "native_backend", "resolve_backend", "to_rgb"]
 
-BACKENDS = {"any": cv2.CAP_ANY, "v4l2": cv2.CAP_V4L2, "dshow": cv2.CAP_DSHOW, "msmf": cv2.CAP_MSMF,
-            "avfoundation": cv2.CAP_AVFOUNDATION, "ffmpeg": cv2.CAP_FFMPEG}
 READ_TRIES = 3  # of a live camera, before it is said to have stopped
 READ_RETRY_S = 0.1
 FLUSH_MAX_FRAMES = 30
 FLUSH_MIN_S = 0.2
 
 
-def native_backend(platform: str = sys.platform) -> int:
-    """The camera backend of the platform: V4L2 on Linux, DirectShow on Windows (Media Foundation
-    exposes no exposure control), AVFoundation on macOS."""
-    if platform.startswith("linux"):
-        return cv2.CAP_V4L2
-    if platform.startswith("win"):
-        return cv2.CAP_DSHOW
-    if platform == "darwin":
-        return cv2.CAP_AVFOUNDATION
-    return cv2.CAP_ANY
-
-
-def _has_backend(api: int) -> bool:
-    try:
-        return api == cv2.CAP_ANY or bool(cv2.videoio_registry.hasBackend(api))
-    except (AttributeError, cv2.error):
-        return True  # an OpenCV without the registry: let open() say
-
-
-def parse_source(source) -> tuple[str, object]:
-    """("index", int), ("url", str) or ("file", Path) of what OpenCVCamera was given."""
-    if isinstance(source, (bool, float)):
-        raise RigError(f"a camera source is an index, a URL or a video file, not {source!r}")
-    if isinstance(source, int) or (isinstance(source, str) and source.strip().isdigit()):
-        index = int(source)
-        if index < 0:
-            raise RigError(f"camera index {index} is negative: indices start at 0 (list_cameras())")
-        return "index", index
-    if isinstance(source, str) and "://" in source:
-        return "url", source
-    if isinstance(source, (str, Path)) and str(source).strip():
-        return "file", Path(source)
-    raise RigError(f"a camera source is an index, a URL or a video file, not {source!r}")
-
-
-def redacted(url: str) -> str:
-    """A URL without its password, for messages and setup.json."""
-    parts = urlsplit(url)
-    if parts.password is None:
-        return url
-    host = parts.hostname or ""
-    netloc = f"{parts.username}:***@{host}" + (f":{parts.port}" if parts.port else "")
-    return urlunsplit(parts._replace(netloc=netloc))
-
-
-def resolve_backend(backend: str, kind: str) -> int:
-    """The cv2.CAP_* to open with: "auto" is the platform's for an index, FFMPEG for a URL or file."""
-    if backend == "auto":
-        api = native_backend() if kind == "index" else cv2.CAP_FFMPEG
-        return api if _has_backend(api) else cv2.CAP_ANY
-    api = BACKENDS.get(str(backend).lower())
-    if api is None:
-        raise RigError(f"unknown camera backend {backend!r}: use 'auto' or one of {', '.join(BACKENDS)}")
-    if not _has_backend(api):
-        raise RigError(f"this OpenCV ({cv2.__version__}) has no {backend} backend: use backend='auto'")
-    return api
-
-
 def _open_capture(source, api: int, params: list[int]):
     """cv2.VideoCapture opened quietly (the caller says what went wrong); tests replace it."""
     with quiet_opencv():
         return cv2.VideoCapture(source, api, params) if params else cv2.VideoCapture(source, api)
-
-
-def to_rgb(frame: np.ndarray) -> np.ndarray:
-    """A frame as OpenCV returns it (BGR, BGRA or grey; 8 or 16 bits) -> uint8 (H, W, 3) RGB."""
-    if frame.dtype == np.uint16:
-        frame = ((frame.astype(np.uint32) + 128) // 257).astype(np.uint8)
-    elif frame.dtype != np.uint8:
-        frame = np.clip(frame, 0, 255).astype(np.uint8)
-    if frame.ndim == 2 or frame.shape[2] == 1:
-        return cv2.cvtColor(frame, cv2.COLOR_GRAY2RGB)
-    if frame.shape[2] == 4:
-        return cv2.cvtColor(frame, cv2.COLOR_BGRA2RGB)
-    return cv2.cvtColor(frame, cv2.COLOR_BGR2RGB)
 
 
 class OpenCVCamera:

@@ -161,13 +161,13 @@ class OpenCVCamera:
         frame (half a frame period or more), so the next grab() is of now. A file is not live: no-op."""
         if not self.live:
             return
-        fps = self._cap.get(cv2.CAP_PROP_FPS) if self._cap is not None else 0.0
-        period = 1.0 / fps if fps and 1.0 <= fps <= 1000.0 else 1.0 / 30.0
-        deadline = time.perf_counter() + max(FLUSH_MIN_S, 4 * period)
-        dropped, waited = 0, 0.0
+        dropped, failed, waited = 0, 0, 0.0
         with self._lock:
             if self._cap is None:
                 raise RigError(f"{self.label()} is closed")
+            fps = self._cap.get(cv2.CAP_PROP_FPS)
+            period = 1.0 / fps if 1.0 <= fps <= 1000.0 else 1.0 / 30.0
+            deadline = time.perf_counter() + max(FLUSH_MIN_S, 4 * period)
             while dropped < FLUSH_MAX_FRAMES:
                 start = time.perf_counter()
                 try:
@@ -176,8 +176,12 @@ class OpenCVCamera:
                     ok = False
                 waited = time.perf_counter() - start
                 if not ok:
-                    raise self._stopped(1)
-                dropped += 1
+                    failed += 1
+                    if failed >= READ_TRIES:
+                        raise self._stopped(failed)
+                    time.sleep(READ_RETRY_S)
+                    continue
+                dropped, failed = dropped + 1, 0
                 if waited >= 0.5 * period or time.perf_counter() > deadline:
                     break
         self._flush_record = {"frames_dropped": dropped, "last_wait_s": round(waited, 4),

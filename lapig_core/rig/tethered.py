@@ -127,29 +127,35 @@ class TetheredFolderCamera:
                 stat = path.stat()
             except FileNotFoundError:
                 return None
+            except OSError as exc:  # Windows: locked by the program writing it
+                stat, problem = None, f"it cannot be read: {exc}"
             now = time.perf_counter()
-            signature = (stat.st_size, stat.st_mtime_ns)
-            if signature != last:
+            signature = (stat.st_size, stat.st_mtime_ns) if stat else None
+            if stat is None or signature != last:
                 last, steady_since = signature, now
             elif now - steady_since >= self.settle_s and stat.st_size > 0 and now >= retry_at:
                 try:
                     data = path.read_bytes()
                 except FileNotFoundError:
                     return None
-                complete = ends_complete(data)
-                if len(data) == stat.st_size and (complete is not False
-                                                  or now - steady_since >= NO_END_MARKER_GRACE_S):
-                    decoded = decode_frame(data, self.keep_16_bit)
+                except OSError as exc:
+                    data, problem = None, f"it cannot be read: {exc}"
+                if data is not None and len(data) == stat.st_size:
+                    decoded, problem = self._decode_whole(data, now - steady_since)
                     if decoded is not None:
                         return decoded
-                    problem = "it does not decode as an image"
-                else:
-                    problem = "it ends before its end marker (truncated)"
                 retry_at = now + self.settle_s  # read it again after a change or another settle time
             if now > give_up:
                 raise RigError(f"{path} stayed unreadable for {self.timeout_s:g} s ({problem}): check that the "
                                f"tethering program saves JPEG, PNG or TIFF there; remove the file and shoot again")
             time.sleep(min(POLL_S, max(self.settle_s / 4, 0.005)))
+
+    def _decode_whole(self, data: bytes, steady_s: float):
+        """(the decoded frame, None), or (None, why not yet) for a file's settled bytes."""
+        if ends_complete(data) is False and steady_s < NO_END_MARKER_GRACE_S:
+            return None, "it ends before its end marker (truncated)"
+        decoded = decode_frame(data, self.keep_16_bit)
+        return (decoded, None) if decoded is not None else (None, "it does not decode as an image")
 
     # -- the Camera interface -------------------------------------------------------------------
     @property

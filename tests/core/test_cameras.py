@@ -348,11 +348,17 @@ def test_a_lenient_decoder_still_never_sees_a_half_written_file(tmp_path, monkey
     monkeypatch.setattr(tethered, "decode_frame", lenient)
     camera = TetheredFolderCamera(tmp_path, timeout_s=5, settle_s=0.4)
     tiff, jpeg = tiff_bytes(flat(COLOURS[0])), jpeg_bytes(flat(COLOURS[1]))
-    writer = threading.Thread(target=lambda: (write_in_two_parts(tmp_path / "a.tif", tiff, 0.15),
-                                              write_in_two_parts(tmp_path / "b.jpg", jpeg, 0.6)))
+    first_read = threading.Event()
+
+    def tether():
+        write_in_two_parts(tmp_path / "a.tif", tiff, 0.15)  # paused for less than settle_s
+        first_read.wait(5)
+        write_in_two_parts(tmp_path / "b.jpg", jpeg, 0.6)  # paused for longer
+    writer = threading.Thread(target=tether)
     writer.start()
     try:
         camera.grab()
+        first_read.set()
         camera.grab()
     finally:
         writer.join()

@@ -35,6 +35,16 @@ def _has_backend(api: int) -> bool:
         return True  # an OpenCV without the registry: let open() say
 
 
+def backend_label(api: int) -> str:
+    """The backend's name as OpenCV spells it (V4L2, DSHOW, FFMPEG, ...)."""
+    if api == cv2.CAP_ANY:
+        return "any backend"
+    try:
+        return f"the {cv2.videoio_registry.getBackendName(api)} backend"
+    except (AttributeError, cv2.error):
+        return f"backend {api}"
+
+
 def parse_source(source) -> tuple[str, object]:
     """("index", int), ("url", str) or ("file", Path) of what OpenCVCamera was given."""
     if isinstance(source, (bool, float)):

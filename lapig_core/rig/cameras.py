@@ -18,7 +18,8 @@ import numpy as np
 
 from . import RigError
 from .camera_controls import lock_controls, not_locked, quiet_opencv, reread, set_control
-from .camera_sources import BACKENDS, native_backend, parse_source, redacted, resolve_backend, to_rgb
+from .camera_sources import (BACKENDS, backend_label, native_backend, parse_source, redacted, resolve_backend,
+                             to_rgb)
 from .gphoto import GphotoTrigger
 from .tethered import TetheredFolderCamera
 
@@ -98,14 +99,15 @@ class OpenCVCamera:
             return cap
         if cap is not None:
             cap.release()
-        backend = self._backend_asked if self._backend_asked != "auto" else "the default backend"
+        backend = backend_label(self._api)
         if self._kind == "index":
             raise RigError(f"no camera answers at index {self._source} ({backend}): check that it is plugged "
                            f"in and no other program uses it; list_cameras() shows the indices that open")
         if self._kind == "url":
             raise RigError(f"cannot open {self.label()} within {timeout_s:g} s: check the address, the network "
                            f"and that the camera streams at that path")
-        raise RigError(f"cannot open {self.label()} with {backend}: is it a video OpenCV can decode?")
+        hint = "" if self._api == cv2.CAP_FFMPEG else " (backend='auto' opens files with FFMPEG)"
+        raise RigError(f"cannot open {self.label()} with {backend}: is it a video OpenCV can decode?{hint}")
 
     def _read_size(self) -> tuple[int, int]:
         width = self._settings["width"]["read_back"] or 0

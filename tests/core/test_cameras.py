@@ -106,10 +106,10 @@ def test_sources_that_do_not_open_say_what_to_change(tmp_path, capfd):
         OpenCVCamera(tmp_path / "missing.avi")
     text = tmp_path / "notes.avi"
     text.write_text("not a video")
-    with pytest.raises(RigError, match="cannot open video file .*notes.avi.*decode"):
+    with pytest.raises(RigError, match="cannot open video file .*notes.avi with the FFMPEG backend.*decode"):
         OpenCVCamera(text)
     if sys.platform.startswith("linux"):
-        with pytest.raises(RigError, match="no camera answers at index 63.*list_cameras"):
+        with pytest.raises(RigError, match=r"no camera answers at index 63 \(the V4L2 backend\).*list_cameras"):
             OpenCVCamera(63)
     with pytest.raises(RigError, match="unknown camera backend 'quicktime'.*v4l2"):
         OpenCVCamera(0, backend="quicktime")

@@ -132,6 +132,12 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     camera: PointerProperty(name="Camera", type=bpy.types.Object, poll=lambda self, obj: obj.type == "CAMERA")
     target: PointerProperty(name="Surface object", type=bpy.types.Object,
                             poll=lambda self, obj: obj.type == "MESH")
+    rig_kind: EnumProperty(name="Rig", items=[
+        ("VIRTUAL", "Virtual", "Capture, judge and preview with the Cycles studio of the projector and camera objects"),
+        ("REAL", "Real projector and camera", "Capture through a real projector (a window on a display) and "
+                                               "camera; looks play live on the projector")], default="VIRTUAL")
+    real_rig: StringProperty(name="Real rig", description="The real rig's display and camera (JSON, "
+                                                          "lapig_addon/rigs/real_rig.RigSpec)")
     ambient: FloatProperty(name="Ambient light", default=0.03, min=0.0, max=1.0, subtype="FACTOR",
                            description="Room light on the object, as a fraction of the projector's white")
     train_count: IntProperty(name="Training images", default=32, **LIMITS["train_count"].bounds())

@@ -66,6 +66,34 @@ def rig_objects(scene) -> tuple:
     return s.projector, s.camera, s.target
 
 
+def real_rig_spec(scene):
+    """The scene's real rig (rigs/real_rig.RigSpec), or None where the scene uses the virtual one;
+    ValueError where the recorded rig is not readable."""
+    from ..rigs.real_rig import RigSpec
+
+    s = scene.lapig
+    return RigSpec.from_json(s.real_rig or "{}") if s.rig_kind == "REAL" else None
+
+
+def record_real_rig(scene, spec) -> None:
+    """The scene uses this real rig from now on (None: the virtual one again)."""
+    s = scene.lapig
+    s.rig_kind, s.real_rig = ("REAL", spec.to_json()) if spec is not None else ("VIRTUAL", s.real_rig)
+
+
+def _real_rig_key(scene) -> str | None:
+    """The identity key of the scene's real rig (staleness follows the rig, not the objects); None: virtual."""
+    try:
+        spec = real_rig_spec(scene)
+    except ValueError:
+        return ""  # unreadable: no capture can be current
+    if spec is None:
+        return None
+    from ..rigs.real_rig import RealRigFactory
+
+    return RealRigFactory(spec).rig_identity().key()
+
+
 def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
     """The rig of the given objects (None: the scene's own), checked for what each must be."""
     own = rig_objects(scene)
@@ -80,10 +108,17 @@ def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
     return Rig(projector=projector.name if projector else None, camera=camera.name if camera else None,
                target=target.name if target else None, scene=scene.name,
                outside_scene=tuple(ob.name for ob in objects if ob.name not in scene.objects),
-               fingerprint=rig_fingerprint(projector, camera, target) if len(objects) == 3 else "",
+               fingerprint=_fingerprint(scene, projector, camera, target, len(objects) == 3),
                transport=light_transport(projector, camera).label() if projector and camera else "",
                projector_size=(projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y)
                if projector else None)
+
+
+def _fingerprint(scene, projector, camera, target, complete: bool) -> str:
+    real = _real_rig_key(scene)
+    if real is not None:
+        return real
+    return rig_fingerprint(projector, camera, target) if complete else ""
 
 
 def read(scene) -> SceneState:

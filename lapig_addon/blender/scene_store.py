@@ -52,11 +52,27 @@ class BlenderSceneStore:
         scene_state.record_result(self.scene, folder, summary_line, reach_message)
 
 
-def scene_seams(scene, projector=None, camera=None, target=None, sinks=None) -> Seams:
-    """What the jobs run against in Blender: this scene's store, the Cycles studio of its rig (or of the
-    given objects) and the projector light with the preview (sinks=(): none)."""
-    return Seams(BlenderSceneStore(scene), CyclesDeviceFactory(scene, projector, camera, target),
-                 (ProjectorLightSink(scene),) if sinks is None else tuple(sinks))
+def device_factory(scene, projector=None, camera=None, target=None):
+    """The scene's rig: its real projector and camera where it has one (scene.lapig.rig_kind), else the
+    Cycles studio of its objects (or of the given ones)."""
+    spec = scene_state.real_rig_spec(scene) if projector is None else None
+    if spec is None:
+        return CyclesDeviceFactory(scene, projector, camera, target)
+    from ..rigs.real_rig import RealRigFactory
+
+    size = scene_state.read_rig(scene).projector_size
+    return RealRigFactory(spec, expected_size=size)
+
+
+def scene_seams(scene, projector=None, camera=None, target=None, sinks=None, devices=None) -> Seams:
+    """What the jobs run against in Blender: this scene's store, its rig's device factory (devices: another
+    one, e.g. a simulated rig) and the projector light with the preview (sinks=(): none), plus the live
+    projector window where one is open (rigs/live_output)."""
+    if sinks is None:
+        from ..rigs.live_output import open_sinks
+
+        sinks = (ProjectorLightSink(scene), *open_sinks())
+    return Seams(BlenderSceneStore(scene), devices or device_factory(scene, projector, camera, target), tuple(sinks))
 
 
 def show_scene_result(scene) -> bool:

@@ -15,7 +15,7 @@ from ..blender import addon, result_preview, scene_state, storage
 from ..blender.scene_store import BlenderSceneStore, scene_seams
 from ..services.errors import one_line
 from ..services.panel_state import rig_blocker
-from . import headless
+from . import headless, rig_choice
 from .output import print_json, print_notes
 
 
@@ -133,13 +133,17 @@ def cmd_capture(args) -> int:
         pattern_folder=os.path.abspath(args.patterns) if args.patterns else None, seed=args.seed)
     if args.save and not bpy.data.filepath:  # now, not after the capture
         raise ValueError("--save needs a .blend opened with --blend")
-    result = headless.run_capture(scene, settings, progress=headless.print_progress)  # recorded in the scene
+    devices = rig_choice.apply(args, scene)
+    result = headless.run_capture(scene, settings, progress=headless.print_progress,
+                                  devices=devices)  # recorded in the scene
     _save_if_asked(args)
     if not args.save:
         print_notes([f"this capture is not saved into the .blend (no --save): train it with "
                      f"'train --capture {result['setup_dir']}'"])
-    print_json({"setup_dir": str(result["setup_dir"]), **result["meta"]["registration"],
-                "valid_fraction": result["meta"]["valid_fraction"]})
+    meta = result["meta"]
+    print_json({"setup_dir": str(result["setup_dir"]), **meta["registration"],
+                "valid_fraction": meta["valid_fraction"], "rig": meta["rig"]["name"],
+                **({"sync": meta["sync"]} if "sync" in meta else {})})
     return 0
 
 
@@ -154,8 +158,9 @@ def cmd_train(args) -> int:
     from ..services.pipeline_jobs import TrainModelsJob
 
     scene = _open_scene(args)
+    devices = rig_choice.apply(args, scene)
     capture = _chosen_capture(args, BlenderSceneStore(scene))
-    out = TrainModelsJob(scene_seams(scene), _iterations(args, scene), capture).run_to_completion(
+    out = TrainModelsJob(scene_seams(scene, devices=devices), _iterations(args, scene), capture).run_to_completion(
         on_progress=headless.print_progress)
     _save_if_asked(args)
     print_json({"capture": out["folder"], "train_s": round(out["seconds"], 2), "compensation": out["choice"]})
@@ -186,7 +191,7 @@ def cmd_stylize(args) -> int:
     if prompt is None:
         raise ValueError("stylize needs --prompt (or --style-image)")
     scene = _open_scene(args)
-    seams = scene_seams(scene)
+    seams = scene_seams(scene, devices=rig_choice.apply(args, scene))
     capture = _chosen_capture(args, seams.store)
     request = scene_state.generate_request(scene, prompt=prompt, backend=args.backend, mix=args.mix,
                                            psa=args.psa, adaptation=args.adaptation, seed=args.seed,
@@ -268,3 +273,62 @@ def _chosen_capture(args, store) -> str | None:
 def _iterations(args, scene) -> int | None:
     """Fine-tuning iterations per network: --iterations, else the scene's setting."""
     return args.iterations if args.iterations is not None else scene_state.finetune_iterations(scene)
+
+
+def cmd_show(args) -> int:
+    """The scene's look on the projector window, live, until Esc in the window (or --seconds)."""
+    from ...lapig_core.export.projector_image import crossfade_frames
+    from ...lapig_core.export.result_files import read_output_image, read_result_image
+    from ..rigs import live_output
+    from ..services import export_result
+
+    scene = _open_scene(args)
+    store = BlenderSceneStore(scene)
+    display = args.display or getattr(scene_state.real_rig_spec(scene), "display", None)
+    if display is None:
+        raise ValueError("show needs --display (or a scene with a real rig: capture --rig real --save)")
+    folder = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
+    if not folder:
+        raise ValueError("the scene has no result yet: run stylize first, or pass --result")
+    settings = scene_state.export_settings(scene, crossfade_frames=args.frames)
+    frame = export_result.result_frame(store, folder, settings.bit_depth)
+    sink = live_output.open_live(display)
+    try:
+        summary = {"display": sink.window.describe()["display"], "result": folder}
+        if args.crossfade:
+            model = store.projector_model()
+            try:
+                start = read_result_image(folder, "projector_nopsa")
+            except FileNotFoundError:
+                start = read_output_image(folder, "projector") * 0
+            frames = crossfade_frames(start, frame.image, settings.crossfade_frames, width=model.width,
+                                      height=model.height, bit_depth=settings.bit_depth, gamma=model.gamma)
+            summary["crossfade"] = live_output.play(sink.window, frames, fps=args.fps)
+        t = time.perf_counter()
+        sink.show(frame)
+        if sink.problem:
+            raise ValueError(sink.problem)
+        summary["show_s"] = round(sink.shown_at - t, 4)
+        print(f"showing {folder} on display {summary['display'].get('name')}: Esc in the window stops"
+              if args.seconds is None else f"showing {folder} for {args.seconds:g} s")
+        print_json(summary)
+        deadline = None if args.seconds is None else time.perf_counter() + args.seconds
+        while sink.window.is_open and (deadline is None or time.perf_counter() < deadline):
+            time.sleep(0.05)
+    finally:
+        live_output.close_live()
+    return 0
+
+
+def cmd_devices(args) -> int:
+    """The displays and the cameras a real rig can use, for --display and --camera."""
+    from ...lapig_core.rig import RigError
+    from ...lapig_core.rig.cameras import list_cameras
+    from ...lapig_core.rig.projector_window import list_displays
+
+    try:
+        displays = list_displays()
+    except RigError as exc:
+        displays = {"error": str(exc)}
+    print_json({"displays": displays, "cameras": list_cameras()})
+    return 0

@@ -38,11 +38,13 @@ def build_demo_setup(shape="panel", surface="sakura", folder=None, seed=0, camer
     return bpy.context.scene, projector, camera, target
 
 
-def run_capture(scene, settings: CaptureSettings, projector=None, camera=None, target=None, progress=None):
-    """Capture the given rig objects (None: the scene's own) to completion; a capture of the scene's own
-    rig is recorded in the scene, as the panel's."""
+def run_capture(scene, settings: CaptureSettings, projector=None, camera=None, target=None, progress=None,
+                devices=None):
+    """Capture the given rig objects (None: the scene's own; devices: another device factory, e.g. a
+    simulated real rig) to completion; a capture of the scene's own rig is recorded in the scene, as the
+    panel's."""
     record = projector is None and camera is None and target is None
-    job = CaptureJob(scene_seams(scene, projector, camera, target), settings, record=record)
+    job = CaptureJob(scene_seams(scene, projector, camera, target, devices=devices), settings, record=record)
     return job.run_to_completion(on_progress=progress)
 
 

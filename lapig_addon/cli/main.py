@@ -39,6 +39,29 @@ def _parser():
                        help="the capture to use: a setup folder (<root>/setups/<name>) this rig made (default: "
                             "the .blend's; --save then records this one in it)")
 
+    def rig_args(p):
+        g = p.add_argument_group("rig", "the projector and camera (default: the scene's: its virtual rig, or "
+                                        "the real one a capture --rig real --save recorded)")
+        g.add_argument("--rig", choices=["virtual", "real", "simulated"],
+                       help="virtual: the Cycles studio; real: a projector window on --display and --camera; "
+                            "simulated: the Cycles studio behind a real rig's timing and faults (no hardware)")
+        g.add_argument("--display", help="real: the projector's display, an index or a part of its name "
+                                         "(see 'devices')")
+        g.add_argument("--camera", dest="camera_source",
+                       help="real: a camera index, a stream URL or a video file (see 'devices')")
+        g.add_argument("--camera-backend", default=None,
+                       help="real: auto (V4L2 / DirectShow / AVFoundation), v4l2, dshow, msmf, avfoundation, ffmpeg")
+        g.add_argument("--tethered", metavar="DIR", help="real: a folder a tethering program saves each picture into")
+        for name in ("exposure", "gain", "focus", "white-balance"):
+            g.add_argument(f"--{name}", type=float, help=f"real: lock the camera's {name.replace('-', ' ')} "
+                                                         "(the backend's units; default: locked where it is)")
+        g.add_argument("--rig-name", help="real: the rig's name, recorded with its captures")
+        g.add_argument("--no-frame-code", dest="frame_code", action="store_false", default=None,
+                       help="real: sync by the measured latency alone (no code at the frame's edges)")
+        g.add_argument("--sim-latency", type=float, default=0.1, help="simulated: camera latency in seconds")
+        g.add_argument("--sim-faults", type=float, default=0.03,
+                       help="simulated: share of dropped, of repeated and of torn frames, each")
+
     # settings a command does not get keep the scene's (its Capture, Stylize and Export panels)
     cap = sub.add_parser("capture", help="capture the scene's projector-camera setup into a data set "
                                          "(--save records it in the .blend, as the panel does)")
@@ -52,9 +75,12 @@ def _parser():
     cap.add_argument("--patterns", help="folder of your own projector images (default: the scene's)")
     ranged_option(cap, "--seed", "seed", "pattern seed (default: the scene's)")
 
+    rig_args(cap)
+
     tr = sub.add_parser("train", help="fine-tune CompenNeSt and PCNet on the scene's capture")
     blend_arg(tr)
     capture_arg(tr)
+    rig_args(tr)
     iterations_arg(tr, "the scene's")
 
     st = sub.add_parser("stylize", help="turn a prompt into a projector image for the scene's surface")
@@ -85,6 +111,7 @@ def _parser():
                          help="project the look over the whole frame, off the object too")
     iterations_arg(st, "the scene's")
     st.add_argument("--render", action="store_true", help="also render the real capture with Cycles")
+    rig_args(st)
 
     ex = sub.add_parser("export", help="write the scene's projector image for a real projector")
     blend_arg(ex)
@@ -94,6 +121,18 @@ def _parser():
     ex.add_argument("--bit-depth", type=int, choices=[8, 16], help="8 or 16 (default: the scene's)")
     ex.add_argument("--crossfade", help="also write a crossfade sequence (without -> with PSA) into this folder")
     ranged_option(ex, "--frames", "crossfade_frames", "crossfade frames (default: the scene's)")
+
+    sh = sub.add_parser("show", help="play the scene's look live on the projector (Esc in the window stops)")
+    blend_arg(sh)
+    sh.add_argument("--display", help="the projector's display (default: the scene's real rig's)")
+    sh.add_argument("--result", help="result folder to show (default: the scene's result)")
+    sh.add_argument("--seconds", type=float, default=None,
+                    help="close after this long (default: stay until Esc in the window)")
+    sh.add_argument("--crossfade", action="store_true", help="first fade from the look without PSA to the look")
+    sh.add_argument("--fps", type=float, default=30.0, help="crossfade frame rate (default 30)")
+    ranged_option(sh, "--frames", "crossfade_frames", "crossfade frames (default: the scene's)")
+
+    sub.add_parser("devices", help="list the displays a projector window can open on, and the cameras")
 
     try:  # benchmarks, data sets, evaluation and packaging: only in a source checkout, not in the zip
         from ...tools import dev_commands

@@ -423,15 +423,9 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
     sidecar = _sidecar_bytes(metadata, own)
 
     written: list[Path] = []
-    inv = np.float32(1.0 / gamma)
     try:
         for path, w in zip(paths, weights):
-            if w == 0.0:  # the end frames are the images themselves, not a gamma round trip
-                frame = frame_a
-            elif w == 1.0:
-                frame = frame_b
-            else:
-                frame = np.power(lin_a * np.float32(1.0 - w) + lin_b * np.float32(w), inv)
+            frame = _blend(frame_a, frame_b, lin_a, lin_b, w, gamma)
             written += _commit([(path, _encode_png(to_bit_depth(frame, bit_depth), path.name))])
             if on_progress and (len(written) % max(1, frames // 100) == 0 or len(written) == frames):
                 on_progress(len(written) / frames, f"wrote crossfade frame {len(written)}/{frames}")
@@ -442,3 +436,26 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
                 os.unlink(path)
         raise
     return written
+
+
+def _blend(frame_a, frame_b, lin_a, lin_b, w: float, gamma: float) -> np.ndarray:
+    """The crossfade at weight w, mixed in the projector's linear light (see crossfade_sequence)."""
+    if w == 0.0:  # the end frames are the images themselves, not a gamma round trip
+        return frame_a
+    if w == 1.0:
+        return frame_b
+    return np.power(lin_a * np.float32(1.0 - w) + lin_b * np.float32(w), np.float32(1.0 / gamma))
+
+
+def crossfade_frames(image_a, image_b, frames: int, *, width: int, height: int, bit_depth: int = 8,
+                     ease: str = "smooth", gamma: float = 2.2):
+    """The frames crossfade_sequence writes, as (height, width, 3) pixels at ``bit_depth``, one at a time
+    (a live projector window plays them; nothing is written)."""
+    bit_depth, (width, height) = _check_bit_depth(bit_depth), _check_size(width, height)
+    if ease not in EASES or not isinstance(frames, (int, np.integer)) or frames < 2:
+        raise ExportError(f"a crossfade needs at least 2 frames and an ease among {list(EASES)}")
+    frame_a, _ = _native(image_a, width, height, "image A")
+    frame_b, _ = _native(image_b, width, height, "image B")
+    lin_a, lin_b = np.power(frame_a, np.float32(gamma)), np.power(frame_b, np.float32(gamma))
+    for i in range(frames):
+        yield to_bit_depth(_blend(frame_a, frame_b, lin_a, lin_b, _ease(i / (frames - 1), ease), gamma), bit_depth)

@@ -1,0 +1,159 @@
+"""The device factory of a real rig: a projector window on a display and a camera (services/ports.DeviceFactory).
+
+A RigSpec says which display and which camera; it is what the scene records (scene.lapig.real_rig, JSON)
+and what the headless commands' --rig options build. The rig's identity is the spec's name and devices,
+so staleness follows the rig, not Blender objects: a capture made with another camera or on another
+display is not this rig's.
+
+Its devices block (a camera's grab, the waits of the sync), so main_thread is False: the jobs drive them
+on a worker thread and Blender stays responsive. Train's rendered choice and Render Real Capture use
+the same rig: a real rig judges a projection by projecting it.
+
+``SimulatedRigFactory`` wraps another factory's devices (the Cycles studio, or the numpy fake) in a real
+rig's timing and faults (lapig_core.rig.simulated), so the whole real-device path runs without hardware.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+from dataclasses import asdict, dataclass, field, fields
+
+from ...lapig_core.capture.settings import CaptureError, CaptureSettings
+from ...lapig_core.rig import RigError
+from ..services.ports import RigIdentity
+
+CAMERA_SETTINGS = ("width", "height", "exposure", "gain", "focus", "white_balance")
+
+
+@dataclass(frozen=True)
+class RigSpec:
+    """A real rig, as the scene and the command line name it."""
+    name: str = "real rig"
+    display: str = "1"  # an index, or a part of the display's name
+    camera: str = "0"  # an index, a URL or a video file; ignored with a tethered folder
+    camera_backend: str = "auto"
+    tethered_folder: str = ""  # a folder a tethering program saves each picture into
+    camera_settings: dict = field(default_factory=dict)  # CAMERA_SETTINGS -> value; missing: the camera's own
+    frame_code: bool = True
+    health_checks: bool = True
+
+    @classmethod
+    def from_json(cls, text: str) -> "RigSpec":
+        """The spec a scene recorded; ValueError with what is wrong (a data file never runs code)."""
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"the scene's real rig is not readable ({exc.msg}): set it up again") from None
+        if not isinstance(data, dict):
+            raise ValueError("the scene's real rig is not readable: set it up again")
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"the scene's real rig has unknown settings {unknown}: set it up again")
+        settings = data.get("camera_settings", {})
+        if not isinstance(settings, dict) or set(settings) - set(CAMERA_SETTINGS):
+            raise ValueError(f"the real rig's camera settings must be among {list(CAMERA_SETTINGS)}")
+        return cls(**{**data, "display": str(data.get("display", "1")), "camera": str(data.get("camera", "0"))})
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), sort_keys=True)
+
+    def devices(self) -> dict:
+        """What the rig's identity names: enough to tell another display or camera apart."""
+        camera = (f"tethered folder {self.tethered_folder}" if self.tethered_folder
+                  else f"camera {self.camera} ({self.camera_backend})")
+        return {"projector": f"display {self.display}", "camera": camera}
+
+
+class RealRigFactory:
+    main_thread = False
+
+    def __init__(self, spec: RigSpec, window_factory=None, camera_factory=None, expected_size=None, clock=None):
+        """window_factory(display) and camera_factory(spec): the real ones by default (tests pass others);
+        expected_size: the projector resolution the looks are made for (the display must have it);
+        clock: the devices' (lapig_core.rig.clock; None: the real one)."""
+        self.spec, self.expected_size = spec, tuple(expected_size) if expected_size else None
+        self.clock = clock
+        self._window = window_factory or _projector_window
+        self._camera = camera_factory or _camera
+
+    def rig_identity(self) -> RigIdentity:
+        return RigIdentity(self.spec.name, self.spec.devices())
+
+    @contextlib.contextmanager
+    def _rig(self):
+        from ...lapig_core.rig.rig_device import RigDevice
+
+        window = self._window(self.spec.display)
+        try:
+            if self.expected_size and tuple(window.size) != self.expected_size:
+                w, h = window.size
+                raise CaptureError(f"the projector's display is {w}x{h} but the scene's projector is "
+                                   f"{self.expected_size[0]}x{self.expected_size[1]}: set the projector's "
+                                   f"resolution to {w}x{h}, its native one, and capture again")
+            camera = self._camera(self.spec)
+        except BaseException:
+            window.close()
+            raise
+        device = RigDevice(window, camera, name=self.spec.name, frame_code=self.spec.frame_code,
+                           health_checks=self.spec.health_checks,
+                           **({"clock": self.clock} if self.clock is not None else {}))
+        self.last_device = device
+        with device:
+            yield device
+
+    def capture_device(self, settings: CaptureSettings):
+        return self._rig()
+
+    def setup_device(self, setup_meta: dict, seed: int = 0):
+        if setup_meta.get("fingerprint") not in (None, self.rig_identity().key()):
+            raise CaptureError("this capture was made with another rig: connect that one, or capture again")
+        return self._rig()
+
+
+class SimulatedRigFactory:
+    """Another factory's devices as the optics of a simulated real rig (latency, faults, a frame code)."""
+
+    def __init__(self, optics_factory, faults=None, name: str = "simulated rig", clock=None, **rig_options):
+        self.optics_factory, self.faults, self.name = optics_factory, faults, name
+        self.clock, self.rig_options = clock, rig_options
+        self.main_thread = optics_factory.main_thread  # Cycles renders the optics: its thread rules
+        self.last = None  # (device, screen, camera) of the last rig opened: the bench reads the truth there
+
+    def rig_identity(self) -> RigIdentity:
+        inner = self.optics_factory.rig_identity()
+        return RigIdentity(self.name, {"optics": inner.name, **inner.devices}, inner.fingerprint)
+
+    @contextlib.contextmanager
+    def _rig(self, optics_cm):
+        from ...lapig_core.rig.simulated import simulated_rig
+
+        with optics_cm as optics:
+            device, screen, camera = simulated_rig(optics, self.faults, clock=self.clock, **self.rig_options)
+            self.last = (device, screen, camera)
+            yield device
+
+    def capture_device(self, settings: CaptureSettings):
+        return self._rig(self.optics_factory.capture_device(settings))
+
+    def setup_device(self, setup_meta: dict, seed: int = 0):
+        return self._rig(self.optics_factory.setup_device(setup_meta, seed))
+
+
+def _projector_window(display: str):
+    from ...lapig_core.rig.projector_window import ProjectorWindow
+
+    return ProjectorWindow(int(display) if display.strip().isdigit() else display)
+
+
+def _camera(spec: RigSpec):
+    if spec.tethered_folder:
+        from ...lapig_core.rig.tethered import TetheredFolderCamera
+
+        return TetheredFolderCamera(spec.tethered_folder)
+    from ...lapig_core.rig.cameras import OpenCVCamera
+
+    try:
+        return OpenCVCamera(spec.camera, backend=spec.camera_backend, **spec.camera_settings)
+    except TypeError as exc:  # a setting this camera class does not take
+        raise RigError(f"the camera settings {spec.camera_settings} are not understood ({exc})") from None

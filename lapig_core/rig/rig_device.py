@@ -117,7 +117,7 @@ class RigDevice(CaptureDevice):
             nonlocal previous
             shown = self.output.show(frame)
             for attempt in range(tries):
-                self.clock.sleep_until(shown + 2 * settle)
+                self.clock.sleep_until(shown + 2 * settle * (attempt + 1))  # longer each time: a late camera
                 pictures = []
                 for _ in range(2):
                     self.camera.flush()
@@ -128,7 +128,6 @@ class RigDevice(CaptureDevice):
                 if _agree(*pictures) and new:
                     previous = pictures[0]
                     return pictures[0]
-                shown = self.output.show(frame)
             raise RigError("the camera's pictures of the same still frame keep changing: its auto exposure "
                            "or auto gain is probably on (lock them), or the camera moves, or its cable is loose")
 

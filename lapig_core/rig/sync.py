@@ -48,15 +48,20 @@ def measure_latency(output, camera, clock, switches: int = 4, timeout_s: float =
     for k in range(switches):
         frame, want_bright = (black, False) if k % 2 == 0 else (white, True)
         shown = output.show(frame)
-        last_read = None
+        last_read, first_new = None, None
         while True:
             image, read_at = camera.grab()
             if last_read is not None:
                 intervals.append(read_at - last_read)
             last_read = read_at
             if (_mean_level(image) > middle) == want_bright:
-                samples.append(read_at - shown)
-                break
+                # two pictures in a row: one dropped (black) or torn picture is not the switch
+                if first_new is not None:
+                    samples.append(first_new - shown)
+                    break
+                first_new = read_at
+            else:
+                first_new = None
             if read_at - shown > timeout_s:
                 raise RigError(f"the camera showed no change {timeout_s:.0f} s after the projector's: "
                                "is the camera live (not a file) and looking at the projection?")

@@ -2,7 +2,6 @@
 (a screen and a camera with latency and faults, lapig_core.rig.simulated) drives Capture on a worker
 thread; staleness follows the rig's identity; looks play on a live window sink."""
 import importlib
-import json
 import threading
 
 import numpy as np

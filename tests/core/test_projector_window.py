@@ -19,9 +19,6 @@ from __future__ import annotations
 import importlib.util
 import io
 import os
-import shutil
-import socket
-import struct
 import subprocess
 import sys
 import threading
@@ -30,24 +27,12 @@ import time
 import numpy as np
 import pytest
 
+from lapig.tools import virtual_screens
+from lapig.tools.virtual_screens import missing_tools, region, screenshot
 from lapig_core.rig import RigError
 from lapig_core.rig.projector_window import CLOSED_MESSAGE, ProjectorWindow, list_displays
 from lapig_core.rig.window_process import (DisplayChoiceError, ProtocolError, choose_display, encode_message,
                                            read_message)
-
-MONITORS = [(0, 0, 640, 480), (640, 0, 800, 600)]  # x, y, width, height
-ROOT_SIZE = (1440, 600)
-APT = "apt-get install -y --no-install-recommends tigervnc-standalone-server x11-apps xdotool"
-
-
-def _missing_tools() -> list[str]:
-    tools = [tool for tool in ("Xvnc", "xwd", "xdotool") if shutil.which(tool) is None]
-    missing = [f"{', '.join(tools)} ({APT})"] if tools else []
-    if importlib.util.find_spec("sdl2") is None:
-        missing.append("PySDL2 (pip install pysdl2 pysdl2-dll)")
-    if not sys.platform.startswith("linux"):
-        missing.append("Linux (the virtual X server)")
-    return missing
 
 
 # ---------------------------------------------------------------- without a display
@@ -110,107 +95,13 @@ def test_a_helper_without_sdl2_says_what_to_install(tmp_path):
 
 # ---------------------------------------------------------------- the virtual two-monitor X server
 
-def _rfb_set_layout(path: str, monitors, root_size, timeout_s: float = 10.0) -> None:
-    """As a VNC client: ask Xvnc for one screen per monitor (RFB 3.8, no security, SetDesktopSize)."""
-    sock = socket.socket(socket.AF_UNIX)
-    sock.settimeout(timeout_s)
-    sock.connect(path)
-
-    def take(n):
-        data = b""
-        while len(data) < n:
-            chunk = sock.recv(n - len(data))
-            if not chunk:
-                raise OSError("Xvnc closed the VNC connection")
-            data += chunk
-        return data
-
-    try:
-        take(12)
-        sock.sendall(b"RFB 003.008\n")
-        types = take(take(1)[0])
-        assert 1 in types, f"Xvnc offers no 'None' security: {list(types)}"
-        sock.sendall(b"\x01")
-        assert struct.unpack(">I", take(4)) == (0,)
-        sock.sendall(b"\x01")  # ClientInit: shared
-        take(4 + 16)
-        take(struct.unpack(">I", take(4))[0])  # the desktop's name
-        sock.sendall(struct.pack(">BBHi", 2, 0, 1, -308))  # SetEncodings: ExtendedDesktopSize
-        message = struct.pack(">BBHHBB", 251, 0, root_size[0], root_size[1], len(monitors), 0)
-        for i, (x, y, w, h) in enumerate(monitors):
-            message += struct.pack(">IHHHHI", i + 1, x, y, w, h, 0)
-        sock.sendall(message)
-        sock.sendall(struct.pack(">BBHHHH", 3, 0, 0, 0, root_size[0], root_size[1]))  # update request
-        take(4)  # FramebufferUpdate, its rectangle count
-        _x, status, _w, _h, encoding = struct.unpack(">HHHHi", take(12))
-        assert encoding == -308 and status == 0, f"Xvnc refused the layout (status {status})"
-    finally:
-        sock.close()
-
-
 @pytest.fixture(scope="module")
-def two_monitors(tmp_path_factory):
-    """DISPLAY of an Xvnc with MONITORS side by side on one screen, black root."""
-    if _missing_tools():
-        pytest.skip("needs " + "; ".join(_missing_tools()))
-    folder = tmp_path_factory.mktemp("xvnc")
-    rfb = str(folder / "rfb")
-    read_fd, write_fd = os.pipe()
-    proc = subprocess.Popen(["Xvnc", "-displayfd", str(write_fd), "-geometry", "%dx%d" % ROOT_SIZE,
-                             "-depth", "24", "-SecurityTypes", "None", "-rfbport", "-1", "-rfbunixpath", rfb,
-                             "-nolisten", "tcp", "-br", "-ac"],
-                            pass_fds=(write_fd,), stdout=subprocess.DEVNULL, stderr=open(folder / "xvnc.log", "wb"))
-    os.close(write_fd)
-    try:
-        with os.fdopen(read_fd, "rb") as f:
-            number = f.readline().strip().decode()
-        if not number:
-            pytest.fail(f"Xvnc did not start: {(folder / 'xvnc.log').read_text()[-1500:]}")
-        for _ in range(100):
-            if os.path.exists(rfb):
-                break
-            time.sleep(0.05)
-        _rfb_set_layout(rfb, MONITORS, ROOT_SIZE)
-        env = {k: v for k, v in os.environ.items() if k not in ("WAYLAND_DISPLAY", "SDL_VIDEODRIVER")}
-        env["DISPLAY"] = f":{number}"
+def two_monitors():
+    """DISPLAY of an Xvnc with MONITORS side by side on one screen, black root (tools/virtual_screens)."""
+    if missing_tools():
+        pytest.skip("needs " + "; ".join(missing_tools()))
+    with virtual_screens.two_monitors() as env:
         yield env
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-
-
-def read_xwd(data: bytes) -> np.ndarray:
-    """An xwd ZPixmap dump of a TrueColor window as uint8 (H, W, 3) RGB."""
-    header = [int(v) for v in np.frombuffer(data[:100], ">u4")]
-    header_size, pixmap_format, width, height = header[0], header[2], header[4], header[5]
-    byte_order, bits_per_pixel, bytes_per_line = header[7], header[11], header[12]
-    masks, colours = header[14:17], header[19]
-    assert pixmap_format == 2, "not a ZPixmap"
-    start = header_size + colours * 12
-    rows = np.frombuffer(data, np.uint8, offset=start, count=bytes_per_line * height).reshape(height, bytes_per_line)
-    step = bits_per_pixel // 8
-    cells = rows[:, :width * step].reshape(height, width, step).astype(np.uint32)
-    order = range(step) if byte_order == 0 else range(step - 1, -1, -1)  # 0: least significant byte first
-    value = sum(cells[..., i] << (8 * k) for k, i in enumerate(order))
-    channels = [((value & m) >> ((m & -m).bit_length() - 1)).astype(np.uint8) for m in masks]
-    return np.stack(channels, axis=-1)
-
-
-def screenshot(env) -> np.ndarray:
-    run = subprocess.run(["xwd", "-root", "-silent"], env=env, capture_output=True, timeout=30)
-    assert run.returncode == 0, run.stderr.decode()
-    image = read_xwd(run.stdout)
-    assert image.shape == (ROOT_SIZE[1], ROOT_SIZE[0], 3)
-    return image
-
-
-def region(image, monitor):
-    x, y, w, h = MONITORS[monitor]
-    return image[y:y + h, x:x + w]
 
 
 def pattern(width, height, seed=0):

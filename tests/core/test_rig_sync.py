@@ -61,7 +61,7 @@ def test_a_faulty_camera_gives_a_registered_data_set_and_every_bad_frame_is_caug
     outcome = sync_outcome(device, screen, camera)
     assert outcome["bad"] >= 5 and outcome["caught"] == outcome["bad"] and outcome["false_alarms"] == 0
     assert meta["sync"]["frame_code"] == "verified, top and bottom bands"
-    assert 0.1 <= meta["device_timing"]["latency_s"] < 0.2  # measured: latency, jitter, a frame's wait
+    assert 0.1 <= meta["device_timing"]["latency_s"] <= 0.25  # latency, jitter, a frame or two of waiting
     assert meta["registration"]["registration_error_px_median"] < 0.5
     assert load_capture_set(str(tmp_path / "setups" / "wall")).cam_train.shape[0] == 6
     # the code's rows are not registered: the patterns did not light them

@@ -1,12 +1,14 @@
 """What any failure says to the user: one line with its cause, for the command line and the operators."""
 from __future__ import annotations
 
+from ...lapig_core.rig import RigError
+
 MAX_CHARS = 500
 
 # refusals written for people (DatasetError, CheckpointError, CaptureError, ExportError, a missing file, a
 # missing package): their message is the whole story. Anything else is a bug or a library's own error, and
 # its type is part of the cause ("KeyError: 'arch'").
-_WORDED = (ValueError, OSError, ImportError)
+_WORDED = (ValueError, OSError, ImportError, RigError)  # RigError: a real device, worded for the installer
 
 
 def one_line(exc: BaseException) -> str:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..capture.device import CaptureDevice, DeviceInfo
+from ..capture.device import CaptureDevice, DeviceInfo, GeometryChecks
 from ..capture.settings import CaptureError
 from . import RigError
 from . import frame_code as fc
@@ -28,8 +28,11 @@ class RigDevice(CaptureDevice):
     main_thread = False
 
     def __init__(self, output, camera, name: str = "real rig", clock=REAL_CLOCK, frame_code: bool = True,
-                 health_checks: bool = True, settle_margin_s: float = 0.01, max_grabs: int = 8):
+                 health_checks: bool = True, settle_margin_s: float = 0.01, max_grabs: int = 8,
+                 geometry: GeometryChecks | None = None):
+        """geometry: the rig's ground truth, which only a simulated rig knows (None: none)."""
         self.output, self.camera, self.name, self.clock = output, camera, name, clock
+        self.geometry = geometry or GeometryChecks()
         self.use_code, self.health_checks = frame_code, health_checks
         self.settle_margin_s = settle_margin_s
         self.layout = fc.CodeLayout.for_frame(*output.size)
@@ -51,6 +54,9 @@ class RigDevice(CaptureDevice):
                           {"projector": self.output.describe(), "camera": self.camera.describe(),
                            "sync": sync, **({"health": self.health} if self.health else {})},
                           frame_bit_depths=(8,), settle_s=round(settle, 4), latency_s=round(latency, 4))
+
+    def geometry_checks(self) -> GeometryChecks:
+        return self.geometry
 
     def reserved_rows(self) -> tuple[int, int]:
         return self.layout.reserved_rows() if self.sync is not None and self.sync.verifies else (0, 0)

@@ -124,7 +124,12 @@ class SimulatedCamera:
         self.queue.clear()
 
     def lock(self) -> bool:
-        """Turn the auto exposure off; False where this camera does not let it."""
+        """Turn the auto exposure off; False where this camera does not let it. The optics set their exposure
+        for the projector's white, as the virtual camera they simulate would (the Cycles studio's auto
+        exposure)."""
+        w, h = self.screen.size
+        self.optics.lock_exposure(np.full((h, w, 3), 255, np.uint8))
+        self._renders.clear()
         if self.faults.exposure_lockable:
             self.exposure_locked = True
         return self.exposure_locked or not self.faults.auto_exposure
@@ -212,6 +217,7 @@ def simulated_rig(optics: CaptureDevice, faults: CameraFaults | None = None, clo
     clock = clock or VirtualClock()
     screen = SimulatedScreen(optics.describe().projector_size, clock, closes_after)
     camera = SimulatedCamera(screen, optics, faults, fps, buffer_frames, clock, seed)
+    rig_options.setdefault("geometry", optics.geometry_checks())  # the optics' truth (Cycles knows it)
     return RigDevice(screen, camera, name="simulated rig", clock=clock, **rig_options), screen, camera
 
 

@@ -136,6 +136,9 @@ def choose_display(displays: list, wanted) -> dict:
 
 # ---------------------------------------------------------------- the SDL side
 
+INVISIBLE_DRIVERS = ("offscreen", "dummy", "evdev")
+
+
 def _prepare_environment(environ=os.environ) -> None:
     """Before SDL starts: XWayland rather than Wayland (see the module's docstring)."""
     if environ.get("WAYLAND_DISPLAY") and environ.get("DISPLAY") and not environ.get("SDL_VIDEODRIVER"):
@@ -209,6 +212,11 @@ class Window:
 
     def open(self, wanted) -> dict:
         sdl2 = self.sdl2
+        if self.driver in INVISIBLE_DRIVERS and not os.environ.get("SDL_VIDEODRIVER"):
+            # SDL falls back to a driver that draws nowhere when there is no desktop: a capture would
+            # "project" into nothing; only a driver asked for by name (tests) is allowed
+            raise RuntimeError(f"there is no screen here (SDL found only its '{self.driver}' driver): run this on "
+                               "the computer the projector is connected to, in its desktop session")
         if self.window is not None:
             self.destroy()
         display = choose_display(self.displays(), wanted)

@@ -28,7 +28,8 @@ from .registration import Registration
 from .registration_check import registration_error_px, summarize_errors
 from .settings import CaptureError, CaptureSettings
 from .staging import StagedCapture, check_shared_patterns
-from .structured_light import decode_graycode, graycode_patterns, projector_to_camera_map
+from .structured_light import (decode_agreement, decode_graycode, finest_bit_indices, graycode_patterns,
+                               projector_to_camera_map)
 
 
 def pattern_images(s: CaptureSettings, frame: tuple[int, int]) -> np.ndarray:
@@ -92,12 +93,15 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
 
         t = time.perf_counter()
         decoded = decode_graycode(sl_caps, width, height)
-        cam_xy, valid = projector_to_camera_map(decoded, width, height)
         top, bottom = device.reserved_rows()  # the rig's frame code, not the patterns, lit these rows
+        patterned = decoded.valid & (decoded.proj_y >= top) & (decoded.proj_y < height - bottom)
+        agreement = yield from _decode_twice(device, sl_patterns, sl_caps, patterned, width, height)
+        cam_xy, valid = projector_to_camera_map(decoded, width, height)
         valid[:top] = False
         valid[height - bottom:] = False
         registration = Registration.from_map(cam_xy, valid, width, height, *frame)
         s.timings["registration_build_s"] = time.perf_counter() - t
+        registration_extra = {} if agreement is None else {"decode_agreement": round(agreement, 4)}
         if registration.valid.mean() < 0.05:
             raise CaptureError("the Gray code decoded on almost no pixels: the camera does not see "
                                "the projection (check exposure, ambient light and aim)")
@@ -135,7 +139,7 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
             "working_valid_fraction": float(registration.valid.mean()),
             # share of the camera pixels the projector lights (Gray code decoded) that clip in white
             "white_clipped_fraction": clipped_fraction(to_uint8(ref_caps[1]), decoded.valid),
-            "registration": reg_stats,
+            "registration": {**reg_stats, **registration_extra},
             "pattern_source": s.pattern_folder or f"generated (seed {s.seed})",
             ds.PRJ_DIGEST_KEY: ds.projector_images_digest(staged.projector_layout.root),
             **(extra_meta or {}),
@@ -146,6 +150,22 @@ def run_capture(device: CaptureDevice, s: CaptureSettings, checks: GeometryCheck
         staged.commit()
     yield 1.0, "capture complete"
     return {"setup_dir": staged.final.setup_dir, "meta": meta}
+
+
+def _decode_twice(device, patterns, captures, valid, width, height, minimum: float = 0.9):
+    """Where the device asks for it (a real camera), capture the finest Gray-code stripes again: the share
+    of pixels that decode the same way twice (None: not checked). Too low stops the capture."""
+    if not getattr(device, "decode_twice", False):
+        return None
+    yield 0.37, "checking the decode: the finest stripes again"
+    indices = finest_bit_indices(width, height)
+    again = device.capture([np.repeat(patterns[i][..., None], 3, axis=-1) for i in indices])
+    agreement = decode_agreement(captures, again, indices, valid)
+    if agreement < minimum:
+        raise CaptureError(f"the same stripes decoded differently twice on {1 - agreement:.0%} of the pixels: "
+                           "the camera or the projector moved, the focus breathes, or the picture is too noisy "
+                           "(lower the gain, add light or steady the rig), then capture again")
+    return agreement
 
 
 def _write_captures(staged: StagedCapture, kind, projected, caps, registration, first=1):

@@ -153,6 +153,27 @@ def decode_graycode(
     return DecodeResult(px, py, valid)
 
 
+def finest_bit_indices(proj_width: int, proj_height: int) -> list[int]:
+    """Indices into graycode_patterns of the finest column and row bits and their complements: the
+    stripes a blurred, noisy or moving camera decodes least reliably, captured again to check the decode."""
+    w, h = _check_proj_size(proj_width, proj_height)
+    nc, nr = _bits(w), _bits(h)
+    return [2 * nc - 2, 2 * nc - 1, 2 * (nc + nr) - 2, 2 * (nc + nr) - 1]
+
+
+def decode_agreement(first, second, indices, valid: np.ndarray) -> float:
+    """The share of decoded camera pixels whose bits read the same in two captures of the same patterns
+    (``first``: every Gray-code capture; ``second``: the captures of ``indices`` again, in pairs of a
+    pattern and its complement)."""
+    same = np.ones(valid.shape, bool)
+    for k in range(0, len(indices), 2):
+        i = indices[k]
+        bit_a = _gray_8bit(first[i], i) > _gray_8bit(first[i + 1], i + 1)
+        bit_b = _gray_8bit(second[k], i) > _gray_8bit(second[k + 1], i + 1)
+        same &= bit_a == bit_b
+    return float(same[valid].mean()) if valid.any() else 0.0
+
+
 # --------------------------------------------------------------------------
 # Projector -> camera map
 # --------------------------------------------------------------------------

@@ -26,6 +26,7 @@ from .sync import FrameSync, measure_latency
 
 class RigDevice(CaptureDevice):
     main_thread = False
+    decode_twice = True  # a real camera: the sequence captures the finest stripes again and compares
 
     def __init__(self, output, camera, name: str = "real rig", clock=REAL_CLOCK, frame_code: bool = True,
                  health_checks: bool = True, settle_margin_s: float = 0.01, max_grabs: int = 8,

@@ -127,3 +127,21 @@ def test_a_camera_that_never_shows_the_code_edges_syncs_by_time_and_says_so(tmp_
     meta = _run(device, tmp_path)["meta"]
     assert meta["sync"]["frame_code"] == "not seen: timing only"
     assert meta["sync"]["rejected"] == {}
+
+
+def test_a_camera_that_moves_between_the_two_decodes_is_stopped(tmp_path):
+    optics = _optics()
+    device, _, _ = simulated_rig(optics, CameraFaults(latency_s=0.05))
+    steps = run_capture(device, CaptureSettings(out_dir=str(tmp_path), setup_name="wall", train_count=2,
+                                                test_count=0, working_size=64))
+    with pytest.raises(CaptureError, match="decoded differently twice"):
+        for _, message in steps:
+            if message.startswith("checking the decode"):  # the camera is knocked by 1.5 pixels
+                optics.homography = np.array([[1, 0, 1.5], [0, 1, 1.0], [0, 0, 1]]) @ optics.homography
+    assert not (tmp_path / "setups" / "wall").exists()
+
+
+def test_a_steady_rig_decodes_the_same_twice(tmp_path):
+    device, _, _ = simulated_rig(_optics(), CameraFaults(latency_s=0.05))
+    meta = _run(device, tmp_path)["meta"]
+    assert meta["registration"]["decode_agreement"] > 0.97

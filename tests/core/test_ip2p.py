@@ -243,5 +243,7 @@ def test_runs_inside_psa(tiny_model):
     result = psa.run_psa(backend, models, psa.PSASettings(max_iterations=2, stop_ratio=0))
     assert result.iterations == 2 and result.target.shape == s.shape
     assert all(torch.isfinite(torch.tensor(h["total"])) for h in result.history)
-    resampled = psa.run_psa(backend, models, psa.PSASettings(mode="resample", max_iterations=1, stop_ratio=0))
+    from lapig.tools.research.psa_resample import run_resample
+
+    resampled = run_resample(backend, models, psa.PSASettings(max_iterations=1, stop_ratio=0))
     assert resampled.target.shape == s.shape

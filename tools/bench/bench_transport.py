@@ -272,6 +272,7 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
     from ...lapig_core.photometric.training_data import to_numpy, to_tensor
     from ...lapig_core.pipeline import setup_dir_of
     from .noise_floor import below_floor, noise_floor
+    from ..research import projector_space_choice
 
     torch.manual_seed(0)
     specs = realistic_specs(args)
@@ -316,8 +317,9 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
             choice.learned_compensate(learned[f"{first}"], surf.s), classical.compensate,
             choice.learned_simulate(simulator, surf.s, surf.i_min, surf.i_max), cs.prj_test[val], cs.cam_black,
             cs.cam_white, cs.projector_valid)
-        by_pairs = choice.choose(choice.learned_compensate(learned[f"{first}"], surf.s), classical.compensate,
-                                 cs.cam_test[val], cs.prj_test[val], cs.projector_valid, cs.cam_black, cs.cam_white)
+        by_pairs = projector_space_choice.choose(
+            choice.learned_compensate(learned[f"{first}"], surf.s), classical.compensate, cs.cam_test[val],
+            cs.prj_test[val], cs.projector_valid, cs.cam_black, cs.cam_white)
         images = {f"compennest_{p}": to_numpy(predict(learned[p], to_tensor(targets), surf.s)) for p in learned}
         images["classical"] = classical.compensate(targets)
         images["uncompensated"] = targets

@@ -18,10 +18,12 @@ from .photometric import checkpoints, choice as compensator_choice
 from .common import metrics
 from .capture.dataset import CaptureSet
 from .photometric.classical import ClassicalModel
+from .photometric.classical_compensator import ClassicalCompensator
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
 from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, get_backend
 from .native_output import NativeResult, native_output
-from .psa.adaptation import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
+from .photometric.surface_models import SurfaceModels
+from .psa.adaptation import PSAResult, PSASettings, run_psa, without_psa
 from .psa.reach import surface_truth
 from .photometric.training_data import SurfaceTensors
 
@@ -108,7 +110,7 @@ def chosen_compensator(learned, chosen, classical):
     """The module that compensates this setup: the fine-tuned network, or the classical model where
     it measured better."""
     if chosen is not None and chosen.chosen == compensator_choice.CLASSICAL and classical is not None:
-        return compensator_choice.ClassicalCompensator(classical)
+        return ClassicalCompensator(classical)
     return learned
 
 

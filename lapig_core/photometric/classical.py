@@ -306,7 +306,7 @@ class ClassicalModel:
         out = np.power(np.clip(lin, 0.0, 1.0), np.float32(1.0 / self.gamma_c)).astype(np.float32)
         return out[0] if single else out
 
-    def _pseudo_inverse(self) -> np.ndarray:
+    def pseudo_inverse(self) -> np.ndarray:
         """Per-pixel pseudo-inverse of M, dropping directions the projector cannot drive.
 
         Truncating small singular values (absolute, _DEAD_SIGMA) makes a dead pixel (M ~ 0, e.g.
@@ -335,7 +335,7 @@ class ClassicalModel:
         the projector's range; and whether a single image was given."""
         t, single = self._check(target, "target")
         rhs = np.power(t, np.float32(self.gamma_c)) - self.o
-        return np.einsum("hwij,nhwj->nhwi", self._pseudo_inverse(), rhs), single
+        return np.einsum("hwij,nhwj->nhwi", self.pseudo_inverse(), rhs), single
 
     def reachable(self, target: np.ndarray, tolerance: float = 0.01) -> np.ndarray:
         """(N,H,W) bool (or (H,W)): pixels whose target this model reaches without clipping the

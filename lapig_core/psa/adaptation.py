@@ -45,6 +45,7 @@ import torch
 
 from ..common.metrics import structure_retention_torch
 from ..photometric import losses
+from ..photometric.surface_models import SurfaceModels
 from .tone_field import AdaptedLook
 
 LOSS_TERMS = ("pc", "cs", "ps")
@@ -106,33 +107,6 @@ class PSAResult:
     look: object = None  # what renders `state` (the AdaptedLook with a tone field, else the backend)
     warm_start_steps: int = 0  # field-only steps before the joint ones
     first_psa_loss: float | None = None  # the un-adapted look's PSA loss (the stop rule's reference)
-
-
-@dataclass
-class SurfaceModels:
-    """The fine-tuned networks of one setup and its reference captures (1,3,H,W)."""
-
-    compensator: torch.nn.Module  # CompenNeSt
-    simulator: torch.nn.Module  # PCNet
-    s: torch.Tensor
-    i_min: torch.Tensor
-    i_max: torch.Tensor
-    # (1,1,H,W) the projector pixels that land on the object, or None (all): PSA's losses count only
-    # those, so the frame around a statue (black in the projector image) does not steer the look
-    on_object: torch.Tensor | None = None
-
-    def __post_init__(self):
-        for net in (self.compensator, self.simulator):
-            net.eval()
-            for p in net.parameters():
-                p.requires_grad_(False)  # only theta learns
-        self.compensator.cache_surface(self.s)
-
-    def compensate(self, target, return_raw=False):
-        return self.compensator(target, self.s, return_raw=return_raw)
-
-    def simulate(self, projector_image):
-        return self.simulator(projector_image, self.s, self.i_min, self.i_max)
 
 
 def _mean_on_object(per_pixel: torch.Tensor, models: SurfaceModels) -> torch.Tensor:

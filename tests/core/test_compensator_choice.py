@@ -6,6 +6,7 @@ torch = pytest.importorskip("torch")
 
 from lapig_core.photometric import choice  # noqa: E402
 from lapig_core.photometric.classical import ClassicalModel  # noqa: E402
+from lapig_core.photometric.classical_compensator import ClassicalCompensator  # noqa: E402
 from lapig.tools.research import projector_space_choice as by_pairs  # noqa: E402
 
 
@@ -118,7 +119,7 @@ def test_no_held_back_pairs_keeps_the_learned_one_and_says_why():
 def test_the_classical_compensator_module_matches_the_model_at_any_size(tmp_path):
     prj, cam = _pairs(16, 2)
     model = ClassicalModel.fit(prj, cam)
-    module = choice.ClassicalCompensator(model)
+    module = ClassicalCompensator(model)
     t = torch.from_numpy(cam[:2].transpose(0, 3, 1, 2).copy())
     out, raw = module(t, None, return_raw=True)
     expected = model.compensate(cam[:2]).transpose(0, 3, 1, 2)
@@ -162,12 +163,12 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
     assert (setup_dir_of(cs) / "models" / choice.CHOICE_FILE).is_file()
     models = surface_models(cs)
     assert models.choice == picked
-    assert isinstance(models.compensator, choice.ClassicalCompensator) == (picked.chosen == choice.CLASSICAL)
+    assert isinstance(models.compensator, ClassicalCompensator) == (picked.chosen == choice.CLASSICAL)
     # a setup whose measurement chose the classical model compensates with it
     classical_won = choice.CompensatorChoice(choice.CLASSICAL, 20.0, 22.5, 4, "", choice.PCNET_JUDGE)
     choice.save_choice(setup_dir_of(cs) / "models", classical_won, trained["classical"])
     models = surface_models(cs)
-    assert isinstance(models.compensator, choice.ClassicalCompensator)
+    assert isinstance(models.compensator, ClassicalCompensator)
     assert models.choice == classical_won
     out = models.compensate(models.i_max)
     assert out.shape == models.i_max.shape and 0 <= float(out.min()) and float(out.max()) <= 1

@@ -8,6 +8,7 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
+from lapig_core.photometric.surface_models import SurfaceModels
 from lapig_core.psa import adaptation as psa
 from lapig_core.photometric.checkpoints import new_model
 from lapig_core.lgst.base import LGSTBackend
@@ -43,7 +44,7 @@ def models():
     torch.manual_seed(0)
     s = torch.rand(1, 3, SIZE, SIZE) * 0.5 + 0.25
     i_min, i_max = s * 0.1, s * 0.9
-    return psa.SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, i_min, i_max)
+    return SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, i_min, i_max)
 
 
 def _backend(models, seed=0):
@@ -128,7 +129,7 @@ def test_cancel_before_start_still_returns_the_first_iterate(models):
 def test_psa_losses_count_only_the_object_pixels(models):
     mask = torch.zeros(1, 1, SIZE, SIZE)
     mask[..., : SIZE // 2] = 1.0  # the object covers the left half of the frame
-    masked = psa.SurfaceModels(models.compensator, models.simulator, models.s, models.i_min, models.i_max,
+    masked = SurfaceModels(models.compensator, models.simulator, models.s, models.i_min, models.i_max,
                                on_object=mask)
     target = torch.rand(1, 3, SIZE, SIZE, generator=torch.Generator().manual_seed(3))
     changed = target.clone()

@@ -84,6 +84,12 @@ class DatasetLayout:
         if not name or name in (".", "..") or "/" in name or "\\" in name:
             raise DatasetError(f"invalid setup name {self.setup!r}: it must be a plain folder name")
 
+    @classmethod
+    def of_setup_dir(cls, setup_dir) -> "DatasetLayout":
+        """The layout of a setup folder, <root>/setups/<name>."""
+        setup_dir = Path(setup_dir)
+        return cls(setup_dir.parent.parent, setup_dir.name)
+
     @property
     def setup_dir(self) -> Path:
         return self.root / "setups" / self.setup
@@ -112,6 +118,14 @@ class DatasetLayout:
         if index < 1:
             raise DatasetError(f"image indices start at 1, got {index}")
         return Path(folder) / f"img_{index:04d}.png"
+
+
+def setup_dir_of(capture) -> Path:
+    """The folder of a setup's own files (setup.json, registration.npz, models/) for a CaptureSet or a
+    DatasetLayout: <root>/setups/<setup>, or the root itself where it has no setups/ (a set made in
+    memory, e.g. by the tests)."""
+    root = Path(capture.root)
+    return root / "setups" / capture.setup if (root / "setups").is_dir() else root
 
 
 # --------------------------------------------------------------------------
@@ -288,7 +302,7 @@ def resolve_setup(path) -> DatasetLayout:
             f"choose one by passing its folder, e.g. {path / 'setups' / setups[0]}"
         )
     if path.parent.name == "setups":
-        return DatasetLayout(path.parent.parent, path.name)
+        return DatasetLayout.of_setup_dir(path)
     raise DatasetError(
         f"{path} is neither a dataset root (with setups/ and prj/ inside) "
         "nor a setup folder (<root>/setups/<name>)"

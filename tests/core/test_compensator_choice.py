@@ -143,7 +143,8 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
     from lapig_core.capture.fake_device import FakeDevice
     from lapig_core.capture.sequence import GeometryChecks, run_capture
     from lapig_core.capture.settings import CaptureSettings
-    from lapig_core.pipeline import setup_dir_of, surface_models, train_models
+    from lapig_core.capture.dataset import setup_dir_of
+    from lapig_core.pipeline import surface_models, train_models
 
     device = FakeDevice(projector_size=(48, 36), camera_size=(96, 72))
     settings = CaptureSettings(out_dir=str(tmp_path), train_count=12, test_count=4, working_size=48, chunk=8)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from lapig_core.common import imageio
-from lapig_core.capture.dataset import (PRJ_DIGEST_KEY, DatasetError, DatasetLayout, list_images, load_capture_set, projector_images_digest, summarize, write_capture, write_projector_images, write_setup_json)
+from lapig_core.capture.dataset import (PRJ_DIGEST_KEY, DatasetError, DatasetLayout, list_images, load_capture_set, projector_images_digest, setup_dir_of, summarize, write_capture, write_projector_images, write_setup_json)
 from lapig_core.common.imageio import ImageReadError, read_image, to_float, to_uint8, write_png
 from lapig_core.capture.patterns import generate_patterns, reference_patterns
 
@@ -114,6 +114,14 @@ def test_layout_paths(tmp_path):
         layout.image_path(tmp_path, 0)
     with pytest.raises(DatasetError):
         DatasetLayout(tmp_path, "../escape")
+
+
+def test_the_setup_folder_rule(tmp_path):
+    layout = DatasetLayout(tmp_path, "s1")
+    assert DatasetLayout.of_setup_dir(layout.setup_dir) == layout
+    assert setup_dir_of(layout) == tmp_path  # no setups/ yet: the root holds the setup's files
+    layout.setup_dir.mkdir(parents=True)
+    assert setup_dir_of(layout) == layout.setup_dir
 
 
 def test_write_projector_images_routes_and_trims(tmp_path):

@@ -270,7 +270,7 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
     from ...lapig_core.photometric.finetune import CAMERA_SPACE, PAPER_LOSS, cpu_recipe, finetune
     from ...lapig_core.photometric.training import predict
     from ...lapig_core.photometric.training_data import to_numpy, to_tensor
-    from ...lapig_core.pipeline import setup_dir_of
+    from ...lapig_core.capture.dataset import setup_dir_of
     from .noise_floor import below_floor, noise_floor
     from ..research import projector_space_choice
 

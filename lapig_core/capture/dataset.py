@@ -45,7 +45,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..common.imageio import ImageReadError, atomic_write_bytes, read_image, write_png
+from ..common.atomic import atomic_write_bytes
+from ..common.imageio import ImageReadError, read_image, write_png
+from ..common.jsonable import json_default
 from .registration import Registration
 
 PRJ_KINDS = ("ref", "train", "test")
@@ -162,21 +164,11 @@ def write_capture(layout: DatasetLayout, stage: str, kind: str, index: int, imag
     return write_png(layout.image_path(folder, index), image, bit_depth)
 
 
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
-
-
 def write_setup_json(layout: DatasetLayout, meta: dict) -> Path:
     """Atomically write the setup metadata (numpy scalars/arrays are converted)."""
     if not isinstance(meta, dict):
         raise DatasetError(f"setup metadata must be a dict, got {type(meta).__name__}")
-    text = json.dumps(meta, indent=2, default=_json_default, allow_nan=False)
+    text = json.dumps(meta, indent=2, default=json_default, allow_nan=False)
     return atomic_write_bytes(layout.setup_json, (text + "\n").encode("utf-8"))
 
 

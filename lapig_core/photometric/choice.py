@@ -31,6 +31,7 @@ import numpy as np
 import torch
 
 from ..common import metrics
+from ..common.atomic import atomic_write_bytes
 from .classical import ClassicalModel
 
 LEARNED, CLASSICAL = "CompenNeSt", "classical"
@@ -208,15 +209,10 @@ def choose_by_captures(v: Verification, captures: np.ndarray) -> CompensatorChoi
 
 
 def save_choice(models_dir, choice: CompensatorChoice, classical: ClassicalModel):
-    """Beside the fine-tuned networks (temp-then-rename)."""
+    """Beside the fine-tuned networks, each file whole or not at all (common/atomic)."""
     folder = Path(models_dir)
-    folder.mkdir(parents=True, exist_ok=True)
-    tmp = folder / (CLASSICAL_FILE + ".tmp")
-    classical.save(tmp)
-    tmp.replace(folder / CLASSICAL_FILE)
-    tmp = folder / (CHOICE_FILE + ".tmp")
-    tmp.write_text(json.dumps(choice.to_dict(), indent=2))
-    tmp.replace(folder / CHOICE_FILE)
+    classical.save(folder / CLASSICAL_FILE)
+    atomic_write_bytes(folder / CHOICE_FILE, json.dumps(choice.to_dict(), indent=2).encode("utf-8"))
 
 
 def load_choice(models_dir) -> tuple[CompensatorChoice, ClassicalModel] | None:

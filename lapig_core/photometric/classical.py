@@ -16,10 +16,13 @@ fitted camera response, then fit M and o by least squares, all pixels at once.
 """
 from __future__ import annotations
 
+import io
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..common.atomic import atomic_write_bytes
 
 GAMMA_RANGE = (1.0, 3.0)
 # (step, half width around the previous best); None = the whole range
@@ -347,11 +350,12 @@ class ClassicalModel:
 
     # ------------------------------------------------------------------ storage
     def save(self, path) -> None:
-        """Write an .npz at exactly `path` (numpy would otherwise append .npz to other names)."""
-        with open(path, "wb") as f:
-            np.savez(f, gamma_c=np.float64(self.gamma_c), gamma_p=np.float64(self.gamma_p),
-                     M=self.M, o=self.o, residual=np.float64(self.residual),
-                     fit_seconds=np.float64(self.fit_seconds), format_version=np.int64(1))
+        """Write an .npz at exactly `path` (numpy would append .npz to other names), whole or not at all."""
+        buf = io.BytesIO()
+        np.savez(buf, gamma_c=np.float64(self.gamma_c), gamma_p=np.float64(self.gamma_p),
+                 M=self.M, o=self.o, residual=np.float64(self.residual),
+                 fit_seconds=np.float64(self.fit_seconds), format_version=np.int64(1))
+        atomic_write_bytes(path, buf.getvalue())
 
     @classmethod
     def load(cls, path) -> "ClassicalModel":

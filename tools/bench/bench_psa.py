@@ -27,6 +27,7 @@ import numpy as np
 import torch
 
 from ...lapig_core.common import metrics
+from ...lapig_core.common.atomic import atomic_write_bytes
 from ...lapig_core.capture.dataset import load_capture_set
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.lgst import get_backend
@@ -192,10 +193,8 @@ def _run_table(args, out, surfaces, prompts, ablation_prompts, tag):
         sheets.append(sheet)
         timings[name] = {k: round(v, 1) for k, v in t.items()}
         # the rows so far, so a long run stopped part way still leaves its finished surfaces
-        partial = os.path.join(out, f"rows{tag or '_paper'}.json")
-        with open(partial + ".tmp", "w") as f:
-            json.dump({"rows": rows, "timings": timings}, f, indent=1, default=float)
-        os.replace(partial + ".tmp", partial)
+        text = json.dumps({"rows": rows, "timings": timings}, indent=1, default=float)
+        atomic_write_bytes(os.path.join(out, f"rows{tag or '_paper'}.json"), text.encode("utf-8"))
     return rows, sheets, timings
 
 

@@ -34,6 +34,7 @@ import numpy as np
 from ...lapig_addon.blender import rig, scene_state
 from ...lapig_addon.blender.cycles_device import CyclesCaptureDevice
 from ...lapig_addon.cli import headless
+from ...lapig_core.common.atomic import atomic_write_bytes
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.optics.transport import FAST, LightTransport
@@ -252,13 +253,11 @@ def compensation_case(args, data, spec):
 
 
 def _write_partial(out, part, per_setup):
-    """The part's per-setup rows so far, as out/<part>_partial.json (temp-then-rename)."""
+    """The part's per-setup rows so far, as out/<part>_partial.json (whole or not at all)."""
     import json
 
-    path = os.path.join(out, f"{part}_partial.json")
-    with open(path + ".tmp", "w") as f:
-        json.dump(per_setup, f, indent=1, sort_keys=True, default=float)
-    os.replace(path + ".tmp", path)
+    text = json.dumps(per_setup, indent=1, sort_keys=True, default=float)
+    atomic_write_bytes(os.path.join(out, f"{part}_partial.json"), text.encode("utf-8"))
 
 
 def compensation_run(args, data, out) -> tuple[dict, list]:

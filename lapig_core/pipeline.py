@@ -16,18 +16,16 @@ import torch
 
 from .photometric import checkpoints, choice as compensator_choice
 from .common import metrics
-from .capture.dataset import CaptureSet
+from .capture.dataset import CaptureSet, setup_dir_of
 from .photometric.classical import ClassicalModel
+from .photometric.classical_compensator import ClassicalCompensator
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
 from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, get_backend
 from .native_output import NativeResult, native_output
-from .psa.adaptation import PSAResult, PSASettings, SurfaceModels, run_psa, without_psa
+from .photometric.surface_models import SurfaceModels
+from .psa.adaptation import PSAResult, PSASettings, run_psa, without_psa
 from .psa.reach import surface_truth
 from .photometric.training_data import SurfaceTensors
-
-
-def setup_dir_of(cs: CaptureSet) -> Path:
-    return Path(cs.root) / "setups" / cs.setup if (Path(cs.root) / "setups").is_dir() else Path(cs.root)
 
 
 def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
@@ -77,8 +75,7 @@ def load_saved_models(folder) -> SavedModels:
     from .capture.dataset import read_setup_json, resolve_setup
 
     layout = resolve_setup(folder)
-    setup_dir = layout.setup_dir if (layout.root / "setups").is_dir() else layout.root
-    return _load_saved(setup_dir, read_setup_json(layout.setup_json).get("fingerprint"))
+    return _load_saved(setup_dir_of(layout), read_setup_json(layout.setup_json).get("fingerprint"))
 
 
 def _load_saved(setup_dir, fingerprint) -> SavedModels:
@@ -108,7 +105,7 @@ def chosen_compensator(learned, chosen, classical):
     """The module that compensates this setup: the fine-tuned network, or the classical model where
     it measured better."""
     if chosen is not None and chosen.chosen == compensator_choice.CLASSICAL and classical is not None:
-        return compensator_choice.ClassicalCompensator(classical)
+        return ClassicalCompensator(classical)
     return learned
 
 

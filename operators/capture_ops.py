@@ -5,7 +5,7 @@ from ..lapig_addon.blender.modal_runner import JobRunnerMixin
 from ..lapig_addon.blender.operator_boundary import AsksForFolder
 from ..lapig_addon.blender.scene_store import scene_seams
 from ..lapig_addon.services.capture_job import CaptureJob, check_rig
-from ..lapig_core.capture.dataset import load_capture_set, summarize
+from ..lapig_core.capture.dataset import load_capture_set, setup_dir_of, summarize
 from ..lapig_core.optics.working_frame import check_aspect
 from ..lapig_core.common.deps import require
 
@@ -42,8 +42,7 @@ class LAPIG_OT_import_capture(AsksForFolder, bpy.types.Operator):
         if projector_size:  # its images must cover the projector's frame (e.g. a public 256x256 set: 1:1)
             check_aspect(capture_set.frame_size, projector_size, "the data set",
                          advice="set the projector's resolution to the data set's aspect first")
-        folder = capture_set.root / "setups" / capture_set.setup if capture_set.setup else self.directory
-        scene_state.record_capture(context.scene, folder, "")  # captured elsewhere: not tied to this rig
+        scene_state.record_capture(context.scene, setup_dir_of(capture_set), "")  # captured elsewhere: not tied to this rig
         self.report({"INFO"}, summarize(capture_set))
         return {"FINISHED"}
 

@@ -17,7 +17,8 @@ import numpy as np
 
 from ..lapig_core.common import metrics
 from ..lapig_core.capture.dataset import load_capture_set
-from ..lapig_core.common.imageio import atomic_write_bytes, read_image, write_png
+from ..lapig_core.common.atomic import atomic_write_bytes
+from ..lapig_core.common.imageio import read_image, write_png
 from ..lapig_core.native_output import output_frame, tile_for
 from ..lapig_core.pipeline import as_image, output_at, stylize, surface_models
 from ..lapig_core.psa.adaptation import PSASettings

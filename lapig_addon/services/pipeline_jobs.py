@@ -13,15 +13,14 @@ import time
 from ...lapig_core.common import metrics
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
-                                           resolve_setup)
+                                           resolve_setup, setup_dir_of)
 from ...lapig_core.capture.staging import hold_root
 from ...lapig_core.lgst import backend_class
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.native_output import OutputSizeError, output_frame, tile_for
 from ...lapig_core.photometric import choice as compensator_choice
-from ...lapig_core.pipeline import (as_image, output_at, saved_models_problem, setup_dir_of, stylize,
-                                     surface_models, train_models)
+from ...lapig_core.pipeline import as_image, output_at, saved_models_problem, stylize, surface_models, train_models
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
 from ...lapig_core.export.result_files import (as_stored, folder_name, heat_overlay, output_name,
                                                read_output_image, read_summary, write_new_result, write_result)

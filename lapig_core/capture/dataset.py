@@ -45,7 +45,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..common.imageio import ImageReadError, atomic_write_bytes, read_image, write_png
+from ..common.atomic import atomic_write_bytes
+from ..common.imageio import ImageReadError, read_image, write_png
+from ..common.jsonable import json_default
 from .registration import Registration
 
 PRJ_KINDS = ("ref", "train", "test")
@@ -84,6 +86,12 @@ class DatasetLayout:
         if not name or name in (".", "..") or "/" in name or "\\" in name:
             raise DatasetError(f"invalid setup name {self.setup!r}: it must be a plain folder name")
 
+    @classmethod
+    def of_setup_dir(cls, setup_dir) -> "DatasetLayout":
+        """The layout of a setup folder, <root>/setups/<name>."""
+        setup_dir = Path(setup_dir)
+        return cls(setup_dir.parent.parent, setup_dir.name)
+
     @property
     def setup_dir(self) -> Path:
         return self.root / "setups" / self.setup
@@ -112,6 +120,14 @@ class DatasetLayout:
         if index < 1:
             raise DatasetError(f"image indices start at 1, got {index}")
         return Path(folder) / f"img_{index:04d}.png"
+
+
+def setup_dir_of(capture) -> Path:
+    """The folder of a setup's own files (setup.json, registration.npz, models/) for a CaptureSet or a
+    DatasetLayout: <root>/setups/<setup>, or the root itself where it has no setups/ (a set made in
+    memory, e.g. by the tests)."""
+    root = Path(capture.root)
+    return root / "setups" / capture.setup if (root / "setups").is_dir() else root
 
 
 # --------------------------------------------------------------------------
@@ -148,21 +164,11 @@ def write_capture(layout: DatasetLayout, stage: str, kind: str, index: int, imag
     return write_png(layout.image_path(folder, index), image, bit_depth)
 
 
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
-
-
 def write_setup_json(layout: DatasetLayout, meta: dict) -> Path:
     """Atomically write the setup metadata (numpy scalars/arrays are converted)."""
     if not isinstance(meta, dict):
         raise DatasetError(f"setup metadata must be a dict, got {type(meta).__name__}")
-    text = json.dumps(meta, indent=2, default=_json_default, allow_nan=False)
+    text = json.dumps(meta, indent=2, default=json_default, allow_nan=False)
     return atomic_write_bytes(layout.setup_json, (text + "\n").encode("utf-8"))
 
 
@@ -288,7 +294,7 @@ def resolve_setup(path) -> DatasetLayout:
             f"choose one by passing its folder, e.g. {path / 'setups' / setups[0]}"
         )
     if path.parent.name == "setups":
-        return DatasetLayout(path.parent.parent, path.name)
+        return DatasetLayout.of_setup_dir(path)
     raise DatasetError(
         f"{path} is neither a dataset root (with setups/ and prj/ inside) "
         "nor a setup folder (<root>/setups/<name>)"

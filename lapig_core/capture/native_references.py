@@ -35,7 +35,7 @@ def registered_references(setup_dir, width: int, height: int) -> References:
     """The setup's raw references registered into a width x height frame (DatasetError when a file is
     missing or unreadable)."""
     setup_dir = Path(setup_dir)
-    layout = ds.DatasetLayout(setup_dir.parent.parent, setup_dir.name)
+    layout = ds.DatasetLayout.of_setup_dir(setup_dir)
     path = setup_dir / ds.REGISTRATION_FILE
     if not path.is_file():
         raise ds.DatasetError(f"{setup_dir} has no {ds.REGISTRATION_FILE}: its references cannot be registered "

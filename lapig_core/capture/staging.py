@@ -29,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..common.imageio import atomic_write_bytes, read_image
+from ..common.atomic import atomic_write_bytes
+from ..common.imageio import read_image
 from ..common.locking import FolderLock
 from . import dataset as ds
 from .settings import CaptureError

@@ -143,10 +143,3 @@ def pass_rgb(channels: dict[str, np.ndarray], *names: str) -> np.ndarray:
                 return np.stack([channels[found[c]] for c in components], axis=-1)
     raise ExrError(f"no {' or '.join(names)} pass (channels: {', '.join(sorted(channels))})")
 
-
-def read_exr_layer(path, *names: str) -> np.ndarray:
-    """pass_rgb of a file."""
-    try:
-        return pass_rgb(read_exr_channels(path), *names)
-    except ExrError as error:
-        raise ExrError(f"{path}: {error}") from None

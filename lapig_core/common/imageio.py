@@ -9,17 +9,14 @@ non-ASCII paths work on Windows, where ``cv2.imread`` cannot open them.
 
 from __future__ import annotations
 
-import contextlib
-import glob
-import os
-import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from .atomic import atomic_write_bytes
+
 _JPEG_MAGIC = b"\xff\xd8\xff"
-_TEMP_SUFFIX = ".tmp"  # of atomic_write_bytes' temporary files, .<name>.XXXXXXXX.tmp
 
 
 class ImageReadError(OSError):
@@ -114,51 +111,25 @@ def read_image(path) -> np.ndarray:
         raise ImageReadError(f"cannot use image file {path}: {exc}") from exc
 
 
-def atomic_write_bytes(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` via a temporary file in the same folder.
+def encode_png(img: np.ndarray, bit_depth: int = 8, what: str = "an image") -> bytes:
+    """The 8- or 16-bit PNG file of an RGB (H, W, 3) or grayscale (H, W) image.
 
-    The final name only appears once the bytes are completely written, so a
-    full disk or crash mid-write leaves the previous file (or nothing), never
-    a truncated one. No fsync: ENOSPC surfaces at write/close, before the
-    rename, and fsync per file would slow down captures of thousands of images.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=_TEMP_SUFFIX, dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.chmod(tmp_name, 0o644)  # mkstemp makes it private; the result is an ordinary file
-        os.replace(tmp_name, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp_name)
-        raise
-    return path
-
-
-def remove_partial_writes(path) -> None:
-    """Remove the temporary files that killed atomic writes of ``path`` left beside it; for a
-    writer that no other process writes ``path`` with meanwhile (one holding its folder's lock)."""
-    path = Path(path)
-    for partial in path.parent.glob(f".{glob.escape(path.name)}.*{_TEMP_SUFFIX}"):
-        with contextlib.suppress(OSError):
-            partial.unlink()
-
-
-def write_png(path, img: np.ndarray, bit_depth: int = 8) -> Path:
-    """Write an RGB (H, W, 3) or grayscale (H, W) image as an 8- or 16-bit PNG.
-
-    Accepts float [0, 1] (clipped), uint8 or uint16 pixels. Parent folders are
-    created; the write is atomic (see atomic_write_bytes).
+    Accepts float [0, 1] (clipped), uint8 or uint16 pixels (to_bit_depth). Through cv2.imencode, never
+    cv2.imwrite, so the caller writes the bytes to any path (non-ASCII ones on Windows too).
     """
     img = np.asarray(img)
     if not (img.ndim == 2 or (img.ndim == 3 and img.shape[2] in (1, 3))):
         raise ValueError(f"expected an (H, W) or (H, W, 3) image, got shape {img.shape}")
     pixels = to_bit_depth(img, bit_depth)
     if pixels.ndim == 3 and pixels.shape[2] == 3:
-        pixels = pixels[:, :, ::-1]
+        pixels = pixels[:, :, ::-1]  # RGB -> BGR
     ok, encoded = cv2.imencode(".png", np.ascontiguousarray(pixels))
     if not ok:
-        raise OSError(f"OpenCV failed to encode PNG for {path}")
-    return atomic_write_bytes(path, encoded.tobytes())
+        raise OSError(f"OpenCV failed to encode PNG for {what}")
+    return encoded.tobytes()
+
+
+def write_png(path, img: np.ndarray, bit_depth: int = 8) -> Path:
+    """Write an image as an 8- or 16-bit PNG (encode_png). Parent folders are created; the write is
+    atomic (common/atomic)."""
+    return atomic_write_bytes(path, encode_png(img, bit_depth, str(path)))

@@ -18,7 +18,6 @@ No bpy here: the Blender operators call this module, and the tests run it withou
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import datetime as _dt
 import errno
 import json
@@ -26,13 +25,14 @@ import math
 import os
 import platform
 import sys
-import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from ..common.imageio import to_bit_depth, to_float
+from ..common import atomic
+from ..common.imageio import encode_png, to_bit_depth, to_float
+from ..common.jsonable import jsonable
 from ..common.resample import SAME_SIZE, resampling
 from ..optics.projector_model import frame_from_working_image, quantised_frame
 from ..optics.working_frame import WorkingFrameError, check_aspect
@@ -45,10 +45,6 @@ __all__ = [
 ]
 
 EASES = ("linear", "smooth")
-
-# Arrays in the metadata longer than this are summarised in the sidecar rather than listed:
-# a sidecar describes an image, it is not meant to carry one.
-MAX_LISTED_ARRAY = 4096
 
 _DISK_FULL_ERRNOS = {errno.ENOSPC} | ({errno.EDQUOT} if hasattr(errno, "EDQUOT") else set())
 
@@ -116,65 +112,15 @@ def _native(image, width: int, height: int, what: str) -> tuple[np.ndarray, str]
     return frame_from_working_image(img, width, height), resampling(img.shape[:2], (height, width))
 
 
-def _encode_png(pixels: np.ndarray, name: str) -> bytes:
-    """uint8/uint16 RGB pixels -> PNG bytes of the same bit depth."""
-    ok, encoded = cv2.imencode(".png", np.ascontiguousarray(pixels[:, :, ::-1]))  # RGB -> BGR
-    if not ok:
-        raise ExportError(f"OpenCV could not encode {name} as a PNG")
-    return encoded.tobytes()
+def _encode_png(pixels: np.ndarray, bit_depth: int, name: str) -> bytes:
+    """RGB pixels -> the PNG bytes of a bit_depth file (imageio.encode_png)."""
+    try:
+        return encode_png(pixels, bit_depth, name)
+    except OSError as exc:
+        raise ExportError(str(exc)) from exc
 
 
 # ----------------------------------------------------------------------------- JSON
-
-
-def _jsonable(obj):
-    """Metadata -> plain JSON types: numpy scalars/arrays converted, NaN/inf -> null."""
-    if obj is None or isinstance(obj, (str, bool)):
-        return obj
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        value = float(obj)
-        return value if math.isfinite(value) else None
-    if isinstance(obj, (complex, np.complexfloating)):
-        return [_jsonable(obj.real), _jsonable(obj.imag)]
-    if isinstance(obj, np.ndarray):
-        if obj.size > MAX_LISTED_ARRAY:
-            summary = {"shape": list(obj.shape), "dtype": str(obj.dtype)}
-            if np.issubdtype(obj.dtype, np.number) and not np.issubdtype(obj.dtype, np.complexfloating):
-                with np.errstate(all="ignore"), _warnings_off():
-                    summary.update(min=_jsonable(np.nanmin(obj)), max=_jsonable(np.nanmax(obj)),
-                                   mean=_jsonable(np.nanmean(obj)))
-            return summary
-        return _jsonable(obj.tolist())
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple, set, frozenset)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, os.PathLike):
-        return os.fspath(obj)
-    if isinstance(obj, (_dt.datetime, _dt.date)):
-        return obj.isoformat()
-    if isinstance(obj, bytes):
-        return obj.decode("utf-8", "replace")
-    if hasattr(obj, "to_dict") and callable(obj.to_dict):  # ProjectorModel and friends
-        return _jsonable(obj.to_dict())
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return _jsonable(dataclasses.asdict(obj))
-    if isinstance(obj, np.generic):
-        return _jsonable(obj.item())
-    return str(obj)  # a sidecar is a record for people: never fail an export over a label
-
-
-@contextlib.contextmanager
-def _warnings_off():
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slices
-        yield
 
 
 def _software(lapig_version) -> dict:
@@ -206,9 +152,9 @@ def _sidecar_bytes(caller: dict | None, own: dict) -> bytes:
     """Caller's metadata plus this module's keys; dict values under the same key are merged."""
     if caller is not None and not isinstance(caller, dict):
         raise ExportError(f"metadata must be a dict, got {type(caller).__name__}")
-    data = _jsonable(dict(caller or {}))
+    data = jsonable(dict(caller or {}))
     for key, value in own.items():
-        value = _jsonable(value)
+        value = jsonable(value)
         if isinstance(data.get(key), dict) and isinstance(value, dict):
             value = {**data[key], **value}
         data[key] = value
@@ -216,11 +162,6 @@ def _sidecar_bytes(caller: dict | None, own: dict) -> bytes:
 
 
 # ----------------------------------------------------------------------------- atomic files
-
-
-def _write_all(handle, data: bytes) -> None:
-    """The actual write, kept separate so tests can simulate a full disk here."""
-    handle.write(data)
 
 
 def _check_folder(folder: Path) -> None:
@@ -240,49 +181,10 @@ def _write_error(exc: OSError, target: Path) -> ExportError:
     )
 
 
-def _write_temp(target: Path, data: bytes) -> Path:
-    """Write data to a hidden temporary file beside target; removed again on any failure."""
-    try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    except OSError as exc:
-        raise _write_error(exc, target) from exc
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            _write_all(handle, data)  # ENOSPC surfaces here or at close
-        os.chmod(tmp_name, 0o644)  # mkstemp makes it private; the result is an ordinary file
-    except BaseException as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp_name)
-        if isinstance(exc, OSError):
-            raise _write_error(exc, target) from exc
-        raise
-    return Path(tmp_name)
-
-
 def _commit(files: list[tuple[Path, bytes]]) -> list[Path]:
-    """Write every file to a temp name first, then rename them all into place.
-
-    Nothing appears under a final name until every byte of every file is on disk; a failure
-    before that leaves no file behind. Renames go in the given order, so put the file that
-    signals "done" (the image) last; if a rename fails, the ones already done are undone.
-    """
-    temps: list[Path] = []
-    done: list[Path] = []
-    try:
-        for target, data in files:
-            temps.append(_write_temp(target, data))
-        for (target, _), tmp in zip(files, temps):
-            try:
-                os.replace(tmp, target)
-            except OSError as exc:
-                raise _write_error(exc, target) from exc
-            done.append(target)
-    except BaseException:
-        for path in temps + done:
-            with contextlib.suppress(OSError):
-                os.unlink(path)
-        raise
-    return done
+    """atomic.commit (nothing under a final name until every file is complete; put the image last), its
+    failures as ExportErrors that say what to do."""
+    return atomic.commit(files, _write_error)
 
 
 def _png_path(out_path) -> Path:
@@ -337,7 +239,7 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
         "created": _utc_now(),
     }
     sidecar = _sidecar_bytes(metadata, own)
-    png = _encode_png(pixels, png_path.name)
+    png = _encode_png(pixels, bit_depth, png_path.name)
     _commit([(json_path, sidecar), (png_path, png)])  # image last: its appearance means done
     return {"image": png_path, "sidecar": json_path}
 
@@ -426,7 +328,7 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
     try:
         for path, w in zip(paths, weights):
             frame = _blend(frame_a, frame_b, lin_a, lin_b, w, gamma)
-            written += _commit([(path, _encode_png(to_bit_depth(frame, bit_depth), path.name))])
+            written += _commit([(path, _encode_png(frame, bit_depth, path.name))])
             if on_progress and (len(written) % max(1, frames // 100) == 0 or len(written) == frames):
                 on_progress(len(written) / frames, f"wrote crossfade frame {len(written)}/{frames}")
         _commit([(folder / f"{name}.json", sidecar)])

@@ -30,7 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..common.imageio import atomic_write_bytes, read_image, to_bit_depth, to_float, write_png
+from ..common.atomic import atomic_write_bytes
+from ..common.imageio import read_image, to_bit_depth, to_float, write_png
+from ..common.jsonable import json_default_or_str
 from ..common.scratch import ScratchFolder
 from ..common.sheets import labelled_grid
 
@@ -88,16 +90,8 @@ def write_result(folder, images: dict, summary: dict) -> Path:
         cols = 3 if len(tiles) == 6 else 2
         write_png(folder / "comparison.png", labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles],
                                                            columns=cols, cell=256, title=summary.get("prompt", "")))
-    atomic_write_bytes(folder / "result.json", json.dumps(summary, indent=2, default=_json).encode("utf-8"))
+    atomic_write_bytes(folder / "result.json", json.dumps(summary, indent=2, default=json_default_or_str).encode("utf-8"))
     return folder
-
-
-def _json(value):
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    return str(value)
 
 
 def as_stored(img: np.ndarray) -> np.ndarray:

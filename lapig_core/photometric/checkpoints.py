@@ -15,7 +15,7 @@ from pathlib import Path
 import torch
 
 from . import archs
-from ..common.imageio import atomic_write_bytes
+from ..common.atomic import atomic_write_bytes
 
 FORMAT = "lapig-checkpoint"
 VERSION = 1

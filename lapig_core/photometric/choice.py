@@ -14,12 +14,9 @@ niche and the vase by 0.2-0.6 dB, where it rendered 0.3-1.1 dB behind; so the le
 only when it is ahead by more than LEARNED_LEAD_DB, which picks the rendered winner on all five realistic
 setups (BENCHMARKS, issue 16; a threshold set on those same five).
 
-The projector-space comparison (`choose`; the benchmarks record it beside the choice): both recover
-the projector images of the held-back captures, counted only where a capture lies inside the
-surface's range (above I- and below I+ by UNCLIPPED_MARGIN): where it sits at the black or the white
-end many projector values make the same capture, and the comparison there is noise (over all registered
-pixels it had picked CompenNeSt on the tilted relief, 4.5 dB behind rendered). It misses three of the five
-realistic setups.
+The projector-space comparison (recovered projector images of held-back pairs), which misses three of
+the five realistic setups, is research code the benchmarks record beside the choice:
+tools/research/projector_space_choice.py.
 
 A user never gets the worse one silently: the choice, its judge and its margin go into the panel's
 model status and result.json.
@@ -27,21 +24,19 @@ model status and result.json.
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 
 from ..common import metrics
+from ..common.atomic import atomic_write_bytes
 from .classical import ClassicalModel
 
 LEARNED, CLASSICAL = "CompenNeSt", "classical"
 RENDERED_JUDGE = "rendered"  # the rig's own renders of both compensations (Train in Blender)
 VERIFY_IMAGES = 8  # held-back images the rendered choice projects, each compensated both ways
-UNCLIPPED_MARGIN = 0.02  # a capture this far inside (I-, I+) identifies its projector value (noise ~0.003)
 PCNET_JUDGE = "PCNet"
 # PCNet, a network like CompenNeSt, favours CompenNeSt's projector images: against the rendered captures of the
 # five realistic setups its figure put CompenNeSt (camera-space fine-tune) 0.6 to 1.7 dB better than it was. The
@@ -62,7 +57,8 @@ class CompensatorChoice:
     classical_psnr: float | None
     validation_pairs: int
     reason: str = ""  # why there was nothing to measure, when so
-    judge: str = "projector space"  # how they were compared: RENDERED_JUDGE, PCNET_JUDGE or projector space
+    # how they were compared: RENDERED_JUDGE, PCNET_JUDGE or the projector space (tools/research)
+    judge: str = "projector space"
     required_lead_db: float = 0.0  # how far ahead the learned one had to be to be chosen (LEARNED_LEAD_DB)
 
     @property
@@ -90,53 +86,12 @@ class CompensatorChoice:
         return {**asdict(self), "margin_db": round(self.margin_db, 4), "line": self.line()}
 
 
-def identifiable(cam: np.ndarray, black: np.ndarray | None, white: np.ndarray | None,
-                 mask: np.ndarray | None) -> np.ndarray:
-    """(N, H, W, 3) bool: the pixels and channels whose capture identifies the projector value
-    (registered, and inside (I-, I+) by UNCLIPPED_MARGIN; without I- and I+ every registered one)."""
-    cam = np.asarray(cam, np.float32)
-    keep = np.ones(cam.shape, bool)
-    if black is not None and white is not None:
-        keep &= (cam > np.asarray(black, np.float32)[None] + UNCLIPPED_MARGIN) \
-            & (cam < np.asarray(white, np.float32)[None] - UNCLIPPED_MARGIN)
-    if mask is not None:
-        keep &= np.asarray(mask, bool)[None, ..., None]
-    return keep
-
-
-def validation_psnr(compensate, cam: np.ndarray, prj: np.ndarray, mask: np.ndarray | None,
-                    black: np.ndarray | None = None, white: np.ndarray | None = None) -> float:
-    """Mean PSNR of compensate(captures) against the projector images that made them, over the
-    identifiable pixels of each pair (`identifiable`); a pair with none counts as nothing."""
-    pred = np.asarray(compensate(cam), np.float32)
-    keep = identifiable(cam, black, white, mask)
-    values = []
-    for p, t, k in zip(pred, np.asarray(prj, np.float32), keep):
-        if k.any():
-            err = float(np.mean((p - t)[k] ** 2))
-            values.append(min(MAX_PSNR, 10.0 * math.log10(1.0 / max(err, 1e-30))))
-    return float(np.mean(values)) if values else math.nan
-
-
 def learned_compensate(model, s: torch.Tensor):
     """numpy (N,H,W,3) -> (N,H,W,3) through a compensation network; s: the (1,3,H,W) surface capture."""
     from .training import predict
     from .training_data import to_numpy, to_tensor
 
     return lambda cam: to_numpy(predict(model, to_tensor(cam), s))
-
-
-def choose(learned, classical, cam_val, prj_val, mask=None, black=None, white=None) -> CompensatorChoice:
-    """Compare two compensators (callables numpy -> numpy) on held-back pairs, over their identifiable
-    pixels (black, white: the I- and I+ captures); ties go to the learned one."""
-    n = len(cam_val)
-    if n == 0:
-        return CompensatorChoice(LEARNED, None, None, 0, "no held-back pairs to compare on")
-    lp = validation_psnr(learned, cam_val, prj_val, mask, black, white)
-    cp = validation_psnr(classical, cam_val, prj_val, mask, black, white)
-    if math.isnan(lp) or math.isnan(cp):
-        return CompensatorChoice(LEARNED, None, None, n, "the held-back captures are clipped everywhere")
-    return CompensatorChoice(CLASSICAL if cp > lp else LEARNED, round(lp, 4), round(cp, 4), n)
 
 
 def judged_pixels(black, white, mask=None) -> np.ndarray:
@@ -254,15 +209,10 @@ def choose_by_captures(v: Verification, captures: np.ndarray) -> CompensatorChoi
 
 
 def save_choice(models_dir, choice: CompensatorChoice, classical: ClassicalModel):
-    """Beside the fine-tuned networks (temp-then-rename)."""
+    """Beside the fine-tuned networks, each file whole or not at all (common/atomic)."""
     folder = Path(models_dir)
-    folder.mkdir(parents=True, exist_ok=True)
-    tmp = folder / (CLASSICAL_FILE + ".tmp")
-    classical.save(tmp)
-    tmp.replace(folder / CLASSICAL_FILE)
-    tmp = folder / (CHOICE_FILE + ".tmp")
-    tmp.write_text(json.dumps(choice.to_dict(), indent=2))
-    tmp.replace(folder / CHOICE_FILE)
+    classical.save(folder / CLASSICAL_FILE)
+    atomic_write_bytes(folder / CHOICE_FILE, json.dumps(choice.to_dict(), indent=2).encode("utf-8"))
 
 
 def load_choice(models_dir) -> tuple[CompensatorChoice, ClassicalModel] | None:
@@ -277,44 +227,3 @@ def load_choice(models_dir) -> tuple[CompensatorChoice, ClassicalModel] | None:
                                    "required_lead_db") if k in data}
     return CompensatorChoice(**fields), classical
 
-
-class ClassicalCompensator(torch.nn.Module):
-    """The classical per-pixel compensation as a differentiable module with CompenNeSt's call
-    signature, so PSA and the native output use it where it was chosen.
-
-    Its per-pixel pseudo-inverse and offset live at the working frame; another size (the native
-    output) resamples them bilinearly (`frame_inputs` gives them to the tiling as extra inputs)."""
-
-    ARCH_NAME = CLASSICAL
-
-    def __init__(self, model: ClassicalModel):
-        super().__init__()
-        pinv = model._pseudo_inverse()  # (H, W, 3, 3)
-        h, w = pinv.shape[:2]
-        self.register_buffer("pinv", torch.from_numpy(np.ascontiguousarray(pinv.reshape(h, w, 9))).permute(2, 0, 1)[None])
-        self.register_buffer("offset", torch.from_numpy(np.ascontiguousarray(model.o)).permute(2, 0, 1)[None].float())
-        self.gamma_c, self.gamma_p = float(model.gamma_c), float(model.gamma_p)
-
-    def cache_surface(self, s):  # CompenNeSt caches its surface features; nothing to cache here
-        pass
-
-    def frame_inputs(self, height: int, width: int) -> list[torch.Tensor]:
-        """The per-pixel parameters at height x width."""
-        if (height, width) == tuple(self.pinv.shape[-2:]):
-            return [self.pinv, self.offset]
-        size = (height, width)
-        return [F.interpolate(self.pinv, size, mode="bilinear", align_corners=False),
-                F.interpolate(self.offset, size, mode="bilinear", align_corners=False)]
-
-    def forward(self, target, s=None, pinv=None, offset=None, return_raw=False):
-        if pinv is None:
-            pinv, offset = self.frame_inputs(*target.shape[-2:])
-        pinv = pinv.to(target.dtype)
-        rhs = target.clamp(0, 1) ** self.gamma_c - offset.to(target.dtype)
-        n, _, h, w = target.shape
-        x = (pinv.reshape(pinv.shape[0], 3, 3, h, w) * rhs[:, None]).sum(2)  # per pixel M^+ (t^gc - o)
-        out = x.clamp(1e-6, 1.0) ** (1.0 / self.gamma_p)
-        if not return_raw:
-            return out
-        raw = torch.sign(x) * x.abs().clamp_min(1e-6) ** (1.0 / self.gamma_p)  # > 1 where it would saturate
-        return out, raw

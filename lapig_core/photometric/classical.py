@@ -16,10 +16,13 @@ fitted camera response, then fit M and o by least squares, all pixels at once.
 """
 from __future__ import annotations
 
+import io
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..common.atomic import atomic_write_bytes
 
 GAMMA_RANGE = (1.0, 3.0)
 # (step, half width around the previous best); None = the whole range
@@ -306,7 +309,7 @@ class ClassicalModel:
         out = np.power(np.clip(lin, 0.0, 1.0), np.float32(1.0 / self.gamma_c)).astype(np.float32)
         return out[0] if single else out
 
-    def _pseudo_inverse(self) -> np.ndarray:
+    def pseudo_inverse(self) -> np.ndarray:
         """Per-pixel pseudo-inverse of M, dropping directions the projector cannot drive.
 
         Truncating small singular values (absolute, _DEAD_SIGMA) makes a dead pixel (M ~ 0, e.g.
@@ -335,7 +338,7 @@ class ClassicalModel:
         the projector's range; and whether a single image was given."""
         t, single = self._check(target, "target")
         rhs = np.power(t, np.float32(self.gamma_c)) - self.o
-        return np.einsum("hwij,nhwj->nhwi", self._pseudo_inverse(), rhs), single
+        return np.einsum("hwij,nhwj->nhwi", self.pseudo_inverse(), rhs), single
 
     def reachable(self, target: np.ndarray, tolerance: float = 0.01) -> np.ndarray:
         """(N,H,W) bool (or (H,W)): pixels whose target this model reaches without clipping the
@@ -347,11 +350,12 @@ class ClassicalModel:
 
     # ------------------------------------------------------------------ storage
     def save(self, path) -> None:
-        """Write an .npz at exactly `path` (numpy would otherwise append .npz to other names)."""
-        with open(path, "wb") as f:
-            np.savez(f, gamma_c=np.float64(self.gamma_c), gamma_p=np.float64(self.gamma_p),
-                     M=self.M, o=self.o, residual=np.float64(self.residual),
-                     fit_seconds=np.float64(self.fit_seconds), format_version=np.int64(1))
+        """Write an .npz at exactly `path` (numpy would append .npz to other names), whole or not at all."""
+        buf = io.BytesIO()
+        np.savez(buf, gamma_c=np.float64(self.gamma_c), gamma_p=np.float64(self.gamma_p),
+                 M=self.M, o=self.o, residual=np.float64(self.residual),
+                 fit_seconds=np.float64(self.fit_seconds), format_version=np.int64(1))
+        atomic_write_bytes(path, buf.getvalue())
 
     @classmethod
     def load(cls, path) -> "ClassicalModel":

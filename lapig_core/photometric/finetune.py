@@ -18,7 +18,7 @@ import torch
 
 from . import checkpoints
 from ..capture.dataset import CaptureSet
-from ..common.imageio import remove_partial_writes
+from ..common.atomic import remove_partial_writes
 from .classical import ClassicalModel
 from .losses import CameraSpaceLoss
 from .targets import reachable_mask

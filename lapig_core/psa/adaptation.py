@@ -31,9 +31,9 @@ Adam on theta and the field (its normalised steps are the paper's Algorithm 1's;
 step, `field_lr`) with the paper's schedule (lr / 5 every 50 iterations); stops when the total loss
 falls to `stop_ratio` x the first PSA loss (L_pc + L_cs + L_ps, weighted), or at `max_iterations`,
 and returns the iterate with the lowest total loss. The style term is weighted relative to the first
-PSA loss, so the same weight means the same trade-off on every surface and prompt. `mode="resample"`
-re-does the public code's procedure instead: re-sample the backend with new seeds until the loss
-halves, at most `max_iterations` samples (no field, no gradient: the baseline).
+PSA loss, so the same weight means the same trade-off on every surface and prompt. The public code's
+procedure (re-sample the backend with new seeds until the loss halves), the baseline the benchmarks
+measure this against, is research code: tools/research/psa_resample.py.
 """
 from __future__ import annotations
 
@@ -45,32 +45,27 @@ import torch
 
 from ..common.metrics import structure_retention_torch
 from ..photometric import losses
+from ..photometric.surface_models import SurfaceModels
 from .tone_field import AdaptedLook
 
 LOSS_TERMS = ("pc", "cs", "ps")
-ABLATIONS = {  # name -> active PSA terms (the paper's Table 2)
-    "L_pc": ("pc",), "L_cs": ("cs",), "L_ps": ("ps",), "L_ps+L_cs": ("ps", "cs"), "all": ("pc", "cs", "ps"),
-}
 
 
 @dataclass
 class PSASettings:
-    mode: str = "gradient"  # "gradient" or "resample"
     terms: tuple = LOSS_TERMS
     weights: dict = field(default_factory=lambda: {"pc": 1.0, "cs": 1.0, "ps": 1.0})
     style_weight: float = 2.0  # scales w(adaptation) (module docstring), relative to the first PSA loss
     adaptation: float = 0.5  # 0: keep my look (brightness too), 1: whatever this surface can show
     lr: float = 0.01
     field_lr: float = 0.03  # Adam step of the tone field's parameters in the joint steps (after the warm start)
-    tone_field: bool = True  # gradient mode: the look passes through a ToneField that PSA optimises
+    tone_field: bool = True  # the look passes through a ToneField that PSA optimises
     keep_light_weight: float = 1.0  # the light the surface can show is not given up (keep_light_loss)
     warm_start_steps: int = 80  # field-only steps on the frozen look before the joint ones (0: none)
     warm_start_lr: float = 0.15
     lr_step: int = 50
     lr_gamma: float = 0.2
     stop_ratio: float | None = None  # None: from adaptation (stop_ratio_for)
-    resample_jitter: float = 0.1  # resample mode: theta noise of each new sample (the offline backends
-    # are deterministic in their seed alone; the paper's InstructPix2Pix samples differ by seed)
     max_iterations: int = 20  # joint steps after the warm start (about 0.6 s each at 256x192 on 2 cores)
     seed: int = 0
 
@@ -109,36 +104,9 @@ class PSAResult:
     best_iteration: int
     stopped: str  # "threshold", "max_iterations", "cancelled"
     state: dict = None  # the backend's best theta (and the tone field's, under "tone_field")
-    look: object = None  # what renders `state` (the AdaptedLook in gradient mode, else the backend)
-    warm_start_steps: int = 0  # field-only steps before the joint ones (gradient mode)
+    look: object = None  # what renders `state` (the AdaptedLook with a tone field, else the backend)
+    warm_start_steps: int = 0  # field-only steps before the joint ones
     first_psa_loss: float | None = None  # the un-adapted look's PSA loss (the stop rule's reference)
-
-
-@dataclass
-class SurfaceModels:
-    """The fine-tuned networks of one setup and its reference captures (1,3,H,W)."""
-
-    compensator: torch.nn.Module  # CompenNeSt
-    simulator: torch.nn.Module  # PCNet
-    s: torch.Tensor
-    i_min: torch.Tensor
-    i_max: torch.Tensor
-    # (1,1,H,W) the projector pixels that land on the object, or None (all): PSA's losses count only
-    # those, so the frame around a statue (black in the projector image) does not steer the look
-    on_object: torch.Tensor | None = None
-
-    def __post_init__(self):
-        for net in (self.compensator, self.simulator):
-            net.eval()
-            for p in net.parameters():
-                p.requires_grad_(False)  # only theta learns
-        self.compensator.cache_surface(self.s)
-
-    def compensate(self, target, return_raw=False):
-        return self.compensator(target, self.s, return_raw=return_raw)
-
-    def simulate(self, projector_image):
-        return self.simulator(projector_image, self.s, self.i_min, self.i_max)
 
 
 def _mean_on_object(per_pixel: torch.Tensor, models: SurfaceModels) -> torch.Tensor:
@@ -168,7 +136,8 @@ def loss_maps(target, models: SurfaceModels) -> dict:
                 "ps": losses.physical_saturation_map(target, models.i_min, models.i_max)[0, 0]}
 
 
-def _psa_loss(parts, settings) -> torch.Tensor:
+def psa_loss(parts, settings) -> torch.Tensor:
+    """The weighted sum of the settings' PSA terms of `parts` (psa_losses)."""
     return sum(settings.weights.get(t, 1.0) * parts[t] for t in settings.terms)
 
 
@@ -217,7 +186,7 @@ def proxy_psa_loss(target, models: SurfaceModels, settings: PSASettings) -> torc
     span = (models.i_max - models.i_min).clamp_min(0.01)
     cs = _mean_on_object(losses.compensation_saturation_map((target - models.i_min) / span), models)
     parts = {"pc": ps, "ps": ps, "cs": cs}
-    return _psa_loss(parts, settings)
+    return psa_loss(parts, settings)
 
 
 WARM_START_MIN_SIDE = 96  # the warm start runs at half the working frame while its short side stays at least this
@@ -275,17 +244,18 @@ def warm_start_field(look: AdaptedLook, anchor, models: SurfaceModels, settings:
     return steps
 
 
+def check_terms(settings: PSASettings) -> None:
+    """ValueError unless the settings' terms are a non-empty subset of LOSS_TERMS."""
+    unknown = set(settings.terms) - set(LOSS_TERMS)
+    if unknown or not settings.terms:
+        raise ValueError(f"PSA terms must be a non-empty subset of {LOSS_TERMS}, got {settings.terms}")
+
+
 def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None, on_progress=None,
             cancel_event=None) -> PSAResult:
     """Adapt a prepared backend (backend.prepare(surface, prompt) already called) to the surface."""
     settings = settings or PSASettings()
-    unknown = set(settings.terms) - set(LOSS_TERMS)
-    if unknown or not settings.terms:
-        raise ValueError(f"PSA terms must be a non-empty subset of {LOSS_TERMS}, got {settings.terms}")
-    if settings.mode == "resample":
-        return _run_resample(backend, models, settings, on_progress, cancel_event)
-    if settings.mode != "gradient":
-        raise ValueError(f"unknown PSA mode '{settings.mode}': use 'gradient' or 'resample'")
+    check_terms(settings)
     torch.manual_seed(settings.seed)
     t0 = time.perf_counter()
     backend = adapted_look(backend, models) if settings.tone_field else backend
@@ -294,7 +264,7 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
         anchor = backend.forward().detach()
         # the first PSA loss is the un-adapted look's, so the stop rule and the style scale do not
         # move with the warm start
-        first = float(_psa_loss(psa_losses(anchor, models), settings))
+        first = float(psa_loss(psa_losses(anchor, models), settings))
     warm_steps = 0
     if isinstance(backend, AdaptedLook):
         warm_steps = warm_start_field(backend, anchor, models, settings, cancel_event)
@@ -308,7 +278,7 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
             break
         target = backend.forward()
         parts = psa_losses(target, models)
-        psa = _psa_loss(parts, settings)
+        psa = psa_loss(parts, settings)
         psa_value = float(psa.detach())
         style = _style_loss(target, anchor, backend, settings)
         # the style term is scaled by the first PSA loss, so one weight fits every prompt and surface
@@ -340,57 +310,6 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
     return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,
                      history=history, best_iteration=entry["iteration"], stopped=stopped, state=state,
                      look=backend, warm_start_steps=warm_steps, first_psa_loss=first)
-
-
-def _run_resample(backend, models, settings, on_progress, cancel_event) -> PSAResult:
-    """The public code's PSA: new seeds until the loss is at most stop_ratio x the first sample's.
-
-    Unlike the public code it returns the best sample seen, not the last one.
-    """
-    t0 = time.perf_counter()
-    surface, prompt = getattr(backend, "surface", None), backend.describe().get("prompt", "")
-    history, best, first, stopped, anchor = [], None, None, "max_iterations", None
-    plain_jitter = getattr(backend, "jitter", None)
-    for k in range(settings.max_iterations + 1):
-        if cancel_event is not None and cancel_event.is_set():
-            stopped = "cancelled"
-            break
-        if k > 0:
-            _prepare_sample(backend, surface, prompt, settings.seed + k, plain_jitter, settings.resample_jitter)
-        with torch.no_grad():
-            target = backend.forward()
-            anchor = target if anchor is None else anchor
-            parts = psa_losses(target, models)
-            psa = float(_psa_loss(parts, settings))
-        first = psa if first is None else first
-        history.append({"iteration": k, "psa_loss": psa, **{t: float(parts[t]) for t in LOSS_TERMS}})
-        if best is None or psa < best[0]:
-            best = (psa, k, backend.state(), target, parts["comp"], parts["sim"])
-        if on_progress:
-            on_progress(min(k / settings.max_iterations, 1.0), f"PSA sample {k}: loss {psa:.5f}")
-        if psa <= settings.stop_ratio * first and k > 0:
-            stopped = "threshold"
-            break
-    _, k_best, state, target, comp, sim = best
-    if k_best != len(history) - 1:
-        if k_best == 0:  # the un-jittered first sample
-            _prepare_sample(backend, surface, prompt, settings.seed, plain_jitter, 0.0)
-        else:
-            _prepare_sample(backend, surface, prompt, settings.seed + k_best, plain_jitter, settings.resample_jitter)
-    return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,
-                     history=history, best_iteration=k_best, stopped=stopped, state=state, look=backend)
-
-
-def _prepare_sample(backend, surface, prompt, seed, plain_jitter, jitter):
-    """Prepare one resample: a deterministic backend (jitter 0) gets `jitter` for this sample only."""
-    if plain_jitter is not None and plain_jitter == 0.0:
-        backend.jitter = jitter
-        try:
-            backend.prepare(surface, prompt, seed=seed)
-        finally:
-            backend.jitter = plain_jitter
-    else:
-        backend.prepare(surface, prompt, seed=seed)
 
 
 def without_psa(backend, models: SurfaceModels) -> PSAResult:

@@ -142,5 +142,5 @@ class AdaptedLook(LGSTBackend):
                     p.zero_()
 
     @property
-    def surface(self):  # PSA's resample mode re-prepares on the backend's surface
+    def surface(self):  # the resample baseline (tools/research/psa_resample) re-prepares on it
         return getattr(self.backend, "surface", None)

@@ -6,6 +6,8 @@ torch = pytest.importorskip("torch")
 
 from lapig_core.photometric import choice  # noqa: E402
 from lapig_core.photometric.classical import ClassicalModel  # noqa: E402
+from lapig_core.photometric.classical_compensator import ClassicalCompensator  # noqa: E402
+from lapig.tools.research import projector_space_choice as by_pairs  # noqa: E402
 
 
 def _pairs(n, seed, size=32):
@@ -24,13 +26,13 @@ def test_the_classical_model_is_chosen_where_the_learned_one_measures_worse():
     def poor_network(c):  # a fake learned compensator that lags: the target itself, slightly blurred
         return np.clip(c * 0.9 + 0.05, 0, 1)
 
-    picked = choice.choose(poor_network, classical.compensate, cam[16:], prj[16:])
+    picked = by_pairs.choose(poor_network, classical.compensate, cam[16:], prj[16:])
     assert picked.chosen == choice.CLASSICAL
     assert picked.classical_psnr > picked.learned_psnr
     assert picked.margin_db == pytest.approx(picked.classical_psnr - picked.learned_psnr, abs=1e-3)
     assert "classical" in picked.line() and "held-back" in picked.line()
     # and a learned one that does better wins
-    exact = choice.choose(lambda c: prj[16:], classical.compensate, cam[16:], prj[16:])
+    exact = by_pairs.choose(lambda c: prj[16:], classical.compensate, cam[16:], prj[16:])
     assert exact.chosen == choice.LEARNED
 
 
@@ -42,8 +44,8 @@ def test_clipped_captures_do_not_decide_the_choice():
     prj = rng.uniform(0, 1, (6, 32, 32, 3)).astype(np.float32)
     prj[:, :, :16] = np.where(prj[:, :, :16] > 0.5, 1.0, 0.0)  # the left half: black or white only
     cam = np.clip(prj, 0.1, 0.9).astype(np.float32)  # ...so the left half's captures are clipped
-    clipped = (cam <= 0.1 + choice.UNCLIPPED_MARGIN) | (cam >= 0.9 - choice.UNCLIPPED_MARGIN)
-    assert not choice.identifiable(cam, black, white, None)[clipped].any()
+    clipped = (cam <= 0.1 + by_pairs.UNCLIPPED_MARGIN) | (cam >= 0.9 - by_pairs.UNCLIPPED_MARGIN)
+    assert not by_pairs.identifiable(cam, black, white, None)[clipped].any()
 
     def right_where_identifiable(c):  # exact inside the range, wrong at its ends
         return np.where(clipped, 0.5, prj).astype(np.float32)
@@ -51,11 +53,11 @@ def test_clipped_captures_do_not_decide_the_choice():
     def right_where_clipped(c):  # exact at the ends (where nothing can be known), off inside
         return np.where(clipped, prj, np.clip(prj + 0.08, 0, 1)).astype(np.float32)
 
-    blind = choice.choose(right_where_clipped, right_where_identifiable, cam, prj)  # without I- and I+
+    blind = by_pairs.choose(right_where_clipped, right_where_identifiable, cam, prj)  # without I- and I+
     assert blind.chosen == choice.LEARNED  # the clipped half decided it
-    picked = choice.choose(right_where_clipped, right_where_identifiable, cam, prj, None, black, white)
+    picked = by_pairs.choose(right_where_clipped, right_where_identifiable, cam, prj, None, black, white)
     assert picked.chosen == choice.CLASSICAL and picked.classical_psnr == choice.MAX_PSNR
-    nothing = choice.choose(right_where_clipped, right_where_identifiable, cam[:, :, :16], prj[:, :, :16], None,
+    nothing = by_pairs.choose(right_where_clipped, right_where_identifiable, cam[:, :, :16], prj[:, :, :16], None,
                             black[:, :16], white[:, :16])
     assert nothing.chosen == choice.LEARNED and "clipped everywhere" in nothing.line()
 
@@ -110,14 +112,14 @@ def test_the_learned_compensator_must_lead_by_more_than_the_judges_bias():
 
 def test_no_held_back_pairs_keeps_the_learned_one_and_says_why():
     prj, cam = _pairs(4, 1)
-    picked = choice.choose(lambda c: c, lambda c: c, cam[:0], prj[:0])
+    picked = by_pairs.choose(lambda c: c, lambda c: c, cam[:0], prj[:0])
     assert picked.chosen == choice.LEARNED and "no held-back" in picked.line()
 
 
 def test_the_classical_compensator_module_matches_the_model_at_any_size(tmp_path):
     prj, cam = _pairs(16, 2)
     model = ClassicalModel.fit(prj, cam)
-    module = choice.ClassicalCompensator(model)
+    module = ClassicalCompensator(model)
     t = torch.from_numpy(cam[:2].transpose(0, 3, 1, 2).copy())
     out, raw = module(t, None, return_raw=True)
     expected = model.compensate(cam[:2]).transpose(0, 3, 1, 2)
@@ -141,7 +143,8 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
     from lapig_core.capture.fake_device import FakeDevice
     from lapig_core.capture.sequence import GeometryChecks, run_capture
     from lapig_core.capture.settings import CaptureSettings
-    from lapig_core.pipeline import setup_dir_of, surface_models, train_models
+    from lapig_core.capture.dataset import setup_dir_of
+    from lapig_core.pipeline import surface_models, train_models
 
     device = FakeDevice(projector_size=(48, 36), camera_size=(96, 72))
     settings = CaptureSettings(out_dir=str(tmp_path), train_count=12, test_count=4, working_size=48, chunk=8)
@@ -161,12 +164,12 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
     assert (setup_dir_of(cs) / "models" / choice.CHOICE_FILE).is_file()
     models = surface_models(cs)
     assert models.choice == picked
-    assert isinstance(models.compensator, choice.ClassicalCompensator) == (picked.chosen == choice.CLASSICAL)
+    assert isinstance(models.compensator, ClassicalCompensator) == (picked.chosen == choice.CLASSICAL)
     # a setup whose measurement chose the classical model compensates with it
     classical_won = choice.CompensatorChoice(choice.CLASSICAL, 20.0, 22.5, 4, "", choice.PCNET_JUDGE)
     choice.save_choice(setup_dir_of(cs) / "models", classical_won, trained["classical"])
     models = surface_models(cs)
-    assert isinstance(models.compensator, choice.ClassicalCompensator)
+    assert isinstance(models.compensator, ClassicalCompensator)
     assert models.choice == classical_won
     out = models.compensate(models.i_max)
     assert out.shape == models.i_max.shape and 0 <= float(out.min()) and float(out.max()) <= 1

@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.common import imageio
-from lapig_core.capture.dataset import (PRJ_DIGEST_KEY, DatasetError, DatasetLayout, list_images, load_capture_set, projector_images_digest, summarize, write_capture, write_projector_images, write_setup_json)
+from lapig_core.common import atomic
+from lapig_core.capture.dataset import (PRJ_DIGEST_KEY, DatasetError, DatasetLayout, list_images, load_capture_set, projector_images_digest, setup_dir_of, summarize, write_capture, write_projector_images, write_setup_json)
 from lapig_core.common.imageio import ImageReadError, read_image, to_float, to_uint8, write_png
 from lapig_core.capture.patterns import generate_patterns, reference_patterns
 
@@ -87,7 +87,7 @@ def test_atomic_write_leaves_no_temp_files(tmp_path, monkeypatch):
     def full_disk(*_args):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(imageio.os, "replace", full_disk)
+    monkeypatch.setattr(atomic.os, "replace", full_disk)
     with pytest.raises(OSError):
         write_png(target, np.ones((4, 4, 3)))
     with pytest.raises(OSError):
@@ -114,6 +114,14 @@ def test_layout_paths(tmp_path):
         layout.image_path(tmp_path, 0)
     with pytest.raises(DatasetError):
         DatasetLayout(tmp_path, "../escape")
+
+
+def test_the_setup_folder_rule(tmp_path):
+    layout = DatasetLayout(tmp_path, "s1")
+    assert DatasetLayout.of_setup_dir(layout.setup_dir) == layout
+    assert setup_dir_of(layout) == tmp_path  # no setups/ yet: the root holds the setup's files
+    layout.setup_dir.mkdir(parents=True)
+    assert setup_dir_of(layout) == layout.setup_dir
 
 
 def test_write_projector_images_routes_and_trims(tmp_path):
@@ -255,5 +263,5 @@ def test_partial_writes_that_a_kill_left_are_removed(tmp_path):
     for name in (".pcnet.pt.abc123.tmp", ".pcnet.pt.x_y.tmp"):  # killed between write and rename
         (tmp_path / name).write_bytes(b"half")
     (tmp_path / ".compennest.pt.abc123.tmp").write_bytes(b"another file's")
-    imageio.remove_partial_writes(target)
+    atomic.remove_partial_writes(target)
     assert sorted(p.name for p in tmp_path.iterdir()) == [".compennest.pt.abc123.tmp", "pcnet.pt"]

@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.export import projector_image as export
+from lapig_core.common import atomic
 from lapig_core.export.projector_image import ExportError, crossfade_sequence, export_projector_image
 from lapig_core.export.result_files import read_result_image, stored_bit_depth, write_result
 from lapig_core.common.imageio import to_bit_depth, to_float, to_uint8, to_uint16, write_png
@@ -205,7 +205,7 @@ def test_missing_or_unusable_folder_is_named(tmp_path, monkeypatch):
     def denied(*a, **k):  # tests may run as root, where chmod does not stop writes
         raise PermissionError(13, "Permission denied")
 
-    monkeypatch.setattr(export.tempfile, "mkstemp", denied)
+    monkeypatch.setattr(atomic.tempfile, "mkstemp", denied)
     with pytest.raises(ExportError, match="permission denied") as err:
         export_projector_image(tmp_path / "x.png", _working(), W, H)
     assert str(tmp_path) in str(err.value)
@@ -222,7 +222,7 @@ def test_full_disk_leaves_no_files(tmp_path, monkeypatch, fail_on_call):
             raise OSError(28, "No space left on device")
         handle.write(data)
 
-    monkeypatch.setattr(export, "_write_all", write_half_then_fail)
+    monkeypatch.setattr(atomic, "write_all", write_half_then_fail)
     with pytest.raises(ExportError, match="disk may be full") as err:
         export_projector_image(tmp_path / "x.png", _working(), W, H, metadata={"seed": 1})
     assert isinstance(err.value.__cause__, OSError)
@@ -236,7 +236,7 @@ def test_full_disk_keeps_previous_export(tmp_path, monkeypatch):
     def fail(handle, data):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(export, "_write_all", fail)
+    monkeypatch.setattr(atomic, "write_all", fail)
     with pytest.raises(ExportError):
         export_projector_image(tmp_path / "x.png", _working(1), W, H, metadata={"seed": 2})
     assert (out["image"].read_bytes(), out["sidecar"].read_bytes()) == before
@@ -314,7 +314,7 @@ def test_crossfade_validation_and_cleanup(tmp_path, monkeypatch):
             raise OSError(28, "No space left on device")
         handle.write(data)
 
-    monkeypatch.setattr(export, "_write_all", fail_third)
+    monkeypatch.setattr(atomic, "write_all", fail_third)
     with pytest.raises(ExportError, match="disk may be full"):
         crossfade_sequence(tmp_path, a, b, 4, width=W, height=H)
     assert _files(tmp_path) == []

@@ -4,7 +4,7 @@ import struct
 import numpy as np
 import pytest
 
-from lapig_core.common.exr import ExrError, read_exr_channels, read_exr_layer
+from lapig_core.common.exr import ExrError, pass_rgb, read_exr_channels
 
 
 def _attribute(name, kind, value: bytes) -> bytes:
@@ -42,7 +42,7 @@ def test_reads_every_channel_of_a_multilayer_file(tmp_path):
     assert set(read) == set(planes)
     for name, plane in planes.items():
         assert np.array_equal(read[name], plane)
-    albedo = read_exr_layer(path, "Diffuse Color", "DiffCol")
+    albedo = pass_rgb(read, "Diffuse Color", "DiffCol")
     assert albedo.shape == (5, 7, 3)
     assert np.array_equal(albedo[..., 1], planes["ViewLayer.DiffCol.G"])
 
@@ -76,4 +76,4 @@ def test_what_it_cannot_read_gets_a_clear_error(tmp_path):
     plain = tmp_path / "plain.exr"
     _write_exr(plain, {c: np.zeros((2, 2)) for c in "RGB"})
     with pytest.raises(ExrError, match="no Diffuse Color or DiffCol pass"):
-        read_exr_layer(plain, "Diffuse Color", "DiffCol")
+        pass_rgb(read_exr_channels(plain), "Diffuse Color", "DiffCol")

@@ -234,14 +234,17 @@ def test_checkpointing_gives_the_same_gradient(tiny_model):
 def test_runs_inside_psa(tiny_model):
     from lapig_core.psa import adaptation as psa
     from lapig_core.photometric.checkpoints import new_model
+    from lapig_core.photometric.surface_models import SurfaceModels
 
     torch.manual_seed(0)
     s = torch.rand(1, 3, 32, 32) * 0.5 + 0.25
-    models = psa.SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, s * 0.1, s * 0.9)
+    models = SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, s * 0.1, s * 0.9)
     backend = _backend(tiny_model, size=32)
     backend.prepare(s, PROMPT, seed=0)
     result = psa.run_psa(backend, models, psa.PSASettings(max_iterations=2, stop_ratio=0))
     assert result.iterations == 2 and result.target.shape == s.shape
     assert all(torch.isfinite(torch.tensor(h["total"])) for h in result.history)
-    resampled = psa.run_psa(backend, models, psa.PSASettings(mode="resample", max_iterations=1, stop_ratio=0))
+    from lapig.tools.research.psa_resample import run_resample
+
+    resampled = run_resample(backend, models, psa.PSASettings(max_iterations=1, stop_ratio=0))
     assert resampled.target.shape == s.shape

@@ -13,7 +13,8 @@ from lapig_core.native_output import (OutputSizeError, native_output, output_fra
 from lapig_core.photometric.checkpoints import new_model
 from lapig_core.photometric.tiling import tiled
 from lapig_core.pipeline import stylize
-from lapig_core.psa.adaptation import PSASettings, SurfaceModels
+from lapig_core.photometric.surface_models import SurfaceModels
+from lapig_core.psa.adaptation import PSASettings
 from lapig_core.photometric.training_data import SurfaceTensors
 
 from test_whole_frame import _capture

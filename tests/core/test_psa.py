@@ -8,9 +8,11 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
+from lapig_core.photometric.surface_models import SurfaceModels
 from lapig_core.psa import adaptation as psa
 from lapig_core.photometric.checkpoints import new_model
 from lapig_core.lgst.base import LGSTBackend
+from lapig.tools.research import psa_resample
 
 SIZE = 32
 
@@ -42,7 +44,7 @@ def models():
     torch.manual_seed(0)
     s = torch.rand(1, 3, SIZE, SIZE) * 0.5 + 0.25
     i_min, i_max = s * 0.1, s * 0.9
-    return psa.SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, i_min, i_max)
+    return SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, i_min, i_max)
 
 
 def _backend(models, seed=0):
@@ -86,8 +88,6 @@ def test_deterministic_and_bad_settings(models):
     assert [e["total"] for e in a.history] == [e["total"] for e in b.history]
     with pytest.raises(ValueError, match="subset"):
         psa.run_psa(_backend(models), models, psa.PSASettings(terms=("bogus",)))
-    with pytest.raises(ValueError, match="mode"):
-        psa.run_psa(_backend(models), models, psa.PSASettings(mode="nope"))
 
 
 def test_cancel_event_stops_after_first_iterate(models):
@@ -103,15 +103,15 @@ def test_cancel_event_stops_after_first_iterate(models):
     assert result.stopped == "cancelled" and len(result.history) == 1
 
 
-def test_resample_mode_keeps_the_best_sample(models):
-    settings = psa.PSASettings(mode="resample", max_iterations=4, stop_ratio=0.0)
-    result = psa.run_psa(_backend(models), models, settings)
+def test_the_resample_baseline_keeps_the_best_sample(models):
+    settings = psa.PSASettings(max_iterations=4, stop_ratio=0.0)
+    result = psa_resample.run_resample(_backend(models), models, settings)
     losses = [e["psa_loss"] for e in result.history]
     assert len(losses) == 5 and result.best_iteration == losses.index(min(losses))
 
 
 def test_ablation_terms_and_loss_maps(models):
-    for name, terms in psa.ABLATIONS.items():
+    for name, terms in psa_resample.ABLATIONS.items():
         r = psa.run_psa(_backend(models), models, psa.PSASettings(terms=terms, max_iterations=2))
         assert r.iterations <= 2, name
     maps = psa.loss_maps(_backend(models).forward(), models)
@@ -129,7 +129,7 @@ def test_cancel_before_start_still_returns_the_first_iterate(models):
 def test_psa_losses_count_only_the_object_pixels(models):
     mask = torch.zeros(1, 1, SIZE, SIZE)
     mask[..., : SIZE // 2] = 1.0  # the object covers the left half of the frame
-    masked = psa.SurfaceModels(models.compensator, models.simulator, models.s, models.i_min, models.i_max,
+    masked = SurfaceModels(models.compensator, models.simulator, models.s, models.i_min, models.i_max,
                                on_object=mask)
     target = torch.rand(1, 3, SIZE, SIZE, generator=torch.Generator().manual_seed(3))
     changed = target.clone()
@@ -189,7 +189,7 @@ def test_resample_draws_different_samples_from_a_deterministic_backend(models):
 
     backend = Deterministic()
     backend.prepare(models.s, "p")
-    result = psa.run_psa(backend, models, psa.PSASettings(mode="resample", max_iterations=4, stop_ratio=0.0))
+    result = psa_resample.run_resample(backend, models, psa.PSASettings(max_iterations=4, stop_ratio=0.0))
     losses = [e["psa_loss"] for e in result.history]
     assert len(set(round(v, 9) for v in losses)) == 5  # five different samples
     assert backend.jitter == 0.0 and result.best_iteration == losses.index(min(losses))

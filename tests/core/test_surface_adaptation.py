@@ -12,6 +12,7 @@ from lapig_core.common import metrics
 from lapig_core.common.surfaces import make_surface
 from lapig_core.lgst.base import LGSTBackend
 from lapig_core.photometric.checkpoints import new_model
+from lapig_core.photometric.surface_models import SurfaceModels
 from lapig_core.psa import adaptation as psa
 from lapig_core.psa import reach
 from lapig_core.psa.tone_field import AdaptedLook, ToneField
@@ -140,7 +141,7 @@ class BrightBackend(LGSTBackend):
 def _models():
     torch.manual_seed(0)
     s = torch.rand(1, 3, 32, 32) * 0.1 + 0.02  # a dark surface
-    return psa.SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, s * 0.2, s * 1.5)
+    return SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, s * 0.2, s * 1.5)
 
 
 def _bright_backend(models):
@@ -184,7 +185,7 @@ def test_warm_start_darkens_where_the_surface_is_dark_keeps_strokes_and_hue():
     torch.manual_seed(0)
     s = torch.full((1, 3, 32, 32), 0.03)
     s[..., :, 16:] = 0.6  # the right half can show a bright look, the left half cannot
-    models = psa.SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, s * 0.1, s)
+    models = SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), s, s * 0.1, s)
     look = psa.adapted_look(_bright_backend(models), models)
     with torch.no_grad():
         anchor = look.forward()

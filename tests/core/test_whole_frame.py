@@ -15,7 +15,8 @@ from lapig_core.export.projector_image import export_projector_image
 from lapig_core.common.imageio import read_image
 from lapig_core.photometric.finetune import cpu_recipe, finetune
 from lapig_core.pipeline import as_image, stylize
-from lapig_core.psa.adaptation import PSASettings, SurfaceModels
+from lapig_core.photometric.surface_models import SurfaceModels
+from lapig_core.psa.adaptation import PSASettings
 from lapig_core.photometric.training_data import SurfaceTensors
 
 needs_style_net = pytest.mark.skipif(

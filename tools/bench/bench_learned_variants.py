@@ -85,7 +85,7 @@ def run(args) -> dict:
     from ...lapig_core.photometric.finetune import PAPER_LOSS, camera_space_loss, cpu_recipe, finetune, start_model
     from ...lapig_core.photometric.training import predict
     from ...lapig_core.photometric.training_data import to_numpy, to_tensor
-    from ...lapig_core.pipeline import setup_dir_of
+    from ...lapig_core.capture.dataset import setup_dir_of
 
     t0 = time.perf_counter()
     torch.manual_seed(0)

@@ -24,7 +24,7 @@ from ...lapig_core.common import metrics
 from ...lapig_core.photometric.classical import ClassicalModel
 from ...lapig_core.photometric.finetune import CPU_ITERATIONS, PAPER_LOSS, cpu_recipe, finetune
 from ...lapig_core.common.imageio import write_png
-from ...lapig_core.pipeline import setup_dir_of
+from ...lapig_core.capture.dataset import setup_dir_of
 from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.photometric.targets import desired_targets, reachable_mask
 from ...lapig_core.photometric.training import predict

@@ -27,16 +27,18 @@ import numpy as np
 import torch
 
 from ...lapig_core.common import metrics
+from ...lapig_core.common.atomic import atomic_write_bytes
 from ...lapig_core.capture.dataset import load_capture_set
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.lgst import get_backend
 from ...lapig_core.pipeline import as_image, object_footprint, surface_models
-from ...lapig_core.psa.adaptation import ABLATIONS, PSASettings, run_psa, without_psa
+from ...lapig_core.psa.adaptation import PSASettings, run_psa, without_psa
 from ...lapig_core.psa.reach import clamp_bound_psnr, reachability
 from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.common.surfaces import make_surface
 from ...lapig_core.photometric.training_data import SurfaceTensors
 from ..evaluate import build_surface_scene, capture_surface
+from ..research.psa_resample import ABLATIONS, run_resample
 from .structure_sheet import structure_sheet
 from ...lapig_addon.blender.projection_render import render_working_images
 
@@ -102,10 +104,9 @@ def run_surface(name, args, out, backend_name, prompts, ablation_prompts, tag=""
             variants["resample"] = ABLATIONS["all"]
         for variant, terms in variants.items():
             backend.load_state(base_state)
-            settings = PSASettings(terms=terms, seed=args.seed, adaptation=args.adaptation,
-                                   mode="resample" if variant == "resample" else "gradient")
+            settings = PSASettings(terms=terms, seed=args.seed, adaptation=args.adaptation)
             settings.max_iterations = args.psa_iterations or settings.max_iterations
-            res = run_psa(backend, models, settings)
+            res = (run_resample if variant == "resample" else run_psa)(backend, models, settings)
             runs.append((prompt, variant, res, None))
         last = runs[-len(variants) - 1:]
         _log(args, f"  {name} / {prompt}: " + ", ".join(
@@ -192,10 +193,8 @@ def _run_table(args, out, surfaces, prompts, ablation_prompts, tag):
         sheets.append(sheet)
         timings[name] = {k: round(v, 1) for k, v in t.items()}
         # the rows so far, so a long run stopped part way still leaves its finished surfaces
-        partial = os.path.join(out, f"rows{tag or '_paper'}.json")
-        with open(partial + ".tmp", "w") as f:
-            json.dump({"rows": rows, "timings": timings}, f, indent=1, default=float)
-        os.replace(partial + ".tmp", partial)
+        text = json.dumps({"rows": rows, "timings": timings}, indent=1, default=float)
+        atomic_write_bytes(os.path.join(out, f"rows{tag or '_paper'}.json"), text.encode("utf-8"))
     return rows, sheets, timings
 
 

@@ -34,6 +34,7 @@ import numpy as np
 from ...lapig_addon.blender import rig, scene_state
 from ...lapig_addon.blender.cycles_device import CyclesCaptureDevice
 from ...lapig_addon.cli import headless
+from ...lapig_core.common.atomic import atomic_write_bytes
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.optics.transport import FAST, LightTransport
@@ -252,13 +253,11 @@ def compensation_case(args, data, spec):
 
 
 def _write_partial(out, part, per_setup):
-    """The part's per-setup rows so far, as out/<part>_partial.json (temp-then-rename)."""
+    """The part's per-setup rows so far, as out/<part>_partial.json (whole or not at all)."""
     import json
 
-    path = os.path.join(out, f"{part}_partial.json")
-    with open(path + ".tmp", "w") as f:
-        json.dump(per_setup, f, indent=1, sort_keys=True, default=float)
-    os.replace(path + ".tmp", path)
+    text = json.dumps(per_setup, indent=1, sort_keys=True, default=float)
+    atomic_write_bytes(os.path.join(out, f"{part}_partial.json"), text.encode("utf-8"))
 
 
 def compensation_run(args, data, out) -> tuple[dict, list]:
@@ -270,8 +269,9 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
     from ...lapig_core.photometric.finetune import CAMERA_SPACE, PAPER_LOSS, cpu_recipe, finetune
     from ...lapig_core.photometric.training import predict
     from ...lapig_core.photometric.training_data import to_numpy, to_tensor
-    from ...lapig_core.pipeline import setup_dir_of
+    from ...lapig_core.capture.dataset import setup_dir_of
     from .noise_floor import below_floor, noise_floor
+    from ..research import projector_space_choice
 
     torch.manual_seed(0)
     specs = realistic_specs(args)
@@ -316,8 +316,9 @@ def compensation_run(args, data, out) -> tuple[dict, list]:
             choice.learned_compensate(learned[f"{first}"], surf.s), classical.compensate,
             choice.learned_simulate(simulator, surf.s, surf.i_min, surf.i_max), cs.prj_test[val], cs.cam_black,
             cs.cam_white, cs.projector_valid)
-        by_pairs = choice.choose(choice.learned_compensate(learned[f"{first}"], surf.s), classical.compensate,
-                                 cs.cam_test[val], cs.prj_test[val], cs.projector_valid, cs.cam_black, cs.cam_white)
+        by_pairs = projector_space_choice.choose(
+            choice.learned_compensate(learned[f"{first}"], surf.s), classical.compensate, cs.cam_test[val],
+            cs.prj_test[val], cs.projector_valid, cs.cam_black, cs.cam_white)
         images = {f"compennest_{p}": to_numpy(predict(learned[p], to_tensor(targets), surf.s)) for p in learned}
         images["classical"] = classical.compensate(targets)
         images["uncompensated"] = targets

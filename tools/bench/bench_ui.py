@@ -16,7 +16,8 @@ import torch
 
 from ...lapig_core.photometric import checkpoints
 from ...lapig_core.lgst import get_backend
-from ...lapig_core.psa.adaptation import PSASettings, SurfaceModels, run_psa
+from ...lapig_core.photometric.surface_models import SurfaceModels
+from ...lapig_core.psa.adaptation import PSASettings, run_psa
 from ...lapig_core.photometric.training_data import SurfaceTensors
 from .. import synthetic_setups as syn
 from ...lapig_addon.services.jobs import WorkerJob

@@ -5,6 +5,7 @@ real rig's device (lapig_core.rig.rig_device) several ways, on a virtual clock, 
 rig's own (its waits and the camera's pace), not this machine's:
 
 - clean: no latency, no faults: the registration and the false alarms of a clean run;
+- latency only: 100 ms, no faults: the pace of a well-behaved camera;
 - faulty: 100 ms latency with 30 ms jitter, 5 % each of dropped, repeated and torn frames, noise; and a
   camera that turns later than measured half-way: how many bad pictures the frame code caught;
 - drifting: an auto exposure that cannot be locked, and one that can;
@@ -82,6 +83,12 @@ def run(args) -> dict:
     faulty_sync = sync_outcome(device, screen, camera)
     shots = faulty["sync"]["shots"]
 
+    # 100 ms latency alone: the pace of a well-behaved camera
+    device, screen, _ = simulated_rig(_optics(), CameraFaults(latency_s=0.1))
+    start = screen.clock.now()
+    steady = _capture(device, out, "latency_only", None, patterns)
+    steady_seconds = (screen.clock.now() - start) / steady["sync"]["shots"]
+
     # auto exposure: drifting (cannot be locked), then one the rig locks
     drifting, _, _ = simulated_rig(_optics(), CameraFaults(latency_s=0.05, auto_exposure=True,
                                                          exposure_lockable=False))
@@ -119,6 +126,7 @@ def run(args) -> dict:
         "settle_s_at_end": faulty["sync"]["settle_s"],
         "camera_slowed_down_after_shot": shots_before.get("at"),
         "seconds_per_capture": round(virtual_seconds / shots, 4),
+        "seconds_per_capture_latency_only": round(steady_seconds, 4),
         "seconds_per_capture_public_code": round(PUBLIC_CODE_SECONDS_PER_CAPTURE, 4),
         "shots": shots,
         "rejected": faulty["sync"]["rejected"],

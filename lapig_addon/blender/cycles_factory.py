@@ -40,8 +40,8 @@ class CyclesDeviceFactory:
         names = {"projector": getattr(projector, "name", None), "camera": getattr(camera, "name", None),
                  "target": getattr(target, "name", None)}
         complete = rig_blocker(scene_state.read_rig(self.scene, projector, camera, target)) == ""
-        return RigIdentity("Blender Cycles", names,
-                           scene_state.rig_fingerprint(projector, camera, target) if complete else "")
+        # "Cycles": the choice line says "in Cycles captures of"
+        return RigIdentity("Cycles", names, scene_state.rig_fingerprint(projector, camera, target) if complete else "")
 
     @contextlib.contextmanager
     def _studio(self, **device_options):

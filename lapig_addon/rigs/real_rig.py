@@ -81,7 +81,9 @@ class RealRigFactory:
         return RigIdentity(self.spec.name, self.spec.devices())
 
     @contextlib.contextmanager
-    def _rig(self):
+    def _rig(self, calibrated: bool = False):
+        """calibrated: measure the latency and find the frame code before handing it over (a projection
+        of compensated images is verified like a capture; its health was checked by the capture)."""
         from ...lapig_core.rig.rig_device import RigDevice
 
         window = self._window(self.spec.display)
@@ -96,10 +98,12 @@ class RealRigFactory:
             window.close()
             raise
         device = RigDevice(window, camera, name=self.spec.name, frame_code=self.spec.frame_code,
-                           health_checks=self.spec.health_checks,
+                           health_checks=self.spec.health_checks and not calibrated,
                            **({"clock": self.clock} if self.clock is not None else {}))
         self.last_device = device
         with device:
+            if calibrated:
+                device.lock_exposure(None)
             yield device
 
     def capture_device(self, settings: CaptureSettings):
@@ -108,7 +112,7 @@ class RealRigFactory:
     def setup_device(self, setup_meta: dict, seed: int = 0):
         if setup_meta.get("fingerprint") not in (None, self.rig_identity().key()):
             raise CaptureError("this capture was made with another rig: connect that one, or capture again")
-        return self._rig()
+        return self._rig(calibrated=True)
 
 
 class SimulatedRigFactory:
@@ -125,19 +129,22 @@ class SimulatedRigFactory:
         return RigIdentity(self.name, {"optics": inner.name, **inner.devices}, inner.fingerprint)
 
     @contextlib.contextmanager
-    def _rig(self, optics_cm):
+    def _rig(self, optics_cm, calibrated: bool = False):
         from ...lapig_core.rig.simulated import simulated_rig
 
         with optics_cm as optics:
-            device, screen, camera = simulated_rig(optics, self.faults, clock=self.clock, **self.rig_options)
+            options = {**self.rig_options, **({"health_checks": False} if calibrated else {})}
+            device, screen, camera = simulated_rig(optics, self.faults, clock=self.clock, **options)
             self.last = (device, screen, camera)
+            if calibrated:
+                device.lock_exposure(None)
             yield device
 
     def capture_device(self, settings: CaptureSettings):
         return self._rig(self.optics_factory.capture_device(settings))
 
     def setup_device(self, setup_meta: dict, seed: int = 0):
-        return self._rig(self.optics_factory.setup_device(setup_meta, seed))
+        return self._rig(self.optics_factory.setup_device(setup_meta, seed), calibrated=True)
 
 
 def _projector_window(display: str):

@@ -153,7 +153,7 @@ class TrainModelsJob(WorkerJob):
 
         try:
             captured, _ = yield from self.drive(measure, devices.main_thread)
-            chosen = compensator_choice.choose_by_captures(v, captured)
+            chosen = compensator_choice.choose_by_captures(v, captured, rig=devices.rig_identity().name)
             compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, trained["classical"])
         except CaptureError as exc:
             raise PipelineError(f"{exc} (the models are trained; {trained['choice'].line()})") from None

@@ -60,6 +60,7 @@ class CompensatorChoice:
     # how they were compared: RENDERED_JUDGE, PCNET_JUDGE or the projector space (tools/research)
     judge: str = "projector space"
     required_lead_db: float = 0.0  # how far ahead the learned one had to be to be chosen (LEARNED_LEAD_DB)
+    rig: str = "Cycles"  # RENDERED_JUDGE: the rig whose captures judged (the Cycles studio, or a real rig's name)
 
     @property
     def margin_db(self) -> float:
@@ -73,8 +74,8 @@ class CompensatorChoice:
         if self.learned_psnr is None or self.classical_psnr is None:
             return f"compensation: {self.chosen} ({self.reason})"
         other = CLASSICAL if self.chosen == LEARNED else LEARNED
-        how = {PCNET_JUDGE: "in PCNet's simulated captures of", RENDERED_JUDGE: "in Cycles captures of"}.get(
-            self.judge, "on")
+        rendered = "in Cycles captures of" if self.rig == "Cycles" else f"in captures on the rig '{self.rig}' of"
+        how = {PCNET_JUDGE: "in PCNet's simulated captures of", RENDERED_JUDGE: rendered}.get(self.judge, "on")
         unit = "images" if self.judge in (PCNET_JUDGE, RENDERED_JUDGE) else "pairs"
         what = f"{self.validation_pairs} held-back {unit}"
         if self.chosen == CLASSICAL and self.learned_psnr > self.classical_psnr:
@@ -193,7 +194,7 @@ def verification(cs, learned_model, classical: ClassicalModel, images=None) -> V
                         classical.compensate(targets))
 
 
-def choose_by_captures(v: Verification, captures: np.ndarray) -> CompensatorChoice:
+def choose_by_captures(v: Verification, captures: np.ndarray, rig: str = "Cycles") -> CompensatorChoice:
     """The choice by measurement: `captures` are the registered captures of `v.images` (learned first),
     rendered by the rig that captured the setup; the compensator whose captures are nearer the targets
     (masked PSNR over v.reach, averaged over the images) compensates this setup. No lead is asked of
@@ -205,7 +206,8 @@ def choose_by_captures(v: Verification, captures: np.ndarray) -> CompensatorChoi
         raise ValueError(f"expected {2 * n} captures shaped {v.targets.shape[1:]}, got {captures.shape}")
 
     lp, cp = mean_capture_psnr(captures[:n], v.targets, v.reach), mean_capture_psnr(captures[n:], v.targets, v.reach)
-    return CompensatorChoice(LEARNED if lp > cp else CLASSICAL, round(lp, 4), round(cp, 4), n, "", RENDERED_JUDGE)
+    return CompensatorChoice(LEARNED if lp > cp else CLASSICAL, round(lp, 4), round(cp, 4), n, "", RENDERED_JUDGE,
+                             rig=rig)
 
 
 def save_choice(models_dir, choice: CompensatorChoice, classical: ClassicalModel):
@@ -224,6 +226,6 @@ def load_choice(models_dir) -> tuple[CompensatorChoice, ClassicalModel] | None:
     except (OSError, ValueError, KeyError):
         return None
     fields = {k: data[k] for k in ("chosen", "learned_psnr", "classical_psnr", "validation_pairs", "reason", "judge",
-                                   "required_lead_db") if k in data}
+                                   "required_lead_db", "rig") if k in data}
     return CompensatorChoice(**fields), classical
 

@@ -54,7 +54,7 @@ class RigDevice(CaptureDevice):
         return DeviceInfo(self.name, tuple(self.output.size), tuple(self.camera.size),
                           {"projector": self.output.describe(), "camera": self.camera.describe(),
                            "sync": sync, **({"health": self.health} if self.health else {})},
-                          frame_bit_depths=(8,), settle_s=round(settle, 4), latency_s=round(latency, 4))
+                          frame_bit_depths=(8, 16), settle_s=round(settle, 4), latency_s=round(latency, 4))
 
     def geometry_checks(self) -> GeometryChecks:
         return self.geometry
@@ -95,7 +95,7 @@ class RigDevice(CaptureDevice):
     def capture(self, frames) -> list[np.ndarray]:
         if self.sync is None:
             raise RigError("the rig shot a frame before its calibration (lock_exposure)")
-        return [self.sync.shoot(frame) for frame in frames]
+        return [self.sync.shoot(_eight_bit(frame)) for frame in frames]
 
     def close(self) -> None:
         try:
@@ -141,6 +141,13 @@ class RigDevice(CaptureDevice):
         black = still(np.zeros((h, w, 3), np.uint8))
         lit = {key: still(fc.single_cell(self.layout, *key)) for key in self.layout.cells()}
         return fc.locate_cells(black, lit)
+
+
+def _eight_bit(frame: np.ndarray) -> np.ndarray:
+    """The window shows 8 bits a channel (what HDMI carries from a desktop): a 16-bit frame is rounded."""
+    if frame.dtype == np.uint16:
+        return ((frame.astype(np.uint32) + 128) // 257).astype(np.uint8)
+    return frame
 
 
 def _agree(a, b, change: float = 0.15, pixels: int = 8) -> bool:

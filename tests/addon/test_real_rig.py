@@ -155,3 +155,17 @@ def test_a_crossfade_plays_at_its_frame_rate():
     assert played == {"frames": 10, "seconds": 0.36, "late_frames": 0}
     means = [float(p.mean()) for p in window.shown]
     assert means[0] == 0 and means[-1] == 255 and means == sorted(means)
+
+
+def test_a_projection_on_the_real_rig_is_calibrated_and_verified_like_a_capture(rig):
+    """Train's rendered choice and Render Real Capture project through setup_device: the rig measures its
+    latency and finds its code again (no health checks), 16-bit frames go out as 8-bit."""
+    seams, hardware = rig
+    projection = _module("services.projection")
+    folder = str(_module("services.capture_job").CaptureJob(seams, seams.store.capture_settings(
+        train_count=2, test_count=0)).run_to_completion()["setup_dir"])
+    images = np.random.default_rng(2).random((3, 24, 32, 3)).astype(np.float32)
+    registered, raw = projection.project_and_capture(seams.devices, folder, images, bit_depth=16)
+    assert registered.shape == (3, 24, 32, 3) and raw.shape[0] == 3
+    device = seams.devices.last_device
+    assert device.sync.verifies and device.health == {} and device.sync.stats.shots == 3

@@ -75,9 +75,10 @@ def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
     "late_frames"}: a frame shown more than half a period after its time was late (a slow machine or a
     large frame)."""
     period = 1.0 / float(fps)
-    start = clock.perf_counter()
     late = shown = 0
-    for i, pixels in enumerate(frames):
+    ahead = _ahead(frames)  # the next frames are made while this one is on screen
+    start = clock.perf_counter()
+    for i, pixels in enumerate(ahead):
         due = start + i * period
         wait = due - clock.perf_counter()
         if wait > 0:
@@ -90,3 +91,44 @@ def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
         if on_frame is not None:
             on_frame(i, on_screen)
     return {"frames": shown, "seconds": round(clock.perf_counter() - start, 3), "late_frames": int(late)}
+
+
+def _ahead(frames, depth: int = 4):
+    """``frames`` made on a worker thread, up to ``depth`` ahead of the one being shown."""
+    import queue
+    import threading
+
+    made: queue.Queue = queue.Queue(maxsize=depth)
+    done, failed = object(), []
+    stop = threading.Event()
+
+    def put(item) -> bool:
+        while not stop.is_set():  # a player that stopped early takes nothing more
+            try:
+                made.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def produce():
+        try:
+            for frame in frames:
+                if not put(frame):
+                    return
+        except Exception as exc:  # handed to the player
+            failed.append(exc)
+        put(done)
+
+    worker = threading.Thread(target=produce, name="LAPIG: crossfade frames", daemon=True)
+    worker.start()
+    try:
+        while True:
+            frame = made.get()
+            if frame is done:
+                if failed:
+                    raise failed[0]
+                return
+            yield frame
+    finally:
+        stop.set()

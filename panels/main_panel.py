@@ -92,7 +92,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
                             text="Hide Projection Preview" if on else "Preview Projection in Viewport")
 
 
-def _lines(layout, lines, wrap=70):
+def _lines(layout, lines, wrap=60):
     """(text, ok) lines: ok True plain, False with a warning icon, None greyed; long ones wrapped."""
     for text, ok in lines:
         for i, part in enumerate(textwrap.wrap(text, wrap) or [""]):

@@ -87,7 +87,7 @@ def status_lines() -> list:
         display = describe().get("display", {}) if describe else {}
         w, h = sink.window.size
         where = f"display {display['index']} '{display['name']}'" if "index" in display else "the projector"
-        lines.append((f"Projector window open on {where}, {w}x{h} (Esc in it closes it)", True))
+        lines.append((f"Showing on {where}, {w}x{h} (Esc closes it)", True))
         if sink.problem:
             lines.append((sink.problem, False))
     return lines

@@ -243,7 +243,7 @@ def test_the_crossfade_plays_on_the_live_window_and_ends_on_the_look(tmp_path, s
         end = export_result.result_frame(store, result_folder, 8)
         np.testing.assert_array_equal(window.shown[-1], end.pixels)  # the last frame is the look Export writes
         assert [line for line in live.status_lines()] == [
-            ("Projector window open on the projector, 64x48 (Esc in it closes it)", True)]
+            ("Showing on the projector, 64x48 (Esc closes it)", True)]
         sink.show(ports.ProjectorFrame(end.image, 80, 60, 8))
         assert live.status_lines()[1] == (
             "the look is 80x60 but the projector's display is 64x48: set the projector's resolution to the "

@@ -32,8 +32,8 @@ class RecordingLayout:
         assert prop in rna.properties, f"no property {prop} on operator {idname}"
         self.log.append(("operator", idname))
 
-    def label(self, text="", **kwargs):
-        self.log.append(("label", text))
+    def label(self, text="", icon="NONE", **kwargs):
+        self.log.append(("label", text, icon))
 
     def progress(self, **kwargs):
         self.log.append(("progress", kwargs.get("text")))

@@ -87,9 +87,15 @@ def find_devices(report=lambda progress, message: None, max_cameras: int = MAX_C
 
 
 class FindDevicesJob(WorkerJob):
-    """find_devices on a worker thread, so Blender stays responsive while the cameras are probed."""
+    """find_devices on a worker thread, so Blender stays responsive while the cameras are probed. The
+    camera view stops first: the camera it holds would not open for the search."""
 
     title = "LAPIG device search"
+
+    def prepare(self):
+        from .camera_view import stop_view
+
+        stop_view()
 
     def work(self, inputs, report, cancel_event):
         return find_devices(report)

@@ -75,7 +75,7 @@ def start_camera_view(scene, camera_factory=None):
 
 
 def stop_camera_view(error: str = "") -> None:
-    camera_view.stop_view(error)
+    camera_view.stop_view(error, timeout_s=1.0)  # Blender's thread: a hung grab is not waited for
     if bpy.app.timers.is_registered(refresh_camera_view):
         bpy.app.timers.unregister(refresh_camera_view)
 

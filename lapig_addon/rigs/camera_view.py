@@ -90,11 +90,12 @@ def start_view(spec, camera_factory=None) -> CameraView:
     return _STATE["view"]
 
 
-def stop_view(error: str = "") -> None:
-    """Stop the view, if one runs; ``error``: why (kept for the panel until the next start)."""
+def stop_view(error: str = "", timeout_s: float = 10.0) -> None:
+    """Stop the view, if one runs, waiting up to timeout_s for its grab in progress (a camera that hangs
+    is closed by its thread once the grab returns); ``error``: why (kept for the panel until the next start)."""
     view, _STATE["view"] = _STATE["view"], None
     if view is not None:
-        view.stop()
+        view.stop(timeout_s)
     if error:
         _STATE["error"] = error
 

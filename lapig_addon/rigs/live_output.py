@@ -56,11 +56,14 @@ class ProjectorWindowSink:
 
 
 _LIVE: list = []  # the live windows open in this Blender (or command), newest last
+_CLOSED = {"note": ""}  # why the last window went away without close_live() (Esc), for the panel
+CLOSED_NOTE = "The projector window was closed (Esc or its close button)"
 
 
 def open_live(display, window_factory=None) -> ProjectorWindowSink:
     """Open the projector window on ``display`` (closing a live one first) and make it a sink of every job."""
     close_live()
+    _CLOSED["note"] = ""
     if window_factory is None:
         from ...lapig_core.rig.projector_window import ProjectorWindow as window_factory
     sink = ProjectorWindowSink(window_factory(int(display) if str(display).strip().isdigit() else display))
@@ -71,11 +74,15 @@ def open_live(display, window_factory=None) -> ProjectorWindowSink:
 def close_live() -> None:
     while _LIVE:
         _LIVE.pop().window.close()
+    _CLOSED["note"] = ""
 
 
 def open_sinks() -> tuple:
-    """The live windows still open (one closed with Esc is forgotten)."""
-    _LIVE[:] = [sink for sink in _LIVE if getattr(sink.window, "is_open", True)]
+    """The live windows still open (one closed with Esc is forgotten, and status_lines says so)."""
+    gone = [sink for sink in _LIVE if not getattr(sink.window, "is_open", True)]
+    if gone:
+        _LIVE[:] = [sink for sink in _LIVE if sink not in gone]
+        _CLOSED["note"] = CLOSED_NOTE
     return tuple(_LIVE)
 
 
@@ -90,6 +97,8 @@ def status_lines() -> list:
         lines.append((f"Showing on {where}, {w}x{h} (Esc closes it)", True))
         if sink.problem:
             lines.append((sink.problem, False))
+    if not lines and _CLOSED["note"]:
+        lines.append((_CLOSED["note"], None))
     return lines
 
 

@@ -251,9 +251,13 @@ def test_the_crossfade_plays_on_the_live_window_and_ends_on_the_look(tmp_path, s
         small = live.open_live(1, window_factory=lambda display: FakeWindow((32, 24)))
         with pytest.raises(ValueError, match="the look is 64x48 but the projector's display is 32x24"):
             live.CrossfadeJob(small, store, result_folder, frames=5, fps=30).check()
+        assert live.open_sinks() == (small,) and not window.is_open  # one live window: the first one closed
+        small.window.is_open = False  # Esc in the window
+        assert live.open_sinks() == ()
+        assert live.status_lines() == [("The projector window was closed (Esc or its close button)", None)]
     finally:
         live.close_live()
-    assert live.status_lines() == []
+    assert live.status_lines() == []  # closed on purpose: nothing to say
 
 
 def test_the_identification_frame_outlines_the_display():

@@ -380,7 +380,8 @@ def test_show_on_projector_shows_the_result_every_generate_and_the_crossfade(sma
     while live_output.open_sinks():
         assert time.monotonic() < deadline, "the window did not close on Esc"
         time.sleep(0.05)
-    log = draw_panels(bpy.context, [])
-    assert not any(t.startswith("Showing on") for t in _texts(log))
+    texts = _texts(draw_panels(bpy.context, []))
+    assert not any(t.startswith("Showing on") for t in texts)
+    assert "The projector window was closed (Esc or its close button)" in texts
     with pytest.raises(RuntimeError, match="Show on Projector first"):
         bpy.ops.lapig.play_crossfade()

@@ -95,7 +95,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
 def _lines(layout, lines, wrap=60):
     """(text, ok) lines: ok True plain, False with a warning icon, None greyed; long ones wrapped."""
     for text, ok in lines:
-        for i, part in enumerate(textwrap.wrap(text, wrap) or [""]):
+        for i, part in enumerate(textwrap.wrap(text, wrap, break_on_hyphens=False) or [""]):
             icon = ("ERROR" if ok is False else "NONE") if i == 0 else "BLANK1"
             row = layout.row()
             row.enabled = ok is not None

@@ -225,6 +225,25 @@ def test_check_and_capture_through_the_operators_on_simulated_hardware(small_set
     assert last_check(scene_state.read(scene).rig.fingerprint) is None  # another rig: its check is not shown
 
 
+def test_a_camera_that_does_not_open_is_the_checks_one_sentence(small_setup, monkeypatch, tmp_path):
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.rigs import real_rig
+    from lapig.lapig_addon.services.rig_check import last_check
+
+    hw = Hardware()  # the simulated window; the camera is the rig's own (OpenCV), on a file that is not there
+    monkeypatch.setattr(real_rig, "_projector_window", hw.window)
+    monkeypatch.setattr(real_rig, "_clock", lambda: hw.clock)
+    scene = small_setup[0]
+    missing = str(tmp_path / "missing.avi")
+    _real(scene, camera=missing)
+    assert bpy.ops.lapig.check_rig() == {"FINISHED"}  # the check ran: what it found is in the report area
+    check = last_check(scene_state.read(scene).rig.fingerprint)
+    assert check.problems == (f"no video file at {missing}: check the path",)
+    assert [line.ok for line in check.lines] == [None] * 5
+    said = f"no video file at {missing}: check the path".replace(" ", "")  # a long path is wrapped anywhere
+    assert said in [text.replace(" ", "") for text in _texts(draw_panels(bpy.context, []))]
+
+
 def test_the_virtual_capture_goes_stale_when_the_scene_switches_to_a_real_rig(small_setup, tmp_path):
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.services import panel_state

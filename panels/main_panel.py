@@ -330,6 +330,7 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col.operator("lapig.export_crossfade", icon="SEQUENCE")
 
 
-CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize, LAPIG_PT_preview_export)
+CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,
+           LAPIG_PT_preview_export)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

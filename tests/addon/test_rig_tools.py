@@ -120,6 +120,11 @@ def test_opening_the_rig_lets_go_of_the_live_window_and_the_camera_view(tmp_path
 
 # ------------------------------------------------------------------------------------ the camera view
 
+def _addon_rig_error(message):
+    """The add-on's own RigError (lapig.lapig_core, not the top-level lapig_core), as its cameras raise it."""
+    return importlib.import_module("lapig.lapig_core.rig").RigError(message)
+
+
 class _StillCamera:
     """A camera that answers at once with a numbered gray picture; fails after ``fail_after`` grabs."""
 
@@ -130,8 +135,8 @@ class _StillCamera:
     def grab(self):
         self.thread = threading.current_thread().name
         self.grabs += 1
-        if self.fail_after is not None and self.grabs > self.fail_after:  # the add-on's RigError, as its cameras raise
-            raise importlib.import_module("lapig.lapig_core.rig").RigError("the camera stopped answering (unplugged?): check its cable")
+        if self.fail_after is not None and self.grabs > self.fail_after:
+            raise _addon_rig_error("the camera stopped answering (unplugged?): check its cable")
         return np.full((30, 40, 3), self.grabs % 256, np.uint8), time.perf_counter()
 
     def describe(self):
@@ -210,7 +215,7 @@ def test_the_device_search_keeps_both_lists_and_says_why_one_failed(monkeypatch)
     assert device_list.display_note(None, "1", (800, 600)) == []  # nothing searched: nothing said
 
     def no_screen():
-        raise importlib.import_module("lapig.lapig_core.rig").RigError("the displays could not be listed: there is no screen here")
+        raise _addon_rig_error("the displays could not be listed: there is no screen here")
 
     monkeypatch.setattr(device_list, "_list_displays", no_screen)
     found = device_list.find_devices()

@@ -107,7 +107,7 @@ def test_the_panel_draws_both_rig_kinds_in_every_state(small_setup, monkeypatch,
     for op in ("lapig.find_devices", "lapig.choose_display", "lapig.choose_camera", "lapig.check_rig",
                "lapig.camera_view", "lapig.show_on_projector", "lapig.play_crossfade", "lapig.capture"):
         assert op in ops
-    assert ("prop", "transport_mode") not in log and ("prop", "ambient") not in log  # Cycles' settings: not a real rig's
+    assert ("prop", "transport_mode") not in log and ("prop", "ambient") not in log  # Cycles' settings
     assert ("prop", "display") in log and ("prop", "camera_backend") in log and ("prop", "use_exposure") in log
     assert "Choose the projector's display: an index or a part of its name (Find Displays and Cameras lists them)" \
         in texts  # the rig's and the Capture panel's reason
@@ -294,7 +294,7 @@ def test_the_camera_view_fills_its_image_and_stops_on_toggle_error_and_file_load
 
     scene = small_setup[0]
     _real(scene, display="")  # the camera view needs no display
-    hardware.faults, hardware.noise = CameraFaults(latency_s=0.05), 0.0  # every picture the same, once it is late enough
+    hardware.faults, hardware.noise = CameraFaults(latency_s=0.05), 0.0  # every picture alike, once late enough
     hardware.window("1")  # the simulated camera looks at a screen
     hardware.screen.show(np.full((120, 160, 3), 200, np.uint8))
     assert bpy.ops.lapig.camera_view() == {"FINISHED"}

@@ -404,3 +404,21 @@ def test_show_on_projector_shows_the_result_every_generate_and_the_crossfade(sma
     assert "The projector window was closed (Esc or its close button)" in texts
     with pytest.raises(RuntimeError, match="Show on Projector first"):
         bpy.ops.lapig.play_crossfade()
+
+
+def test_rig_real_on_the_command_line_over_a_scene_rig_without_a_display_says_what_to_pass(small_setup):
+    import argparse
+
+    from lapig.lapig_addon.cli import rig_choice
+
+    scene = small_setup[0]
+    _real(scene, display="", camera="0")
+    args = argparse.Namespace(rig="real", display=None, camera_source=None, tethered=None, camera_backend=None,
+                              rig_name=None, frame_code=None, exposure=None, gain=None, focus=None,
+                              white_balance=None)
+    with pytest.raises(ValueError, match=r"^--rig real needs --display and --camera \(or --tethered DIR\)"):
+        rig_choice.apply(args, scene)
+    args.display, args.exposure = "EPSON", -5.0
+    assert rig_choice.apply(args, scene) is None
+    r = scene.lapig.real
+    assert r.display == "EPSON" and r.camera == "0" and r.use_exposure and r.exposure == -5.0  # the panel shows it

@@ -2,9 +2,11 @@ import textwrap
 
 import bpy
 
-from ..lapig_addon.blender import scene_state, storage
+from ..lapig_addon.blender import live_devices, scene_state, storage
 from ..lapig_addon.blender.modal_runner import active_job
+from ..lapig_addon.rigs import camera_view, device_list, live_output
 from ..lapig_addon.services import panel_state
+from ..lapig_addon.services.rig_check import last_check
 from ..lapig_core.common.deps import missing_required
 
 STATE_ICONS = {"DONE": "CHECKMARK", "STALE": "ERROR", "MISSING": "DOT"}
@@ -27,6 +29,8 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
         if missing:
             layout.label(text="Missing: " + ", ".join(d.package for d in missing), icon="ERROR")
             layout.label(text="See the add-on preferences")
+        layout.prop(s, "rig_kind")
+        real = s.rig_kind == "REAL"
         layout.prop(s, "target")
         layout.operator("lapig.add_rig", icon="OUTLINER_OB_LIGHT")
         layout.prop(s, "projector")
@@ -44,6 +48,8 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             col.prop(p, "brightness")
             col.prop(p, "black_level")
             col.prop(p, "gamma")
+        if s.projector and not real:  # how Cycles renders the captures: a real rig's are real
+            p = s.projector.lapig_projector
             box = layout.box()
             box.prop(p, "transport_mode")
             if p.transport_mode == "REALISTIC":
@@ -64,7 +70,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
                     sub.prop(c, "f_number")
                     col.prop(c, "vignetting")
                 box.operator("lapig.focus_on_object", icon="CAMERA_DATA")
-        if s.camera:
+        if s.camera and not real:
             c = s.camera.lapig_camera
             col = layout.column(align=True)
             row = col.row(align=True)
@@ -76,13 +82,108 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             sub.prop(c, "exposure")
             col.prop(c, "response_gamma")
             col.prop(c, "noise")
-        layout.prop(s, "ambient")
+        if not real:
+            layout.prop(s, "ambient")
         if s.target is not None:
             from ..lapig_addon.blender.preview import is_previewing
 
             on = is_previewing(s.target)
             layout.operator("lapig.preview_toggle", icon="HIDE_OFF" if on else "HIDE_ON",
                             text="Hide Projection Preview" if on else "Preview Projection in Viewport")
+
+
+def _lines(layout, lines, wrap=60):
+    """(text, ok) lines: ok True plain, False with a warning icon, None greyed; long ones wrapped."""
+    for text, ok in lines:
+        for i, part in enumerate(textwrap.wrap(text, wrap, break_on_hyphens=False) or [""]):
+            icon = ("ERROR" if ok is False else "NONE") if i == 0 else "BLANK1"
+            row = layout.row()
+            row.enabled = ok is not None
+            row.label(text=part, icon=icon)
+
+
+class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
+    bl_label = "Real Projector and Camera"
+    bl_idname = "LAPIG_PT_real_rig"
+    bl_parent_id = "LAPIG_PT_setup"
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene.lapig.rig_kind == "REAL"
+
+    def draw(self, context):
+        layout = self.layout
+        scene = context.scene
+        r = scene.lapig.real
+        state = scene_state.read(scene)
+        busy = _job_running()
+        found = device_list.found()
+        row = layout.row()
+        row.enabled = not busy
+        row.operator("lapig.find_devices", icon="VIEWZOOM")
+        if found is not None:
+            _lines(layout, [(found.summary(), True)] + [(problem, False) for problem in found.problems])
+        row = layout.row(align=True)
+        row.prop(r, "display")
+        row.operator_menu_enum("lapig.choose_display", "display", text="", icon="DOWNARROW_HLT")
+        _lines(layout, device_list.display_note(found, r.display, state.rig.projector_size))
+        layout.prop(r, "camera_source", expand=True)
+        if r.camera_source == "DEVICE":
+            row = layout.row(align=True)
+            row.prop(r, "camera")
+            row.operator_menu_enum("lapig.choose_camera", "camera", text="", icon="DOWNARROW_HLT")
+            layout.prop(r, "camera_backend")
+            col = layout.column(align=True)
+            row = col.row(align=True)
+            row.prop(r, "camera_width")
+            row.prop(r, "camera_height")
+            for key in scene_state.CAMERA_CONTROLS:
+                row = col.row(align=True)
+                row.prop(r, "use_" + key, text="")
+                sub = row.row(align=True)
+                sub.enabled = getattr(r, "use_" + key)
+                sub.prop(r, key)
+        else:
+            layout.prop(r, "tethered_folder")
+        layout.prop(r, "name")
+        row = layout.row(align=True)
+        row.prop(r, "frame_code")
+        row.prop(r, "health_checks")
+        blocked = _blocked(layout, state.rig.devices_problem)
+
+        box = layout.box()
+        _progress(box)
+        row = box.row()
+        row.enabled = not blocked and not busy
+        row.operator("lapig.check_rig", icon="CHECKMARK")
+        check = last_check(state.rig.fingerprint)
+        if check is not None:
+            _lines(box, [(line.label(), line.ok) for line in check.lines] + [(p, False) for p in check.problems])
+
+        box = layout.box()
+        viewing = live_devices.camera_view_running()
+        row = box.row()
+        spec = scene_state.real_rig_spec(scene)
+        row.enabled = viewing or (not busy and spec is not None and not spec.problem(display=False))
+        row.operator("lapig.camera_view", icon="CAMERA_DATA", depress=viewing,
+                     text="Stop Camera View" if viewing else "Camera View")
+        line = camera_view.status()
+        if line is not None:
+            _lines(box, [line])
+
+        box = layout.box()
+        showing = bool(live_output.open_sinks())
+        row = box.row()
+        row.enabled = showing or not busy
+        row.operator("lapig.show_on_projector", icon="WINDOW", depress=showing,
+                     text="Close Projector Window" if showing else "Show on Projector")
+        _lines(box, live_output.status_lines())
+        row = box.row(align=True)
+        row.prop(scene.lapig, "crossfade_frames")
+        row.prop(scene.lapig, "crossfade_fps")
+        row = box.row()
+        row.enabled = showing and not busy and not panel_state.result_blocker(state)
+        row.operator("lapig.play_crossfade", icon="PLAY")
 
 
 class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
@@ -112,7 +213,7 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
         if job is not None and not job.finished:
             layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
         row = layout.row()
-        blocked = panel_state.rig_blocker(state.rig)
+        blocked = panel_state.device_blocker(state.rig)
         row.enabled = not blocked and not missing_required() and (job is None or job.finished)
         row.operator("lapig.capture", icon="RENDER_STILL")
         _blocked(layout, blocked)
@@ -229,6 +330,7 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col.operator("lapig.export_crossfade", icon="SEQUENCE")
 
 
-CLASSES = (LAPIG_PT_setup, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize, LAPIG_PT_preview_export)
+CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,
+           LAPIG_PT_preview_export)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -11,6 +11,7 @@ _MODULES = (
     ".preferences",
     "...operators",
     "...panels",
+    ".live_devices",
     "..cli.blender_command",
 )
 

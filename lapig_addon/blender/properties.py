@@ -85,6 +85,60 @@ class LapigCameraSettings(bpy.types.PropertyGroup):
                                           "Realistic mode)")
 
 
+CAMERA_BACKENDS = [  # lapig_core.rig.camera_sources.BACKENDS and 'auto' (not imported here: it needs OpenCV)
+    ("auto", "Auto", "The platform's own: V4L2 on Linux, DirectShow on Windows, AVFoundation on macOS; "
+                     "FFMPEG for a stream URL or a video file"),
+    ("v4l2", "V4L2", "Video4Linux2 (Linux)"),
+    ("dshow", "DirectShow", "DirectShow (Windows; exposes the camera's exposure)"),
+    ("msmf", "Media Foundation", "Media Foundation (Windows)"),
+    ("avfoundation", "AVFoundation", "AVFoundation (macOS)"),
+    ("ffmpeg", "FFMPEG", "FFMPEG: stream URLs and video files"),
+    ("any", "Any", "Whatever OpenCV tries first"),
+]
+
+
+class LapigRealRigSettings(bpy.types.PropertyGroup):
+    """The real projector and camera, as the installer chooses them (blender/scene_state.real_rig_spec
+    builds the rigs/real_rig.RigSpec from them)."""
+    name: StringProperty(name="Rig name", default="real rig",
+                         description="The rig's name, recorded with its captures")
+    display: StringProperty(name="Display", description="The projector's display: an index (0, 1, ...) or a part "
+                                                        "of its name (Find Displays and Cameras lists them)")
+    camera_source: EnumProperty(name="Camera", items=[
+        ("DEVICE", "Camera", "A camera index, a stream URL or a video file, read through OpenCV"),
+        ("TETHERED", "Tethered folder", "A folder a tethering program (a DSLR's, gphoto2) saves each picture into")],
+        default="DEVICE")
+    camera: StringProperty(name="Camera", description="A camera index (0, 1, ...), a stream URL (rtsp://, http://) "
+                                                      "or a video file")
+    camera_backend: EnumProperty(name="Backend", items=CAMERA_BACKENDS, default="auto",
+                                 description="How OpenCV talks to the camera")
+    tethered_folder: StringProperty(name="Folder", subtype="DIR_PATH",
+                                    description="The folder the tethering program saves each new picture into")
+    camera_width: IntProperty(name="Width", default=0, min=0, max=16384,
+                              description="The camera's picture width; 0: the camera's own")
+    camera_height: IntProperty(name="Height", default=0, min=0, max=16384,
+                               description="The camera's picture height; 0: the camera's own")
+    use_exposure: BoolProperty(name="Exposure", description="Lock the camera's exposure at this value "
+                                                            "(off: locked where it is)")
+    exposure: FloatProperty(name="Exposure", default=-6.0, description="In the backend's units (V4L2: 100 us "
+                                                                       "steps; DirectShow: log2 seconds)")
+    use_gain: BoolProperty(name="Gain", description="Set the camera's gain (off: the camera's)")
+    gain: FloatProperty(name="Gain", default=0.0, min=0.0, description="In the backend's units")
+    use_focus: BoolProperty(name="Focus", description="Lock the camera's focus at this value (off: locked where "
+                                                      "it is)")
+    focus: FloatProperty(name="Focus", default=0.0, min=0.0, description="In the backend's units")
+    use_white_balance: BoolProperty(name="White balance", description="Lock the camera's white balance at this "
+                                                                      "value (off: locked where it is)")
+    white_balance: FloatProperty(name="White balance", default=5000.0, min=0.0,
+                                 description="Colour temperature in kelvin, where the backend takes it")
+    frame_code: BoolProperty(name="Frame code", default=True,
+                             description="Stamp every frame at its top and bottom edges, so a stale or torn "
+                                         "picture is caught and grabbed again (off: timing alone)")
+    health_checks: BoolProperty(name="Health checks", default=True,
+                                description="Check the exposure and a gray ramp before the capture, and stop "
+                                            "with what to change")
+
+
 PREVIEW_MODES = [
     ("ORIGINAL", "Original", "The object's own material"),
     ("PROJECTION", "Projection", "The projector image cast on the object (its light times the surface)"),
@@ -136,8 +190,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
         ("VIRTUAL", "Virtual", "Capture, judge and preview with the Cycles studio of the projector and camera objects"),
         ("REAL", "Real projector and camera", "Capture through a real projector (a window on a display) and "
                                                "camera; looks play live on the projector")], default="VIRTUAL")
-    real_rig: StringProperty(name="Real rig", description="The real rig's display and camera (JSON, "
-                                                          "lapig_addon/rigs/real_rig.RigSpec)")
+    real: PointerProperty(type=LapigRealRigSettings, name="Real rig")
     ambient: FloatProperty(name="Ambient light", default=0.03, min=0.0, max=1.0, subtype="FACTOR",
                            description="Room light on the object, as a fraction of the projector's white")
     train_count: IntProperty(name="Training images", default=32, **LIMITS["train_count"].bounds())
@@ -159,6 +212,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     last_capture_dir: StringProperty(name="Last capture", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     last_capture_fingerprint: StringProperty(name="Scene fingerprint of the last capture")
     last_capture_transport: StringProperty(name="Light transport of the last capture")
+    last_capture_rig: StringProperty(name="Rig of the last capture",
+                                     description="The virtual rig, or which real rig; '' when unknown")
     last_capture_projector_size: IntVectorProperty(name="Projector resolution of the last capture", size=2,
                                                    default=(0, 0))
     # models
@@ -210,11 +265,13 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                                    update=_export_bit_depth_changed)
     export_path: StringProperty(name="Export to", subtype="FILE_PATH", default="//projector_image.png")
     crossfade_frames: IntProperty(name="Crossfade frames", default=60, **LIMITS["crossfade_frames"].bounds())
+    crossfade_fps: FloatProperty(name="Frame rate", default=30.0, **LIMITS["crossfade_fps"].bounds(),
+                                 description="Frames per second of the crossfade played on the projector")
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
     job_message: StringProperty(name="Status")
 
 
-CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigSceneSettings)
+CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigRealRigSettings, LapigSceneSettings)
 
 
 def register():

@@ -66,27 +66,67 @@ def rig_objects(scene) -> tuple:
     return s.projector, s.camera, s.target
 
 
+CAMERA_CONTROLS = ("exposure", "gain", "focus", "white_balance")  # each with its use_ toggle in scene.lapig.real
+
+
 def real_rig_spec(scene):
-    """The scene's real rig (rigs/real_rig.RigSpec), or None where the scene uses the virtual one;
-    ValueError where the recorded rig is not readable."""
+    """The scene's real rig (rigs/real_rig.RigSpec), built from the panel's settings (scene.lapig.real), or
+    None where the scene uses the virtual one. The one reader of those settings."""
     from ..rigs.real_rig import RigSpec
 
     s = scene.lapig
-    return RigSpec.from_json(s.real_rig or "{}") if s.rig_kind == "REAL" else None
+    if s.rig_kind != "REAL":
+        return None
+    r = s.real
+    settings = {key: getattr(r, key) for key in CAMERA_CONTROLS if getattr(r, "use_" + key)}
+    settings.update({key: value for key, value in (("width", r.camera_width), ("height", r.camera_height)) if value})
+    tethered = r.camera_source == "TETHERED"
+    folder = r.tethered_folder.strip()
+    return RigSpec(name=r.name.strip() or "real rig", display=r.display.strip(),
+                   camera="" if tethered else r.camera.strip(), camera_backend=r.camera_backend,
+                   tethered_folder=bpy.path.abspath(folder) if tethered and folder else "",
+                   camera_settings=settings, frame_code=r.frame_code, health_checks=r.health_checks)
 
 
 def record_real_rig(scene, spec) -> None:
-    """The scene uses this real rig from now on (None: the virtual one again)."""
+    """The scene uses this real rig from now on (None: the virtual one again; the real rig's settings stay
+    for the next time). ValueError for a camera backend the panel does not offer."""
     s = scene.lapig
-    s.rig_kind, s.real_rig = ("REAL", spec.to_json()) if spec is not None else ("VIRTUAL", s.real_rig)
+    if spec is None:
+        s.rig_kind = "VIRTUAL"
+        return
+    r = s.real
+    try:
+        r.camera_backend = spec.camera_backend.lower()
+    except TypeError:
+        names = [item.identifier for item in r.bl_rna.properties["camera_backend"].enum_items]
+        raise ValueError(f"unknown camera backend '{spec.camera_backend}': use one of {', '.join(names)}") from None
+    r.name, r.display, r.camera = spec.name, spec.display, spec.camera
+    r.camera_source = "TETHERED" if spec.tethered_folder else "DEVICE"
+    if spec.tethered_folder:
+        r.tethered_folder = spec.tethered_folder
+    settings = spec.camera_settings
+    r.camera_width, r.camera_height = int(settings.get("width") or 0), int(settings.get("height") or 0)
+    for key in CAMERA_CONTROLS:
+        setattr(r, "use_" + key, settings.get(key) is not None)
+        if settings.get(key) is not None:
+            setattr(r, key, float(settings[key]))
+    r.frame_code, r.health_checks = spec.frame_code, spec.health_checks
+    s.rig_kind = "REAL"
+
+
+def choose_real_device(scene, display: str | None = None, camera: str | None = None) -> None:
+    """The installer chose a display or a camera from the found ones (None: that one stays)."""
+    r = scene.lapig.real
+    if display is not None:
+        r.display = display
+    if camera is not None:
+        r.camera, r.camera_source = camera, "DEVICE"
 
 
 def _real_rig_key(scene) -> str | None:
     """The identity key of the scene's real rig (staleness follows the rig, not the objects); None: virtual."""
-    try:
-        spec = real_rig_spec(scene)
-    except ValueError:
-        return ""  # unreadable: no capture can be current
+    spec = real_rig_spec(scene)
     if spec is None:
         return None
     from ..rigs.real_rig import RealRigFactory
@@ -105,13 +145,17 @@ def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
     if target is not None and target.type != "MESH":
         target = None
     objects = [ob for ob in (projector, camera, target) if ob is not None]
+    spec = real_rig_spec(scene)
     return Rig(projector=projector.name if projector else None, camera=camera.name if camera else None,
                target=target.name if target else None, scene=scene.name,
                outside_scene=tuple(ob.name for ob in objects if ob.name not in scene.objects),
                fingerprint=_fingerprint(scene, projector, camera, target, len(objects) == 3),
                transport=light_transport(projector, camera).label() if projector and camera else "",
                projector_size=(projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y)
-               if projector else None)
+               if projector else None,
+               kind="REAL" if spec else "VIRTUAL",
+               label=f"the real rig '{spec.name}'" if spec else "the virtual rig",
+               devices_problem=spec.problem() if spec else "")
 
 
 def _fingerprint(scene, projector, camera, target, complete: bool) -> str:
@@ -125,6 +169,7 @@ def read(scene) -> SceneState:
     s = scene.lapig
     return SceneState(rig=read_rig(scene), capture_dir=storage.resolve_capture_dir(s.last_capture_dir),
                       capture_fingerprint=s.last_capture_fingerprint, capture_transport=s.last_capture_transport,
+                      capture_rig=s.last_capture_rig,
                       capture_projector_size=tuple(s.last_capture_projector_size)
                       if all(s.last_capture_projector_size) else None,
                       models_fingerprint=s.models_fingerprint,
@@ -189,9 +234,11 @@ def record_capture(scene, folder, fingerprint: str, transport: str = ""):
     s = scene.lapig
     s.last_capture_dir, s.last_capture_fingerprint = storage.stored_path(folder), fingerprint
     s.last_capture_transport = transport
-    # for the stale reason when the projector's resolution changes later (tied to this rig only)
-    size = read_rig(scene).projector_size if fingerprint else None
-    s.last_capture_projector_size = size or (0, 0)
+    # for the stale reasons when the projector's resolution or the rig changes later (tied to this rig only)
+    rig = read_rig(scene) if fingerprint else None
+    s.last_capture_projector_size = (rig.projector_size if rig else None) or (0, 0)
+    # which rig: the scene's, where it is the one captured with (a capture from elsewhere: unknown)
+    s.last_capture_rig = rig.label if rig is not None and rig.fingerprint == fingerprint else ""
 
 
 def record_models(scene, fingerprint: str, status: str | None = None):

@@ -75,12 +75,21 @@ def scene_seams(scene, projector=None, camera=None, target=None, sinks=None, dev
     return Seams(BlenderSceneStore(scene), devices or device_factory(scene, projector, camera, target), tuple(sinks))
 
 
+def scene_result_frame(scene):
+    """The scene's stored result as a ProjectorFrame at the export's bit depth (what Export writes); None
+    without a result or a projector."""
+    folder = scene_state.read(scene).result_dir
+    if not folder or scene_state.rig_objects(scene)[0] is None:
+        return None
+    store = BlenderSceneStore(scene)
+    return result_frame(store, folder, store.export_settings().bit_depth)
+
+
 def show_scene_result(scene) -> bool:
     """The light emits the scene's stored result at the export bit depth (after the bit depth changed);
     False without a result."""
-    folder = scene_state.read(scene).result_dir
-    if not folder or scene_state.rig_objects(scene)[0] is None:
+    frame = scene_result_frame(scene)
+    if frame is None:
         return False
-    store = BlenderSceneStore(scene)
-    ProjectorLightSink(scene).show(result_frame(store, folder, store.export_settings().bit_depth))
+    ProjectorLightSink(scene).show(frame)
     return True

@@ -277,15 +277,13 @@ def _iterations(args, scene) -> int | None:
 
 def cmd_show(args) -> int:
     """The scene's look on the projector window, live, until Esc in the window (or --seconds)."""
-    from ...lapig_core.export.projector_image import crossfade_frames
-    from ...lapig_core.export.result_files import read_output_image, read_result_image
     from ..rigs import live_output
     from ..services import export_result
 
     scene = _open_scene(args)
     store = BlenderSceneStore(scene)
-    display = args.display or getattr(scene_state.real_rig_spec(scene), "display", None)
-    if display is None:
+    display = args.display or getattr(scene_state.real_rig_spec(scene), "display", "").strip()
+    if not display:
         raise ValueError("show needs --display (or a scene with a real rig: capture --rig real --save)")
     folder = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     if not folder:
@@ -296,13 +294,7 @@ def cmd_show(args) -> int:
     try:
         summary = {"display": sink.window.describe()["display"], "result": folder}
         if args.crossfade:
-            model = store.projector_model()
-            try:
-                start = read_result_image(folder, "projector_nopsa")
-            except FileNotFoundError:
-                start = read_output_image(folder, "projector") * 0
-            frames = crossfade_frames(start, frame.image, settings.crossfade_frames, width=model.width,
-                                      height=model.height, bit_depth=settings.bit_depth, gamma=model.gamma)
+            frames = live_output.result_crossfade(store, folder, settings.bit_depth, settings.crossfade_frames)
             summary["crossfade"] = live_output.play(sink.window, frames, fps=args.fps)
         t = time.perf_counter()
         sink.show(frame)

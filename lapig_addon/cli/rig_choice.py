@@ -53,7 +53,8 @@ def real_spec(args, current=None):
                      if getattr(args, attr, None) is not None})
     changes["camera_settings"] = settings
     spec = dataclasses.replace(spec, **changes)
-    if current is None and (args.display is None or (args.camera_source is None and args.tethered is None)):
+    if (current is None and (args.display is None or (args.camera_source is None and args.tethered is None))) \
+            or spec.problem():  # the scene's real rig had no display or camera chosen either
         raise ValueError("--rig real needs --display and --camera (or --tethered DIR): 'devices' lists them")
     return spec
 

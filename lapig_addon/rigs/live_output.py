@@ -12,15 +12,24 @@ import time
 import numpy as np
 
 from ...lapig_core.rig import RigError
+from ..services.jobs import WorkerJob
 from ..services.ports import ProjectorFrame
+
+
+def size_problem(width: int, height: int, size) -> str:
+    """Why a look of width x height cannot be shown 1:1 on a display of ``size`` ('' when it can)."""
+    if (width, height) == tuple(size):
+        return ""
+    return (f"the look is {width}x{height} but the projector's display is {size[0]}x{size[1]}: set the "
+            f"projector's resolution to the display's, then Generate")
 
 
 def window_pixels(frame: ProjectorFrame, size) -> np.ndarray:
     """The 8-bit pixels the window shows of a frame: the quantised_frame that Export writes (a 16-bit
     export shows its top 8 bits); RigError where the look was made for another resolution."""
-    if (frame.width, frame.height) != tuple(size):
-        raise RigError(f"the look is {frame.width}x{frame.height} but the projector's display is "
-                       f"{size[0]}x{size[1]}: set the projector's resolution to the display's, then Generate")
+    problem = size_problem(frame.width, frame.height, size)
+    if problem:
+        raise RigError(problem)
     pixels = frame.pixels
     if pixels.dtype == np.uint16:
         pixels = ((pixels.astype(np.uint32) + 128) // 257).astype(np.uint8)
@@ -47,11 +56,14 @@ class ProjectorWindowSink:
 
 
 _LIVE: list = []  # the live windows open in this Blender (or command), newest last
+_CLOSED = {"note": ""}  # why the last window went away without close_live() (Esc), for the panel
+CLOSED_NOTE = "The projector window was closed (Esc or its close button)"
 
 
 def open_live(display, window_factory=None) -> ProjectorWindowSink:
     """Open the projector window on ``display`` (closing a live one first) and make it a sink of every job."""
     close_live()
+    _CLOSED["note"] = ""
     if window_factory is None:
         from ...lapig_core.rig.projector_window import ProjectorWindow as window_factory
     sink = ProjectorWindowSink(window_factory(int(display) if str(display).strip().isdigit() else display))
@@ -62,12 +74,32 @@ def open_live(display, window_factory=None) -> ProjectorWindowSink:
 def close_live() -> None:
     while _LIVE:
         _LIVE.pop().window.close()
+    _CLOSED["note"] = ""
 
 
 def open_sinks() -> tuple:
-    """The live windows still open (one closed with Esc is forgotten)."""
-    _LIVE[:] = [sink for sink in _LIVE if getattr(sink.window, "is_open", True)]
+    """The live windows still open (one closed with Esc is forgotten, and status_lines says so)."""
+    gone = [sink for sink in _LIVE if not getattr(sink.window, "is_open", True)]
+    if gone:
+        _LIVE[:] = [sink for sink in _LIVE if sink not in gone]
+        _CLOSED["note"] = CLOSED_NOTE
     return tuple(_LIVE)
+
+
+def status_lines() -> list:
+    """The panel's lines about the live window, as (text, ok): where it is open, and why a look was not shown."""
+    lines = []
+    for sink in open_sinks():
+        describe = getattr(sink.window, "describe", None)  # a test's window may not say: its size is enough
+        display = describe().get("display", {}) if describe else {}
+        w, h = sink.window.size
+        where = f"display {display['index']} '{display['name']}'" if "index" in display else "the projector"
+        lines.append((f"Showing on {where}, {w}x{h} (Esc closes it)", True))
+        if sink.problem:
+            lines.append((sink.problem, False))
+    if not lines and _CLOSED["note"]:
+        lines.append((_CLOSED["note"], None))
+    return lines
 
 
 def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
@@ -132,3 +164,63 @@ def _ahead(frames, depth: int = 4):
             yield frame
     finally:
         stop.set()
+
+
+def identification_frame(size, border: int = 8) -> np.ndarray:
+    """What the window shows before there is a look: mid gray inside a white border, so the installer sees
+    which display it is on and where the projection's edges fall."""
+    w, h = size
+    frame = np.full((h, w, 3), 255, np.uint8)
+    b = max(1, min(border, w // 4, h // 4))
+    frame[b:h - b, b:w - b] = 128
+    return frame
+
+
+def result_crossfade(store, folder: str, bit_depth: int, frames: int):
+    """The frames (a generator) from the result's look without PSA (black where it has none) to its look
+    with PSA, at the scene's projector's native size: what Export Crossfade writes, played instead."""
+    from ...lapig_core.export.projector_image import crossfade_frames
+    from ...lapig_core.export.result_files import read_output_image, read_result_image
+
+    model = store.projector_model()
+    end = read_output_image(folder, "projector")
+    try:
+        start = read_result_image(folder, "projector_nopsa")
+    except FileNotFoundError:
+        start = end * 0
+    return crossfade_frames(start, end, frames, width=model.width, height=model.height, bit_depth=bit_depth,
+                            gamma=model.gamma)
+
+
+class _Stopped(Exception):
+    pass
+
+
+class CrossfadeJob(WorkerJob):
+    """Play a result's crossfade on the open projector window at ``fps``, on a worker thread (Esc in
+    Blender stops it; the window keeps the frame it was showing)."""
+
+    title = "LAPIG crossfade"
+
+    def __init__(self, sink: ProjectorWindowSink, store, folder: str, frames: int, fps: float, bit_depth: int = 8):
+        super().__init__()
+        self.sink, self.store, self.folder = sink, store, folder
+        self.frames, self.fps, self.bit_depth = frames, fps, bit_depth
+
+    def prepare(self):
+        model = self.store.projector_model()
+        problem = size_problem(model.width, model.height, self.sink.window.size)
+        if problem:
+            raise ValueError(problem)
+        return result_crossfade(self.store, self.folder, self.bit_depth, self.frames)
+
+    def work(self, frames, report, cancel_event):
+        def on_frame(i, on_screen):
+            if cancel_event.is_set():
+                raise _Stopped
+            report((i + 1) / self.frames, f"frame {i + 1} of {self.frames}")
+
+        try:
+            return play(self.sink.window, frames, self.fps, on_frame=on_frame)
+        except _Stopped:
+            return None

@@ -1,9 +1,9 @@
 """The device factory of a real rig: a projector window on a display and a camera (services/ports.DeviceFactory).
 
-A RigSpec says which display and which camera; it is what the scene records (scene.lapig.real_rig, JSON)
-and what the headless commands' --rig options build. The rig's identity is the spec's name and devices,
-so staleness follows the rig, not Blender objects: a capture made with another camera or on another
-display is not this rig's.
+A RigSpec says which display and which camera; the panel's properties (scene.lapig.real, read by
+blender/scene_state.real_rig_spec) and the headless commands' --rig options build it; its JSON is for data
+files and tests. The rig's identity is the spec's name and devices, so staleness follows the rig, not
+Blender objects: a capture made with another camera or on another display is not this rig's.
 
 Its devices block (a camera's grab, the waits of the sync), so main_thread is False: the jobs drive them
 on a worker thread and Blender stays responsive. Train's rendered choice and Render Real Capture use
@@ -58,6 +58,16 @@ class RigSpec:
     def to_json(self) -> str:
         return json.dumps(asdict(self), sort_keys=True)
 
+    def problem(self, display: bool = True, camera: bool = True) -> str:
+        """What the installer must still choose before the rig opens ('' when nothing); display=False or
+        camera=False leaves that device out (the live window needs no camera, the camera view no display)."""
+        if display and not self.display.strip():
+            return ("Choose the projector's display: an index or a part of its name (Find Displays and "
+                    "Cameras lists them)")
+        if camera and not (self.tethered_folder.strip() or self.camera.strip()):
+            return "Choose the camera: an index, a stream URL or a video file (or a tethered folder)"
+        return ""
+
     def devices(self) -> dict:
         """What the rig's identity names: enough to tell another display or camera apart."""
         camera = (f"tethered folder {self.tethered_folder}" if self.tethered_folder
@@ -73,7 +83,7 @@ class RealRigFactory:
         expected_size: the projector resolution the looks are made for (the display must have it);
         clock: the devices' (lapig_core.rig.clock; None: the real one)."""
         self.spec, self.expected_size = spec, tuple(expected_size) if expected_size else None
-        self.clock = clock
+        self.clock = clock if clock is not None else _clock()
         self._window = window_factory or _projector_window
         self._camera = camera_factory or _camera
 
@@ -86,6 +96,10 @@ class RealRigFactory:
         of compensated images is verified like a capture; its health was checked by the capture)."""
         from ...lapig_core.rig.rig_device import RigDevice
 
+        problem = self.spec.problem()
+        if problem:
+            raise CaptureError(problem)
+        release_devices()
         window = self._window(self.spec.display)
         try:
             if self.expected_size and tuple(window.size) != self.expected_size:
@@ -145,6 +159,22 @@ class SimulatedRigFactory:
 
     def setup_device(self, setup_meta: dict, seed: int = 0):
         return self._rig(self.optics_factory.setup_device(setup_meta, seed), calibrated=True)
+
+
+def release_devices() -> None:
+    """The live projector window and the camera view let go of the display and the camera, which the rig
+    is about to open (a camera serves one program at a time; two full-screen windows fight)."""
+    from .camera_view import stop_view
+    from .live_output import close_live
+
+    close_live()
+    stop_view()
+
+
+def _clock():
+    """The devices' clock where the factory is given none: None, the real one (tests that simulate the
+    hardware return their VirtualClock, shared with the simulated window and camera)."""
+    return None
 
 
 def _projector_window(display: str):

@@ -11,13 +11,13 @@ from ...lapig_core.capture.sequence import run_capture
 from ...lapig_core.capture.settings import CaptureError, CaptureSettings  # noqa: F401 (re-exported)
 from .jobs import Job
 from .limits import first_problem
-from .panel_state import rig_blocker
+from .panel_state import device_blocker
 from .ports import Seams
 
 
 def check_rig(store):
-    """CaptureError unless the scene's rig can be captured."""
-    blocker = rig_blocker(store.read().rig)
+    """CaptureError unless the scene's rig can be captured (a real rig: its display and camera chosen)."""
+    blocker = device_blocker(store.read().rig)
     if blocker:
         raise CaptureError(blocker)
 

@@ -42,6 +42,7 @@ LIMITS = {  # keyed by the scene property's name (blender/properties.py) where t
     "style_prompt_weight": Limit("Prompt share of the style image's look", 0.0, 1.0),
     "output_size": Limit("Output size", 0, 8192),  # 0: the projector's native frame
     "crossfade_frames": Limit("Crossfade frames", 2, 10000),
+    "crossfade_fps": Limit("Crossfade frame rate", 1, 240),  # played live on the projector window
     # developer commands only
     "psa_iterations": Limit("PSA iterations", 1, 1000),
     "pretrain_iterations": Limit("Pretraining iterations", 1, 1000000),

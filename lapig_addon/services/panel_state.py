@@ -29,6 +29,18 @@ def rig_blocker(rig: Rig) -> str:
     return ""
 
 
+def device_blocker(rig: Rig) -> str:
+    """Why the rig's devices cannot be opened (a capture, a check): rig_blocker, or what a real rig's
+    installer must still choose ('' when they can)."""
+    return rig_blocker(rig) or rig.devices_problem
+
+
+def _other_rig(state: SceneState) -> bool:
+    """The capture was made with another rig than the scene's now (the virtual one and a real one, or two
+    real rigs of other names)."""
+    return bool(state.capture_rig and state.rig.label and state.capture_rig != state.rig.label)
+
+
 def _projector_resized(state: SceneState) -> bool:
     return bool(state.capture_projector_size and state.rig.projector_size
                 and tuple(state.capture_projector_size) != tuple(state.rig.projector_size))
@@ -38,11 +50,15 @@ def capture_status(state: SceneState) -> StepStatus:
     if not state.capture_dir:
         return StepStatus("MISSING", "No capture yet")
     if state.capture_fingerprint and state.rig.fingerprint and state.rig.fingerprint != state.capture_fingerprint:
+        if _other_rig(state):
+            return StepStatus("STALE", f"Captured with {state.capture_rig}; the scene now uses {state.rig.label}")
         if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
             return StepStatus("STALE", f"Captured in {state.capture_transport}; the rig is now {state.rig.transport}")
         if _projector_resized(state):
             (w0, h0), (w1, h1) = state.capture_projector_size, state.rig.projector_size
             return StepStatus("STALE", f"Captured for a {w0}x{h0} projector; it is now {w1}x{h1}")
+        if state.rig.kind == "REAL":
+            return StepStatus("STALE", "The real rig's display or camera changed since the capture")
         return StepStatus("STALE", "The rig or the object changed since the capture")
     return StepStatus("DONE", state.capture_dir)
 
@@ -56,10 +72,14 @@ def capture_blocker(state: SceneState) -> str:
     if status == "MISSING":
         return "Capture the surface first"
     if status == "STALE":
+        if _other_rig(state):
+            return "Captured with another rig: capture again"
         if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
             return "The light transport changed: capture again"
         if _projector_resized(state):
             return "The projector's resolution changed: capture again"
+        if state.rig.kind == "REAL":
+            return "The real rig's display or camera changed: capture again"
         return "The rig or the object moved: capture again"
     return ""
 
@@ -106,6 +126,10 @@ def result_status(state: SceneState) -> StepStatus:
     if not state.result_dir:
         return StepStatus("MISSING", "No projector image yet")
     if state.result_fingerprint and state.rig.fingerprint not in ("", state.result_fingerprint):
+        if _other_rig(state):
+            return StepStatus("STALE", f"Made with {state.capture_rig}; the scene now uses {state.rig.label}")
+        if state.rig.kind == "REAL":
+            return StepStatus("STALE", "The real rig changed since this result")
         return StepStatus("STALE", "The rig moved since this result")
     return StepStatus("DONE", os.path.basename(state.result_dir))
 

@@ -48,6 +48,9 @@ class Rig:
     fingerprint: str = ""  # of the whole rig as it is now (blender/fingerprint.py); '' while incomplete
     projector_size: tuple[int, int] | None = None  # (width, height) of the projector's native frame
     transport: str = ""  # the light transport's label (lapig_core.optics.transport); '' while incomplete
+    kind: str = "VIRTUAL"  # 'VIRTUAL' (the Cycles studio of the objects) or 'REAL' (a projector and a camera)
+    label: str = "the virtual rig"  # which rig, as a sentence names it: "the real rig 'gallery'"
+    devices_problem: str = ""  # what a real rig's installer must still choose (its display, its camera)
 
 
 @dataclass(frozen=True)
@@ -57,6 +60,7 @@ class SceneState:
     capture_dir: str = ""  # the last capture, found again beside a moved .blend; '' when it is gone
     capture_fingerprint: str = ""  # the rig's fingerprint when it was captured; '' for an imported capture
     capture_transport: str = ""  # the light transport's label when it was captured; '' when unknown
+    capture_rig: str = ""  # the rig's label (Rig.label) when it was captured; '' when unknown
     capture_projector_size: tuple[int, int] | None = None  # the projector's (width, height) then; None: unknown
     models_fingerprint: str = ""  # the capture fingerprint the models were fine-tuned for
     models_status: str = ""

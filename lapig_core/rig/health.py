@@ -25,13 +25,19 @@ RAMP_LEVELS = (0.0, 0.15, 0.3, 0.45, 0.6, 0.75, 0.9, 1.0)
 class HealthReport:
     results: dict = field(default_factory=dict)  # check -> its figures
     problems: list = field(default_factory=list)  # plain sentences, what to change
+    failed: list = field(default_factory=list)  # the checks the problems belong to: 'exposure', 'ramp'
 
     @property
     def ok(self) -> bool:
         return not self.problems
 
     def as_dict(self) -> dict:
-        return {**self.results, "problems": list(self.problems)}
+        return {**self.results, "problems": list(self.problems), "failed": list(self.failed)}
+
+    def fail(self, check: str, problem: str) -> None:
+        self.problems.append(problem)
+        if check not in self.failed:
+            self.failed.append(check)
 
 
 def _levels(image) -> np.ndarray:
@@ -57,17 +63,17 @@ def run_checks(shoot, size, ignore=None, clip_share=0.02, crushed_share=0.5,
     lit_share = float(lit.mean())
     report.results["lit_share_of_camera"] = round(lit_share, 4)
     if lit_share < 0.01:
-        report.problems.append("the camera sees almost none of the projection: aim it at the lit surface, "
+        report.fail("exposure", "the camera sees almost none of the projection: aim it at the lit surface, "
                                "or raise its exposure")
         return report
     clipped = float((white[lit] >= 0.985).mean())
     crushed = float((black[lit] <= 0.004).mean())
     report.results["exposure"] = {"white_clipped_share": round(clipped, 4), "black_crushed_share": round(crushed, 4)}
     if clipped > clip_share:
-        report.problems.append(f"white clips on {clipped:.0%} of the lit surface: lower the camera's exposure "
+        report.fail("exposure", f"white clips on {clipped:.0%} of the lit surface: lower the camera's exposure "
                                "or gain (or the projector's brightness) and run the checks again")
     if crushed > crushed_share:
-        report.problems.append(f"black reads 0 on {crushed:.0%} of the lit surface: raise the camera's "
+        report.fail("exposure", f"black reads 0 on {crushed:.0%} of the lit surface: raise the camera's "
                                "exposure a little, or darken the room")
 
     def ramp(levels):
@@ -81,11 +87,11 @@ def run_checks(shoot, size, ignore=None, clip_share=0.02, crushed_share=0.5,
     report.results["ramp"] = {"levels": list(RAMP_LEVELS), "up": [round(float(v), 4) for v in up],
                               "down": [round(float(v), 4) for v in down], "passes_differ_by": round(drift, 4)}
     if drift > ramp_tolerance:
-        report.problems.append(f"the same grays read {drift:.0%} differently going up and coming down: the "
+        report.fail("ramp", f"the same grays read {drift:.0%} differently going up and coming down: the "
                                "camera's auto exposure or auto gain is on: lock its exposure, gain and white "
                                "balance, then run the checks again")
     elif (steps <= 0).any():
-        report.problems.append("a brighter gray came back darker: the camera's picture is not steady "
+        report.fail("ramp", "a brighter gray came back darker: the camera's picture is not steady "
                                "(auto exposure, flicker or a moving camera): lock its settings and run the "
                                "checks again")
     report.results["ramp_gamma"] = _fit_gamma(np.array(RAMP_LEVELS), (up + down) / 2)

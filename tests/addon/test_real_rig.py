@@ -67,6 +67,7 @@ def test_a_real_rig_captures_on_a_worker_thread_and_records_what_it_measured(rig
     assert got["caught"] == got["bad"] > 0 and got["false_alarms"] == 0
 
 
+@pytest.mark.torch  # pipeline_jobs loads torch
 def test_another_camera_is_another_rig_so_the_capture_is_stale(rig):
     seams, hardware = rig
     real_rig, pipeline_jobs = _module("rigs.real_rig"), _module("services.pipeline_jobs")

@@ -26,8 +26,14 @@ class RecordingLayout:
         self.log.append(("operator", idname))
         return type("Props", (), {})()
 
-    def label(self, text="", **kwargs):
-        self.log.append(("label", text))
+    def operator_menu_enum(self, idname, prop, **kwargs):
+        module, _, op = idname.partition(".")
+        rna = getattr(getattr(bpy.ops, module), op).get_rna_type()
+        assert prop in rna.properties, f"no property {prop} on operator {idname}"
+        self.log.append(("operator", idname))
+
+    def label(self, text="", icon="NONE", **kwargs):
+        self.log.append(("label", text, icon))
 
     def progress(self, **kwargs):
         self.log.append(("progress", kwargs.get("text")))
@@ -36,17 +42,23 @@ class RecordingLayout:
         self.log.append(("separator", None))
 
 
+def draw_panels(context, log):
+    """Every panel as Blender draws it: those whose poll() says no are left out."""
+    from lapig.panels.main_panel import CLASSES
+
+    for cls in CLASSES:
+        if not hasattr(cls, "poll") or cls.poll(context):
+            cls.draw(type("P", (), {"layout": RecordingLayout(log)})(), context)
+    return log
+
+
 @pytest.mark.blender
 @pytest.mark.parametrize("with_rig", [False, True])
 def test_panels_draw_with_and_without_a_rig(lapig_registered, small_setup, with_rig):
-    from lapig.panels.main_panel import CLASSES
-
     if not with_rig:
         s = bpy.context.scene.lapig
         s.projector = s.camera = s.target = None
-    log = []
-    for cls in CLASSES:
-        cls.draw(type("P", (), {"layout": RecordingLayout(log)})(), bpy.context)
+    log = draw_panels(bpy.context, [])
     texts = [entry[1] for entry in log if entry[0] == "label"]
     assert any("temporary folder" in t for t in texts)  # unsaved file: the UI says so
     # every step of the artist's path is there, in order
@@ -69,7 +81,6 @@ def test_panels_draw_with_and_without_a_rig(lapig_registered, small_setup, with_
 @pytest.mark.blender
 def test_the_style_image_property_reaches_the_generate_request(lapig_registered, small_setup, tmp_path):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.panels.main_panel import CLASSES
 
     scene = bpy.context.scene
     s = scene.lapig
@@ -79,9 +90,7 @@ def test_the_style_image_property_reaches_the_generate_request(lapig_registered,
     assert request.style_images == (str(tmp_path / "missing painting.png"),)
     assert request.lgst_backend() == "arbitrary" and request.style_prompt_weight == pytest.approx(0.3)
     assert request.problem().startswith("style image not found")  # the panel shows why Generate waits
-    log = []
-    for cls in CLASSES:
-        cls.draw(type("P", (), {"layout": RecordingLayout(log)})(), bpy.context)
+    log = draw_panels(bpy.context, [])
     assert ("prop", "style_image") in log and ("prop", "style_prompt_weight") in log
     scene_state.write_stylize_settings(scene, scene_state.generate_request(scene, style_images=()))
     assert s.style_image == ""

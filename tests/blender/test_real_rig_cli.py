@@ -35,7 +35,9 @@ def test_an_incomplete_or_unreachable_real_rig_is_refused_in_one_line(rigged_ble
     finally:
         if env_display is not None:
             os.environ["DISPLAY"] = env_display
-    assert said.returncode == 1 and said.stderr.startswith("error: the projector window did not open on display '1': there is no screen here")
+    # no screen here (the desktop-less SDL drivers are refused), or no SDL2 at all (the torch-free tier's venv)
+    assert said.returncode == 1 and said.stderr.startswith("error: the projector window did not open on display '1': ")
+    assert "there is no screen here" in said.stderr or "install the pip packages pysdl2" in said.stderr
     assert "Traceback" not in said.stderr and len(said.stderr.strip().splitlines()) == 1
     assert open(rigged_blend, "rb").read() == before  # nothing saved
 

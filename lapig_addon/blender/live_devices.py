@@ -1,0 +1,172 @@
+"""Blender's side of a real rig's live devices (rigs/camera_view, rigs/live_output).
+
+- The camera view: the newest picture of the worker thread's camera goes into the image 'LAPIG camera
+  view' a few times per second (a bpy.app.timers function; the grab itself never runs on Blender's
+  thread). A camera that fails stops the view, and the report area and the panel say why.
+- The live projector window: opened on the real rig's display with the scene's current result (the
+  ProjectorFrame Export writes); while it is open every Generate shows its look there too (scene_seams adds
+  it to the sinks). A timer watches it, so the panel follows an Esc in the window.
+Both stop when another .blend is loaded, and when the add-on is disabled.
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+from bpy.app.handlers import persistent
+
+from ..rigs import camera_view, live_output
+from . import scene_state
+from .scene_store import scene_result_frame
+
+IMAGE_NAME = "LAPIG camera view"
+CAMERA_PERIOD_S = 0.2  # five pictures a second
+WINDOW_PERIOD_S = 0.5
+
+_seen = {"frames": -1, "window_open": False}
+
+
+def _real_spec(scene, what: str):
+    spec = scene_state.real_rig_spec(scene)
+    if spec is None:
+        raise ValueError(f"{what} needs a real rig: set Rig to Real projector and camera")
+    return spec
+
+
+def _redraw(kinds=("VIEW_3D",)) -> None:
+    wm = bpy.context.window_manager
+    for window in (wm.windows if wm is not None else ()):
+        for area in window.screen.areas:
+            if area.type in kinds:
+                area.tag_redraw()
+
+
+def report(kind: str, message: str) -> None:
+    """A report from a timer, which has no operator of its own: the report area and the Info log say it."""
+    try:
+        bpy.ops.lapig.report_message(kind=kind, message=message)
+    except RuntimeError:  # background mode raises an ERROR report back; the console has it too
+        pass
+    print(f"LAPIG: {message}")
+
+
+# ------------------------------------------------------------------------------------ the camera view
+
+def camera_view_running() -> bool:
+    return camera_view.current_view() is not None
+
+
+def camera_image(size=(64, 48)):
+    """The view's image (made black at ``size`` if missing, so an Image Editor can show it at once)."""
+    image = bpy.data.images.get(IMAGE_NAME)
+    if image is None:
+        image = bpy.data.images.new(IMAGE_NAME, size[0], size[1], alpha=False)
+    return image
+
+
+def start_camera_view(scene, camera_factory=None):
+    """Open the scene's real camera on a worker thread and show it in the image; ValueError where the
+    scene has no real camera chosen."""
+    view = camera_view.start_view(_real_spec(scene, "The camera view"), camera_factory)
+    _seen["frames"] = -1
+    if not bpy.app.timers.is_registered(refresh_camera_view):
+        bpy.app.timers.register(refresh_camera_view, first_interval=CAMERA_PERIOD_S)
+    camera_image()
+    return view
+
+
+def stop_camera_view(error: str = "") -> None:
+    camera_view.stop_view(error, timeout_s=1.0)  # Blender's thread: a hung grab is not waited for
+    if bpy.app.timers.is_registered(refresh_camera_view):
+        bpy.app.timers.unregister(refresh_camera_view)
+
+
+def write_image(pixels: np.ndarray):
+    """Camera pixels (H, W, 3), uint8 or uint16 RGB top row first, into the view's image."""
+    h, w = pixels.shape[:2]
+    image = camera_image((w, h))
+    if tuple(image.size) != (w, h):
+        image.scale(w, h)
+    rgba = np.ones((h, w, 4), np.float32)
+    rgba[..., :3] = pixels[::-1] / np.float32(65535 if pixels.dtype == np.uint16 else 255)  # Blender: bottom row first
+    image.pixels.foreach_set(rgba.ravel())
+    image.update()
+    return image
+
+
+def refresh_camera_view():
+    """The timer: the newest picture into the image; None (no more calls) once the view is over."""
+    view = camera_view.current_view()
+    if view is None:
+        return None
+    if view.error or not view.running:
+        error = view.error or "the camera's thread ended"
+        camera_view.stop_view(error)  # this timer ends by returning None
+        report("ERROR", f"Camera view stopped: {error}")
+        _redraw()
+        return None
+    pixels, frames = view.latest()
+    if pixels is not None and frames != _seen["frames"]:
+        write_image(pixels)
+        _seen["frames"] = frames
+        _redraw(("IMAGE_EDITOR", "VIEW_3D"))
+    return CAMERA_PERIOD_S
+
+
+# ------------------------------------------------------------------------------ the projector window
+
+def show_on_projector(scene, window_factory=None):
+    """Open the live projector window on the real rig's display and show the scene's current result (the
+    identification frame before there is one); the sink (live_output.ProjectorWindowSink)."""
+    spec = _real_spec(scene, "Show on Projector")
+    problem = spec.problem(camera=False)
+    if problem:
+        raise ValueError(problem)
+    frame = scene_result_frame(scene)  # read first: a result that cannot be read opens no window
+    sink = live_output.open_live(spec.display, window_factory)
+    if frame is None:
+        sink.window.show(live_output.identification_frame(sink.window.size))
+    else:
+        sink.show(frame)
+    _seen["window_open"] = True
+    if not bpy.app.timers.is_registered(watch_live_window):
+        bpy.app.timers.register(watch_live_window, first_interval=WINDOW_PERIOD_S)
+    return sink
+
+
+def close_projector() -> None:
+    live_output.close_live()
+    _seen["window_open"] = False
+
+
+def watch_live_window():
+    """The timer: redraw the panel when the window closed (Esc); None once no window is open."""
+    is_open = bool(live_output.open_sinks())
+    if is_open != _seen["window_open"]:
+        _seen["window_open"] = is_open
+        _redraw()
+    return WINDOW_PERIOD_S if is_open else None
+
+
+# ---------------------------------------------------------------------------------- file load, disable
+
+def stop_all() -> None:
+    stop_camera_view()
+    close_projector()
+    if bpy.app.timers.is_registered(watch_live_window):
+        bpy.app.timers.unregister(watch_live_window)
+
+
+@persistent
+def _on_load(*_args) -> None:
+    stop_all()
+
+
+def register():
+    if _on_load not in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.append(_on_load)
+
+
+def unregister():
+    if _on_load in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.remove(_on_load)
+    stop_all()

@@ -66,7 +66,10 @@ def camera_image(size=(64, 48)):
 def start_camera_view(scene, camera_factory=None):
     """Open the scene's real camera on a worker thread and show it in the image; ValueError where the
     scene has no real camera chosen."""
-    view = camera_view.start_view(_real_spec(scene, "The camera view"), camera_factory)
+    from ..rigs import real_rig
+
+    # real_rig._camera looked up now, not at import: tests replace it
+    view = camera_view.start_view(_real_spec(scene, "The camera view"), camera_factory or real_rig._camera)
     _seen["frames"] = -1
     if not bpy.app.timers.is_registered(refresh_camera_view):
         bpy.app.timers.register(refresh_camera_view, first_interval=CAMERA_PERIOD_S)

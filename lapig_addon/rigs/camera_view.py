@@ -21,7 +21,7 @@ MIN_PERIOD_S = 1 / 30  # a camera that answers at once (a video file, a simulate
 
 class CameraView:
     def __init__(self, spec, camera_factory=None, min_period_s: float = MIN_PERIOD_S):
-        """camera_factory(spec) -> a Camera (lapig_core.rig); None: the real rig's (rigs/real_rig._camera)."""
+        """camera_factory(spec) -> a Camera (lapig_core.rig): the real rig's (rigs/real_rig._camera) in Blender."""
         self.spec, self.min_period_s = spec, min_period_s
         self._factory = camera_factory
         self._lock = threading.Lock()
@@ -36,10 +36,6 @@ class CameraView:
     def _run(self) -> None:
         camera = None
         try:
-            if self._factory is None:
-                from . import real_rig
-
-                self._factory = real_rig._camera  # looked up now: tests replace it
             camera = self._factory(self.spec)
             self.describe = camera.describe()
             while not self._stop.is_set():
@@ -85,6 +81,8 @@ def start_view(spec, camera_factory=None) -> CameraView:
         raise ValueError(problem)
     if spec.tethered_folder.strip():
         raise ValueError("The camera view needs a live camera: a tethered folder gives one picture per shot")
+    if camera_factory is None:
+        raise ValueError("the camera view was given no way to open the camera")
     stop_view()
     _STATE["view"], _STATE["error"] = CameraView(spec, camera_factory), ""
     return _STATE["view"]

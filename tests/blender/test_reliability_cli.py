@@ -375,7 +375,7 @@ def test_the_panel_properties_have_the_ranges_the_command_line_checks(lapig_regi
 
     properties = bpy.context.scene.lapig.bl_rna.properties
     shared = [name for name in LIMITS if name in properties]
-    assert len(shared) == 11  # every ranged scene setting; a rename on either side shows here
+    assert len(shared) == 12  # every ranged scene setting (crossfade_fps: the live crossfade); a rename shows here
     for name in shared:
         limit = LIMITS[name]
         assert properties[name].hard_min == pytest.approx(limit.low), name

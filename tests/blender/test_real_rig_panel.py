@@ -244,6 +244,7 @@ def test_a_camera_that_does_not_open_is_the_checks_one_sentence(small_setup, mon
     assert said in [text.replace(" ", "") for text in _texts(draw_panels(bpy.context, []))]
 
 
+@pytest.mark.torch  # without torch the panel names the missing package first
 def test_the_virtual_capture_goes_stale_when_the_scene_switches_to_a_real_rig(small_setup, tmp_path):
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.services import panel_state

@@ -88,6 +88,10 @@ EXTRA_COLOURS: dict[str, str] = {
     "rose pink": "#ff66cc", "golden yellow": "#ffdf00", "jade green": "#00a86b", "mint green": "#98ff98",
     "sage green": "#9caf88", "lime green yellow": "#c5e384", "blood orange": "#d1001c", "sunset orange": "#fd5e53",
     "blue grey": "#6699cc", "blue gray": "#6699cc", "warm grey": "#9f978c", "cool grey": "#8c92ac",
+    # pigments the art lexicon's palettes name (art_lexicon.toml)
+    "lapis": "#26619c", "lapis lazuli": "#26619c", "viridian": "#40826d", "chrome yellow": "#ffa700",
+    "cadmium yellow": "#fff600", "cadmium red": "#e30022", "naples yellow": "#fada5e",
+    "madder": "#a50021", "egyptian blue": "#1034a6",
 }
 
 # basic colour words of other languages -> the English name above (for prompts written in them)

@@ -212,12 +212,18 @@ def _free(span, taken) -> bool:
     return not any(a < span[1] and span[0] < b for a, b in taken)
 
 
+def searchable(text: str) -> str:
+    """The text the spans of the finders index: the text itself where fold() keeps its length (it does
+    for nearly all text), else the folded text."""
+    folded = fold(text)
+    return text if len(folded) == len(text) else folded
+
+
 def find_written(text: str) -> list[NameMatch]:
     """Entries whose name or alias is written in the text (longest first; an alias inside a longer one
-    found already does not count). fold() keeps the length of Latin text, so spans index the text."""
+    found already does not count). Spans index searchable(text)."""
+    text = searchable(text)
     folded = fold(text)
-    if len(folded) != len(text):  # a character that decomposed oddly: search the folded text only
-        text = folded
     found, taken = [], []
     for key, e, cased in _alias_table():
         hay = text if cased else folded
@@ -244,22 +250,38 @@ def _runs(text: str, taken, max_words: int = 3):
             yield seg[0][0], seg[-1][1]
 
 
+def _only_common(run: str, skip_words) -> bool:
+    """A run made only of common words (instructions, colours, moods, plain art words): no name."""
+    return all(w.strip("'-") in skip_words or len(w) < 3 for w in re.split(r"[\s]+", re.sub(r"'s\b", "", run)))
+
+
+def blank(text: str, spans) -> str:
+    """The text with the spans replaced by spaces (the names taken out)."""
+    chars = list(text)
+    for a, b in spans:
+        chars[a:b] = " " * (b - a)
+    return "".join(chars)
+
+
 @functools.lru_cache(maxsize=1)
 def _spelling_table():
     return [(key, e) for key, e, cased in _alias_table() if not cased and len(key) >= 5 and not _CJK.search(key)]
 
 
 def find_misspelt(text: str, taken, skip_words=frozenset()) -> list[NameMatch]:
-    """Runs of words within a small edit of an alias of 5 letters or more ('Kandinski', 'Mondriaan')."""
+    """Words (or two-word runs) within a small edit of an alias of 5 letters or more and of as many
+    words ('Kandinski', 'Rembrant', 'Frida Kalo'); runs with a common word are no names."""
     found = []
-    for start, end in _runs(text, taken, 3):
+    for start, end in _runs(text, taken, 2):
         run = fold(text[start:end]).strip("'-")
         run = re.sub(r"'s$", "", run)
-        if len(run) < 5 or run in skip_words or not _free((start, end), taken + [m.span for m in found]):
+        words = run.split()
+        if (len(run) < 5 or any(w.strip("'-") in skip_words for w in words)
+                or not _free((start, end), taken + [m.span for m in found])):
             continue
         best = None
         for key, e in _spelling_table():
-            if abs(len(key) - len(run)) > 2:
+            if abs(len(key) - len(run)) > 1 or len(key.split()) != len(words):
                 continue
             r = difflib.SequenceMatcher(None, run, key).ratio()
             if r >= FUZZY_CUTOFF and (best is None or r > best[0]):
@@ -284,7 +306,7 @@ def find_by_meaning(text: str, taken, embedder, skip_words=frozenset()) -> list[
     if embedder.name != "e5":
         return []
     runs = [(s, e) for s, e in _runs(text, taken, 3)
-            if len(text[s:e]) >= 4 and fold(text[s:e]) not in skip_words]
+            if len(text[s:e]) >= 4 and not _only_common(fold(text[s:e]), skip_words)]
     if not runs:
         return []
     names = _name_vectors(embedder.name)
@@ -301,7 +323,7 @@ def find_by_meaning(text: str, taken, embedder, skip_words=frozenset()) -> list[
 
 def find_works(text: str, matches: list[NameMatch], taken) -> list[tuple[NameMatch, str, tuple[int, int]]]:
     """Subjects of a found entry written beside it ('water lilies' by Monet): (match, subject, span)."""
-    folded = fold(text) if len(fold(text)) == len(text) else text
+    folded = fold(searchable(text))
     out = []
     for m in matches:
         for subject, _ in sorted(m.entry.works, key=lambda w: -len(w[0])):
@@ -315,7 +337,7 @@ def find_works(text: str, matches: list[NameMatch], taken) -> list[tuple[NameMat
 
 def find_work_alone(text: str) -> list[NameMatch]:
     """A famous subject of two words or more named without its painter ('the great wave')."""
-    folded = fold(text) if len(fold(text)) == len(text) else text
+    folded = fold(searchable(text))
     found, taken = [], []
     for e in ENTRIES:
         for subject, _ in e.works:

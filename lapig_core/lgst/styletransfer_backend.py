@@ -170,16 +170,27 @@ class StyleTransferBackend(ThetaBackend):
         from .looks import BY_NAME, palette_stage
 
         rgb = [c.rgb for c in plan.colours] or None
+        strength = 0.85
+        entry = getattr(plan, "entry", None)
+        if entry is not None and not plan.colours:
+            # a named entry: its palette, at its strength (0: the medium keeps its own colours); with a
+            # craft named beside it as the medium, the entry's colours at least at the default strength
+            strength = entry.palette_strength
+            if plan.entry_medium_from and strength == 0:
+                strength = 0.7
+            rgb = [c.rgb for c in plan.entry_colours] if strength > 0 else None
         stages = []
         medium = BY_NAME.get(plan.look) if plan.medium_kind == "look" else None
         if medium is not None:
             stages.append(medium.make(rgb))
         if rgb and not (medium is not None and medium.uses_colours):
-            stages.append(palette_stage(rgb))
-        if plan.texture:
-            stages.append(BY_NAME[plan.texture].make(None))
-        if plan.mood:
-            stages.append(BY_NAME[plan.mood].make(None))
+            stages.append(palette_stage(rgb, strength))
+        texture = plan.texture or (entry.texture if entry is not None else None)
+        mood = plan.mood or (entry.mood if entry is not None else None)
+        if texture:
+            stages.append(BY_NAME[texture].make(None))
+        if mood:
+            stages.append(BY_NAME[mood].make(None))
         if not stages and plan.medium_kind is None:
             stages.append(BY_NAME["neutral_grade"].make(None))  # nothing understood: a grade PSA can move
         return stages

@@ -135,6 +135,7 @@ MOODS = tuple(look for look in LOOKS if look.role == "mood")
 TEXTURES = tuple(look for look in LOOKS if look.role == "texture")
 
 
-def palette_stage(colours: list) -> Stage:
-    """The named colours as a gradient map over the look (the palette part of a prompt)."""
-    return palette.gradient_map_stage(colours)
+def palette_stage(colours: list, strength: float = 0.85) -> Stage:
+    """The named colours as a gradient map over the look (the palette part of a prompt, or a named
+    entry's palette at the entry's strength)."""
+    return palette.gradient_map_stage(colours, strength=strength)

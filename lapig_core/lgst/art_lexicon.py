@@ -64,6 +64,7 @@ class Entry:
     mood: str | None = None
     works: tuple[tuple[str, tuple[str, ...]], ...] = ()
     cased: tuple[str, ...] = ()
+    params: tuple[tuple[str, object], ...] = ()   # start values of the look's parameters for this name
 
     def line(self, colours: list[str] | None = None) -> str:
         """'Monet (Impressionism): soft broken strokes; lilac, pale blue, sage green, pink'."""
@@ -89,7 +90,7 @@ class Entry:
 
 
 _FIELDS = {"name", "kind", "group", "family", "aliases", "marks", "surface", "shapes", "palette", "description",
-           "tags", "look", "styles", "palette_strength", "texture", "mood", "works", "cased"}
+           "tags", "look", "styles", "palette_strength", "texture", "mood", "works", "cased", "params"}
 _REQUIRED = ("name", "kind", "group", "family", "aliases", "marks", "surface", "shapes", "palette",
              "description", "tags")
 
@@ -114,7 +115,8 @@ def _entry(raw: dict, where: str) -> Entry:
         look=raw.get("look"), styles=tuple((k, float(v)) for k, v in (raw.get("styles") or {}).items()),
         palette_strength=strength, texture=raw.get("texture"), mood=raw.get("mood"),
         works=tuple((fold(k), tuple(v)) for k, v in (raw.get("works") or {}).items()),
-        cased=tuple(raw.get("cased") or ()))
+        cased=tuple(raw.get("cased") or ()),
+        params=tuple((k, tuple(v) if isinstance(v, list) else float(v)) for k, v in (raw.get("params") or {}).items()))
 
 
 @functools.lru_cache(maxsize=2)
@@ -159,6 +161,13 @@ def problems(entries=None) -> list[str]:
         for s, w in e.styles:
             if s not in STYLES or w <= 0:
                 out.append(f"{e.name}: style '{s}' ({w}) is not one of the 26 styles with a positive weight")
+        if e.params and e.look in LOOKS:
+            stage = LOOKS[e.look].make(None)
+            for k, v in e.params:
+                if k not in stage.params or stage.params[k].numel() != (len(v) if isinstance(v, tuple) else 1):
+                    out.append(f"{e.name}: '{k}' is no parameter of the look {e.look} (or has another size)")
+        if e.params and not e.look:
+            out.append(f"{e.name}: params need a look")
         if e.texture and (e.texture not in LOOKS or LOOKS[e.texture].role != "texture"):
             out.append(f"{e.name}: texture '{e.texture}' is no texture look")
         if e.mood and (e.mood not in LOOKS or LOOKS[e.mood].role != "mood"):

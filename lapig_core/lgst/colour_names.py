@@ -55,7 +55,7 @@ CSS_COLOURS: dict[str, str] = {
 EXTRA_COLOURS: dict[str, str] = {
     "sepia": "#704214", "ochre": "#cc7722", "yellow ochre": "#e3a857", "umber": "#635147",
     "burnt umber": "#8a3324", "raw umber": "#826644", "burnt sienna": "#e97451", "raw sienna": "#d68a59",
-    "vermilion": "#e34234", "ultramarine": "#3f00ff", "cobalt": "#0047ab", "cobalt blue": "#0047ab",
+    "vermilion": "#e34234", "ultramarine": "#120a8f", "cobalt": "#0047ab", "cobalt blue": "#0047ab",
     "prussian blue": "#003153", "cerulean": "#007ba7", "cyan blue": "#1ca9c9", "amber": "#ffbf00",
     "emerald": "#50c878", "jade": "#00a86b", "ruby": "#e0115f", "sapphire": "#0f52ba",
     "mustard": "#e1ad01", "rust": "#b7410e", "burgundy": "#800020", "wine": "#722f37", "mauve": "#e0b0ff",

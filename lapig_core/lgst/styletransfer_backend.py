@@ -182,7 +182,11 @@ class StyleTransferBackend(ThetaBackend):
         stages = []
         medium = BY_NAME.get(plan.look) if plan.medium_kind == "look" else None
         if medium is not None:
-            stages.append(medium.make(rgb))
+            stage = medium.make(rgb)
+            if entry is not None and not plan.entry_medium_from:
+                for key, value in entry.params:  # the name's own start values (its light, its grid)
+                    stage.params[key] = torch.as_tensor(value, dtype=torch.float32).reshape(stage.params[key].shape)
+            stages.append(stage)
         if rgb and not (medium is not None and medium.uses_colours):
             stages.append(palette_stage(rgb, strength))
         texture = plan.texture or (entry.texture if entry is not None else None)

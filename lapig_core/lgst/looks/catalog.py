@@ -96,7 +96,7 @@ LOOKS: tuple[Look, ...] = (
          "Smooth rounded lumps of a few saturated colours with soft light from the top left and a faint "
          "sheen on their rims, the detail melted away; like plasticine figures in a stop-motion film.",
          ("claymation", "clay", "plasticine", "modelling clay", "stop motion", "clay animation", "Aardman"),
-         lambda colours=None: texture.clay_stage()),
+         texture.clay_stage, uses_colours=True),
     # -- named looks of the art lexicon (issue 30) -----------------------------------------------------
     Look("broken_strokes", "medium",
          "Short strokes of a few light colours laid side by side, each stroke one colour of the palette "
@@ -158,6 +158,11 @@ LOOKS: tuple[Look, ...] = (
          "like shapes cut from painted paper (Matisse's cut-outs).",
          ("cut-outs", "paper cut-outs", "cut paper", "Matisse cut-outs", "collage shapes"),
          crafts.paper_cutouts_stage, uses_colours=True),
+    Look("ben_day", "medium",
+         "Flat printed colours with thick black outlines, the lighter tones printed as Ben-Day dots of "
+         "their colour on white paper; like Lichtenstein's blown-up comic panels.",
+         ("Ben-Day dots", "Lichtenstein", "pop art print", "comic dots"),
+         crafts.ben_day_stage, uses_colours=True),
     Look("pixel_art", "medium",
          "Big square pixels, each one colour of a small retro palette, with dark outlines at the edges; "
          "like a 1980s video game.",

@@ -11,8 +11,8 @@ import colorsys
 import torch
 
 from .graphic import ink_lines
-from .ops import blur, cell_average, equalised_luminance, fixed_noise, luminance, px, ramp, saturate
-from .patterns import coords, palette_inks, sorted_palette, tile_coords, veins
+from .ops import blur, cell_average, fixed_noise, luminance, px, ramp, saturate
+from .patterns import coords, palette_inks, ranked_tone, sorted_palette, tile_coords, veins
 from .stage import Stage, tensor
 
 INK_SCALES = {"colours": 0.2, "sharpness": 4.0, "hue_weight": 0.2, "detail": 0.15}
@@ -21,7 +21,7 @@ INDIAN = ((0.89, 0.26, 0.2), (0.96, 0.77, 0.19), (0.31, 0.78, 0.47), (0.15, 0.38
           (1.0, 0.99, 0.82))
 STORYBOOK = ((1.0, 0.8, 0.64), (0.53, 0.81, 0.92), (0.61, 0.69, 0.53), (1.0, 0.87, 0.0), (1.0, 0.5, 0.31),
              (1.0, 0.99, 0.82))
-CUTOUTS = ((0.25, 0.0, 1.0), (0.89, 0.26, 0.2), (1.0, 0.87, 0.0), (0.31, 0.78, 0.47), (0.05, 0.05, 0.05),
+CUTOUTS = ((0.07, 0.04, 0.56), (0.89, 0.26, 0.2), (1.0, 0.87, 0.0), (0.31, 0.78, 0.47), (0.05, 0.05, 0.05),
            (1.0, 1.0, 1.0))
 PIXELS = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.5), (0.86, 0.08, 0.24), (1.0, 0.65, 0.0), (1.0, 0.87, 0.0),
           (0.2, 0.8, 0.2), (0.53, 0.81, 0.92), (1.0, 1.0, 1.0))
@@ -39,10 +39,15 @@ def _palette(colours, default):
 def _flat(x, p, simplify, wobble=0.0):
     h, w = x.shape[-2:]
     smooth = blur(x, px(x, simplify))
-    tone = equalised_luminance(smooth)
+    tone = ranked_tone(smooth)
     if wobble:
         tone = (tone + wobble * fixed_noise(h, w, seed=111, share=0.02, device=x.device)).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
+    if "ground" in p:  # the lightest colour is the paper: the lightest `ground` share of the tones
+        k = cs.shape[0]
+        g = p["ground"].clamp(0.05, 0.9)
+        paper = torch.sigmoid((tone - (1 - g)) * 25)
+        tone = paper + (1 - paper) * (tone / (1 - g)).clamp(0, 1) * (k - 2) / max(1, k - 1)
     flat = palette_inks(saturate(smooth, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     d = p["detail"].clamp(0, 1)
     return flat * (1 - d) + d * smooth
@@ -88,7 +93,37 @@ def storybook(x, p, surface=None):
 
 
 def paper_cutouts(x, p, surface=None):
-    return flat_outline(x, p, simplify=0.02, wobble=0.05)
+    """Shapes cut from sheets of painted paper laid on white: the image's lighter tones are the white
+    ground, the rest is cut paper; each sheet (a large irregular piece of the picture) is one colour of
+    the palette, drawn by a fixed lot weighted by `share` (the palette's leading colour most) and
+    nudged towards the image's own colour; the cut edges wobble a little."""
+    from .patterns import voronoi
+
+    h, w = x.shape[-2:]
+    smooth = blur(x, px(x, 0.012))
+    tone = (ranked_tone(smooth) + 0.04 * fixed_noise(h, w, seed=111, share=0.02, device=x.device)).clamp(0, 1)
+    cs = p["colours"].clamp(0, 1)
+    paper, inks = cs[-1], cs[:-1]
+    k = inks.shape[0]
+    ids, _, _, _, n = voronoi(h, w, 0.14, 113, x.device)
+    g = torch.Generator().manual_seed(114)
+    lots = -torch.log(-torch.log(torch.rand(n, k, generator=g).clamp(1e-6, 1 - 1e-6))).to(x.device)  # fixed Gumbel
+    mean = region_mean_sat(smooth, ids, n)
+    own = -((mean.view(n, 1, 3) - inks.view(1, k, 3)) ** 2).sum(-1) * 4 * p["hue_weight"].clamp(0, 1)
+    logits = (torch.log(p["share"].clamp(1e-3, 1)).view(1, k) + lots + own) * p["sharpness"].clamp(1, 50) / 4
+    sheet = torch.einsum("nk,kc->nc", torch.softmax(logits, dim=1), inks)[ids].permute(2, 0, 1).unsqueeze(0)
+    ground = torch.sigmoid((tone - (1 - p["ground"].clamp(0.05, 0.9))) * 60)  # cut edges: crisp
+    return paper.view(1, 3, 1, 1) * ground + sheet * (1 - ground)
+
+
+def region_mean_sat(x, ids, n):
+    """The saturated mean colour of each region, (n, 3)."""
+    flat = ids.flatten()
+    sums = torch.zeros(3, n, dtype=x.dtype, device=x.device).index_add(1, flat, x[0].flatten(1))
+    counts = torch.zeros(n, dtype=x.dtype, device=x.device).index_add(0, flat, torch.ones_like(flat, dtype=x.dtype))
+    mean = (sums / counts.clamp_min(1)).t()
+    lum = (mean * torch.tensor((0.299, 0.587, 0.114), device=x.device)).sum(1, keepdim=True)
+    return (lum + 1.5 * (mean - lum)).clamp(0, 1)
 
 
 def _frame_colour(cs):
@@ -103,7 +138,7 @@ def _frame_colour(cs):
 def miniature_stage(colours=None) -> Stage:
     cs = sorted_palette(colours, INDIAN)
     return Stage("miniature", "medium", miniature,
-                 {"colours": tensor(cs), "sharpness": tensor(9.0), "hue_weight": tensor(0.45), "detail": tensor(0.1),
+                 {"colours": tensor(cs), "sharpness": tensor(14.0), "hue_weight": tensor(0.25), "detail": tensor(0.08),
                   "line": tensor(0.9), "threshold": tensor(0.55), "outline": tensor((0.12, 0.08, 0.06)),
                   "border": tensor(0.055), "frame": tensor(_frame_colour(cs))},
                  {**INK_SCALES, "line": 0.2, "threshold": 0.1, "outline": 0.15, "border": 0.02, "frame": 0.2},
@@ -112,7 +147,7 @@ def miniature_stage(colours=None) -> Stage:
 
 def storybook_stage(colours=None) -> Stage:
     return Stage("storybook", "medium", storybook,
-                 {"colours": tensor(sorted_palette(colours, STORYBOOK)), "sharpness": tensor(6.0),
+                 {"colours": tensor(sorted_palette(colours, STORYBOOK)), "sharpness": tensor(10.0),
                   "hue_weight": tensor(0.7), "detail": tensor(0.15), "line": tensor(0.75),
                   "threshold": tensor(0.6), "outline": tensor((0.3, 0.22, 0.18))},
                  {**INK_SCALES, "line": 0.2, "threshold": 0.1, "outline": 0.15},
@@ -120,10 +155,19 @@ def storybook_stage(colours=None) -> Stage:
 
 
 def paper_cutouts_stage(colours=None) -> Stage:
+    given = list(colours) if colours else list(CUTOUTS)
+    cs = sorted_palette(given, CUTOUTS)
+    if len(cs) < 2:
+        cs = list(cs) + [(1.0, 1.0, 1.0)]
+    # each colour's share of the sheets: the first named (the leading colour) twice the others
+    order = [min(range(len(given)), key=lambda i: sum((a - b) ** 2 for a, b in zip(given[i], c))) for c in cs[:-1]]
+    share = [2.0 if i == 0 else 1.0 for i in order]
+    share = [v / sum(share) for v in share]
     return Stage("paper_cutouts", "medium", paper_cutouts,
-                 {"colours": tensor(sorted_palette(colours, CUTOUTS)), "sharpness": tensor(14.0),
-                  "hue_weight": tensor(0.7), "detail": tensor(0.0)},
-                 dict(INK_SCALES), note="named colours" if colours else "ultramarine, red, yellow, green on white")
+                 {"colours": tensor(cs), "share": tensor(share), "sharpness": tensor(20.0),
+                  "hue_weight": tensor(0.3), "ground": tensor(0.45)},
+                 {"colours": 0.2, "share": 0.1, "sharpness": 5.0, "hue_weight": 0.2, "ground": 0.1},
+                 note="named colours" if colours else "ultramarine, red, yellow, green on white")
 
 
 # -- pixel art -------------------------------------------------------------------------------------------------
@@ -135,7 +179,7 @@ def pixel_art(x, p, surface=None):
     a dark outline where the image has an edge."""
     cell = px(x, PIXEL, 2.0)
     mean = cell_average(x, cell)
-    tone = equalised_luminance(mean)
+    tone = ranked_tone(mean)
     cs = p["colours"].clamp(0, 1)
     ink = palette_inks(saturate(mean, 1.5).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     edges = cell_average(ink_lines(x, p["threshold"], tensor(0.1).to(x.device), 0.01), cell)
@@ -146,7 +190,7 @@ def pixel_art(x, p, surface=None):
 def pixel_art_stage(colours=None) -> Stage:
     return Stage("pixel_art", "medium", pixel_art,
                  {"colours": tensor(sorted_palette(colours, PIXELS)), "sharpness": tensor(16.0),
-                  "hue_weight": tensor(0.6), "threshold": tensor(0.6), "outline": tensor(0.8)},
+                  "hue_weight": tensor(0.35), "threshold": tensor(0.6), "outline": tensor(0.8)},
                  {"colours": 0.2, "sharpness": 5.0, "hue_weight": 0.2, "threshold": 0.1, "outline": 0.2},
                  note="named colours" if colours else "a 1980s 8-colour palette")
 
@@ -160,9 +204,12 @@ def glazed_tiles(x, p, surface=None):
     quatrefoil ornament in each tile, light grout and a glossy sheen."""
     h, w = x.shape[-2:]
     smooth = blur(x, px(x, 0.004))
-    tone = equalised_luminance(smooth)
+    tone = ranked_tone(smooth)
     cs = p["colours"].clamp(0, 1)
-    painted = ramp(tone.clamp(0, 1) ** p["gamma"].clamp(0.3, 3.0), cs)
+    k = cs.shape[0]
+    white = torch.sigmoid((tone - (1 - p["ground"].clamp(0.05, 0.9))) * 25)  # the glaze: the lightest tones
+    tone = white + (1 - white) * (tone / (1 - p["ground"].clamp(0.05, 0.9))).clamp(0, 1) * (k - 2) / max(1, k - 1)
+    painted = ramp(tone.clamp(1e-4, 1) ** p["gamma"].clamp(0.3, 3.0), cs)
     fy, fx, _, _ = tile_coords(h, w, TILE, x.device)
     r = torch.sqrt(fy ** 2 + fx ** 2)
     lobes = torch.sqrt((fy.abs() - 0.25) ** 2 + (fx.abs() - 0.25) ** 2)
@@ -179,9 +226,9 @@ def glazed_tiles(x, p, surface=None):
 
 def glazed_tiles_stage(colours=None) -> Stage:
     return Stage("glazed_tiles", "medium", glazed_tiles,
-                 {"colours": tensor(sorted_palette(colours, AZULEJO)), "gamma": tensor(0.9),
+                 {"colours": tensor(sorted_palette(colours, AZULEJO)), "gamma": tensor(1.0), "ground": tensor(0.4),
                   "ornament": tensor(0.8), "sheen": tensor(0.08), "grout": tensor((0.86, 0.85, 0.82))},
-                 {"colours": 0.2, "gamma": 0.25, "ornament": 0.2, "sheen": 0.05, "grout": 0.15},
+                 {"colours": 0.2, "gamma": 0.25, "ground": 0.1, "ornament": 0.2, "sheen": 0.05, "grout": 0.15},
                  note="named colours" if colours else "cobalt on white")
 
 
@@ -242,7 +289,7 @@ def woven_threads(x, p, surface=None):
     h, w = x.shape[-2:]
     cell = px(x, STITCH, 2.0)
     mean = cell_average(blur(x, px(x, 0.004)), cell)
-    tone = equalised_luminance(mean)
+    tone = ranked_tone(mean)
     cs = p["colours"].clamp(0, 1)
     thread = palette_inks(saturate(mean, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     fy, fx, ty, _ = tile_coords(h, w, STITCH, x.device)
@@ -254,7 +301,40 @@ def woven_threads(x, p, surface=None):
 
 def woven_threads_stage(colours=None) -> Stage:
     return Stage("woven_threads", "medium", woven_threads,
-                 {"colours": tensor(sorted_palette(colours, TAPESTRY)), "sharpness": tensor(9.0),
-                  "hue_weight": tensor(0.4), "depth": tensor(0.3)},
+                 {"colours": tensor(sorted_palette(colours, TAPESTRY)), "sharpness": tensor(14.0),
+                  "hue_weight": tensor(0.25), "depth": tensor(0.3)},
                  {"colours": 0.2, "sharpness": 4.0, "hue_weight": 0.2, "depth": 0.1},
                  note="named colours" if colours else "madder red, indigo, weld yellow, green")
+
+
+# -- Ben-Day dots (pop art) ------------------------------------------------------------------------------------
+BEN_DAY = ((0.05, 0.05, 0.05), (0.0, 0.28, 0.67), (0.9, 0.1, 0.12), (1.0, 0.41, 0.71), (1.0, 0.92, 0.0))
+
+
+def ben_day(x, p, surface=None):
+    """Flat printed colours in the palette, thick black outlines, and the lighter tones printed as
+    Ben-Day dots of their colour on white paper; like Lichtenstein's blown-up comic panels."""
+    h, w = x.shape[-2:]
+    smooth = blur(x, px(x, 0.005))
+    tone = ranked_tone(smooth)
+    cs = p["colours"].clamp(0, 1)
+    ink = palette_inks(saturate(smooth, 1.5).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
+    fy, fx, _, _ = tile_coords(h, w, 0.018, x.device)
+    dots = torch.sigmoid((p["dot_size"].clamp(0.15, 0.7) - torch.sqrt(fy ** 2 + fx ** 2)) / 0.05).view(1, 1, h, w)
+    dotted = torch.sigmoid((tone - p["dot_from"]) * 12)
+    paper = p["paper"].clamp(0, 1).view(1, 3, 1, 1)
+    # the dots print a light tint as in comics: the palette's strong colour nearest the image's own
+    strong = cs[1:-1] if cs.shape[0] > 2 else cs
+    dot_ink = palette_inks(saturate(smooth, 2.5).clamp(0, 1), tone, strong, p["sharpness"], tone.new_tensor(1.0))
+    printed = ink * (1 - dotted) + dotted * (paper * (1 - dots) + dot_ink * dots)
+    lines = ink_lines(x, p["threshold"], tensor(0.1).to(x.device), 0.009) * p["line"].clamp(0, 1)
+    return printed * (1 - lines) + cs[0].view(1, 3, 1, 1) * lines
+
+
+def ben_day_stage(colours=None) -> Stage:
+    return Stage("ben_day", "medium", ben_day,
+                 {"colours": tensor(sorted_palette(colours, BEN_DAY)), "sharpness": tensor(14.0),
+                  "hue_weight": tensor(0.4), "dot_size": tensor(0.4), "dot_from": tensor(0.62),
+                  "paper": tensor((0.98, 0.97, 0.94)), "threshold": tensor(0.55), "line": tensor(0.95)},
+                 {**INK_SCALES, "dot_size": 0.1, "dot_from": 0.1, "paper": 0.15, "threshold": 0.1, "line": 0.2},
+                 note="named colours" if colours else "red, yellow, blue, pink, black")

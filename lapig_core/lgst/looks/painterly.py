@@ -12,8 +12,8 @@ from __future__ import annotations
 import torch
 
 from .graphic import ink_lines
-from .ops import blur, cell_grid, equalised_luminance, fixed_noise, luminance, px, ramp, saturate, stretched_luminance
-from .patterns import (coords, directional_noise, palette_inks, per_region, region_mean, sorted_palette, tile_coords,
+from .ops import blur, cell_grid, fixed_noise, luminance, px, ramp, saturate, soft_steps, stretched_luminance
+from .patterns import (coords, directional_noise, palette_inks, per_region, ranked_tone, region_mean, sorted_palette, tile_coords,
                        veins, voronoi)
 from .stage import Stage, tensor
 
@@ -40,7 +40,7 @@ def broken_strokes(x, p, surface=None):
     h, w = x.shape[-2:]
     smooth = blur(x, px(x, 0.005))
     strokes = directional_noise(h, w, seed=21, share=0.006, length=0.02, device=x.device)
-    tone = (equalised_luminance(smooth) + p["jitter"] * 0.25 * strokes).clamp(0, 1)
+    tone = (ranked_tone(smooth) + p["jitter"] * 0.25 * strokes).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
     ink = palette_inks(saturate(smooth, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     d = p["detail"].clamp(0, 1)
@@ -70,7 +70,7 @@ def pointillist_dots(x, p, surface=None):
     mean = region_mean(smooth, ids, n)
     # every dot one pure colour: the tone of its spot, shifted by a fixed amount per dot, so neighbouring
     # dots take neighbouring colours and mix in the eye
-    tone = (equalised_luminance(mean) + p["jitter"] * 0.3 * per_region(ids, n, seed=31)).clamp(0, 1)
+    tone = (ranked_tone(mean) + p["jitter"] * 0.3 * per_region(ids, n, seed=31)).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
     ink = palette_inks(saturate(mean, 1.4).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     # dots a little irregular in size
@@ -82,8 +82,8 @@ def pointillist_dots(x, p, surface=None):
 
 def pointillist_dots_stage(colours=None) -> Stage:
     return Stage("pointillist_dots", "medium", pointillist_dots,
-                 {"colours": _palette(colours, SEURAT), "jitter": tensor(0.7), "sharpness": tensor(10.0),
-                  "hue_weight": tensor(0.3), "radius": tensor(0.5), "ground": tensor((0.96, 0.93, 0.85)),
+                 {"colours": _palette(colours, SEURAT), "jitter": tensor(0.8), "sharpness": tensor(10.0),
+                  "hue_weight": tensor(0.15), "radius": tensor(0.5), "ground": tensor((0.96, 0.93, 0.85)),
                   "detail": tensor(0.25)},
                  {**INK_SCALES, "jitter": 0.2, "radius": 0.1, "ground": 0.2},
                  note="named colours" if colours else "Seurat's pure colours")
@@ -130,8 +130,10 @@ def colour_fields_stage(colours=None) -> Stage:
 GRID_X = (0.2, 0.36, 0.72, 0.9)
 GRID_Y = (0.26, 0.6, 0.82)
 # which rectangles are coloured, before the image has its say: (row, column) -> share of the plan
-GRID_PLAN = (0.9, 0.2, 0.1, 0.95, 0.3, 0.15, 0.6, 0.2, 0.05, 0.8, 0.3, 0.85, 0.1, 0.4, 0.2, 0.7, 0.15, 0.9,
-             0.35, 0.75)
+GRID_PLAN = (0.9, 0.2, 0.15, 0.85, 0.3,     # rows top to bottom, columns left to right: about 40% of the
+             0.25, 0.1, 0.95, 0.2, 0.8,     # area is planned as colour blocks (the big centre block, a few
+             0.85, 0.3, 0.15, 0.35, 0.1,    # small ones at the edges), as in Mondrian's compositions
+             0.2, 0.15, 0.9, 0.8, 0.25)
 
 
 def primary_grid(x, p, surface=None):
@@ -162,7 +164,7 @@ def primary_grid(x, p, surface=None):
     d = ((sat.unsqueeze(1) - blocks.view(1, k, 3, 1, 1)) ** 2).sum(2)
     rnd = ((per_region(ids, n, seed=51)[0, 0] + 1) / 2 * k).long().clamp(0, k - 1)
     prefer = torch.nn.functional.one_hot(rnd, k).permute(2, 0, 1).unsqueeze(0).float()
-    pick = torch.softmax(-d * 6 + 3.0 * prefer, dim=1)
+    pick = torch.softmax(-d * 20 + 8.0 * prefer, dim=1)  # one block colour, not a blend of two
     block = torch.einsum("bkhw,kc->bchw", pick, blocks)
     flat = ground.view(1, 3, 1, 1) * (1 - coloured) + block * coloured
     lum = luminance(blur(x, px(x, 0.008)))
@@ -176,7 +178,7 @@ def primary_grid_stage(colours=None) -> Stage:
         cs = [(0.06, 0.06, 0.07)] + list(cs) + [(0.97, 0.96, 0.92)]
     return Stage("primary_grid", "medium", primary_grid,
                  {"colours": tensor(cs), "grid_x": tensor(GRID_X), "grid_y": tensor(GRID_Y),
-                  "line_width": tensor(0.018), "white_share": tensor(0.55), "detail": tensor(0.25)},
+                  "line_width": tensor(0.018), "white_share": tensor(0.55), "detail": tensor(0.12)},
                  {"colours": 0.2, "grid_x": 0.05, "grid_y": 0.05, "line_width": 0.008, "white_share": 0.15,
                   "detail": 0.15},
                  note="named colours" if colours else "white, red, yellow, blue, black")
@@ -189,7 +191,7 @@ def gold_leaf(x, p, surface=None):
     others; its darkest tones stay flat paint in the palette's other colours."""
     h, w = x.shape[-2:]
     smooth = blur(x, px(x, 0.006))
-    tone = equalised_luminance(smooth)
+    tone = ranked_tone(smooth)
     cs = p["colours"].clamp(0, 1)
     leaf = p["leaf"].clamp(0, 1).view(1, 3, 1, 1)
     # leaves: squares of 4% with their own tint, and a fine beaten texture
@@ -204,7 +206,8 @@ def gold_leaf(x, p, surface=None):
     # ornament: rings on a 9% grid, small squares on a 5% grid offset, dots in between
     ry, rx, oy_i, ox_i = tile_coords(h, w, 0.09, x.device)
     r = torch.sqrt(ry ** 2 + rx ** 2)
-    rings = (torch.sigmoid((0.035 - (r - 0.3).abs()) / 0.01) + torch.sigmoid((0.03 - (r - 0.14).abs()) / 0.01)).clamp(0, 1)
+    ring = p["ring"].clamp(0.01, 0.1)
+    rings = (torch.sigmoid((ring - (r - 0.3).abs()) / 0.01) + torch.sigmoid((ring * 0.85 - (r - 0.14).abs()) / 0.01)).clamp(0, 1)
     sy, sx, _, _ = tile_coords(h, w, 0.05, x.device)
     squares = torch.sigmoid((0.2 - torch.maximum(sy.abs(), sx.abs())) / 0.02) - \
         torch.sigmoid((0.12 - torch.maximum(sy.abs(), sx.abs())) / 0.02)
@@ -216,7 +219,10 @@ def gold_leaf(x, p, surface=None):
     gold = gold * (1 - o * dark_orn) + cs[0].view(1, 3, 1, 1) * o * dark_orn
     gold = gold * (1 - o * light_orn) + accent.view(1, 3, 1, 1) * o * light_orn
     # the darkest parts: flat paint in the palette (without the leaf colour)
-    paint = palette_inks(saturate(smooth, 1.2).clamp(0, 1), tone, cs, tensor(8.0).to(x.device), tensor(0.4).to(x.device))
+    # the darkest parts: flat paint in the palette, its whole range over the tones below the gilding
+    paint_tone = (tone / p["threshold"].clamp(0.05, 0.95)).clamp(0, 1)
+    paint = palette_inks(saturate(smooth, 1.2).clamp(0, 1), paint_tone, cs, tensor(8.0).to(x.device),
+                         tensor(0.4).to(x.device))
     d = p["detail"].clamp(0, 1)
     paint = paint * (1 - d) + d * smooth
     gilded = torch.sigmoid((tone - p["threshold"]) * 12)
@@ -236,8 +242,9 @@ def gold_leaf_stage(colours=None) -> Stage:
         leaf, cs = KLIMT[0], sorted_palette(KLIMT[1:], KLIMT)
     return Stage("gold_leaf", "medium", gold_leaf,
                  {"leaf": tensor(leaf), "colours": tensor(cs), "threshold": tensor(0.3), "ornament": tensor(0.85),
-                  "shimmer": tensor(0.3), "detail": tensor(0.2)},
-                 {"leaf": 0.15, "colours": 0.2, "threshold": 0.1, "ornament": 0.2, "shimmer": 0.15, "detail": 0.15},
+                  "ring": tensor(0.035), "shimmer": tensor(0.3), "detail": tensor(0.2)},
+                 {"leaf": 0.15, "colours": 0.2, "threshold": 0.1, "ornament": 0.2, "ring": 0.015, "shimmer": 0.15,
+                  "detail": 0.15},
                  note="named colours" if colours else "Klimt's gold, emerald and black")
 
 
@@ -253,7 +260,13 @@ def chiaroscuro(x, p, surface=None):
     smooth = blur(x, px(x, 0.004))
     lit = stretched_luminance(smooth) * (p["floor"].clamp(0, 1) + (1 - p["floor"].clamp(0, 1)) * pool)
     tone = lit.clamp(1e-4, 1) ** p["gamma"].clamp(0.3, 3.0)
-    mapped = ramp(tone, p["colours"].clamp(0, 1))
+    cs = p["colours"].clamp(0, 1)
+    # soft plateaus at each colour, so most pixels are a colour of the palette, not a blend of two
+    ends = soft_steps(torch.tensor([0.0, 1.0], device=x.device), cs.shape[0], 4.0)
+    mapped = ramp((soft_steps(tone, cs.shape[0], 4.0) - ends[0]) / (ends[1] - ends[0]), cs)
+    if "hue_weight" in p:  # the lit colours may also follow the image's own (a blue cloth stays blue)
+        own = palette_inks(saturate(smooth, 1.5).clamp(0, 1), tone, cs, tone.new_tensor(8.0), p["hue_weight"])
+        mapped = mapped + (own - mapped) * p["hue_weight"].clamp(0, 1) * pool
     d = p["detail"].clamp(0, 1)
     return mapped * (1 - d) + d * smooth * tone / (luminance(smooth) + 0.05) * 0.5
 
@@ -264,9 +277,9 @@ def chiaroscuro_stage(colours=None) -> Stage:
         cs = [(0.03, 0.025, 0.02)] + list(cs)  # the dark the light falls out of
     return Stage("chiaroscuro", "medium", chiaroscuro,
                  {"colours": tensor(cs), "light_x": tensor(0.4), "light_y": tensor(0.38), "reach": tensor(0.3),
-                  "floor": tensor(0.12), "gamma": tensor(1.25), "detail": tensor(0.2)},
+                  "floor": tensor(0.12), "gamma": tensor(1.25), "detail": tensor(0.2), "hue_weight": tensor(0.0)},
                  {"colours": 0.2, "light_x": 0.1, "light_y": 0.1, "reach": 0.08, "floor": 0.08, "gamma": 0.25,
-                  "detail": 0.15},
+                  "detail": 0.15, "hue_weight": 0.2},
                  note="named colours" if colours else "umber, ochre and gold out of black")
 
 
@@ -285,9 +298,10 @@ def stained_glass(x, p, surface=None):
     lines; the image's strong edges are leaded too."""
     h, w = x.shape[-2:]
     ids, edge, oy, ox, n, smooth, mean = _pieces(x, 0.055, 71)
-    tone = (equalised_luminance(mean) + p["jitter"] * 0.25 * per_region(ids, n, seed=72)).clamp(0, 1)
+    tone = (ranked_tone(mean) + p["jitter"] * 0.25 * per_region(ids, n, seed=72)).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
     glass = palette_inks(saturate(mean, 1.5).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
+    glass = saturate(glass, 1.25).clamp(0, 1)  # jewel colours: light through coloured glass
     heart = torch.exp(-(oy ** 2 + ox ** 2) / (2 * 0.02 ** 2)).view(1, 1, h, w)
     texture = fixed_noise(h, w, seed=73, share=0.01, device=x.device)
     glass = glass * (0.82 + p["glow"] * heart + 0.06 * texture)
@@ -298,7 +312,7 @@ def stained_glass(x, p, surface=None):
 
 def stained_glass_stage(colours=None) -> Stage:
     return Stage("stained_glass", "medium", stained_glass,
-                 {"colours": _palette(colours, GLASS), "jitter": tensor(0.6), "sharpness": tensor(9.0),
+                 {"colours": _palette(colours, GLASS), "jitter": tensor(0.6), "sharpness": tensor(14.0),
                   "hue_weight": tensor(0.35), "glow": tensor(0.3), "lead": tensor(0.0045),
                   "lead_colour": tensor((0.05, 0.05, 0.06)), "threshold": tensor(0.75)},
                  {**INK_SCALES, "jitter": 0.2, "glow": 0.15, "lead": 0.002, "lead_colour": 0.15, "threshold": 0.1},
@@ -311,12 +325,12 @@ def cubist_facets(x, p, surface=None):
     h, w = x.shape[-2:]
     ids, edge, oy, ox, n, smooth, mean = _pieces(x, 0.085, 81)
     # facets follow the image too: half the piece's mean, half the pixel's own tone
-    tone = equalised_luminance(0.5 * mean + 0.5 * smooth)
+    tone = ranked_tone(0.5 * mean + 0.5 * smooth)
     cs = p["colours"].clamp(0, 1)
     paint = palette_inks(mean.clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     angle = per_region(ids, n, seed=82) * 3.1416
     slope = (oy.view(1, 1, h, w) * torch.sin(angle) + ox.view(1, 1, h, w) * torch.cos(angle)) / 0.085
-    paint = paint * (1 + p["shade"] * slope.clamp(-1, 1))
+    paint = paint * (1 - p["shade"] * (1 - slope.clamp(-1, 1)) / 2)  # each facet darkens towards one side
     line = torch.sigmoid((p["line"].clamp(0.0005, 0.01) - edge.view(1, 1, h, w)) / 0.001)
     d = p["detail"].clamp(0, 1)
     paint = paint * (1 - d) + d * smooth
@@ -338,7 +352,7 @@ def poured_lines(x, p, surface=None):
     h, w = x.shape[-2:]
     smooth = blur(x, px(x, 0.006))
     cs = p["colours"].clamp(0, 1)
-    ground = palette_inks(smooth.clamp(0, 1), equalised_luminance(smooth), cs, tensor(4.0).to(x.device),
+    ground = palette_inks(smooth.clamp(0, 1), ranked_tone(smooth), cs, tensor(4.0).to(x.device),
                           tensor(0.3).to(x.device))
     d = p["detail"].clamp(0, 1)
     out = ground * (1 - d) + d * smooth

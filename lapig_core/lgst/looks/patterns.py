@@ -10,8 +10,35 @@ import math
 import torch
 import torch.nn.functional as F
 
-from .ops import blur, fixed_noise, px
+from .ops import blur, fixed_noise, luminance, px
 from .palette import ramp_colours
+
+# how far the named looks equalise the image's tones before choosing inks by tone: most, so every
+# colour of a palette gets its share even on a surface of nearly one tone
+EQUALISE = 0.8
+
+
+def ranked_tone(x: torch.Tensor, knots: int = 16, share: float = EQUALISE) -> torch.Tensor:
+    """Luminance -> its rank in the image (piecewise linear through its quantiles, constants), mixed
+    with the stretched luminance (1 - share) so gradients always flow. Unlike a plain equalisation, a
+    tone many pixels share exactly (a blank wall) goes to the middle of its ranks, not to their start."""
+    from .ops import stretched_luminance
+
+    lum = luminance(x)
+    flat = lum.detach().flatten()[:: max(1, lum.numel() // 200_000)]
+    q = torch.quantile(flat, torch.linspace(0, 1, knots + 1, device=x.device))
+    v = lum.detach().flatten()
+    lo = torch.searchsorted(q, v, right=False)           # first knot >= v
+    hi = torch.searchsorted(q, v, right=True)            # first knot > v
+    tied = hi - lo >= 2                                   # v equals two knots or more: a run of ties
+    i = (hi - 1).clamp(0, knots - 1)
+    q0, q1 = q[i], q[(i + 1).clamp(max=knots)]
+    base = torch.where(tied, (lo + hi - 1).float() / 2 / knots, i.float() / knots)
+    slope = torch.where(tied | (q1 <= q0), torch.zeros_like(v), 1.0 / ((q1 - q0).clamp_min(1e-6) * knots))
+    offset = torch.where(tied, torch.zeros_like(v), q0)
+    # rank = base + slope * (lum - offset): linear in lum, so the image's gradient flows through it
+    rank = (base.view_as(lum) + slope.view_as(lum) * (lum - offset.view_as(lum))).clamp(0, 1)
+    return share * rank + (1 - share) * stretched_luminance(x)
 
 
 def sorted_palette(colours, default) -> list:

@@ -276,6 +276,13 @@ def run(args) -> dict:
     return summary
 
 
+def _ascii(text: str) -> str:
+    """A label the sheet's font can draw (Cézanne -> Cezanne)."""
+    import unicodedata
+
+    return unicodedata.normalize("NFKD", text).encode("ascii", "ignore").decode()
+
+
 def run_named(backend, surfaces, out) -> dict:
     """The named looks of the art lexicon: the paper's prompts, painter adherence, names in other
     languages, unknown names, and a sheet per family."""
@@ -304,7 +311,7 @@ def run_named(backend, surfaces, out) -> dict:
             misses.append({"entry": name, "found": entry,
                            "failed": {s: why for s, (good, why) in zip(surfaces, per_surface) if not good}})
         tiles += looks
-        labels += [f"{name[:22]}" + ("" if ok else " (miss)"), "  sakura"]
+        labels += [f"{_ascii(name)[:22]}" + ("" if ok else " (miss)"), "  sakura"]
     path = os.path.join(out, "painter_checks.png")
     write_png(path, labelled_grid(tiles, labels, columns=8, cell=170,
                                   title="bench prompts: named entries with a written palette check (miss = check failed)"))
@@ -329,7 +336,7 @@ def run_named(backend, surfaces, out) -> dict:
                 continue
             looks, _ = render(backend, surfaces, e.name)
             tiles += looks
-            labels += [e.name[:24], f"  {e.medium()[:22]}"]
+            labels += [_ascii(e.name)[:24], f"  {e.medium()[:22]}"]
         path = os.path.join(out, f"lexicon_{group}.png")
         write_png(path, labelled_grid(tiles, labels, columns=8, cell=170,
                                       title=f"art lexicon: {group} (each entry: scene, sakura; label: its medium)"))

@@ -280,7 +280,7 @@ def wax_resist_stage(colours=None) -> Stage:
 
 
 # -- woven threads (tapestry, cross-stitch, kente, carpets) -------------------------------------------------
-STITCH = 0.011
+STITCH = 0.02
 
 
 def woven_threads(x, p, surface=None):

@@ -97,7 +97,7 @@ def paper_cutouts(x, p, surface=None):
     ground, the rest is cut paper; each sheet (a large irregular piece of the picture) is one colour of
     the palette, drawn by a fixed lot weighted by `share` (the palette's leading colour most) and
     nudged towards the image's own colour; the cut edges wobble a little."""
-    from .patterns import voronoi
+    from .patterns import region_lots, voronoi
 
     h, w = x.shape[-2:]
     smooth = blur(x, px(x, 0.012))
@@ -105,14 +105,13 @@ def paper_cutouts(x, p, surface=None):
     cs = p["colours"].clamp(0, 1)
     paper, inks = cs[-1], cs[:-1]
     k = inks.shape[0]
-    ids, _, _, _, n = voronoi(h, w, 0.14, 113, x.device)
-    g = torch.Generator().manual_seed(114)
-    lots = -torch.log(-torch.log(torch.rand(n, k, generator=g).clamp(1e-6, 1 - 1e-6))).to(x.device)  # fixed Gumbel
+    ids, _, _, _, n, keys = voronoi(h, w, 0.14, 113, x.device)
+    lots = -torch.log(-torch.log(region_lots(n, 114, keys, k).clamp(1e-6, 1 - 1e-6))).to(x.device)  # fixed Gumbel
     mean = region_mean_sat(smooth, ids, n)
     own = -((mean.view(n, 1, 3) - inks.view(1, k, 3)) ** 2).sum(-1) * 4 * p["hue_weight"].clamp(0, 1)
     logits = (torch.log(p["share"].clamp(1e-3, 1)).view(1, k) + lots + own) * p["sharpness"].clamp(1, 50) / 4
     sheet = torch.einsum("nk,kc->nc", torch.softmax(logits, dim=1), inks)[ids].permute(2, 0, 1).unsqueeze(0)
-    ground = torch.sigmoid((tone - (1 - p["ground"].clamp(0.05, 0.9))) * 60)  # cut edges: crisp
+    ground = torch.sigmoid((tone - (1 - p["ground"].clamp(0.05, 0.9))) * 40)  # cut edges: crisp
     return paper.view(1, 3, 1, 1) * ground + sheet * (1 - ground)
 
 

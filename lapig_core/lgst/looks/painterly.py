@@ -286,10 +286,10 @@ def chiaroscuro_stage(colours=None) -> Stage:
 # -- pieces: stained glass and cubist facets --------------------------------------------------------------
 def _pieces(x, share, seed):
     h, w = x.shape[-2:]
-    ids, edge, oy, ox, n = voronoi(h, w, share, seed, x.device)
+    ids, edge, oy, ox, n, keys = voronoi(h, w, share, seed, x.device)
     smooth = blur(x, px(x, 0.004))
     mean = region_mean(smooth, ids, n)
-    return ids, edge, oy, ox, n, smooth, mean
+    return ids, edge, oy, ox, n, keys, smooth, mean
 
 
 def stained_glass(x, p, surface=None):
@@ -297,8 +297,8 @@ def stained_glass(x, p, surface=None):
     neighbours differ a little), lit from behind (brighter at the piece's heart), joined by dark lead
     lines; the image's strong edges are leaded too."""
     h, w = x.shape[-2:]
-    ids, edge, oy, ox, n, smooth, mean = _pieces(x, 0.055, 71)
-    tone = (ranked_tone(mean) + p["jitter"] * 0.25 * per_region(ids, n, seed=72)).clamp(0, 1)
+    ids, edge, oy, ox, n, keys, smooth, mean = _pieces(x, 0.055, 71)
+    tone = (ranked_tone(mean) + p["jitter"] * 0.25 * per_region(ids, n, 72, keys)).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
     glass = palette_inks(saturate(mean, 1.5).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     glass = saturate(glass, 1.25).clamp(0, 1)  # jewel colours: light through coloured glass
@@ -323,12 +323,12 @@ def cubist_facets(x, p, surface=None):
     """The image broken into large angular facets: each facet one colour of a muted palette, shaded
     across itself from light to dark in its own direction, with thin dark edges."""
     h, w = x.shape[-2:]
-    ids, edge, oy, ox, n, smooth, mean = _pieces(x, 0.085, 81)
+    ids, edge, oy, ox, n, keys, smooth, mean = _pieces(x, 0.085, 81)
     # facets follow the image too: half the piece's mean, half the pixel's own tone
     tone = ranked_tone(0.5 * mean + 0.5 * smooth)
     cs = p["colours"].clamp(0, 1)
     paint = palette_inks(mean.clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
-    angle = per_region(ids, n, seed=82) * 3.1416
+    angle = per_region(ids, n, 82, keys) * 3.1416
     slope = (oy.view(1, 1, h, w) * torch.sin(angle) + ox.view(1, 1, h, w) * torch.cos(angle)) / 0.085
     paint = paint * (1 - p["shade"] * (1 - slope.clamp(-1, 1)) / 2)  # each facet darkens towards one side
     line = torch.sigmoid((p["line"].clamp(0.0005, 0.01) - edge.view(1, 1, h, w)) / 0.001)

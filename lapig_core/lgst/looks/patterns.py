@@ -95,15 +95,16 @@ def _voronoi(h: int, w: int, share: float, seed: int):
             oy = torch.where(closer, (ys - sy).expand(h, w), oy)
             ox = torch.where(closer, (xs - sx).expand(h, w), ox)
     # renumber the pieces present 0..n-1
-    uniq, ids = torch.unique(ids, return_inverse=True)
-    return ids, (d2 - d1) * share, oy * share, ox * share, int(uniq.numel())
+    keys, ids = torch.unique(ids, return_inverse=True)
+    return ids, (d2 - d1) * share, oy * share, ox * share, int(keys.numel()), keys
 
 
 def voronoi(h: int, w: int, share: float, seed: int, device=None):
     """Irregular pieces about `share` of the longer side across: (piece index (H,W), distance to the
-    nearest border between two pieces, offset from the piece's seed (y, x), in shares; piece count)."""
-    ids, edge, oy, ox, n = _voronoi(h, w, float(share), int(seed))
-    return ids.to(device), edge.to(device), oy.to(device), ox.to(device), n
+    nearest border between two pieces, offset from the piece's seed (y, x), in shares; piece count; each
+    piece's key, the same at any resolution, for per_region)."""
+    ids, edge, oy, ox, n, keys = _voronoi(h, w, float(share), int(seed))
+    return ids.to(device), edge.to(device), oy.to(device), ox.to(device), n, keys
 
 
 def region_mean(x: torch.Tensor, ids: torch.Tensor, n: int) -> torch.Tensor:
@@ -115,10 +116,18 @@ def region_mean(x: torch.Tensor, ids: torch.Tensor, n: int) -> torch.Tensor:
     return (sums / counts.clamp_min(1))[:, :, flat].view(b, c, h, w)
 
 
-def per_region(ids: torch.Tensor, n: int, seed: int) -> torch.Tensor:
-    """A fixed random value in [-1, 1] per region, as a map (1,1,H,W)."""
+def region_lots(n: int, seed: int, keys: torch.Tensor | None = None, columns: int = 1) -> torch.Tensor:
+    """Fixed uniform random numbers (n, columns) per region; with the regions' keys the same region gets
+    the same numbers at any resolution (a generator's first numbers do not depend on how many follow)."""
     g = torch.Generator().manual_seed(seed)
-    values = (torch.rand(n, generator=g) * 2 - 1).to(ids.device)
+    if keys is None:
+        return torch.rand(n, columns, generator=g)
+    return torch.rand(int(keys.max()) + 1, columns, generator=g)[keys.cpu()]
+
+
+def per_region(ids: torch.Tensor, n: int, seed: int, keys: torch.Tensor | None = None) -> torch.Tensor:
+    """A fixed random value in [-1, 1] per region, as a map (1,1,H,W)."""
+    values = (region_lots(n, seed, keys)[:, 0] * 2 - 1).to(ids.device)
     return values[ids].view(1, 1, *ids.shape)
 
 

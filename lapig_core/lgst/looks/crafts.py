@@ -61,9 +61,11 @@ def _border(x, p):
     inset = torch.minimum(torch.minimum(ys, hh - ys), torch.minimum(xs, ww - xs))  # distance to the edge
     width = p["border"].clamp(0.0, 0.15)
     band = torch.sigmoid((width - inset) / 0.002)
-    rule = torch.sigmoid((0.0025 - (inset - width).abs()) / 0.001) + torch.sigmoid((0.002 - (inset - width * 0.35).abs()) / 0.001)
+    rule = (torch.sigmoid((0.0025 - (inset - width).abs()) / 0.001)
+            + torch.sigmoid((0.002 - (inset - width * 0.35).abs()) / 0.001))
     along = torch.where((ys - hh / 2).abs() / hh > (xs - ww / 2).abs() / ww, xs, ys)
-    dots = torch.sigmoid((0.28 - torch.sqrt(((along / 0.025) % 1 - 0.5) ** 2 + ((inset - width * 0.67) / 0.025) ** 2)) / 0.05)
+    spot = torch.sqrt(((along / 0.025) % 1 - 0.5) ** 2 + ((inset - width * 0.67) / 0.025) ** 2)
+    dots = torch.sigmoid((0.28 - spot) / 0.05)
     return band.view(1, 1, h, w), rule.clamp(0, 1).view(1, 1, h, w), (dots * band).view(1, 1, h, w)
 
 
@@ -239,7 +241,8 @@ def blueprint(x, p, surface=None):
     cs = p["colours"].clamp(0, 1)
     paper, ink = cs[0].view(1, 3, 1, 1), cs[-1].view(1, 3, 1, 1)
     lum = luminance(blur(x, px(x, 0.01)))
-    ground = paper * (1 + p["detail"] * (lum - lum.mean()) + 0.03 * fixed_noise(h, w, seed=131, share=0.02, device=x.device))
+    mottle = 0.03 * fixed_noise(h, w, seed=131, share=0.02, device=x.device)
+    ground = paper * (1 + p["detail"] * (lum - lum.mean()) + mottle)
     minor = torch.sigmoid((0.0012 - ((ys / 0.025 + 0.5) % 1 - 0.5).abs() * 0.025) / 0.0006) + \
         torch.sigmoid((0.0012 - ((xs / 0.025 + 0.5) % 1 - 0.5).abs() * 0.025) / 0.0006)
     grid = (minor.clamp(0, 1) * p["grid"]).view(1, 1, h, w)

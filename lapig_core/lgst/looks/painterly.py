@@ -13,8 +13,8 @@ import torch
 
 from .graphic import ink_lines
 from .ops import blur, cell_grid, fixed_noise, luminance, px, ramp, saturate, soft_steps, stretched_luminance
-from .patterns import (coords, directional_noise, palette_inks, per_region, ranked_tone, region_mean, sorted_palette, tile_coords,
-                       veins, voronoi)
+from .patterns import (coords, directional_noise, palette_inks, per_region, ranked_tone, region_mean, sorted_palette,
+                       tile_coords, veins, voronoi)
 from .stage import Stage, tensor
 
 INK_SCALES = {"colours": 0.2, "sharpness": 4.0, "hue_weight": 0.2, "detail": 0.15}
@@ -207,7 +207,8 @@ def gold_leaf(x, p, surface=None):
     ry, rx, oy_i, ox_i = tile_coords(h, w, 0.09, x.device)
     r = torch.sqrt(ry ** 2 + rx ** 2)
     ring = p["ring"].clamp(0.01, 0.1)
-    rings = (torch.sigmoid((ring - (r - 0.3).abs()) / 0.01) + torch.sigmoid((ring * 0.85 - (r - 0.14).abs()) / 0.01)).clamp(0, 1)
+    rings = (torch.sigmoid((ring - (r - 0.3).abs()) / 0.01)
+             + torch.sigmoid((ring * 0.85 - (r - 0.14).abs()) / 0.01)).clamp(0, 1)
     sy, sx, _, _ = tile_coords(h, w, 0.05, x.device)
     squares = torch.sigmoid((0.2 - torch.maximum(sy.abs(), sx.abs())) / 0.02) - \
         torch.sigmoid((0.12 - torch.maximum(sy.abs(), sx.abs())) / 0.02)

@@ -120,6 +120,10 @@ class StyleTransferBackend(ThetaBackend):
                 plan = PromptPlan(prompt=text, embedder=active().description, medium_kind="style",
                                   styles=info["mix"], medium_score=info["best_score"])
                 notes += info["notes"]
+        if plan.medium_kind == "look" and any(e.name == plan.look for e in self._effects):
+            # the named look makes the pixels itself (art lexicon): no second, misaligned grid over it
+            self._effects = [e for e in self._effects if e.name != plan.look]
+            notes = [n for n in notes if not n.startswith("style chosen for the effects' look")]
         self.plan = plan
         self.surface = surface.detach().float().clamp(0, 1)
         self.size = tuple(self.surface.shape[-2:])

@@ -143,6 +143,11 @@ LOOKS: tuple[Look, ...] = (
          "like Pollock's drip paintings.",
          ("drip painting", "poured paint", "Pollock", "splatter", "action painting"),
          painterly.poured_lines_stage, uses_colours=True),
+    Look("wavy_bands", "medium",
+         "Long undulating bands of a few strong colours run through the whole image, bent by its tones, "
+         "with streaks along them; like the sky in Munch's Scream.",
+         ("wavy bands", "undulating lines", "Munch", "The Scream", "swirling sky"),
+         painterly.wavy_bands_stage, uses_colours=True),
     Look("miniature", "medium",
          "Flat opaque colour in a few jewel-like inks inside fine dark outlines, framed by a painted "
          "border with rules and dots; like an Indian or Persian miniature.",

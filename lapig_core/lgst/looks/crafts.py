@@ -11,7 +11,7 @@ import colorsys
 import torch
 
 from .graphic import ink_lines
-from .ops import blur, cell_average, fixed_noise, luminance, px, ramp, saturate
+from .ops import blur, cell_average, cell_grid, fixed_noise, luminance, px, ramp, saturate
 from .patterns import coords, palette_inks, ranked_tone, sorted_palette, tile_coords, veins
 from .stage import Stage, tensor
 
@@ -173,14 +173,19 @@ def paper_cutouts_stage(colours=None) -> Stage:
 
 # -- pixel art -------------------------------------------------------------------------------------------------
 PIXEL = 0.022
+BAYER = ((0, 8, 2, 10), (12, 4, 14, 6), (3, 11, 1, 9), (15, 7, 13, 5))
 
 
 def pixel_art(x, p, surface=None):
-    """Big square pixels, each one colour of a small palette (by its tone and its own colour), with
-    a dark outline where the image has an edge."""
+    """Big square pixels, each one colour of a small palette (by its tone and its own colour), in-between
+    tones dithered in a Bayer pattern, with a dark outline where the image has an edge."""
+    h, w = x.shape[-2:]
     cell = px(x, PIXEL, 2.0)
     mean = cell_average(x, cell)
-    tone = ranked_tone(mean)
+    # ordered (Bayer) dithering, as 1980s graphics made in-between tones from a few colours
+    _, iy, ix, _, _ = cell_grid(h, w, cell, device=x.device)
+    bayer = torch.tensor(BAYER, device=x.device)[iy.view(-1, 1) % 4, ix.view(1, -1) % 4] / 16 - 0.47
+    tone = (ranked_tone(mean) + p["dither"] * bayer.view(1, 1, h, w)).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
     ink = palette_inks(saturate(mean, 1.5).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     edges = cell_average(ink_lines(x, p["threshold"], tensor(0.1).to(x.device), 0.01), cell)
@@ -191,8 +196,8 @@ def pixel_art(x, p, surface=None):
 def pixel_art_stage(colours=None) -> Stage:
     return Stage("pixel_art", "medium", pixel_art,
                  {"colours": tensor(sorted_palette(colours, PIXELS)), "sharpness": tensor(16.0),
-                  "hue_weight": tensor(0.35), "threshold": tensor(0.6), "outline": tensor(0.8)},
-                 {"colours": 0.2, "sharpness": 5.0, "hue_weight": 0.2, "threshold": 0.1, "outline": 0.2},
+                  "hue_weight": tensor(0.35), "threshold": tensor(0.6), "outline": tensor(0.8), "dither": tensor(0.1)},
+                 {"colours": 0.2, "sharpness": 5.0, "hue_weight": 0.2, "threshold": 0.1, "outline": 0.2, "dither": 0.1},
                  note="named colours" if colours else "a 1980s 8-colour palette")
 
 

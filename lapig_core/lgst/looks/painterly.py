@@ -371,3 +371,32 @@ def poured_lines_stage(colours=None) -> Stage:
                  {"colours": _palette(colours, POLLOCK), "density": tensor(0.9), "detail": tensor(0.3)},
                  {"colours": 0.2, "density": 0.15, "detail": 0.15},
                  note="named colours" if colours else "black, white, ochre, grey, teal")
+
+
+# -- wavy bands (Munch) ------------------------------------------------------------------------------------
+MUNCH = ((0.0, 0.19, 0.33), (0.53, 0.03, 0.03), (0.33, 0.42, 0.18), (1.0, 0.65, 0.0), (1.0, 0.87, 0.0))
+
+
+def wavy_bands(x, p, surface=None):
+    """Long undulating bands of the palette's colours running through the whole image, bent by its
+    tones, with streaks along them; like the sky of Munch's Scream."""
+    h, w = x.shape[-2:]
+    ys, xs = coords(h, w, x.device)
+    warp = fixed_noise(h, w, seed=151, share=0.15, device=x.device)
+    wave = torch.sin(2 * 3.1416 * (ys * 5 + xs * 1.2 + 0.9 * warp)).view(1, 1, h, w)
+    smooth = blur(x, px(x, 0.006))
+    swirl = p["swirl"].clamp(0, 1)
+    tone = (ranked_tone(smooth) * (1 - swirl) + swirl * (0.5 + 0.5 * wave)).clamp(0, 1)
+    cs = p["colours"].clamp(0, 1)
+    ink = palette_inks(saturate(smooth, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
+    streaks = directional_noise(h, w, seed=152, share=0.005, length=0.03, device=x.device)
+    d = p["detail"].clamp(0, 1)
+    return (ink * (1 - d) + d * smooth) * (1 + 0.08 * streaks.clamp(-1.5, 1.5))
+
+
+def wavy_bands_stage(colours=None) -> Stage:
+    return Stage("wavy_bands", "medium", wavy_bands,
+                 {"colours": _palette(colours, MUNCH), "swirl": tensor(0.7), "sharpness": tensor(6.0),
+                  "hue_weight": tensor(0.1), "detail": tensor(0.12)},
+                 {**INK_SCALES, "swirl": 0.15},
+                 note="named colours" if colours else "Munch's orange, red, blue and green")

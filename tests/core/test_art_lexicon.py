@@ -128,9 +128,10 @@ def test_names_in_other_languages_resolve():
     from lapig_core.lgst.prompt_plan import plan_prompt
 
     for prompt, name in (("Un tableau de Monet", "Monet"), ("Jugendstil", "Art Nouveau"),
-                         ("Une miniature persane", "Persian miniature"), ("絵本のイラスト", "Children's book illustration"),
-                         ("Fais-en un vitrail", "Stained glass"), ("Mach daraus einen Holzschnitt", "Woodcut"),
-                         ("Impresionismo", "Impressionism"), ("莫奈的睡莲", "Monet"), ("Like Rembrant", "Rembrandt")):
+                         ("Une miniature persane", "Persian miniature"),
+                         ("絵本のイラスト", "Children's book illustration"), ("Fais-en un vitrail", "Stained glass"),
+                         ("Mach daraus einen Holzschnitt", "Woodcut"), ("Impresionismo", "Impressionism"),
+                         ("莫奈的睡莲", "Monet"), ("Like Rembrant", "Rembrandt")):
         plan = plan_prompt(prompt)
         assert plan.entry is not None and plan.entry.name == name, prompt
     # the English and the French name give the same look

@@ -81,8 +81,8 @@ def _hue_share(y, lo, hi, chroma=0.3):
 
 
 NAMED = ("broken_strokes", "pointillist_dots", "colour_fields", "primary_grid", "gold_leaf", "chiaroscuro",
-         "stained_glass", "cubist_facets", "poured_lines", "wavy_bands", "miniature", "storybook", "paper_cutouts", "ben_day",
-         "pixel_art", "glazed_tiles", "blueprint", "wax_resist", "woven_threads")
+         "stained_glass", "cubist_facets", "poured_lines", "wavy_bands", "miniature", "storybook", "paper_cutouts",
+         "ben_day", "pixel_art", "glazed_tiles", "blueprint", "wax_resist", "woven_threads")
 
 
 @pytest.mark.parametrize("name", NAMED)

@@ -130,6 +130,8 @@ def add_parsers(sub):
     bench.add_argument("--psa-surfaces", type=int, default=0,
                        help="prompts, style-images: also run PSA (Table 1, Cycles) on this many captured "
                             "surfaces (default 0: prompts: adherence and sheets; style-images: parity, timing, sheet)")
+    bench.add_argument("--psa-named", action="store_true",
+                       help="prompts: the PSA check on named prompts of the art lexicon (Klimt, Mondrian, ...)")
     ranged_option(bench, "--train", "train_count", "psa: captured training pairs per surface", default=125)
     ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 20)")
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)

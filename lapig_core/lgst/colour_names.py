@@ -55,7 +55,7 @@ CSS_COLOURS: dict[str, str] = {
 EXTRA_COLOURS: dict[str, str] = {
     "sepia": "#704214", "ochre": "#cc7722", "yellow ochre": "#e3a857", "umber": "#635147",
     "burnt umber": "#8a3324", "raw umber": "#826644", "burnt sienna": "#e97451", "raw sienna": "#d68a59",
-    "vermilion": "#e34234", "ultramarine": "#3f00ff", "cobalt": "#0047ab", "cobalt blue": "#0047ab",
+    "vermilion": "#e34234", "ultramarine": "#120a8f", "cobalt": "#0047ab", "cobalt blue": "#0047ab",
     "prussian blue": "#003153", "cerulean": "#007ba7", "cyan blue": "#1ca9c9", "amber": "#ffbf00",
     "emerald": "#50c878", "jade": "#00a86b", "ruby": "#e0115f", "sapphire": "#0f52ba",
     "mustard": "#e1ad01", "rust": "#b7410e", "burgundy": "#800020", "wine": "#722f37", "mauve": "#e0b0ff",
@@ -88,6 +88,10 @@ EXTRA_COLOURS: dict[str, str] = {
     "rose pink": "#ff66cc", "golden yellow": "#ffdf00", "jade green": "#00a86b", "mint green": "#98ff98",
     "sage green": "#9caf88", "lime green yellow": "#c5e384", "blood orange": "#d1001c", "sunset orange": "#fd5e53",
     "blue grey": "#6699cc", "blue gray": "#6699cc", "warm grey": "#9f978c", "cool grey": "#8c92ac",
+    # pigments the art lexicon's palettes name (art_lexicon.toml)
+    "lapis": "#26619c", "lapis lazuli": "#26619c", "viridian": "#40826d", "chrome yellow": "#ffa700",
+    "cadmium yellow": "#fff600", "cadmium red": "#e30022", "naples yellow": "#fada5e",
+    "madder": "#a50021", "egyptian blue": "#1034a6",
 }
 
 # basic colour words of other languages -> the English name above (for prompts written in them)

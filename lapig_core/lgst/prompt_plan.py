@@ -5,7 +5,12 @@ names), a mood (night, dusk, ...), a texture (paper, canvas), and what it did no
     plan.understood()   # {'medium': ..., 'colours': [...], 'mood': ..., 'unmatched': [...], ...}
 
 Steps: the prompt is glossed (lexicon.py: other languages' art words get their English beside them);
-colours are read from the words (colours.py) and taken out; moods and textures are found by their tags
+a named painter, movement, period, craft or popular style is looked up in the art lexicon
+(art_lexicon.py: written, misspelt or, with the multilingual embedder, meant) and taken out: the name is
+what the look is about, so its composition is the medium and its palette the colours, and the words
+beside it only add to it (a subject of the name adds its colours, a mood or texture word its grade;
+colours the prompt names replace the entry's palette); colours are read from the words (colours.py)
+and taken out; moods and textures are found by their tags
 as words; the rest is embedded and compared with every medium (the 26 styles and the look media) by
 description and best tag, as prompt_mapping does for the styles. A style wins -> the softmax mix of the
 best styles; a look wins -> that look. Media come from MEDIUM_SOURCES: another source (e.g. styles
@@ -13,13 +18,15 @@ from reference images) can add its candidates there.
 """
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass, field
 
 import torch
 
+from . import art_lexicon
 from . import prompt_mapping as pm
-from .colours import STOPWORDS, NamedColour, parse_colours
+from .colours import STOPWORDS, NamedColour, colour_by_name, parse_colours
 from .lexicon import gloss
 from .looks import MEDIA, MOODS, TEXTURES
 from .style_catalog import STYLES
@@ -64,6 +71,20 @@ class PromptPlan:
     glossed: list[tuple[str, str]] = field(default_factory=list)
     unmatched: list[str] = field(default_factory=list)      # messages for the artist
     notes: list[str] = field(default_factory=list)
+    entry: art_lexicon.Entry | None = None         # the named painter, movement, craft... the look is about
+    entry_how: str = ""                            # "name", "spelling", "meaning" or "work"
+    entry_written: str = ""                        # the words that named it
+    entry_works: list[str] = field(default_factory=list)    # its subjects named beside it
+    entry_colours: list[NamedColour] = field(default_factory=list)   # its palette (with the works' colours)
+    entry_medium_from: str | None = None           # a craft named beside it that gives the medium
+    also_named: list[str] = field(default_factory=list)     # other entries the prompt names
+
+    def palette_colours(self) -> list[NamedColour]:
+        """The colours the look is mapped to: those the prompt names, else the named entry's."""
+        return self.colours or self.entry_colours
+
+    def entry_line(self) -> str:
+        return self.entry.line([c.name for c in self.palette_colours()]) if self.entry else ""
 
     def understood(self) -> dict:
         medium = None
@@ -74,18 +95,30 @@ class PromptPlan:
         if medium is not None:
             medium["score"] = round(self.medium_score, 3)
             medium["runners_up"] = [[n, round(s, 3)] for n, s in self.runners_up]
-        return {"embedder": self.embedder, "medium": medium, "colours": [c.to_dict() for c in self.colours],
+        entry = None
+        if self.entry is not None:
+            entry = {"name": self.entry.name, "kind": self.entry.kind, "family": self.entry.family,
+                     "found_by": self.entry_how, "written": self.entry_written, "works": list(self.entry_works),
+                     "line": self.entry_line(), "palette": [c.to_dict() for c in self.entry_colours],
+                     "palette_strength": self.entry.palette_strength, "medium_from": self.entry_medium_from,
+                     "also_named": list(self.also_named)}
+        return {"embedder": self.embedder, "entry": entry, "medium": medium,
+                "colours": [c.to_dict() for c in self.colours],
                 "mood": self.mood, "mood_words": self.mood_words or None, "texture": self.texture,
                 "translated": [[w, e] for w, e in self.glossed], "unmatched": list(self.unmatched)}
 
     def summary(self) -> str:
         """One line for the panel: what the prompt was read as."""
         parts = []
-        if self.medium_kind == "style":
+        if self.entry is not None:
+            parts.append(self.entry_line())
+            if self.entry_medium_from:
+                parts.append(f"as {self.entry_medium_from}")
+        elif self.medium_kind == "style":
             parts.append(" + ".join(f"{n} {w:.2f}" for n, w in self.styles[:2]))
         elif self.medium_kind == "look":
             parts.append(self.look)
-        if self.colours:
+        if self.colours and self.entry is None:
             parts.append("colours " + ", ".join(c.name for c in self.colours))
         if self.mood:
             parts.append(self.mood)
@@ -167,10 +200,14 @@ def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = 
     note = script_note(text, embedder.name)
     if note:
         plan.notes.append(note)
-    colour_parse = parse_colours(text)
+    without_names = _take_names(plan, text, glossed, embedder)
+    if plan.entry is not None:  # a glossed word inside a name ("retro" of "retro pixel art") is the name's
+        glossed = [(w, e) for w, e in glossed if art_lexicon.fold(w) in art_lexicon.fold(without_names)]
+        plan.glossed, english = glossed, " ".join(e for _, e in glossed)
+    colour_parse = parse_colours(without_names)
     plan.colours = colour_parse.colours
     plan.unmatched += colour_parse.messages()
-    rest = pm.core_phrase(colour_parse.rest if colour_parse.colours else text)
+    rest = pm.core_phrase(colour_parse.rest if colour_parse.colours else without_names)
     for word, _ in glossed:  # the glossed words stand in English now
         rest = re.sub(re.escape(word), " ", rest, flags=re.I) if _CJK_ANY.search(word) else _strip(rest, word)
     rest_en = " ".join(f"{rest} {english}".split())
@@ -185,6 +222,11 @@ def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = 
         for tag in sorted(look.tags, key=len, reverse=True):
             medium_text = _strip(medium_text, tag)
     words = content_words(medium_text)
+    if plan.entry is not None:
+        # the name is what the look is about: the other words add to it (colours, a mood, a texture)
+        _entry_medium(plan)
+        _report_unknown_names(plan, text, words, embedder)
+        return plan
     if not words:
         return plan  # only colours / a mood: they apply to the surface itself
     candidates = medium_candidates()
@@ -216,6 +258,116 @@ def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = 
     return plan
 
 
+# plain art and instruction words: never names, whatever their spelling resembles
+_PLAIN_WORDS = {"painting", "paintings", "painter", "drawing", "drawings", "illustration", "print", "prints",
+                "graphic", "graphics", "artwork", "poster", "portrait", "landscape", "picture", "image", "photo",
+                "window", "windows", "traditional", "classic", "classical", "modern", "famous", "manner",
+                "masterpiece", "version", "colour", "colours", "color", "colors", "light", "lights", "glass",
+                "paper", "canvas", "style", "styled", "render", "rendered", "imagine", "transform", "paint",
+                "painted", "whimsical", "beautiful", "retro", "vintage", "artist", "master", "school",
+                # the same in other languages (capitalised German nouns are no names)
+                "bild", "bilder", "gemalde", "stil", "malerei", "kunst", "kunstwerk", "zeichnung", "tableau",
+                "peinture", "oeuvre", "cuadro", "pintura", "obra", "quadro", "dipinto", "pittura", "opera",
+                "schilderij", "kunstwerk", "schilderij", "manier", "maniere", "estilo", "stijl"}
+
+
+@functools.lru_cache(maxsize=1)
+def _common_words() -> frozenset:
+    from .colour_names import ALL_COLOURS, FOREIGN_COLOURS
+
+    words = set(_FILLER) | _PLAIN_WORDS | set(STOPWORDS)
+    for name in list(ALL_COLOURS) + list(FOREIGN_COLOURS):
+        words.update(name.split())
+    for look in MOODS + TEXTURES:
+        for tag in look.tags:
+            words.update(tag.lower().split())
+    return frozenset(art_lexicon.fold(w) for w in words)
+
+
+def _take_names(plan: PromptPlan, text: str, glossed, embedder) -> str:
+    """Find the named entries (art_lexicon), record the one the look is about in the plan, and return
+    the text without the names and the subjects of the name beside it."""
+    base = art_lexicon.searchable(text)
+    matches = art_lexicon.find_written(base)
+    taken = [m.span for m in matches]
+    for word, english in glossed:  # an art word the gloss knows ("Holzschnitt" -> woodcut)
+        pos = base.find(word)
+        for m in art_lexicon.find_written(english)[:1]:
+            span = (pos, pos + len(word))
+            if pos >= 0 and all(span[1] <= a or b <= span[0] for a, b in taken):
+                matches.append(art_lexicon.NameMatch(m.entry, word, "name", 1.0, span))
+                taken.append(span)
+    if not matches:
+        matches = art_lexicon.find_misspelt(base, taken, _common_words())
+    if not matches:
+        matches = art_lexicon.find_by_meaning(base, taken, embedder, _common_words())
+    taken = [m.span for m in matches]
+    works = art_lexicon.find_works(base, matches, taken)
+    if not matches:
+        matches = art_lexicon.find_work_alone(base)
+        taken = [m.span for m in matches]
+    if not matches:
+        return text
+    main = art_lexicon.primary(matches)
+    plan.entry, plan.entry_how, plan.entry_written = main.entry, main.how, main.written
+    plan.entry_works = list(main.works)
+    plan.medium_score = main.score
+    plan.entry_colours = [colour_by_name(n) for n in art_lexicon.palette_names(main)]
+    others = list(dict.fromkeys(m.entry.name for m in matches if m.entry is not main.entry))
+    plan.also_named = others
+    # a craft named beside a painter or a movement is the medium, in the painter's colours
+    # ("Hokusai's great wave as a mosaic")
+    if main.entry.kind != "craft":
+        for m in sorted(matches, key=lambda m: m.span[0]):
+            if m.entry is not main.entry and m.entry.kind == "craft":
+                plan.entry_medium_from = m.entry.name
+                break
+    for m in matches:
+        if m.how != "name":
+            plan.notes.append(f"'{m.written}' read as {m.entry.name} (by {m.how}, {m.score:.2f})")
+    if others:
+        plan.notes.append(f"the look follows {main.entry.name}; also named: {', '.join(others)}")
+    return art_lexicon.blank(base, taken + [span for _, _, span in works])
+
+
+def _entry_medium(plan: PromptPlan) -> None:
+    """The entry's composition as the plan's medium (or the craft's named beside it)."""
+    source = art_lexicon.entry(plan.entry_medium_from) if plan.entry_medium_from else plan.entry
+    if source.look:
+        plan.medium_kind, plan.look = "look", source.look
+    else:
+        total = sum(w for _, w in source.styles)
+        plan.medium_kind, plan.styles = "style", [(n, w / total) for n, w in source.styles]
+    plan.runners_up = []
+
+
+def _name_like(word: str, text: str) -> bool:
+    """A capitalised word that does not start the prompt: a name, as far as the text shows."""
+    if not word[:1].isupper() or word.isupper() and len(word) <= 3:
+        return False
+    first = re.match(r"\W*([^\W\d_]+)", text)
+    return not (first and first.group(1) == word)
+
+
+def _unknown_name_message(word: str) -> str:
+    close = ", ".join(e.name for e in art_lexicon.nearest(word))
+    return f"'{word}' matched no look or name I know; nearest names: {close}"
+
+
+def _report_unknown_names(plan: PromptPlan, text: str, words: list[str], embedder) -> None:
+    """Beside a named entry only the other names are reported: a capitalised word that names nothing."""
+    import difflib
+
+    own = [art_lexicon.fold(a) for a in plan.entry.aliases for a in a.split()]
+    for word in dict.fromkeys(words):
+        w = art_lexicon.fold(word)
+        if not _name_like(word, text) or w in _common_words():
+            continue
+        if any(difflib.SequenceMatcher(None, w, a).ratio() >= 0.75 for a in own):
+            continue  # a misspelt part of the name found ("Frida Kalo")
+        plan.unmatched.append(_unknown_name_message(word))
+
+
 def _report_unmatched(plan: PromptPlan, words: list[str], candidates, embedder) -> None:
     """Words none of the media's tags resemble: "'Claymation' matched no look; closest: smooth_dusk (0.31)"."""
     if plan.medium_score is not None and plan.medium_score < embedder.weak:
@@ -224,7 +376,9 @@ def _report_unmatched(plan: PromptPlan, words: list[str], candidates, embedder) 
     from .text_embedder import embed_texts
 
     if plan.medium_score is not None and plan.medium_score >= embedder.strong:
-        return  # the prompt as a whole matched well: its other words are descriptions, not misses
+        # the prompt as a whole matched well: its other words are descriptions, not misses; a name
+        # that matches nothing is still said
+        words = [w for w in words if _name_like(w, plan.prompt)]
     known = {w.lower() for _, e in plan.glossed for w in e.split()}
     glossed = [w.lower() for w, _ in plan.glossed]
     words = [w for w in words if w.lower() not in known and not any(g in w.lower() for g in glossed)]
@@ -243,4 +397,8 @@ def _report_unmatched(plan: PromptPlan, words: list[str], candidates, embedder) 
         i = int(torch.argmax(scores))
         pair_best = max([float(best[len(words) + p].max()) for p in (j - 1, j) if 0 <= p < len(pairs)] or [-1.0])
         if float(scores[i]) < embedder.weak_word and pair_best < embedder.weak_word:
-            plan.unmatched.append(f"'{word}' matched no look; closest: {candidates[i].name} ({float(scores[i]):.2f})")
+            if _name_like(word, plan.prompt):  # an unknown name: the nearest names of the lexicon
+                plan.unmatched.append(_unknown_name_message(word))
+            else:
+                plan.unmatched.append(f"'{word}' matched no look; closest: {candidates[i].name} "
+                                      f"({float(scores[i]):.2f})")

@@ -120,6 +120,10 @@ class StyleTransferBackend(ThetaBackend):
                 plan = PromptPlan(prompt=text, embedder=active().description, medium_kind="style",
                                   styles=info["mix"], medium_score=info["best_score"])
                 notes += info["notes"]
+        if plan.medium_kind == "look" and any(e.name == plan.look for e in self._effects):
+            # the named look makes the pixels itself (art lexicon): no second, misaligned grid over it
+            self._effects = [e for e in self._effects if e.name != plan.look]
+            notes = [n for n in notes if not n.startswith("style chosen for the effects' look")]
         self.plan = plan
         self.surface = surface.detach().float().clamp(0, 1)
         self.size = tuple(self.surface.shape[-2:])
@@ -170,16 +174,31 @@ class StyleTransferBackend(ThetaBackend):
         from .looks import BY_NAME, palette_stage
 
         rgb = [c.rgb for c in plan.colours] or None
+        strength = 0.85
+        entry = getattr(plan, "entry", None)
+        if entry is not None and not plan.colours:
+            # a named entry: its palette, at its strength (0: the medium keeps its own colours); with a
+            # craft named beside it as the medium, the entry's colours at least at the default strength
+            strength = entry.palette_strength
+            if plan.entry_medium_from and strength == 0:
+                strength = 0.7
+            rgb = [c.rgb for c in plan.entry_colours] if strength > 0 else None
         stages = []
         medium = BY_NAME.get(plan.look) if plan.medium_kind == "look" else None
         if medium is not None:
-            stages.append(medium.make(rgb))
+            stage = medium.make(rgb)
+            if entry is not None and not plan.entry_medium_from:
+                for key, value in entry.params:  # the name's own start values (its light, its grid)
+                    stage.params[key] = torch.as_tensor(value, dtype=torch.float32).reshape(stage.params[key].shape)
+            stages.append(stage)
         if rgb and not (medium is not None and medium.uses_colours):
-            stages.append(palette_stage(rgb))
-        if plan.texture:
-            stages.append(BY_NAME[plan.texture].make(None))
-        if plan.mood:
-            stages.append(BY_NAME[plan.mood].make(None))
+            stages.append(palette_stage(rgb, strength))
+        texture = plan.texture or (entry.texture if entry is not None else None)
+        mood = plan.mood or (entry.mood if entry is not None else None)
+        if texture:
+            stages.append(BY_NAME[texture].make(None))
+        if mood:
+            stages.append(BY_NAME[mood].make(None))
         if not stages and plan.medium_kind is None:
             stages.append(BY_NAME["neutral_grade"].make(None))  # nothing understood: a grade PSA can move
         return stages

@@ -286,13 +286,13 @@ def test_export_after_a_stylize_without_save_says_which_result_to_export(capfd, 
 def test_notes_on_the_prompt_are_printed_and_reported(capfd, project, new_results):
     from lapig.operators.pipeline_ops import LAPIG_OT_generate
 
-    prompt = "Mach es wie ein Modigliani, über dem stillen Meer, " * 12
+    prompt = "Mach es wie ein Zorblax, über dem stillen Meer, " * 12
     status, _, err = _run(capfd, "stylize", "--blend", project.blend, "--prompt", prompt, "--no-psa")
     assert status == 0, err[-2000:]
     notes = [line for line in err.splitlines() if line.startswith("note: ")]
     assert f"note: prompt truncated from {len(prompt.strip())} to 500 characters" in notes
     assert any(n.startswith("note: weak match") for n in notes), notes
-    said = [n for n in notes if "'Modigliani' matched no look" in n]
+    said = [n for n in notes if "'Zorblax' matched no look" in n]
     assert len(said) == 1, notes  # once, though the prompt says it twelve times
 
     class Operator:  # the Generate operator's report, recorded

@@ -65,3 +65,82 @@ def test_moods_move_the_lightness_their_way():
             assert sign * (float(luminance(y).mean()) - lum) > 0.03, name
         night = BY_NAME["night"].make(None)(x, x)
         assert float(night[:, 2].mean()) > float(night[:, 0].mean())  # moonlight is blue
+
+
+# -- the named looks of the art lexicon (issue 30) -------------------------------------------------------
+def _hue_share(y, lo, hi, chroma=0.3):
+    """Share of pixels with an HSV hue in [lo, hi] degrees and at least this chroma."""
+    img = y[0].permute(1, 2, 0)
+    mx, mn = img.max(-1).values, img.min(-1).values
+    c = mx - mn
+    r, g, b = img.unbind(-1)
+    safe = torch.where(c > 1e-6, c, torch.ones_like(c))
+    h = torch.where(mx == r, ((g - b) / safe) % 6, torch.where(mx == g, (b - r) / safe + 2, (r - g) / safe + 4)) * 60
+    inside = (h >= lo) & (h <= hi) if lo <= hi else (h >= lo) | (h <= hi)
+    return float((inside & (c >= chroma)).float().mean())
+
+
+NAMED = ("broken_strokes", "pointillist_dots", "colour_fields", "primary_grid", "gold_leaf", "chiaroscuro",
+         "stained_glass", "cubist_facets", "poured_lines", "wavy_bands", "miniature", "storybook", "paper_cutouts",
+         "ben_day", "pixel_art", "glazed_tiles", "blueprint", "wax_resist", "woven_threads")
+
+
+@pytest.mark.parametrize("name", NAMED)
+def test_named_looks_take_a_palette_that_psa_moves(name):
+    look = BY_NAME[name]
+    assert look.uses_colours and look.role == "medium"
+    named = [(0.8, 0.1, 0.1), (0.1, 0.2, 0.7), (0.95, 0.9, 0.8)]
+    stage = look.make(named)
+    x = _scene(48)
+    stage.params["colours"] = stage.params["colours"].clone().requires_grad_(True)
+    y = stage(x, x)
+    ((y - 0.3) ** 2).mean().backward()
+    assert float(stage.params["colours"].grad.abs().sum()) > 0  # the palette is theta
+    with torch.no_grad():
+        plain = look.make(None)(x, x)
+    assert float((y.detach() - plain).abs().mean()) > 0.01  # the named colours change the look
+
+
+def test_primary_grid_is_black_lines_and_blocks_of_primaries():
+    x = _scene(96)
+    with torch.no_grad():
+        y = BY_NAME["primary_grid"].make(None)(x, x)
+    dark = float((luminance(y) < 0.15).float().mean())
+    primaries = _hue_share(y, 345, 15, 0.5) + _hue_share(y, 40, 65, 0.5) + _hue_share(y, 205, 250, 0.5)
+    assert 0.03 < dark < 0.3 and primaries > 0.25
+    light = float((luminance(y) > 0.85).float().mean())
+    assert light > 0.2  # a white ground
+
+
+def test_gold_leaf_gilds_and_rothko_fields_hover():
+    x = _scene(96)
+    with torch.no_grad():
+        gold = BY_NAME["gold_leaf"].make(None)(x, x)
+        fields = BY_NAME["colour_fields"].make(None)(x, x)
+    assert _hue_share(gold, 35, 65, 0.25) > 0.25
+    assert _hue_share(fields, 340, 40, 0.3) > 0.7  # maroon, crimson, orange everywhere
+    top, bottom = fields[..., 20:40, 30:60].mean((2, 3)), fields[..., 60:80, 30:60].mean((2, 3))
+    assert float((top - bottom).abs().sum()) > 0.15  # two different fields
+
+
+def test_pointillist_dots_are_pure_colours_on_a_light_ground():
+    x = _scene(128)
+    with torch.no_grad():
+        y = BY_NAME["pointillist_dots"].make(None)(x, x)
+    families = sum(_hue_share(y, (k * 60 - 30) % 360, (k * 60 + 30) % 360, 0.3) > 0.03 for k in range(6))
+    assert families >= 3
+    # dots: neighbouring pixels differ much more than in the scene itself
+    assert float((y[..., 1:] - y[..., :-1]).abs().mean()) > 2 * float((x[..., 1:] - x[..., :-1]).abs().mean())
+
+
+def test_a_miniature_has_fine_outlines_and_a_painted_border():
+    x = _scene(96)
+    stage = BY_NAME["miniature"].make(None)
+    with torch.no_grad():
+        y = stage(x, x)
+        plain = stage.params["border"].fill_(0.0)
+        unframed = stage(x, x)
+    edge = y[..., :3, :].mean((2, 3))[0]
+    assert float((edge - stage.params["frame"]).abs().max()) < 0.25  # the frame colour along the edge
+    assert float((unframed[..., :3, :] - y[..., :3, :]).abs().mean()) > 0.05 and float(plain) == 0.0
+    assert float((luminance(y) < 0.2).float().mean()) > 0.004  # fine outlines

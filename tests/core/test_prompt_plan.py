@@ -8,6 +8,7 @@ torch = pytest.importorskip("torch")
 
 from lapig_core.lgst import get_backend  # noqa: E402
 from lapig_core.lgst.lexicon import gloss  # noqa: E402
+from lapig_core.lgst.looks import BY_NAME as LOOKS  # noqa: E402
 from lapig_core.lgst.style_catalog import BY_NAME as STYLES  # noqa: E402
 
 pytestmark = pytest.mark.torch
@@ -50,7 +51,8 @@ def test_vitrail_and_buntglas_map_like_stained_glass(embedder, monkeypatch):
             pytest.skip("MiniLM not installed")
         monkeypatch.setenv("LAPIG_TEXT_EMBEDDER", "minilm")
     english = _medium(plan_prompt("Make it a stained glass window"))
-    assert "stained glass" in STYLES[english].tags
+    tags = STYLES[english].tags if english in STYLES else LOOKS[english].tags
+    assert any("stained glass" in t for t in tags)
     for prompt in ("Fais-en un vitrail", "Mach es zu Buntglas", "Buntglasfenster"):
         assert _medium(plan_prompt(prompt)) == english, prompt
 
@@ -64,7 +66,8 @@ def test_a_prompt_is_read_as_medium_colours_and_mood():
     assert [c.name for c in plan.colours] == ["deep blue", "gold"]
     u = plan.understood()
     assert u["medium"]["look"] == "woodblock" and u["colours"][1]["hex"] == "#ffd700" and u["mood"] == "night"
-    assert "woodblock" in plan.summary() and "deep blue" in plan.summary()
+    assert plan.entry.name == "Woodcut"  # a woodblock print is a craft of the art lexicon, in the colours named
+    assert plan.summary().startswith("Woodcut (relief print): ") and "deep blue, gold; night" in plan.summary()
     only_colour = plan_prompt("Make it sepia")
     assert only_colour.medium_kind is None and [c.name for c in only_colour.colours] == ["sepia"]
     assert plan_prompt("Van Gogh's starry night").mood is None  # the painting, not a night grade
@@ -75,8 +78,9 @@ def test_a_prompt_is_read_as_medium_colours_and_mood():
 def test_words_that_match_nothing_are_reported():
     from lapig_core.lgst.prompt_plan import plan_prompt
 
-    plan = plan_prompt("Make it a Modigliani painting")
-    assert plan.unmatched and plan.unmatched[0].startswith("'Modigliani' matched no look; closest: ")
+    plan = plan_prompt("Make it a Zorblax painting")  # a name: the nearest names of the art lexicon
+    assert plan.unmatched and plan.unmatched[0].startswith("'Zorblax' matched no look or name I know; nearest names: ")
+    assert plan_prompt("Make it a Modigliani painting").unmatched == []  # a name the lexicon knows
     assert plan_prompt("Make it a Claymation").look == "modelling_clay"
     assert plan_prompt("Make it a stained glass window").unmatched == []
     assert plan_prompt("Fais-en un vitrail").unmatched == []  # function words of other languages are no art words

@@ -12,6 +12,16 @@ styles only, MiniLM).
       one of their English counterpart in the set.
 Sheets: out/bench_prompts/sheet_<group>.png. --psa-surfaces N also runs Table 1 (with against
 without PSA, rendered with Cycles) for the first --prompts prompts of PSA_PROMPTS through bench_psa.
+
+Named looks (issue 30, the art lexicon):
+  paper_prompts_understood: share of the paper's nine prompts mapped to their entry with nothing
+      unmatched.
+  painter_adherence: share of the named entries of painter_checks.PAINTER_CHECKS whose look carries
+      the palette written down for it (every check on both surfaces); the misses by name, with why.
+  names_other_languages: share of named prompts in other languages (or misspelt) that find their entry.
+  unknown_names_told: share of made-up names reported as unknown with the three nearest entries.
+Sheets: out/bench_prompts/lexicon_<group>.png, every entry of a group by its name on both surfaces.
+--psa-named puts the named prompts of PSA_NAMED_PROMPTS through Table 1 instead of PSA_PROMPTS.
 """
 from __future__ import annotations
 
@@ -86,6 +96,22 @@ PSA_PROMPTS = ("Make it a woodblock print", "Turn it into a halftone newspaper p
                "Turn it into neon signs", "Make it night", "In deep blue and gold", "Sepia",
                "A watercolour in pale yellow and sky blue", "Make it look like a comic book panel",
                "Bright and sunny")
+
+# the PSA check of named looks (issue 30): 10 named entries across the lexicon's families
+PSA_NAMED_PROMPTS = ("Make it a Klimt", "Mondrian", "Paint it like Monet's water lilies", "Hokusai's great wave",
+                     "Imagine it as a traditional Indian miniature painting", "Make it a stained glass artwork",
+                     "A Rothko", "Make it a Seurat", "Azulejo tiles", "Like Rembrandt")
+# named prompts in other languages or misspelt -> the entry they must find
+NAMES_ELSEWHERE = (("Un tableau de Monet", "Monet"), ("Im Stil von Gustav Klimt", "Klimt"),
+                   ("Jugendstil", "Art Nouveau"), ("Kubismus", "Cubism"), ("Une estampe japonaise", "Ukiyo-e"),
+                   ("Une miniature persane", "Persian miniature"), ("絵本のイラスト", "Children's book illustration"),
+                   ("ゴッホ風に", "Van Gogh"), ("Impresionismo", "Impressionism"), ("Kubizm", "Cubism"),
+                   ("Puntillismo", "Pointillism"), ("Azulejos portugueses", "Azulejo"), ("Fais-en un vitrail", "Stained glass"),
+                   ("Arte pop", "Pop art"), ("Mondriaan", "Mondrian"), ("莫奈的睡莲", "Monet"), ("Make it a Kandinski", "Kandinsky"),
+                   ("Like Rembrant", "Rembrandt"), ("Estilo barroco", "Baroque"), ("Miniatura india tradicional", "Indian miniature"))
+UNKNOWN_NAMES = ("Make it a Zorblax painting", "In the style of Quendrick Vallimor", "Like Hundertwasser",
+                 "A Brakkenfeld print")
+LEXICON_SHEET_GROUPS = ("impressionism", "modernism", "japanese", "miniatures", "crafts", "old_masters", "popular", "world")
 
 HUE_TOL, LIGHT_TOL, MIN_SHARE = 25.0, 0.2, 0.03
 
@@ -243,17 +269,96 @@ def run(args) -> dict:
         "embedder": rows[0] and new.describe()["understood"]["embedder"],
         "machine": platform.processor() or platform.machine(), "cpu_threads": torch.get_num_threads(),
     }
+    summary.update(run_named(new, surfaces, out))
     if getattr(args, "psa_surfaces", 0):
         summary["psa"] = run_psa_check(args, out)
     summary["bench_total_s"] = round(time.perf_counter() - t0, 1)
     return summary
 
 
+def _ascii(text: str) -> str:
+    """A label the sheet's font can draw (Cézanne -> Cezanne)."""
+    import unicodedata
+
+    return unicodedata.normalize("NFKD", text).encode("ascii", "ignore").decode()
+
+
+def run_named(backend, surfaces, out) -> dict:
+    """The named looks of the art lexicon: the paper's prompts, painter adherence, names in other
+    languages, unknown names, and a sheet per family."""
+    from ...lapig_core.lgst import art_lexicon
+    from ...lapig_core.lgst.prompt_plan import plan_prompt
+    from .painter_checks import PAINTER_CHECKS, PAPER_ENTRIES, PAPER_PROMPTS, check_image
+
+    t0 = time.perf_counter()
+    paper = []
+    for prompt, expected in zip(PAPER_PROMPTS, PAPER_ENTRIES):
+        plan = plan_prompt(prompt)
+        name = plan.entry.name if plan.entry else None
+        paper.append({"prompt": prompt, "entry": name, "expected": expected, "unmatched": plan.unmatched,
+                      "understood": plan.summary(), "ok": name == expected and not plan.unmatched})
+    painters, misses, tiles, labels = [], [], [], []
+    for name, prompt, checks in PAINTER_CHECKS:
+        looks, info = render(backend, surfaces, prompt)
+        entry = (info["understood"].get("entry") or {}).get("name")
+        per_surface = [check_image(checks, img) for img in looks]
+        ok = entry == name and all(good for good, _ in per_surface)
+        row = {"entry": name, "prompt": prompt, "found": entry, "ok": ok, "looks": info["looks"],
+               "understood": info["understood_line"],
+               "checks": {s: why for s, (_, why) in zip(surfaces, per_surface)}}
+        painters.append(row)
+        if not ok:
+            misses.append({"entry": name, "found": entry,
+                           "failed": {s: why for s, (good, why) in zip(surfaces, per_surface) if not good}})
+        tiles += looks
+        labels += [f"{_ascii(name)[:22]}" + ("" if ok else " (miss)"), "  sakura"]
+    path = os.path.join(out, "painter_checks.png")
+    write_png(path, labelled_grid(tiles, labels, columns=8, cell=170,
+                                  title="bench prompts: named entries with a written palette check (miss = check failed)"))
+    sheets = [path]
+    elsewhere = []
+    for prompt, expected in NAMES_ELSEWHERE:
+        plan = plan_prompt(prompt)
+        found = plan.entry.name if plan.entry else None
+        elsewhere.append({"prompt": prompt, "expected": expected, "found": found, "by": plan.entry_how,
+                          "ok": found == expected})
+    unknown = []
+    for prompt in UNKNOWN_NAMES:
+        plan = plan_prompt(prompt)
+        said = [m for m in plan.unmatched if "nearest names: " in m and len(m.split("nearest names: ")[1].split(", ")) == 3]
+        unknown.append({"prompt": prompt, "entry": plan.entry.name if plan.entry else None, "told": said,
+                        "ok": plan.entry is None and bool(said)})
+    t_checks = time.perf_counter() - t0
+    for group in LEXICON_SHEET_GROUPS:
+        tiles, labels = [], []
+        for e in art_lexicon.ENTRIES:
+            if e.group != group:
+                continue
+            looks, _ = render(backend, surfaces, e.name)
+            tiles += looks
+            labels += [_ascii(e.name)[:24], f"  {e.medium()[:22]}"]
+        path = os.path.join(out, f"lexicon_{group}.png")
+        write_png(path, labelled_grid(tiles, labels, columns=8, cell=170,
+                                      title=f"art lexicon: {group} (each entry: scene, sakura; label: its medium)"))
+        sheets.append(path)
+    share = lambda rows: round(sum(r["ok"] for r in rows) / len(rows), 3)
+    groups = {}
+    for e in art_lexicon.ENTRIES:
+        groups[e.group] = groups.get(e.group, 0) + 1
+    return {"paper_prompts_understood": share(paper), "painter_adherence": share(painters),
+            "painter_entries": len(painters), "painter_misses": misses,
+            "names_other_languages": share(elsewhere), "unknown_names_told": share(unknown),
+            "lexicon_entries": len(art_lexicon.ENTRIES), "lexicon_groups": groups,
+            "paper_rows": paper, "painter_rows": painters, "elsewhere_rows": elsewhere, "unknown_rows": unknown,
+            "named_checks_s": round(t_checks, 1), "lexicon_sheets": sheets}
+
+
 def run_psa_check(args, out) -> dict:
-    """Table 1 on --psa-surfaces surfaces x the first --prompts PSA_PROMPTS, through bench_psa."""
+    """Table 1 on --psa-surfaces surfaces x the first --prompts PSA_PROMPTS (PSA_NAMED_PROMPTS with
+    --psa-named), through bench_psa."""
     from . import bench_psa
 
-    prompts = PSA_PROMPTS[:args.prompts]
+    prompts = (PSA_NAMED_PROMPTS if getattr(args, "psa_named", False) else PSA_PROMPTS)[:args.prompts]
     rows, sheets = [], []
     for name in bench_psa.SURFACES[:args.psa_surfaces]:
         r, sheet, _ = bench_psa.run_surface(name, args, os.path.join(out, "psa"), args.backend, prompts, 0)

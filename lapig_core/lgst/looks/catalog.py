@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from . import glow, grading, graphic, palette, texture
+from . import crafts, glow, grading, graphic, painterly, palette, texture
 from .stage import Stage
 
 
@@ -96,7 +96,103 @@ LOOKS: tuple[Look, ...] = (
          "Smooth rounded lumps of a few saturated colours with soft light from the top left and a faint "
          "sheen on their rims, the detail melted away; like plasticine figures in a stop-motion film.",
          ("claymation", "clay", "plasticine", "modelling clay", "stop motion", "clay animation", "Aardman"),
-         lambda colours=None: texture.clay_stage()),
+         texture.clay_stage, uses_colours=True),
+    # -- named looks of the art lexicon (issue 30) -----------------------------------------------------
+    Look("broken_strokes", "medium",
+         "Short strokes of a few light colours laid side by side, each stroke one colour of the palette "
+         "chosen by the tone under it, so the colours break and shimmer; like an Impressionist painting.",
+         ("broken colour", "impressionist brushstrokes", "dabs of colour", "plein air painting"),
+         painterly.broken_strokes_stage, uses_colours=True),
+    Look("pointillist_dots", "medium",
+         "The image rebuilt from small round dots of pure, unmixed colour on a pale ground; neighbouring "
+         "dots take neighbouring colours of the palette and mix in the eye; like Seurat.",
+         ("pointillism", "pointillist", "dots of pure colour", "divisionism", "Seurat"),
+         painterly.pointillist_dots_stage, uses_colours=True),
+    Look("colour_fields", "medium",
+         "Two or three large soft-edged rectangles of glowing colour stacked on a darker ground, the "
+         "image's light and dark breathing faintly through them; like Rothko's colour fields.",
+         ("colour field", "color field", "Rothko", "soft rectangles", "stacked rectangles"),
+         painterly.colour_fields_stage, uses_colours=True),
+    Look("primary_grid", "medium",
+         "Straight black lines divide the image into rectangles, most of them white, some flat red, "
+         "yellow or blue; like Mondrian and De Stijl.",
+         ("Mondrian", "De Stijl", "primary colour grid", "black grid lines", "neoplasticism"),
+         painterly.primary_grid_stage, uses_colours=True),
+    Look("gold_leaf", "medium",
+         "The image's light parts turned into beaten gold leaf stamped with rings, squares and dots; its "
+         "dark parts flat paint in the other colours; like Klimt's golden phase or an icon.",
+         ("gold leaf", "gilded", "Klimt", "golden ornament", "icon gold ground"),
+         painterly.gold_leaf_stage, uses_colours=True),
+    Look("chiaroscuro", "medium",
+         "One warm light falls on part of the image and the rest sinks into near-black, tones mapped "
+         "through umber, ochre and gold; like Rembrandt or Caravaggio.",
+         ("chiaroscuro", "tenebrism", "Rembrandt lighting", "old master", "dramatic light and shadow"),
+         painterly.chiaroscuro_stage, uses_colours=True),
+    Look("stained_glass", "medium",
+         "Irregular pieces of glowing jewel-coloured glass joined by dark lead lines, each piece one "
+         "colour, brighter at its heart; like a church window.",
+         ("stained glass window", "leaded glass", "lead came", "cathedral window", "jewel glass"),
+         painterly.stained_glass_stage, uses_colours=True),
+    Look("cubist_facets", "medium",
+         "The image broken into large angular facets, each shaded across itself in a muted palette of "
+         "ochre, umber, olive and grey, with thin dark edges; like Cubism.",
+         ("cubism", "cubist", "facets", "angular planes", "fractured planes"),
+         painterly.cubist_facets_stage, uses_colours=True),
+    Look("poured_lines", "medium",
+         "Webs of thin dripped and poured lines of black, white and colour laid over the whole image; "
+         "like Pollock's drip paintings.",
+         ("drip painting", "poured paint", "Pollock", "splatter", "action painting"),
+         painterly.poured_lines_stage, uses_colours=True),
+    Look("wavy_bands", "medium",
+         "Long undulating bands of a few strong colours run through the whole image, bent by its tones, "
+         "with streaks along them; like the sky in Munch's Scream.",
+         ("wavy bands", "undulating lines", "Munch", "The Scream", "swirling sky"),
+         painterly.wavy_bands_stage, uses_colours=True),
+    Look("miniature", "medium",
+         "Flat opaque colour in a few jewel-like inks inside fine dark outlines, framed by a painted "
+         "border with rules and dots; like an Indian or Persian miniature.",
+         ("miniature painting", "Indian miniature", "Persian miniature", "Mughal", "decorated border"),
+         crafts.miniature_stage, uses_colours=True),
+    Look("storybook", "medium",
+         "Soft flat colours in gentle outlines with a little unevenness of gouache; friendly and simple, "
+         "like a children's picture book.",
+         ("children's book", "picture book", "storybook", "gouache illustration", "flat illustration"),
+         crafts.storybook_stage, uses_colours=True),
+    Look("paper_cutouts", "medium",
+         "Large flat shapes in a few strong colours with softly irregular edges on white, no outlines; "
+         "like shapes cut from painted paper (Matisse's cut-outs).",
+         ("cut-outs", "paper cut-outs", "cut paper", "Matisse cut-outs", "collage shapes"),
+         crafts.paper_cutouts_stage, uses_colours=True),
+    Look("ben_day", "medium",
+         "Flat printed colours with thick black outlines, the lighter tones printed as Ben-Day dots of "
+         "their colour on white paper; like Lichtenstein's blown-up comic panels.",
+         ("Ben-Day dots", "Lichtenstein", "pop art print", "comic dots"),
+         crafts.ben_day_stage, uses_colours=True),
+    Look("pixel_art", "medium",
+         "Big square pixels, each one colour of a small retro palette, with dark outlines at the edges; "
+         "like a 1980s video game.",
+         ("pixel art", "8-bit", "16-bit", "pixelated", "retro video game"),
+         crafts.pixel_art_stage, uses_colours=True),
+    Look("glazed_tiles", "medium",
+         "Square glazed tiles with the image painted in cobalt blues on white, a quatrefoil ornament in "
+         "each tile, light grout and a gloss; like Portuguese azulejos or Delft tiles.",
+         ("azulejo", "Delft tiles", "blue and white tiles", "glazed ceramic tiles", "porcelain blue"),
+         crafts.glazed_tiles_stage, uses_colours=True),
+    Look("blueprint", "medium",
+         "White lines traced along the image's edges on deep Prussian-blue paper with a faint grid; like "
+         "an architect's blueprint.",
+         ("blueprint", "technical drawing", "engineering drawing", "white lines on blue"),
+         crafts.blueprint_stage, uses_colours=True),
+    Look("wax_resist", "medium",
+         "Flat dyes of indigo and brown on cream with fine crackle veins where the wax broke; like batik "
+         "cloth.",
+         ("batik", "wax resist", "crackle dye", "dyed cloth"),
+         crafts.wax_resist_stage, uses_colours=True),
+    Look("woven_threads", "medium",
+         "The image as rows of small stitches of coloured thread, each stitch rounded by its shading, "
+         "alternate rows offset like a weave; like a tapestry or cross-stitch.",
+         ("tapestry weave", "cross-stitch", "woven threads", "needlework", "stitches"),
+         crafts.woven_threads_stage, uses_colours=True),
     # -- moods ------------------------------------------------------------------------------------------
     Look("night", "mood", "Dark blue moonlight: much darker, cold blue shadows, faded colours.",
          ("night", "nocturnal", "midnight", "moonlit", "moonlight", "at night", "starry sky"), _mood("night")),
@@ -135,6 +231,7 @@ MOODS = tuple(look for look in LOOKS if look.role == "mood")
 TEXTURES = tuple(look for look in LOOKS if look.role == "texture")
 
 
-def palette_stage(colours: list) -> Stage:
-    """The named colours as a gradient map over the look (the palette part of a prompt)."""
-    return palette.gradient_map_stage(colours)
+def palette_stage(colours: list, strength: float = 0.85) -> Stage:
+    """The named colours as a gradient map over the look (the palette part of a prompt, or a named
+    entry's palette at the entry's strength)."""
+    return palette.gradient_map_stage(colours, strength=strength)

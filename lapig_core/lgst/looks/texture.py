@@ -63,7 +63,14 @@ def clay(x, p, surface=None):
     """Modelling clay: smooth rounded blobs of a few saturated colours, lit from the top left as if each
     area were a raised lump (the shading is the slope of a blurred height made from the flat colours)."""
     smooth = blur(x, px(x, 0.01))
-    flat = saturate(soft_steps(smooth.clamp(0, 1), 5, p["sharpness"]), p["saturation"]).clamp(0, 1)
+    if "colours" in p:  # named colours: each lump one of them (by its tone and its own colour)
+        from .patterns import palette_inks, ranked_tone
+
+        flat = palette_inks(saturate(smooth, 1.3).clamp(0, 1), ranked_tone(smooth), p["colours"].clamp(0, 1),
+                            p["sharpness"] * 2, p["saturation"].new_tensor(0.5))
+        flat = saturate(flat, p["saturation"]).clamp(0, 1)
+    else:
+        flat = saturate(soft_steps(smooth.clamp(0, 1), 5, p["sharpness"]), p["saturation"]).clamp(0, 1)
     height = blur(luminance(flat), px(x, 0.012))
     gy = height[..., 1:, :] - height[..., :-1, :]
     gx = height[..., :, 1:] - height[..., :, :-1]
@@ -75,7 +82,12 @@ def clay(x, p, surface=None):
     return flat * light + sheen
 
 
-def clay_stage() -> Stage:
-    return Stage("modelling_clay", "medium", clay,
-                 {"sharpness": tensor(4.0), "saturation": tensor(1.35), "relief": tensor(0.22), "sheen": tensor(0.1)},
-                 {"sharpness": 2.0, "saturation": 0.3, "relief": 0.15, "sheen": 0.1})
+def clay_stage(colours=None) -> Stage:
+    params = {"sharpness": tensor(4.0), "saturation": tensor(1.35), "relief": tensor(0.22), "sheen": tensor(0.1)}
+    scales = {"sharpness": 2.0, "saturation": 0.3, "relief": 0.15, "sheen": 0.1}
+    if colours:
+        from .patterns import sorted_palette
+
+        params["colours"], scales["colours"] = tensor(sorted_palette(colours, colours)), 0.2
+    return Stage("modelling_clay", "medium", clay, params, scales,
+                 note="named colours" if colours else "the image's colours, 5 steps")

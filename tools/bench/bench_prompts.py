@@ -25,7 +25,6 @@ Sheets: out/bench_prompts/lexicon_<group>.png, every entry of a group by its nam
 """
 from __future__ import annotations
 
-import colorsys
 import os
 import platform
 import time
@@ -38,6 +37,7 @@ from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.lgst import get_backend
 from ...lapig_core.lgst.colours import colour_by_name
+from .palette_measure import colour_present, dominant_palette
 from .test_images import sheet_surfaces
 
 # (prompt, group, expectation): colours: the names it should show; mood: "dark" / "light";
@@ -113,7 +113,6 @@ UNKNOWN_NAMES = ("Make it a Zorblax painting", "In the style of Quendrick Vallim
                  "A Brakkenfeld print")
 LEXICON_SHEET_GROUPS = ("impressionism", "modernism", "japanese", "miniatures", "crafts", "old_masters", "popular", "world")
 
-HUE_TOL, LIGHT_TOL, MIN_SHARE = 25.0, 0.2, 0.03
 
 
 @contextmanager
@@ -127,35 +126,6 @@ def embedder(name: str):
             os.environ.pop("LAPIG_TEXT_EMBEDDER", None)
         else:
             os.environ["LAPIG_TEXT_EMBEDDER"] = old
-
-
-def dominant_palette(img: np.ndarray, k: int = 6, seed: int = 0) -> list[tuple[np.ndarray, float]]:
-    """k-means colours of an (H,W,3) image with their shares, largest first."""
-    pix = img.reshape(-1, 3).astype(np.float64)
-    rng = np.random.default_rng(seed)
-    pix = pix[rng.choice(len(pix), size=min(len(pix), 6000), replace=False)]
-    centres = pix[rng.choice(len(pix), size=k, replace=False)]
-    for _ in range(20):
-        label = ((pix[:, None] - centres[None]) ** 2).sum(-1).argmin(1)
-        centres = np.stack([pix[label == j].mean(0) if (label == j).any() else centres[j] for j in range(k)])
-    share = np.bincount(label, minlength=k) / len(label)
-    return sorted(zip(centres, share), key=lambda cs: -cs[1])
-
-
-def colour_present(rgb, palette) -> bool:
-    h, light, sat = colorsys.rgb_to_hls(*rgb)
-    for centre, share in palette:
-        if share < MIN_SHARE:
-            continue
-        ch, cl, cs = colorsys.rgb_to_hls(*np.clip(centre, 0, 1))
-        if abs(cl - light) > LIGHT_TOL:
-            continue
-        if sat < 0.2 or light < 0.08 or light > 0.92:  # greys, black, white: lightness only
-            return True
-        dh = abs(ch - h) * 360
-        if min(dh, 360 - dh) <= HUE_TOL and cs >= 0.12:
-            return True
-    return False
 
 
 def signature(info: dict) -> tuple:

@@ -85,7 +85,7 @@ def mean_chroma(lo=0.0, hi=1.0):
 
 def present(names, n):
     def check(img):
-        from .bench_prompts import colour_present, dominant_palette
+        from .palette_measure import colour_present, dominant_palette
         from ...lapig_core.lgst.colours import colour_by_name
 
         palette = dominant_palette(img)

@@ -414,14 +414,22 @@ MUNCH = ((0.0, 0.19, 0.33), (0.53, 0.03, 0.03), (0.33, 0.42, 0.18), (1.0, 0.65, 
 
 def wavy_bands(x, p, surface=None):
     """Long undulating bands of the palette's colours running through the whole image, bent by its
-    tones, with streaks along them; like the sky of Munch's Scream."""
+    tones, with streaks along them; like the sky of Munch's Scream; below a wavy horizon (`horizon`) they sink
+    (`fjord`) into the palette's darkest colours, the dark water under that sky."""
     h, w = x.shape[-2:]
     ys, xs = coords(h, w, x.device)
     warp = fixed_noise(h, w, seed=151, share=0.15, device=x.device)
-    wave = torch.sin(2 * 3.1416 * (ys * 5 + xs * 1.2 + 0.9 * warp)).view(1, 1, h, w)
+    phase = ys * 5 + xs * 1.2 + 0.9 * warp
+    # a triangle wave: every colour of the palette gets an equal band (a sine lingers at its ends)
+    wave = (2 * (2 * (phase - torch.floor(phase)) - 1).abs() - 1).view(1, 1, h, w)
     smooth = blur(x, px(x, 0.006))
     swirl = p["swirl"].clamp(0, 1)
     tone = (ranked_tone(smooth) * (1 - swirl) + swirl * (0.5 + 0.5 * wave)).clamp(0, 1)
+    if "fjord" in p:  # below a wavy horizon the bands sink into the darkest colour (the Scream's fjord)
+        t = (ys / (h / max(h, w))).view(1, 1, h, 1)
+        below = torch.sigmoid((t - p["horizon"].clamp(0.1, 0.95) + 0.04 * wave) / 0.03)
+        water = (1 - p["fjord"].clamp(0, 1)) * (0.5 + 0.5 * wave)  # its own waves, in the darkest colours
+        tone = tone * (1 - below) + water * below
     cs = p["colours"].clamp(0, 1)
     ink = palette_inks(saturate(smooth, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     streaks = directional_noise(h, w, seed=152, share=0.005, length=0.03, device=x.device)
@@ -432,6 +440,6 @@ def wavy_bands(x, p, surface=None):
 def wavy_bands_stage(colours=None) -> Stage:
     return Stage("wavy_bands", "medium", wavy_bands,
                  {"colours": _palette(colours, MUNCH), "swirl": tensor(0.7), "sharpness": tensor(6.0),
-                  "hue_weight": tensor(0.1), "detail": tensor(0.12)},
-                 {**INK_SCALES, "swirl": 0.15},
+                  "hue_weight": tensor(0.1), "detail": tensor(0.12), "horizon": tensor(0.58), "fjord": tensor(0.8)},
+                 {**INK_SCALES, "swirl": 0.15, "horizon": 0.08, "fjord": 0.2},
                  note="named colours" if colours else "Munch's orange, red, blue and green")

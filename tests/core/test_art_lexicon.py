@@ -182,7 +182,7 @@ def test_a_named_look_is_a_chain_psa_can_move():
     # an entry's own start values: Caravaggio's narrower light
     lgst.prepare(surface, "Caravaggio")
     (stage,) = lgst._stages
-    assert stage.look == "chiaroscuro" and float(stage.params["reach"].detach()) == pytest.approx(0.22)
+    assert stage.look == "chiaroscuro" and float(stage.params["reach"].detach()) == pytest.approx(0.2)
     # a style entry keeps the neural style and maps its palette over it at the entry's strength
     lgst.prepare(surface, "Make it a Miro painting")
     info = lgst.describe()

@@ -82,7 +82,8 @@ def _hue_share(y, lo, hi, chroma=0.3):
 
 NAMED = ("broken_strokes", "pointillist_dots", "colour_fields", "primary_grid", "gold_leaf", "chiaroscuro",
          "stained_glass", "cubist_facets", "poured_lines", "wavy_bands", "miniature", "storybook", "paper_cutouts",
-         "ben_day", "pixel_art", "glazed_tiles", "blueprint", "wax_resist", "woven_threads")
+         "ben_day", "pixel_art", "glazed_tiles", "blueprint", "wax_resist", "woven_threads", "deco_sunburst",
+         "floating_shapes", "circles_and_lines")
 
 
 @pytest.mark.parametrize("name", NAMED)
@@ -144,3 +145,86 @@ def test_a_miniature_has_fine_outlines_and_a_painted_border():
     assert float((edge - stage.params["frame"]).abs().max()) < 0.25  # the frame colour along the edge
     assert float((unframed[..., :3, :] - y[..., :3, :]).abs().mean()) > 0.05 and float(plain) == 0.0
     assert float((luminance(y) < 0.2).float().mean()) > 0.004  # fine outlines
+
+
+def _flat(size=96, value=(0.9, 0.85, 0.8)):
+    """A pale flat ground (about 90 % of it) with a few darker round spots, like the sakura texture."""
+    img = torch.tensor(value).view(1, 3, 1, 1).expand(1, 3, size, size).clone()
+    y, x = torch.meshgrid(torch.arange(size), torch.arange(size), indexing="ij")
+    for cy, cx in ((0.2, 0.7), (0.5, 0.3), (0.8, 0.6), (0.35, 0.9)):
+        spot = ((y - cy * size) ** 2 + (x - cx * size) ** 2).float().sqrt() < size * 0.07
+        img[0, :, spot] = torch.tensor((0.9, 0.5, 0.6)).view(3, 1)
+    return img
+
+
+def test_chiaroscuro_is_a_light_from_one_side_not_a_disc_and_not_black():
+    x = _flat()
+    with torch.no_grad():
+        y = luminance(BY_NAME["chiaroscuro"].make(None)(x, x))[0, 0]
+    left, right = float(y[:, :24].mean()), float(y[:, -24:].mean())
+    assert left > right + 0.25  # lit from the left, the far side in shadow
+    # a raking light reaches the image's edge: its lit edge column is lit from top to well below the middle
+    assert float(y[:60, 0].min()) > 0.5 * float(y.max())
+    assert float(y.mean()) > 0.12  # the shadow keeps a floor: a projector still has something to show
+
+
+def test_film_noir_blinds_stripe_the_light():
+    x = _flat()
+    stage = BY_NAME["chiaroscuro"].make([(0.05, 0.05, 0.05), (0.5, 0.5, 0.5), (1.0, 1.0, 1.0)])
+    with torch.no_grad():
+        plain = luminance(stage(x, x))[0, 0, :, :40]
+        stage.params["blinds"].fill_(0.8)
+        striped = luminance(stage(x, x))[0, 0, :, :40]
+    # along a column in the light the blinds alternate light and dark: fine ups and downs, not a slope
+    def wiggle(cols):
+        smooth = torch.nn.functional.avg_pool1d(cols.t()[:, None], 9, 1, 4, count_include_pad=False)[:, 0].t()
+        return float((cols - smooth)[8:-8].abs().mean())
+    assert wiggle(striped[:60]) > 3 * wiggle(plain[:60]) + 0.02
+
+
+def test_paper_cutouts_float_shapes_on_white_even_over_a_flat_ground():
+    x = _flat(128)
+    stage = BY_NAME["paper_cutouts"].make(None)
+    with torch.no_grad():
+        y = stage(x, x)
+        stage.params["scatter"].fill_(0.0)
+        fewer = stage(x, x)
+    lum = luminance(y)[0, 0]
+    white, cut = float((lum > 0.9).float().mean()), float((lum < 0.7).float().mean())
+    assert white > 0.3 and cut > 0.1
+    assert cut > float((luminance(fewer) < 0.7).float().mean()) + 0.05  # the floating shapes are `scatter`'s
+    # large sheets, not speckle: along a row a colour runs on for several pixels
+    row = (y[0, :, 64, 1:] - y[0, :, 64, :-1]).abs().sum(0) > 0.2
+    assert int(row.sum()) < 30
+
+
+def test_art_deco_has_gold_rays_dark_between_and_chevrons_along_the_foot():
+    x = _flat()
+    with torch.no_grad():
+        y = BY_NAME["deco_sunburst"].make(None)(x, x)
+    assert _hue_share(y, 35, 65, 0.25) > 0.2 and float((luminance(y) < 0.18).float().mean()) > 0.15
+    foot = luminance(y)[0, 0, -8:, :]
+    assert float(foot.max() - foot.min()) > 0.5  # gold and black stripes
+    # rays: along an arc around the sun the colour alternates many times
+    row = luminance(y)[0, 0, 20, :]
+    assert int(((row[1:] > 0.5) != (row[:-1] > 0.5)).sum()) >= 4
+
+
+def test_suprematist_shapes_float_on_white():
+    x = _scene(96)
+    with torch.no_grad():
+        y = BY_NAME["floating_shapes"].make(None)(x, x)
+    lum = luminance(y)
+    assert float((lum > 0.75).float().mean()) > 0.4  # the white ground
+    assert float((lum < 0.1).float().mean()) > 0.05  # the black square
+    assert _hue_share(y, 345, 15, 0.5) > 0.02  # a red bar
+
+
+def test_kandinsky_circles_are_rings_of_many_colours_crossed_by_black_lines():
+    x = _flat(192)
+    with torch.no_grad():
+        y = BY_NAME["circles_and_lines"].make(None)(x, x)
+    # the rings (about a sixth of the image) hold saturated red, yellow, green, blue and violet
+    families = sum(_hue_share(y, (k * 60 - 30) % 360, (k * 60 + 30) % 360, 0.3) > 0.01 for k in range(6))
+    assert families >= 4
+    assert float((luminance(y) < 0.2).float().mean()) > 0.005  # black lines

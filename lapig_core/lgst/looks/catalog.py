@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from . import crafts, glow, grading, graphic, painterly, palette, texture
+from . import crafts, geometric, glow, grading, graphic, painterly, palette, texture
 from .stage import Stage
 
 
@@ -193,6 +193,22 @@ LOOKS: tuple[Look, ...] = (
          "alternate rows offset like a weave; like a tapestry or cross-stitch.",
          ("tapestry weave", "cross-stitch", "woven threads", "needlework", "stitches"),
          crafts.woven_threads_stage, uses_colours=True),
+    Look("deco_sunburst", "medium",
+         "A sunburst of alternating cream and gold rays fanning from a gold half-sun, the image's dark "
+         "shapes flat black, navy or jade with crisp gold outlines, and a band of gold and black chevrons "
+         "along the foot; like an Art Deco poster or lobby.",
+         ("Art Deco", "sunburst", "chevrons", "streamline moderne", "1920s glamour", "gold and black geometry"),
+         geometric.deco_sunburst_stage, uses_colours=True),
+    Look("floating_shapes", "medium",
+         "Flat black squares, red and blue bars and thin tilted rectangles floating on a white ground, the "
+         "image faintly grey beneath them; like Malevich's Suprematism.",
+         ("Suprematism", "Malevich", "floating geometric shapes", "black square", "tilted bars on white"),
+         geometric.floating_shapes_stage, uses_colours=True),
+    Look("circles_and_lines", "medium",
+         "Circles of concentric coloured rings with dark halos and black straight lines and arcs crossing "
+         "soft washes of many bright colours; like Kandinsky's abstract compositions.",
+         ("Kandinsky", "concentric circles", "circles and lines", "abstract composition", "Orphism"),
+         geometric.circles_and_lines_stage, uses_colours=True),
     # -- moods ------------------------------------------------------------------------------------------
     Look("night", "mood", "Dark blue moonlight: much darker, cold blue shadows, faded colours.",
          ("night", "nocturnal", "midnight", "moonlit", "moonlight", "at night", "starry sky"), _mood("night")),

@@ -94,27 +94,43 @@ def storybook(x, p, surface=None):
     return flat_outline(x, p, simplify=0.007, line_share=0.006, grain=0.05)
 
 
-def paper_cutouts(x, p, surface=None):
-    """Shapes cut from sheets of painted paper laid on white: the image's lighter tones are the white
-    ground, the rest is cut paper; each sheet (a large irregular piece of the picture) is one colour of
-    the palette, drawn by a fixed lot weighted by `share` (the palette's leading colour most) and
-    nudged towards the image's own colour; the cut edges wobble a little."""
-    from .patterns import region_lots, voronoi
+def cutout_fields(h, w, k, device=None):
+    """k fixed smooth fields (k,H,W) whose contours are curved, organic shapes: a broad noise for the
+    body of each shape and a finer one for its lobes (leaves, fronds, seaweed), the same in the picture
+    at any resolution."""
+    return torch.cat([fixed_noise(h, w, seed=113 + i, share=0.11, device=device)
+                      + 0.45 * fixed_noise(h, w, seed=213 + i, share=0.035, device=device) for i in range(k)], 1)[0]
 
+
+def paper_cutouts(x, p, surface=None):
+    """Shapes cut with scissors from sheets of painted paper and laid on white: the image's darker
+    tones are cut paper, its lighter ones the white ground, and more shapes float on the ground
+    (`scatter`). The colour boundaries are curved: each colour owns the places where its own fixed
+    organic field is highest, weighted by `share` (the palette's leading colour most) and nudged
+    towards the image's own colour; the cut edges are crisp and lobed, never straight."""
     h, w = x.shape[-2:]
     smooth = blur(x, px(x, 0.012))
     tone = (ranked_tone(smooth) + 0.04 * fixed_noise(h, w, seed=111, share=0.02, device=x.device)).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
     paper, inks = cs[-1], cs[:-1]
     k = inks.shape[0]
-    ids, _, _, _, n, keys = voronoi(h, w, 0.14, 113, x.device)
-    lots = -torch.log(-torch.log(region_lots(n, 114, keys, k).clamp(1e-6, 1 - 1e-6))).to(x.device)  # fixed Gumbel
-    mean = region_mean_sat(smooth, ids, n)
-    own = -((mean.view(n, 1, 3) - inks.view(1, k, 3)) ** 2).sum(-1) * 4 * p["hue_weight"].clamp(0, 1)
-    logits = (torch.log(p["share"].clamp(1e-3, 1)).view(1, k) + lots + own) * p["sharpness"].clamp(1, 50) / 4
-    sheet = torch.einsum("nk,kc->nc", torch.softmax(logits, dim=1), inks)[ids].permute(2, 0, 1).unsqueeze(0)
-    ground = torch.sigmoid((tone - (1 - p["ground"].clamp(0.05, 0.9))) * 40)  # cut edges: crisp
-    return paper.view(1, 3, 1, 1) * ground + sheet * (1 - ground)
+    fields = cutout_fields(h, w, k, x.device).unsqueeze(0)  # (1,k,H,W)
+    broad = torch.cat([fixed_noise(h, w, seed=313 + i, share=0.16, device=x.device) for i in range(k)], 1)
+    sat = saturate(smooth, 1.5).clamp(0, 1)
+    own = -((sat.unsqueeze(1) - inks.view(1, k, 3, 1, 1)) ** 2).sum(2) * 2 * p["hue_weight"].clamp(0, 1)
+    # which colour: large curved areas (the broad fields, their edges lobed a little by the fine ones)
+    logits = (torch.log(p["share"].clamp(1e-3, 1)).view(1, k, 1, 1) + 2.0 * broad + 0.5 * fields + own) \
+        * p["sharpness"].clamp(1, 50)
+    sheet = torch.einsum("bkhw,kc->bchw", torch.softmax(logits, dim=1), inks)
+    cut = 1 - torch.sigmoid((tone - (1 - p["ground"].clamp(0.05, 0.9))) * 40)  # cut edges: crisp
+    out = paper.view(1, 3, 1, 1) * (1 - cut) + sheet * cut
+    # shapes of each colour floating on the white, where its own field rises above `scatter`'s level
+    # (the leading colour's level is lower: more of its shapes)
+    level = 1.1 - p["scatter"].clamp(0, 1) - 0.35 * torch.log(p["share"].clamp(1e-3, 1) * k)
+    for i in range(k):
+        shape = torch.sigmoid((fields[:, i:i + 1] - level[i]) * 30) * (1 - cut)
+        out = out * (1 - shape) + inks[i].view(1, 3, 1, 1) * shape
+    return out
 
 
 def region_mean_sat(x, ids, n):
@@ -160,14 +176,14 @@ def paper_cutouts_stage(colours=None) -> Stage:
     cs = sorted_palette(given, CUTOUTS)
     if len(cs) < 2:
         cs = list(cs) + [(1.0, 1.0, 1.0)]
-    # each colour's share of the sheets: the first named (the leading colour) twice the others
+    # each colour's share of the sheets: the first named (the leading colour) three times the others
     order = [min(range(len(given)), key=lambda i: sum((a - b) ** 2 for a, b in zip(given[i], c))) for c in cs[:-1]]
-    share = [2.0 if i == 0 else 1.0 for i in order]
+    share = [3.0 if i == 0 else 1.0 for i in order]
     share = [v / sum(share) for v in share]
     return Stage("paper_cutouts", "medium", paper_cutouts,
                  {"colours": tensor(cs), "share": tensor(share), "sharpness": tensor(20.0),
-                  "hue_weight": tensor(0.3), "ground": tensor(0.45)},
-                 {"colours": 0.2, "share": 0.1, "sharpness": 5.0, "hue_weight": 0.2, "ground": 0.1},
+                  "hue_weight": tensor(0.3), "ground": tensor(0.45), "scatter": tensor(0.35)},
+                 {"colours": 0.2, "share": 0.1, "sharpness": 5.0, "hue_weight": 0.2, "ground": 0.1, "scatter": 0.15},
                  note="named colours" if colours else "ultramarine, red, yellow, green on white")
 
 

@@ -250,37 +250,72 @@ def gold_leaf_stage(colours=None) -> Stage:
 
 
 # -- chiaroscuro (Rembrandt, Caravaggio, Vermeer) ------------------------------------------------------
-def chiaroscuro(x, p, surface=None):
-    """One warm light falls on part of the image (its place and reach are parameters); the rest sinks
-    into the palette's darkest colour; tones are mapped dark to light through the palette."""
-    h, w = x.shape[-2:]
-    ys, xs = coords(h, w, x.device)
+WARM = (1.0, 0.78, 0.45)
+
+
+def side_light(h, w, p, device):
+    """Light from one side (1,1,H,W) in [0,1]: full on the near side of a line through (light_x, light_y),
+    reaching `reach` further in the direction `light_angle` (radians, 0 = light from the left, going
+    right; positive turns it downwards) and falling off over `soften`, and slowly across it, so it is a
+    raking light with an edge, not a disc;
+    `blinds` casts the stripes of a venetian blind across it."""
+    ys, xs = coords(h, w, device)
     t, s = ys / (h / max(h, w)), xs / (w / max(h, w))
-    r2 = (s - p["light_x"]) ** 2 + ((t - p["light_y"]) * 1.1) ** 2
-    pool = torch.exp(-r2 / (2 * p["reach"].clamp(0.08, 1.0) ** 2)).view(1, 1, h, w)
+    a = p["light_angle"]
+    along = (s - p["light_x"]) * torch.cos(a) + (t - p["light_y"]) * torch.sin(a)
+    across = -(s - p["light_x"]) * torch.sin(a) + (t - p["light_y"]) * torch.cos(a)
+    reach = p["reach"].clamp(0.08, 1.5)
+    soft = p["soften"].clamp(0.02, 0.5)
+    light = torch.sigmoid((reach - along) / soft) * torch.exp(-across ** 2 / (2 * (3 * reach) ** 2))
+    if "blinds" in p:
+        slats = torch.sigmoid(torch.sin(2 * 3.1416 * (along * 0.6 + across) / 0.07) * 6)
+        light = light * (1 - p["blinds"].clamp(0, 1) * slats)
+    return light.view(1, 1, h, w)
+
+
+def chiaroscuro(x, p, surface=None):
+    """One light falls from one side across the image (its place, direction and reach are parameters);
+    the far side sinks towards the palette's darkest colour but keeps a `floor` of light, so a
+    projector still has something to show; tones are mapped dark to light through the palette, and the
+    lit side is warmed (`warmth`) as by candle or window light and its tones raised (`lift`)."""
+    h, w = x.shape[-2:]
+    light = side_light(h, w, p, x.device)
     smooth = blur(x, px(x, 0.004))
-    lit = stretched_luminance(smooth) * (p["floor"].clamp(0, 1) + (1 - p["floor"].clamp(0, 1)) * pool)
-    tone = lit.clamp(1e-4, 1) ** p["gamma"].clamp(0.3, 3.0)
+    floor = p["floor"].clamp(0, 1)
+    shade = floor + (1 - floor) * light
+    # the image's own tones through the palette, as if all of it were lit ...
+    tone = stretched_luminance(smooth).clamp(1e-4, 1) ** p["gamma"].clamp(0.3, 3.0)
+    tone = tone + p["lift"].clamp(0, 1) * light * (1 - tone)  # what the light falls on takes the light colours
     cs = p["colours"].clamp(0, 1)
     # soft plateaus at each colour, so most pixels are a colour of the palette, not a blend of two
     ends = soft_steps(torch.tensor([0.0, 1.0], device=x.device), cs.shape[0], 4.0)
     mapped = ramp((soft_steps(tone, cs.shape[0], 4.0) - ends[0]) / (ends[1] - ends[0]), cs)
     if "hue_weight" in p:  # the lit colours may also follow the image's own (a blue cloth stays blue)
         own = palette_inks(saturate(smooth, 1.5).clamp(0, 1), tone, cs, tone.new_tensor(8.0), p["hue_weight"])
-        mapped = mapped + (own - mapped) * p["hue_weight"].clamp(0, 1) * pool
+        mapped = mapped + (own - mapped) * p["hue_weight"].clamp(0, 1) * light
+    if "warmth" in p:
+        warm = mapped * tensor(WARM).to(x.device).view(1, 3, 1, 1) * 1.15
+        mapped = mapped + (warm - mapped) * p["warmth"].clamp(0, 1) * light
+    # ... then shaded: away from the light each colour sinks into the darkest one (no rainbow of the
+    # palette across the edge of the light)
+    mapped = cs[0].view(1, 3, 1, 1) + (mapped - cs[0].view(1, 3, 1, 1)) * shade
+    tone = tone * shade
     d = p["detail"].clamp(0, 1)
     return mapped * (1 - d) + d * smooth * tone / (luminance(smooth) + 0.05) * 0.5
 
 
 def chiaroscuro_stage(colours=None) -> Stage:
-    cs = sorted_palette(colours, REMBRANDT)
+    # dark to light by luminance (what a tone ramp needs: burnt sienna is lighter than gold in HLS
+    # lightness, but darker to the eye, and the light must fall in gold)
+    cs = sorted(sorted_palette(colours, REMBRANDT), key=lambda c: 0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2])
     if luminance(torch.tensor(cs[0]).view(1, 3, 1, 1)).item() > 0.12:
         cs = [(0.03, 0.025, 0.02)] + list(cs)  # the dark the light falls out of
     return Stage("chiaroscuro", "medium", chiaroscuro,
-                 {"colours": tensor(cs), "light_x": tensor(0.4), "light_y": tensor(0.38), "reach": tensor(0.3),
-                  "floor": tensor(0.12), "gamma": tensor(1.25), "detail": tensor(0.2), "hue_weight": tensor(0.0)},
-                 {"colours": 0.2, "light_x": 0.1, "light_y": 0.1, "reach": 0.08, "floor": 0.08, "gamma": 0.25,
-                  "detail": 0.15, "hue_weight": 0.2},
+                 {"colours": tensor(cs), "light_x": tensor(0.3), "light_y": tensor(0.3), "light_angle": tensor(0.6),
+                  "reach": tensor(0.25), "soften": tensor(0.08), "floor": tensor(0.15), "gamma": tensor(1.1), "detail": tensor(0.2),
+                  "hue_weight": tensor(0.0), "warmth": tensor(0.2), "blinds": tensor(0.0), "lift": tensor(0.35)},
+                 {"colours": 0.2, "light_x": 0.1, "light_y": 0.1, "light_angle": 0.3, "reach": 0.08, "soften": 0.04,
+                  "floor": 0.08, "gamma": 0.25, "detail": 0.15, "hue_weight": 0.2, "warmth": 0.15, "blinds": 0.2, "lift": 0.15},
                  note="named colours" if colours else "umber, ochre and gold out of black")
 
 
@@ -379,14 +414,22 @@ MUNCH = ((0.0, 0.19, 0.33), (0.53, 0.03, 0.03), (0.33, 0.42, 0.18), (1.0, 0.65, 
 
 def wavy_bands(x, p, surface=None):
     """Long undulating bands of the palette's colours running through the whole image, bent by its
-    tones, with streaks along them; like the sky of Munch's Scream."""
+    tones, with streaks along them; like the sky of Munch's Scream; below a wavy horizon (`horizon`) they sink
+    (`fjord`) into the palette's darkest colours, the dark water under that sky."""
     h, w = x.shape[-2:]
     ys, xs = coords(h, w, x.device)
     warp = fixed_noise(h, w, seed=151, share=0.15, device=x.device)
-    wave = torch.sin(2 * 3.1416 * (ys * 5 + xs * 1.2 + 0.9 * warp)).view(1, 1, h, w)
+    phase = ys * 5 + xs * 1.2 + 0.9 * warp
+    # a triangle wave: every colour of the palette gets an equal band (a sine lingers at its ends)
+    wave = (2 * (2 * (phase - torch.floor(phase)) - 1).abs() - 1).view(1, 1, h, w)
     smooth = blur(x, px(x, 0.006))
     swirl = p["swirl"].clamp(0, 1)
     tone = (ranked_tone(smooth) * (1 - swirl) + swirl * (0.5 + 0.5 * wave)).clamp(0, 1)
+    if "fjord" in p:  # below a wavy horizon the bands sink into the darkest colour (the Scream's fjord)
+        t = (ys / (h / max(h, w))).view(1, 1, h, 1)
+        below = torch.sigmoid((t - p["horizon"].clamp(0.1, 0.95) + 0.04 * wave) / 0.03)
+        water = (1 - p["fjord"].clamp(0, 1)) * (0.5 + 0.5 * wave)  # its own waves, in the darkest colours
+        tone = tone * (1 - below) + water * below
     cs = p["colours"].clamp(0, 1)
     ink = palette_inks(saturate(smooth, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     streaks = directional_noise(h, w, seed=152, share=0.005, length=0.03, device=x.device)
@@ -397,6 +440,6 @@ def wavy_bands(x, p, surface=None):
 def wavy_bands_stage(colours=None) -> Stage:
     return Stage("wavy_bands", "medium", wavy_bands,
                  {"colours": _palette(colours, MUNCH), "swirl": tensor(0.7), "sharpness": tensor(6.0),
-                  "hue_weight": tensor(0.1), "detail": tensor(0.12)},
-                 {**INK_SCALES, "swirl": 0.15},
+                  "hue_weight": tensor(0.1), "detail": tensor(0.12), "horizon": tensor(0.58), "fjord": tensor(0.8)},
+                 {**INK_SCALES, "swirl": 0.15, "horizon": 0.08, "fjord": 0.2},
                  note="named colours" if colours else "Munch's orange, red, blue and green")

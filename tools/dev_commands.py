@@ -17,7 +17,7 @@ from ..lapig_addon.cli.output import print_json
 BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui", "frame": "frame",
               "preview": "preview", "prompts": "prompts", "style-images": "style_images",
               "transport": "transport", "learned-variants": "learned_variants",
-              "pcnet-through": "pcnet_through", "hardware": "hardware"}
+              "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine"}
 
 
 def _ensure_registered():
@@ -154,6 +154,12 @@ def add_parsers(sub):
     bench.add_argument("--pair-counts", type=lambda t: [int(n) for n in t.split(",")], default=[125, 8],
                        help="transport: CompenNeSt fine-tuning pair counts (default 125,8: the first is the app's, "
                             "all the captured pairs; 8 is the paper's)")
+    bench.add_argument("--refine-data", default="out/refine_data",
+                       help="refine: data set root of the refinement's setups (rendered when missing)")
+    bench.add_argument("--refine-iterations", type=int, default=6,
+                       help="refine: the cap on refinement steps (default 6)")
+    bench.add_argument("--machine-speed", action="store_true",
+                       help="refine: run ../shared/machine_speed.py after the figures and put its torch_step_s in the JSON")
     bench.add_argument("--lens-radius-mm", type=float, default=60.0,
                        help="transport: the projector's lens radius for the defocus figure (default 60)")
     bench.add_argument("--min-blur-px", type=float, default=1.0,

@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from ...lapig_addon.blender.cycles_factory import CyclesDeviceFactory
-from ...lapig_addon.services.projection import project_and_capture
+from ...lapig_addon.services.projection import projection_session
 from ...lapig_core.common.atomic import atomic_write_bytes
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.sheets import labelled_grid
@@ -61,22 +61,21 @@ def one_setup(args, data, spec, out) -> dict:
     scene, projector, camera, target = syn.build_setup(spec, os.path.join(data, "textures"))
     devices = CyclesDeviceFactory(scene, projector, camera, target)
     setup_dir = syn.layout(data, spec.name).setup_dir
-    seeds = iter(range(1000, 10 ** 6))
-
-    def capture(images, repeats=1):
-        """Registered captures, image-major; every repeat its own render seed (a new noise draw)."""
-        rounds = [project_and_capture(devices, setup_dir, images, seed=next(seeds))[0] for _ in range(repeats)]
-        return np.stack(rounds, axis=1).reshape((-1,) + rounds[0].shape[1:])
-
     clipped_images = model.compensate(targets)
     t0 = time.perf_counter()
     box_images = box_compensate(model, targets)
     box_s = time.perf_counter() - t0
-    clipped = capture(clipped_images)
-    refinement = Refinement(model, targets, cs.cam_black, cs.cam_white, mask, box_images,
-                            RefineSettings(iterations=args.refine_iterations))
-    record = run_loop(refinement, capture)
-    refined = capture(refinement.images)  # a fresh seed: the figure is not the loop's own pick
+    # the rig opened once (as Refine on the rig does); every capture round a new Cycles seed (vary_noise)
+    with projection_session(devices, setup_dir, seed=1000) as rig:
+        def capture(images, repeats=1):
+            rounds = [rig.capture(images)[0] for _ in range(repeats)]
+            return np.stack(rounds, axis=1).reshape((-1,) + rounds[0].shape[1:])
+
+        clipped = capture(clipped_images)
+        refinement = Refinement(model, targets, cs.cam_black, cs.cam_white, mask, box_images,
+                                RefineSettings(iterations=args.refine_iterations))
+        record = run_loop(refinement, capture)
+        refined = capture(refinement.images)  # a fresh noise draw: the figure is not the loop's own pick
     rounds = len(record.history)
     row = {
         "open_loop_clipped_psnr": round(masked_psnr(clipped, reachable, mask), 4),

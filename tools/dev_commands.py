@@ -71,6 +71,8 @@ def add_parsers(sub):
     ranged_option(ev, "--iterations", "finetune_iterations",
                   "fine-tuning iterations per network (default: the CPU recipe's); fewer: rough but quick")
     ev.add_argument("--verbose", action="store_true", help="print training progress")
+    ranged_option(ev, "--refine", "refine_iterations", "also refine the PSA look's projector image on the rig, at "
+                  "most N steps, and write with_refine beside with_psa in metrics.json (default 0: no)", default=0)
     ranged_option(ev, "--adaptation", "psa_adaptation", "PSA adaptation, 0 keep my look .. 1 whatever the surface "
                   "can show (default 0.5)", default=0.5, type=float)
     ev.add_argument("--projector", type=pixels, default=(800, 600), help="projector resolution (default 800x600)")
@@ -234,6 +236,7 @@ def cmd_eval(args) -> int:
     summary = evaluate.run(args)
     print(f"Look at {summary['sheet']}")
     keys = ("with_psa", "without_psa", "native", "style_retention", "surface_reach", "timings", "sheet")
+    keys += ("with_refine",) if "with_refine" in summary else ()
     print_json({k: summary[k] for k in keys})
     return 0
 

@@ -98,27 +98,13 @@ class RefineResultJob(Job):
             refinement = Refinement(model, target, cs.cam_black, cs.cam_white, valid, start, self.settings)
         except RefineError as exc:
             raise PipelineError(str(exc)) from None
-        devices, cap = self.seams.devices, self.settings.iterations
+        devices = self.seams.devices
+        native_image = read_result_image(folder, native_name) if native_name else None
         held = hold_capture(capture, self.title)  # no capture may replace the setup while the rig refines
 
         def loop():
-            with projection_session(devices, capture, bit_depth=self.seams.store.export_settings().bit_depth) as rig:
-                while not refinement.done:
-                    images, repeats = refinement.request()
-                    rounds = [rig.capture(images)[0] for _ in range(repeats)]
-                    refinement.take(np.stack(rounds, axis=1).reshape((-1,) + rounds[0].shape[1:]))
-                    rec = refinement.record
-                    yield 0.05 + 0.85 * min(rec.iterations, cap) / (cap + 1), \
-                        f"refining on the rig: step {rec.iterations}/{cap}, {rec.history[-1]:.1f} dB " \
-                        f"(noise floor {rec.noise_floor_psnr:.1f})"
-                native = None
-                if native_name:  # the native image with the loop's correction, captured once to measure it
-                    native = refine_native(read_result_image(folder, native_name), refinement.linear_correction()[0],
-                                           model.gamma_p)
-                    yield 0.92, "capturing the refined native image"
-                    measured = rig.capture([native])[0]
-                    native = (native, masked_psnr(measured, refinement.target, valid))
-                return native
+            return (yield from refine_rounds(devices, capture, refinement, valid, native_image,
+                                             self.seams.store.export_settings().bit_depth))
 
         try:
             native = yield from self.drive(loop, devices.main_thread)
@@ -152,6 +138,38 @@ class RefineResultJob(Job):
         # the preview and the live sinks show the refined image, as Export will write it
         self.seams.show(result_frame(store, folder, store.export_settings().bit_depth))
         return {"folder": folder, "refine": record, "line": line.lstrip("; ")}
+
+
+def refine_rounds(devices, capture: str, refinement: Refinement, valid, native_image=None, bit_depth: int = 8):
+    """A generator of (progress, message) that runs `refinement` on the rig of `capture` (opened once, closed on
+    exit, cancel included); it returns (the native image refined, its capture's PSNR against the reachable
+    target) where native_image (the result's native projector image) is given, else None."""
+    cap = refinement.settings.iterations
+    with projection_session(devices, capture, bit_depth=bit_depth) as rig:
+        while not refinement.done:
+            images, repeats = refinement.request()
+            rounds = [rig.capture(images)[0] for _ in range(repeats)]
+            refinement.take(np.stack(rounds, axis=1).reshape((-1,) + rounds[0].shape[1:]))
+            rec = refinement.record
+            yield 0.05 + 0.85 * min(rec.iterations, cap) / (cap + 1), \
+                f"refining on the rig: step {rec.iterations}/{cap}, {rec.history[-1]:.1f} dB " \
+                f"(noise floor {rec.noise_floor_psnr:.1f})"
+        if native_image is None:
+            return None
+        # the native image with the loop's correction, captured once to measure it
+        native = refine_native(native_image, refinement.linear_correction()[0], refinement.model.gamma_p)
+        yield 0.92, "capturing the refined native image"
+        measured = rig.capture([native])[0]
+        return native, masked_psnr(measured, refinement.target, valid)
+
+
+def run_rounds(rounds):
+    """Run a refine_rounds generator to its end, outside a job (the eval command); its return value."""
+    while True:
+        try:
+            next(rounds)
+        except StopIteration as done:
+            return done.value
 
 
 def _with_refine(line: str, refined: str) -> str:

@@ -43,8 +43,13 @@ def _log(args, msg):
 
 
 def specs_of(args) -> list:
-    every = list(syn.REALISTIC_SETUPS) + [DEMO_WALL]
-    return [s for s in every if not args.realistic_setups or s.name in args.realistic_setups]
+    every = {s.name: s for s in list(syn.REALISTIC_SETUPS) + [DEMO_WALL]}
+    if not args.realistic_setups:
+        return list(every.values())
+    unknown = [n for n in args.realistic_setups if n not in every]
+    if unknown:
+        raise ValueError(f"unknown setup {', '.join(unknown)}; known: {', '.join(every)}")
+    return [every[n] for n in args.realistic_setups]  # in the order named: slow ones can go last
 
 
 def error_image(capture, target, mask):

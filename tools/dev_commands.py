@@ -160,6 +160,8 @@ def add_parsers(sub):
                        help="refine: data set root of the refinement's setups (rendered when missing)")
     bench.add_argument("--refine-iterations", type=int, default=6,
                        help="refine: the cap on refinement steps (default 6)")
+    bench.add_argument("--refine-damping", type=float, default=0.8,
+                       help="refine: the step's damping at first (default 0.8, the app's)")
     bench.add_argument("--machine-speed", action="store_true",
                        help="refine: run ../shared/machine_speed.py after the figures and put its torch_step_s in the JSON")
     bench.add_argument("--lens-radius-mm", type=float, default=60.0,

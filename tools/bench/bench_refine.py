@@ -56,6 +56,29 @@ def error_image(capture, target, mask):
     return np.where(mask[..., None], np.clip(np.abs(capture - target) * 4, 0, 1), 0).astype(np.float32)
 
 
+def _psnr_where(caps, target, where):
+    """Masked PSNR over the (N, H, W) selection; None where it selects nothing."""
+    if not where.any():
+        return None
+    err = ((caps.astype(np.float64) - target) ** 2).mean(-1)[where].mean()
+    return round(float(10 * np.log10(1.0 / err)), 4) if err > 0 else None
+
+
+def crop_sheet(name, target, open_loop, refined, mask):
+    """The object's bounding box, twice the size: target | open loop | refined, errors x8 below."""
+    import cv2
+
+    ys, xs = np.nonzero(mask)
+    box = (slice(ys.min(), ys.max() + 1), slice(xs.min(), xs.max() + 1))
+    up = lambda im: cv2.resize(np.ascontiguousarray(im[box]), None, fx=2, fy=2,  # noqa: E731
+                               interpolation=cv2.INTER_NEAREST)
+    err = lambda im: np.where(mask[..., None], np.clip(np.abs(im - target) * 8, 0, 1), 0)  # noqa: E731
+    change = np.where(mask[..., None], np.clip(np.abs(refined - open_loop) * 8, 0, 1), 0)
+    return labelled_grid([up(target), up(open_loop), up(refined), up(change), up(err(open_loop)), up(err(refined))],
+                         ["target", "open loop (clipped classical)", "refined on the rig", "what refinement changed x8",
+                          "open-loop error x8", "refined error x8"], columns=3, cell=420, title=f"{name}: rendered captures, object crop")
+
+
 def one_setup(args, data, spec, out) -> dict:
     cs = syn.load_setup(data, spec.name)
     mask = reachable_mask(cs.cam_black, cs.cam_white)
@@ -78,8 +101,17 @@ def one_setup(args, data, spec, out) -> dict:
 
         clipped = capture(clipped_images)
         refinement = Refinement(model, targets, cs.cam_black, cs.cam_white, mask, box_images,
-                                RefineSettings(iterations=args.refine_iterations))
-        record = run_loop(refinement, capture)
+                                RefineSettings(iterations=args.refine_iterations,
+                                                               damping=args.refine_damping))
+        first = []
+
+        def loop_capture(images, repeats):
+            got = capture(images, repeats)
+            if not first:  # the box solve's first capture (the noise pair's first of each image)
+                first.append(got[::repeats])
+            return got
+
+        record = run_loop(refinement, loop_capture)
         refined = capture(refinement.images)  # a fresh noise draw: the figure is not the loop's own pick
     rounds = len(record.history)
     row = {
@@ -96,12 +128,23 @@ def one_setup(args, data, spec, out) -> dict:
         "projector_size": [(cs.meta.get("projector") or {}).get(k) for k in ("width", "height")],
     }
     # a round captures every target (repeats times): the seconds of one iteration for the whole batch
+    # where the model says the clamped target is reachable (the box solve needs no bound): the part the
+    # goal's "every pixel reachable" is about; the rest is out of the projector's reach whatever it shows
+    reach = model.reachable(reachable) & mask[None]
+    row["reachable_after_clamp_share"] = round(float(reach.sum() / max(1, mask.sum() * count)), 4)
+    for key, caps in (("open_loop_clipped", clipped), ("box_solve", first[0]), ("refined", refined)):
+        row[f"{key}_psnr_reachable"] = _psnr_where(caps, reachable, reach)
+        row[f"{key}_psnr_unreachable"] = _psnr_where(caps, reachable, mask[None] & ~reach)
     row["seconds_per_iteration"] = round(record.seconds / max(1, rounds), 2)
     row["seconds_per_capture"] = round(record.seconds / max(1, record.captures), 3)
     row["box_solve_gain_db"] = round(row["box_solve_psnr"] - row["open_loop_clipped_psnr"], 4)
     row["refine_gain_db"] = round(row["refined_psnr"] - row["open_loop_clipped_psnr"], 4)
     row["refined_minus_floor_db"] = round(row["refined_psnr"] - row["noise_floor_psnr"], 4)
     i = 0
+    write_png(os.path.join(out, f"refine_{spec.name}_crop.png"), crop_sheet(spec.name, reachable[i], clipped[i],
+                                                                           refined[i], mask))
+    for name, im in (("target", reachable[i]), ("open_loop", clipped[i]), ("refined", refined[i])):
+        write_png(os.path.join(out, f"refine_{spec.name}_{name}.png"), im, bit_depth=16)
     sheet = labelled_grid([reachable[i], clipped[i], refined[i], error_image(clipped[i], reachable[i], mask),
                            error_image(refined[i], reachable[i], mask)],
                           ["target (reachable)", f"open loop {masked_psnr(clipped[i:i + 1], reachable[i:i + 1], mask):.1f} dB",
@@ -136,7 +179,7 @@ def run(args) -> dict:
         "open_loop": "the classical compensation clipped in projector space (the app's classical solve before)",
         "start": "the box-constrained classical solve", "per_setup": per_setup, "setups": [s.name for s in specs],
         "train_pairs": args.train_pairs, "targets_per_setup": args.compensate,
-        "refine_iterations_cap": args.refine_iterations, "bench_total_s": round(time.perf_counter() - t0, 1),
+        "refine_iterations_cap": args.refine_iterations, "refine_damping": args.refine_damping, "bench_total_s": round(time.perf_counter() - t0, 1),
         "machine": platform.processor() or platform.machine(), "sheets": out})
     if args.machine_speed:
         summary["torch_step_s"] = machine_speed()

@@ -13,6 +13,7 @@ import json
 import os
 import time
 
+import cv2
 import numpy as np
 
 from ..lapig_core.common import metrics
@@ -120,22 +121,26 @@ def evaluate_refine(cs, models, rig_objects, setup_dir, images, iterations) -> t
     refinement = Refinement(model, target, cs.cam_black, cs.cam_white, valid, images["projector_images"][1],
                             RefineSettings(iterations=iterations))
     devices = CyclesDeviceFactory(*rig_objects)
-    native = images.get("native")
     t = time.perf_counter()
-    refined_native = run_rounds(refine_rounds(devices, setup_dir, refinement, valid,
-                                              native["projector_image"] if native else None))
+    run_rounds(refine_rounds(devices, setup_dir, refinement))
     seconds = time.perf_counter() - t
     projector_image = refinement.images[0]
     captured = render_working_images(*rig_objects, setup_dir, projector_image[None], seed=97)[0]
     out = {**{k: round(v, 4) for k, v in metrics.evaluate(captured, target).items()},
            "refine": refinement.record.to_dict(), "seconds": round(seconds, 2)}
     extra = {"projector_image": projector_image, "captured": captured}
-    if refined_native is not None:
-        w, h = native["target"].shape[1], native["target"].shape[0]
-        _, raw = render_working_images(*rig_objects, setup_dir, refined_native[0][None], return_raw=True, seed=98)
+    native = images.get("native")
+    if native is not None:  # the native output refined itself, captured at native size as evaluate_native does
+        h, w = native["target"].shape[:2]
+        small = cv2.resize(native["target"], (target.shape[1], target.shape[0]), interpolation=cv2.INTER_AREA)
+        on_native = Refinement(model, small, cs.cam_black, cs.cam_white, valid, None,
+                               RefineSettings(iterations=iterations), native_start=native["projector_image"])
+        run_rounds(refine_rounds(devices, setup_dir, on_native))
+        _, raw = render_working_images(*rig_objects, setup_dir, on_native.images, return_raw=True, seed=98)
         cap_native, on = register_at(setup_dir, raw[0], w, h)
         out["native_psnr"] = round(metrics.masked_psnr(cap_native, native["target"], on), 4)
-        extra.update(native_projector_image=refined_native[0], native_captured=cap_native)
+        out["native_refine"] = on_native.record.to_dict()
+        extra.update(native_projector_image=on_native.images[0], native_captured=cap_native)
     return out, extra
 
 

@@ -8,8 +8,7 @@ go into the result folder under names of their own, then result.json, written la
 """
 from __future__ import annotations
 
-import math
-
+import cv2
 import numpy as np
 
 from ...lapig_core.capture.dataset import DatasetError, load_capture_set, setup_dir_of
@@ -19,8 +18,7 @@ from ...lapig_core.photometric import choice as compensator_choice
 from ...lapig_core.photometric.classical import ClassicalModel
 from ...lapig_core.photometric.targets import reachable_mask
 from ...lapig_core.refine.check import RegistrationCheckError
-from ...lapig_core.refine.loop import Refinement, RefineError, RefineSettings, masked_psnr
-from ...lapig_core.refine.native import refine_native
+from ...lapig_core.refine.loop import Refinement, RefineError, RefineSettings
 from . import panel_state
 from .export_result import result_frame
 from .jobs import Job
@@ -87,42 +85,48 @@ class RefineResultJob(Job):
         yield 0.02, "reading the result and the setup's model"
         model = classical_of(capture)
         names = refined_images(folder, summary)
-        start = read_result_image(folder, names.get("projector_working", "projector"))
-        target = read_result_image(folder, "target")  # PSA's adapted target, at the working frame
         valid = reachable_mask(cs.cam_black, cs.cam_white)
         if cs.projector_valid is not None:
             valid &= cs.projector_valid
+        native = None  # the native output is what the projector shows: refine it, where the result has one
         native_name = names.get("projector") if names.get("projector", "").endswith(NATIVE) else None
         native_name = native_name or ("projector" + NATIVE if _has(folder, "projector" + NATIVE) else None)
+        if native_name and _has(folder, "target" + NATIVE):
+            native = read_result_image(folder, native_name)
+            h, w = cs.cam_black.shape[:2]  # its look, averaged onto the working frame the captures are registered at
+            target = cv2.resize(read_result_image(folder, "target" + NATIVE), (w, h), interpolation=cv2.INTER_AREA)
+            start = None
+        else:
+            target = read_result_image(folder, "target")  # PSA's adapted target, at the working frame
+            start = read_result_image(folder, names.get("projector_working", "projector"))
         try:
-            refinement = Refinement(model, target, cs.cam_black, cs.cam_white, valid, start, self.settings)
+            refinement = Refinement(model, target, cs.cam_black, cs.cam_white, valid,
+                                    start, self.settings, native_start=native)
         except RefineError as exc:
             raise PipelineError(str(exc)) from None
         devices = self.seams.devices
-        native_image = read_result_image(folder, native_name) if native_name else None
         held = hold_capture(capture, self.title)  # no capture may replace the setup while the rig refines
 
         def loop():
-            return (yield from refine_rounds(devices, capture, refinement, valid, native_image,
-                                             self.seams.store.export_settings().bit_depth))
+            return (yield from refine_rounds(devices, capture, refinement, self.seams.store.export_settings().bit_depth))
 
         try:
-            native = yield from self.drive(loop, devices.main_thread)
+            yield from self.drive(loop, devices.main_thread)
         except (CaptureError, RegistrationCheckError, RefineError) as exc:
             raise PipelineError(str(exc)) from None
         finally:
             held.release()
-        yield 0.95, "writing the refined result"
-        self.result = self._write(folder, summary, refinement, native)
+        yield 0.96, "writing the refined result"
+        self.result = self._write(folder, summary, refinement)
 
-    def _write(self, folder, summary, refinement, native):
+    def _write(self, folder, summary, refinement):
         record = refinement.record.to_dict()
-        images = {REFINED: refinement.images[0]}
+        record["frame"] = "native" if refinement.native is not None else "working"  # which image was captured
+        images = {REFINED: refinement.working_images[0]}
         chosen = {"projector_working": REFINED, "projector": REFINED}
-        if native is not None:
-            images[REFINED + NATIVE] = native[0]
+        if refinement.native is not None:
+            images[REFINED + NATIVE] = refinement.images[0]
             chosen["projector"] = REFINED + NATIVE
-            record["refined_native_psnr"] = None if not math.isfinite(native[1]) else round(native[1], 3)
         record["images"] = chosen
         summary["refine"] = record
         summary["summary_line"] = _with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
@@ -140,10 +144,9 @@ class RefineResultJob(Job):
         return {"folder": folder, "refine": record, "line": line.lstrip("; ")}
 
 
-def refine_rounds(devices, capture: str, refinement: Refinement, valid, native_image=None, bit_depth: int = 8):
+def refine_rounds(devices, capture: str, refinement: Refinement, bit_depth: int = 8):
     """A generator of (progress, message) that runs `refinement` on the rig of `capture` (opened once, closed on
-    exit, cancel included); it returns (the native image refined, its capture's PSNR against the reachable
-    target) where native_image (the result's native projector image) is given, else None."""
+    exit, cancel included); its record says what it did."""
     cap = refinement.settings.iterations
     with projection_session(devices, capture, bit_depth=bit_depth) as rig:
         while not refinement.done:
@@ -151,16 +154,9 @@ def refine_rounds(devices, capture: str, refinement: Refinement, valid, native_i
             rounds = [rig.capture(images)[0] for _ in range(repeats)]
             refinement.take(np.stack(rounds, axis=1).reshape((-1,) + rounds[0].shape[1:]))
             rec = refinement.record
-            yield 0.05 + 0.85 * min(rec.iterations, cap) / (cap + 1), \
-                f"refining on the rig: step {rec.iterations}/{cap}, {rec.history[-1]:.1f} dB " \
+            yield 0.05 + 0.9 * min(rec.iterations, cap) / (cap + 1), \
+                f"refining on the rig: step {rec.iterations}/{cap}, last capture {rec.history[-1]:.1f} dB " \
                 f"(noise floor {rec.noise_floor_psnr:.1f})"
-        if native_image is None:
-            return None
-        # the native image with the loop's correction, captured once to measure it
-        native = refine_native(native_image, refinement.linear_correction()[0], refinement.model.gamma_p)
-        yield 0.92, "capturing the refined native image"
-        measured = rig.capture([native])[0]
-        return native, masked_psnr(measured, refinement.target, valid)
 
 
 def run_rounds(rounds):

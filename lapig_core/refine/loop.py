@@ -31,6 +31,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from ..photometric.box_solve import box_compensate_linear, response_weights
@@ -105,14 +106,19 @@ class Refinement:
     (on the object, where the registration holds); start (N,H,W,3) the open-loop projector images.
     """
 
-    def __init__(self, model: ClassicalModel, targets, black, white, valid, start, settings=RefineSettings()):
+    def __init__(self, model: ClassicalModel, targets, black, white, valid, start, settings=RefineSettings(),
+                 native_start=None):
+        """native_start (N,Hn,Wn,3): refine the native-resolution output itself. The native images are
+        projected; the loop measures and steps at the working frame (where the registration and the model
+        are), and each step's change of light (linear units) is resampled bilinearly onto the native image, so its
+        detail stays and its captures, not the working image's, are what the loop corrects. `start` is then
+        ignored: the working state is the native light averaged down."""
         problem = settings.problem()
         if problem:
             raise RefineError(problem)
         targets = np.asarray(targets, np.float32)
         if targets.ndim == 3:
             targets = targets[None]
-        start = np.asarray(start, np.float32).reshape(targets.shape)
         if targets.shape[1:3] != model.shape:
             raise RefineError(f"the targets are {targets.shape[2]}x{targets.shape[1]} but the setup's model is "
                               f"{model.shape[1]}x{model.shape[0]}: generate again for this capture")
@@ -123,13 +129,23 @@ class Refinement:
         self.target = np.clip(targets, np.asarray(black, np.float32), np.asarray(white, np.float32))  # reachable
         self.y_target = np.power(self.target.astype(np.float64), model.gamma_c)
         self.weights = response_weights(self.y_target, model.gamma_c)
+        self.native = None
+        if native_start is not None:
+            native = np.asarray(native_start, np.float64)
+            if native.ndim == 3:
+                native = native[None]
+            if len(native) != len(targets) or native.shape[-1] != 3:
+                raise RefineError(f"expected {len(targets)} native images, got {native.shape}")
+            self.native = np.power(np.clip(native, 0, 1), model.gamma_p)
+            start = np.power(self._working(self.native), 1.0 / model.gamma_p)
+        start = np.asarray(start, np.float32).reshape(targets.shape)
         self.x = np.power(np.clip(start.astype(np.float64), 0, 1), model.gamma_p)
         self.x_start = self.x.copy()
         self.alpha = np.full(targets.shape[:3], settings.damping)  # per pixel
         self.repeats = 2  # the first round: the noise pair
         self.noise_var = None
         self.record = RefineRecord()
-        self.best = (-math.inf, self.x.copy())
+        self.best = (-math.inf, self._state())
         self.previous_err = None
         self.done = False
         self._t0 = None
@@ -137,8 +153,22 @@ class Refinement:
     # -- the images to capture and the captures back
     @property
     def images(self) -> np.ndarray:
-        """The current projector images (N,H,W,3) float32, encoded."""
+        """The current projector images (N,H,W,3) float32, encoded: the native ones in native mode."""
+        light = self.x if self.native is None else self.native
+        return np.power(light, 1.0 / self.model.gamma_p).astype(np.float32)
+
+    @property
+    def working_images(self) -> np.ndarray:
+        """The current images at the working frame (the native light averaged down in native mode)."""
         return np.power(self.x, 1.0 / self.model.gamma_p).astype(np.float32)
+
+    def _working(self, light):
+        """Native light (N,Hn,Wn,3) averaged onto the working frame."""
+        h, w = self.model.shape
+        return np.stack([cv2.resize(im, (w, h), interpolation=cv2.INTER_AREA) for im in light])
+
+    def _state(self):
+        return (self.x.copy(), None if self.native is None else self.native.copy())
 
     def request(self) -> tuple[np.ndarray, int]:
         """(images, repeats): capture each image `repeats` times; take() wants them image-major
@@ -166,7 +196,7 @@ class Refinement:
         rec.repeats.append(self.repeats)
         gain = psnr - rec.history[-2] if len(rec.history) > 1 else math.inf
         if psnr > self.best[0]:
-            self.best = (psnr, self.x.copy())
+            self.best = (psnr, self._state())
         if rec.iterations >= self.settings.iterations:
             return self._finish("cap")
         if gain < self.settings.stop_gain_db:
@@ -181,7 +211,7 @@ class Refinement:
         diff = (a.astype(np.float64) - b)[:, self.valid]
         self.noise_var = float((diff ** 2).mean() / 2)  # one capture's noise variance (encoded units)
         if self.settings.check_registration:
-            problem = registration_problem(a, self.model.simulate(self.images), self.valid)
+            problem = registration_problem(a, self.model.simulate(self.working_images), self.valid)
             if problem:
                 raise RegistrationCheckError(problem)
 
@@ -198,7 +228,14 @@ class Refinement:
         lin_pred = np.einsum("hwij,nhwj->nhwi", m.M.astype(np.float64), self.x) + m.o
         wanted = lin_pred + self.alpha[..., None] * (self.y_target - y)
         x = box_compensate_linear(m, wanted, self.weights)
-        self.x = np.where(self.valid[None, ..., None], x, self.x)  # off the object: the image stays as it was
+        change = np.where(self.valid[None, ..., None], x - self.x, 0.0)  # off the object: the image stays
+        if self.native is None:
+            self.x = self.x + change
+        else:  # the change of light resampled onto the native images, which keep their own detail
+            hn, wn = self.native.shape[1:3]
+            up = np.stack([cv2.resize(c, (wn, hn), interpolation=cv2.INTER_LINEAR) for c in change])
+            self.native = np.clip(self.native + up, 0.0, 1.0)
+            self.x = self._working(self.native)
         self.record.iterations += 1
         self._choose_repeats(mean)
 
@@ -212,8 +249,8 @@ class Refinement:
         self.repeats = min(r, self.settings.max_repeats)
 
     def _finish(self, why: str) -> None:
-        psnr, x = self.best
-        self.x = x
+        psnr, (x, native) = self.best
+        self.x, self.native = x, native
         self.record.refined_psnr = psnr
         self.record.stopped = why
         self.record.seconds = time.perf_counter() - (self._t0 or time.perf_counter())

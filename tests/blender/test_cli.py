@@ -80,6 +80,7 @@ def test_eval_writes_sheet_and_metrics(tmp_path):
     refined = m["with_refine"]
     assert {"psnr", "rmse", "ssim", "refine", "native_psnr"} <= set(refined)
     assert 1 <= refined["refine"]["iterations"] <= 2 and refined["psnr"] > m["with_psa"]["psnr"]
+    assert refined["native_psnr"] > native["psnr"]  # the native output refined itself, measured at native size
     assert (tmp_path / "ev" / "refined_native_projector_image.png").exists()
     proc = _cli("eval", "--surface", str(tmp_path / "missing.png"), "--prompt", "x", "--out", str(tmp_path / "e2"))
     assert proc.returncode == 1 and "Traceback" not in proc.stderr

@@ -12,7 +12,6 @@ from lapig_core.photometric.box_solve import box_compensate, box_least_squares
 from lapig_core.photometric.classical import ClassicalModel
 from lapig_core.refine.check import RegistrationCheckError, registration_problem
 from lapig_core.refine.loop import Refinement, RefineError, RefineSettings, masked_psnr, run
-from lapig_core.refine.native import refine_native
 
 H, W = 32, 40
 GC, GP = 2.2, 2.0
@@ -183,13 +182,27 @@ def test_cancel_keeps_the_best_image_so_far(rig_and_model):
     assert rec.refined_psnr == max(rec.history) and math.isfinite(rec.noise_floor_psnr)
 
 
-def test_native_output_takes_the_working_correction():
-    native = np.full((96, 120, 3), 0.5, np.float32)
-    correction = np.zeros((H, W, 3), np.float32)
-    assert np.allclose(refine_native(native, correction, GP), native, atol=1e-6)
-    correction[..., 0] = 0.1
-    out = refine_native(native, correction, GP)
-    assert out.shape == native.shape
-    assert np.allclose(out[..., 0], (0.5 ** GP + 0.1) ** (1 / GP), atol=1e-5)
-    assert np.allclose(out[..., 1:], 0.5, atol=1e-6)
-    assert refine_native(np.ones_like(native), correction, GP).max() <= 1.0
+def test_native_mode_refines_the_native_images_and_keeps_their_detail(rig_and_model):
+    """The native image (twice the size, with detail of its own) is what is projected: the rig sees it
+    averaged onto the working frame; the loop corrects it there and resamples each step onto it."""
+    rig, model = rig_and_model
+    targets, black, white = _targets(rig)
+    start = box_compensate(model, targets) * 0.8 ** (1 / GP)  # a weak open loop
+    fine = np.random.default_rng(3).normal(0, 0.02, (len(targets), 2 * H, 2 * W, 3))
+    native = np.clip(np.repeat(np.repeat(start, 2, 1), 2, 2) + fine, 0, 1).astype(np.float32)
+
+    def capture(images, repeats):  # the rig's view of a native image: its light averaged per working pixel
+        light = np.power(np.asarray(images, np.float64), GP)
+        working = light.reshape(len(images), H, 2, W, 2, 3).mean(axis=(2, 4)) ** (1 / GP)
+        return rig.capture_repeated(working, repeats)
+
+    ref = Refinement(model, targets, black, white, np.ones((H, W), bool), None, RefineSettings(iterations=5),
+                     native_start=native)
+    rec = run(ref, capture)
+    assert ref.images.shape == native.shape and ref.working_images.shape == targets.shape
+    assert rec.refined_psnr > rec.open_loop_psnr + 4, rec.to_dict()
+    detail = lambda im: im - np.repeat(np.repeat(im.reshape(len(im), H, 2, W, 2, 3).mean(axis=(2, 4)), 2, 1), 2, 2)  # noqa: E731
+    kept = np.corrcoef(detail(ref.images).ravel(), detail(native).ravel())[0, 1]
+    assert kept > 0.9  # the native detail is still there
+    with pytest.raises(RefineError, match="native images"):
+        Refinement(model, targets, black, white, np.ones((H, W), bool), None, native_start=native[:1])

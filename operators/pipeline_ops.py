@@ -65,6 +65,22 @@ class LAPIG_OT_render_result(JobRunnerMixin, bpy.types.Operator):
         self.report({"INFO"}, f"Rendered capture: {m.get('rendered_psnr', float('nan')):.1f} dB against the target")
 
 
+class LAPIG_OT_refine_result(JobRunnerMixin, bpy.types.Operator):
+    """Refine the projector image on the rig: project it, capture it, correct it where the capture misses the
+    target, until a step gains less than 0.05 dB or Refine steps is reached (Esc cancels and keeps the result)"""
+    bl_idname = "lapig.refine_result"
+    bl_label = "Refine on the Rig"
+
+    def make_job(self, context):
+        require("torch")
+        from ..lapig_addon.services.refine_job import RefineResultJob
+
+        return RefineResultJob(scene_seams(context.scene), scene_state.refine_steps(context.scene))
+
+    def on_done(self, context, job):
+        self.report({"INFO"}, "Refined on the rig: " + job.result["line"])
+
+
 class LAPIG_OT_preview_mode(ReportsErrors, bpy.types.Operator):
     """Show the original material, the projection, the target, the simulated or rendered capture"""
     bl_idname = "lapig.preview_mode"
@@ -137,7 +153,8 @@ class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (LAPIG_OT_train_models, LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_preview_mode,
+CLASSES = (LAPIG_OT_train_models, LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_refine_result,
+           LAPIG_OT_preview_mode,
            LAPIG_OT_show_comparison, LAPIG_OT_export_image, LAPIG_OT_export_crossfade)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -225,9 +225,10 @@ def _job_running() -> bool:
     return job is not None and not job.finished
 
 
-def _progress(layout):
+def _progress(layout, title=None):
+    """The running job's progress bar; with `title`, only that job's (the panel beside its button)."""
     job = active_job()
-    if job is not None and not job.finished:
+    if job is not None and not job.finished and (title is None or job.title == title):
         layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
 
 
@@ -317,6 +318,11 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         # rendering also needs torch and the capture the result was made on
         row.enabled = has_result and not panel_state.models_blocker(state) and not _job_running()
         row.operator("lapig.render_result", icon="RENDER_RESULT")
+        row = layout.row(align=True)  # closed loop: the rig's captures correct the image (progress; Esc cancels)
+        row.enabled = has_result and not panel_state.models_blocker(state) and not _job_running()
+        row.operator("lapig.refine_result", icon="FILE_REFRESH")
+        row.prop(s, "refine_steps", text="Steps")
+        _progress(layout, "LAPIG refine on the rig")
         row = layout.row()
         row.enabled = has_result
         row.operator("lapig.show_comparison", icon="IMAGE_REFERENCE")

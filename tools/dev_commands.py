@@ -17,7 +17,7 @@ from ..lapig_addon.cli.output import print_json
 BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui", "frame": "frame",
               "preview": "preview", "prompts": "prompts", "style-images": "style_images",
               "transport": "transport", "learned-variants": "learned_variants",
-              "pcnet-through": "pcnet_through", "hardware": "hardware"}
+              "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine"}
 
 
 def _ensure_registered():
@@ -71,6 +71,8 @@ def add_parsers(sub):
     ranged_option(ev, "--iterations", "finetune_iterations",
                   "fine-tuning iterations per network (default: the CPU recipe's); fewer: rough but quick")
     ev.add_argument("--verbose", action="store_true", help="print training progress")
+    ranged_option(ev, "--refine", "refine_iterations", "also refine the PSA look's projector image on the rig, at "
+                  "most N steps, and write with_refine beside with_psa in metrics.json (default 0: no)", default=0)
     ranged_option(ev, "--adaptation", "psa_adaptation", "PSA adaptation, 0 keep my look .. 1 whatever the surface "
                   "can show (default 0.5)", default=0.5, type=float)
     ev.add_argument("--projector", type=pixels, default=(800, 600), help="projector resolution (default 800x600)")
@@ -154,6 +156,14 @@ def add_parsers(sub):
     bench.add_argument("--pair-counts", type=lambda t: [int(n) for n in t.split(",")], default=[125, 8],
                        help="transport: CompenNeSt fine-tuning pair counts (default 125,8: the first is the app's, "
                             "all the captured pairs; 8 is the paper's)")
+    bench.add_argument("--refine-data", default="out/refine_data",
+                       help="refine: data set root of the refinement's setups (rendered when missing)")
+    bench.add_argument("--refine-iterations", type=int, default=6,
+                       help="refine: the cap on refinement steps (default 6)")
+    bench.add_argument("--refine-damping", type=float, default=0.8,
+                       help="refine: the step's damping at first (default 0.8, the app's)")
+    bench.add_argument("--machine-speed", action="store_true",
+                       help="refine: run ../shared/machine_speed.py after the figures and put its torch_step_s in the JSON")
     bench.add_argument("--lens-radius-mm", type=float, default=60.0,
                        help="transport: the projector's lens radius for the defocus figure (default 60)")
     bench.add_argument("--min-blur-px", type=float, default=1.0,
@@ -228,6 +238,7 @@ def cmd_eval(args) -> int:
     summary = evaluate.run(args)
     print(f"Look at {summary['sheet']}")
     keys = ("with_psa", "without_psa", "native", "style_retention", "surface_reach", "timings", "sheet")
+    keys += ("with_refine",) if "with_refine" in summary else ()
     print_json({k: summary[k] for k in keys})
     return 0
 

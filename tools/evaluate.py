@@ -13,6 +13,7 @@ import json
 import os
 import time
 
+import cv2
 import numpy as np
 
 from ..lapig_core.common import metrics
@@ -100,6 +101,49 @@ def evaluate_native(cs, models, res, rig_objects, setup_dir, width, height) -> t
     return figures, {"target": target, "projector_image": projector_image, "captured": captured}
 
 
+def evaluate_refine(cs, models, rig_objects, setup_dir, images, iterations) -> tuple[dict, dict]:
+    """The PSA look's projector image refined on the rig (Refine on the rig's loop, through the Cycles device
+    factory of the rig's objects), then captured once more with a fresh noise draw: (figures, images). The
+    figures are metrics.evaluate's, as with_psa's, beside the loop's record; the native image refined too."""
+    from ..lapig_addon.blender.cycles_factory import CyclesDeviceFactory
+    from ..lapig_addon.services.refine_job import refine_rounds, run_rounds
+    from ..lapig_core.photometric.choice import load_choice
+    from ..lapig_core.photometric.classical import ClassicalModel
+    from ..lapig_core.photometric.targets import reachable_mask
+    from ..lapig_core.refine.loop import Refinement, RefineSettings
+
+    saved = load_choice(os.path.join(setup_dir, "models"))
+    model = saved[1] if saved is not None else ClassicalModel.fit(cs.prj_train, cs.cam_train)
+    valid = reachable_mask(cs.cam_black, cs.cam_white)
+    if cs.projector_valid is not None:
+        valid &= cs.projector_valid
+    target = images["targets"][1]
+    refinement = Refinement(model, target, cs.cam_black, cs.cam_white, valid, images["projector_images"][1],
+                            RefineSettings(iterations=iterations))
+    devices = CyclesDeviceFactory(*rig_objects)
+    t = time.perf_counter()
+    run_rounds(refine_rounds(devices, setup_dir, refinement))
+    seconds = time.perf_counter() - t
+    projector_image = refinement.images[0]
+    captured = render_working_images(*rig_objects, setup_dir, projector_image[None], seed=97)[0]
+    out = {**{k: round(v, 4) for k, v in metrics.evaluate(captured, target).items()},
+           "refine": refinement.record.to_dict(), "seconds": round(seconds, 2)}
+    extra = {"projector_image": projector_image, "captured": captured}
+    native = images.get("native")
+    if native is not None:  # the native output refined itself, captured at native size as evaluate_native does
+        h, w = native["target"].shape[:2]
+        small = cv2.resize(native["target"], (target.shape[1], target.shape[0]), interpolation=cv2.INTER_AREA)
+        on_native = Refinement(model, small, cs.cam_black, cs.cam_white, valid, None,
+                               RefineSettings(iterations=iterations), native_start=native["projector_image"])
+        run_rounds(refine_rounds(devices, setup_dir, on_native))
+        _, raw = render_working_images(*rig_objects, setup_dir, on_native.images, return_raw=True, seed=98)
+        cap_native, on = register_at(setup_dir, raw[0], w, h)
+        out["native_psnr"] = round(metrics.masked_psnr(cap_native, native["target"], on), 4)
+        out["native_refine"] = on_native.record.to_dict()
+        extra.update(native_projector_image=on_native.images[0], native_captured=cap_native)
+    return out, extra
+
+
 def comparison_sheet(surface, images, title):
     tiles = [surface, images["targets"][0], images["captured"][0], images["targets"][1], images["captured"][1]]
     labels = ["surface (I+)", "target without PSA", "captured without PSA", "target with PSA", "captured with PSA"]
@@ -130,6 +174,9 @@ def run(args) -> dict:
     settings = PSASettings(seed=args.seed, max_iterations=args.psa_iterations, adaptation=args.adaptation)
     result, images = evaluate_prompt(cs, models, rig_objects, setup_dir, args.prompt, args.backend, args.seed,
                                      settings, output=output)
+    if getattr(args, "refine", 0):
+        result["with_refine"], images["refined"] = evaluate_refine(cs, models, rig_objects, setup_dir, images,
+                                                                   args.refine)
     sheet = comparison_sheet(cs.cam_white, images, f"'{args.prompt}' ({', '.join(n for n, _ in result['lgst'].get('styles', []))})")
     write_png(os.path.join(out, "sheet.png"), sheet)
     for name, im in (("target_without_psa", images["targets"][0]), ("target_with_psa", images["targets"][1]),
@@ -137,6 +184,10 @@ def run(args) -> dict:
                      ("projector_with_psa", images["projector_images"][1]),
                      ("captured_without_psa", images["captured"][0]), ("captured_with_psa", images["captured"][1])):
         write_png(os.path.join(out, name + ".png"), im)
+    if "refined" in images:
+        for name in ("projector_image", "captured", "native_projector_image", "native_captured"):
+            if name in images["refined"]:
+                write_png(os.path.join(out, f"refined_{name}.png"), images["refined"][name], bit_depth=16)
     native = images["native"]
     for name in ("target", "projector_image", "captured"):
         write_png(os.path.join(out, f"native_{name}.png"), native[name], bit_depth=16)

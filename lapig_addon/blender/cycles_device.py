@@ -83,6 +83,11 @@ class CyclesCaptureDevice(CaptureDevice):
     def close(self):
         self.studio.close()
 
+    def vary_noise(self, draw: int) -> None:
+        """Cycles' sampling seed of the studio's own scene (gone with it on close) moves on by `draw`."""
+        if self.studio.scene is not None:
+            self.studio.scene.cycles.seed = (self.studio.seed + 7919 * draw) % (2 ** 31)
+
     def describe(self) -> DeviceInfo:
         return DeviceInfo("Blender Cycles", (self.model.width, self.model.height), (self.width, self.height), {
             "projector": self.model.to_dict(),

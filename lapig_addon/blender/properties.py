@@ -253,6 +253,10 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                              description="Long side of the final projector image, up to the projector's "
                                          "resolution; 0 for its native resolution. The look and its "
                                          "compensation are computed at this size after the adaptation")
+    refine_steps: IntProperty(name="Refine steps", default=4, **LIMITS["refine_iterations"].bounds(),
+                              description="Refine on the rig: project the result, capture it, correct the projector "
+                                          "image where the capture misses the target, at most this many times "
+                                          "(it stops earlier once a step gains less than 0.05 dB)")
     result_dir: StringProperty(name="Result folder", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS)
     result_fingerprint: StringProperty(name="Rig fingerprint of the result")
     result_summary: StringProperty(name="Result")

@@ -212,6 +212,11 @@ def finetune_iterations(scene) -> int | None:
     return scene.lapig.finetune_iterations or None
 
 
+def refine_steps(scene) -> int:
+    """The cap on Refine on the rig's steps (the panel's Refine steps)."""
+    return int(scene.lapig.refine_steps)
+
+
 def rig_metadata(scene) -> dict:
     """The rig as an exported image's sidecar describes it."""
     projector, camera, target = rig_objects(scene)

@@ -201,6 +201,11 @@ def cmd_stylize(args) -> int:
     job = GenerateJob(seams, request, _iterations(args, scene), capture=capture)
     out = job.run_to_completion(on_progress=headless.print_progress)
     summary = dict(out["summary"]["metrics"])
+    if args.refine:  # closed loop on the rig, before the render: the render then captures the refined image
+        from ..services.refine_job import RefineResultJob
+
+        refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
+        summary["refine"] = refined["refine"]
     if args.render:
         summary.update(RenderResultJob(seams).run_to_completion()["metrics"])
     _save_if_asked(args)

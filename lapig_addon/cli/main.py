@@ -110,6 +110,9 @@ def _parser():
     outside.add_argument("--light-outside", dest="dark_outside", action="store_false",
                          help="project the look over the whole frame, off the object too")
     iterations_arg(st, "the scene's")
+    ranged_option(st, "--refine", "refine_iterations",
+                  "refine the projector image on the rig: project, capture, correct, at most N steps (default 0: "
+                  "open loop only)", default=0)
     st.add_argument("--render", action="store_true", help="also render the real capture with Cycles")
     rig_args(st)
 

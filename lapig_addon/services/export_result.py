@@ -63,6 +63,8 @@ def metadata(store, folder: str, summary: dict) -> dict:
             "styles": summary.get("lgst", {}).get("styles"), "psa": summary.get("psa"),
             "psa_settings": summary.get("psa_settings"), "metrics": summary.get("metrics"),
             "surface_reach": summary.get("surface_reach"),
+            # refined on the rig: open-loop and refined PSNR of captures, steps, seconds, the noise floor
+            "refine": summary.get("refine"),
             **store.rig_metadata(),
             # 8 for results stored before results were 16-bit: a 16-bit file then holds 8 bits of data
             "result_bit_depth": stored_bit_depth(folder, output_name(folder, "projector")),

@@ -41,6 +41,7 @@ LIMITS = {  # keyed by the scene property's name (blender/properties.py) where t
     "style_seed": Limit("Style seed", 0),
     "style_prompt_weight": Limit("Prompt share of the style image's look", 0.0, 1.0),
     "output_size": Limit("Output size", 0, 8192),  # 0: the projector's native frame
+    "refine_iterations": Limit("Refinement steps", 0, 50),  # 0: no refinement on the rig
     "crossfade_frames": Limit("Crossfade frames", 2, 10000),
     "crossfade_fps": Limit("Crossfade frame rate", 1, 240),  # played live on the projector window
     # developer commands only

@@ -373,7 +373,6 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
                "created": datetime.datetime.now().isoformat(timespec="seconds")}
     if res.truth and res.truth.get("message"):
         summary["notes"] = list(summary["notes"]) + [res.truth["message"]]
-    folder = str(write_new_result(job["results"], job["name"], images, summary))
     styles = ", ".join(f"{n} {w:.2f}" for n, w in res.describe.get("styles", [])[:3])
     # what the prompt was read as (medium; colours; mood | a word that matched nothing), then the figure
     understood, _, missed = (res.describe.get("understood_line") or styles or job["backend"]).partition(" | ")
@@ -383,6 +382,8 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
         line += f"; compensated by {summary['compensator']['chosen']}"
     if missed:  # last: the panel shows what follows " | " on a line of its own
         line += f" | {missed}"
+    summary["summary_line"] = line  # Refine on the rig adds its figures to it
+    folder = str(write_new_result(job["results"], job["name"], images, summary))
     # the finest projector image as the folder now holds it (read_output_image's values), for the sinks
     projector = as_stored(images.get("projector_native", images["projector"]))
     return {"folder": folder, "summary": summary, "summary_line": line, "projector": projector}

@@ -114,6 +114,11 @@ class CaptureDevice:
             images.append(self.grab())
         return images
 
+    def vary_noise(self, draw: int) -> None:
+        """Make the next captures a new noise draw (draw: a count). A real camera's noise is new with every
+        grab; a renderer's sampling noise repeats with its seed, which a simulated device changes here, so
+        that repeated captures of one image (closed-loop refinement) differ as a real camera's would."""
+
     def close(self) -> None:
         """Release the device; called on success, error and cancel alike."""
 

@@ -118,9 +118,24 @@ def read_result_image(folder, name: str) -> np.ndarray:
     return read_image(_image_path(folder, name))
 
 
+def refined_images(folder, summary: dict | None = None) -> dict:
+    """What a refinement on the rig put in place of the result's images ({'projector': its file's name,
+    'projector_working': ...}), as result.json names them: written last, so a refinement cut short names
+    nothing and the open-loop images stay the result's."""
+    try:
+        summary = read_summary(folder) if summary is None else summary
+    except (OSError, ValueError):
+        return {}
+    names = (summary.get("refine") or {}).get("images") or {}
+    return {k: v for k, v in names.items() if (Path(folder) / f"{v}.png").is_file()}
+
+
 def output_name(folder, name: str) -> str:
-    """The name of the finest version of a result image: '<name>_native' (the output size) where the
-    result has one, else the working frame's."""
+    """The name of the finest version of a result image: the refined one where the result was refined on
+    the rig, else '<name>_native' (the output size) where the result has one, else the working frame's."""
+    refined = refined_images(folder).get(name) if name == "projector" else None
+    if refined:
+        return refined
     native = name + NATIVE
     return native if (Path(folder) / f"{native}.png").is_file() else name
 

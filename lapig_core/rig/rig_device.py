@@ -97,6 +97,12 @@ class RigDevice(CaptureDevice):
             raise RigError("the rig shot a frame before its calibration (lock_exposure)")
         return [self.sync.shoot(_eight_bit(frame)) for frame in frames]
 
+    def vary_noise(self, draw: int) -> None:
+        """A real camera's noise is new every grab; a simulated one passes this on to its optics."""
+        vary = getattr(self.camera, "vary_noise", None)
+        if vary is not None:
+            vary(draw)
+
     def close(self) -> None:
         try:
             self.camera.close()

@@ -143,6 +143,10 @@ class SimulatedCamera:
     def close(self) -> None:
         pass
 
+    def vary_noise(self, draw: int) -> None:
+        """The optics' next renders are a new noise draw (Cycles' seed); frames rendered already stay."""
+        self.optics.vary_noise(draw)
+
     # --- the sensor
     def _produce(self) -> None:
         """Make the frames whose time has come; the driver keeps the oldest buffer_frames."""

@@ -62,7 +62,8 @@ def test_eval_writes_sheet_and_metrics(tmp_path):
     write_png(surface, make_surface("wood", size=128, seed=3))
     proc = _cli("eval", "--surface", str(surface), "--prompt", "Make it a stained glass artwork", "--out",
                 str(tmp_path / "ev"), "--train", "8", "--iterations", "3", "--psa-iterations", "2",
-                "--projector", "320x180", "--wall", "3.6x2", "--camera", "320x180", "--working-size", "64", timeout=600)
+                "--projector", "320x180", "--wall", "3.6x2", "--camera", "320x180", "--working-size", "64",
+                "--refine", "2", timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     m = json.load(open(tmp_path / "ev" / "metrics.json"))
     # a wide facade: the whole 16:9 frame at 64x36, and the PSA look made and captured at 320x180
@@ -75,6 +76,12 @@ def test_eval_writes_sheet_and_metrics(tmp_path):
     assert m["with_psa"]["iterations"] <= 2 and {"ssim", "psnr"} <= set(m["style_retention"])
     assert {"capture_s", "train_s", "psa_s", "total_s"} <= set(m["timings"])
     assert (tmp_path / "ev" / "sheet.png").exists()
+    # --refine: the PSA look refined on the rig, beside with_psa, measured on a fresh capture
+    refined = m["with_refine"]
+    assert {"psnr", "rmse", "ssim", "refine", "native_psnr"} <= set(refined)
+    assert 1 <= refined["refine"]["iterations"] <= 2 and refined["psnr"] > m["with_psa"]["psnr"]
+    assert refined["native_psnr"] > native["psnr"]  # the native output refined itself, measured at native size
+    assert (tmp_path / "ev" / "refined_native_projector_image.png").exists()
     proc = _cli("eval", "--surface", str(tmp_path / "missing.png"), "--prompt", "x", "--out", str(tmp_path / "e2"))
     assert proc.returncode == 1 and "Traceback" not in proc.stderr
     proc = _cli("eval", "--surface", str(surface), "--prompt", "x", "--out", str(tmp_path / "e3"), "--output-size",

@@ -63,10 +63,16 @@ def test_capture_train_stylize_export_in_a_row(rigged_blend, tmp_path):
     trained = _json(_cli("train", "--blend", blend, "--capture", second_dir, "--save"))
     assert os.path.normpath(trained["capture"]) == os.path.normpath(second_dir)
 
+    # refined on the rig (closed loop through the Cycles device): Export then writes the refined image
     styled = _json(_cli("stylize", "--blend", blend, "--mix", "charcoal_wash:1", "--prompt", "charcoal",
-                        "--no-psa", "--save"))
+                        "--no-psa", "--refine", "2", "--save"))
     with open(os.path.join(styled["result"], "result.json")) as f:
-        assert os.path.normpath(json.load(f)["capture"]) == os.path.normpath(second_dir)
+        saved = json.load(f)
+    assert os.path.normpath(saved["capture"]) == os.path.normpath(second_dir)
+    assert styled["refine"]["refined_psnr"] == saved["refine"]["refined_psnr"]
+    assert 1 <= saved["refine"]["iterations"] <= 2 and saved["refine"]["noise_floor_psnr"] > 0
+    assert saved["refine"]["images"]["projector"] == "projector_refined_native"
+    assert "; refined " in saved["summary_line"]
     exported = _json(_cli("export", "--blend", blend, "--out", str(tmp_path / "projector.png")))
     assert os.path.normpath(exported["result"]) == os.path.normpath(styled["result"])
 

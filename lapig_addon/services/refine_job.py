@@ -1,0 +1,181 @@
+"""Refine on the rig: the scene's result projected, captured and corrected until the captures stop
+improving (lapig_core.refine), through the device factory every job uses (Cycles, a real or a simulated
+rig alike).
+
+Nothing is written until the loop has finished: the refined projector images (working frame and native)
+go into the result folder under names of their own, then result.json, written last and whole, names them
+(result_files.output_name), so a cancel, a failure or a kill leaves the result as it was.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ...lapig_core.capture.dataset import DatasetError, load_capture_set, setup_dir_of
+from ...lapig_core.capture.settings import CaptureError
+from ...lapig_core.export.result_files import (NATIVE, read_result_image, read_summary, refined_images, write_result)
+from ...lapig_core.photometric import choice as compensator_choice
+from ...lapig_core.photometric.classical import ClassicalModel
+from ...lapig_core.photometric.targets import reachable_mask
+from ...lapig_core.refine.check import RegistrationCheckError
+from ...lapig_core.refine.loop import Refinement, RefineError, RefineSettings
+from . import panel_state
+from .export_result import result_frame
+from .jobs import Job
+from .limits import LIMITS
+from .pipeline_jobs import PipelineError, current_capture, hold_capture
+from .ports import Seams
+from .projection import projection_session
+
+REFINED = "projector_refined"
+
+
+def classical_of(capture: str) -> ClassicalModel:
+    """The setup's classical model: saved with the models' choice, else fitted on the capture's pairs now."""
+    saved = compensator_choice.load_choice(setup_dir_of(load_capture_set(capture, pairs=False)) / "models")
+    if saved is not None:
+        return saved[1]
+    cs = load_capture_set(capture)
+    if len(cs.prj_train) < 4:
+        raise PipelineError("refinement needs the capture's classical model: train the models first")
+    return ClassicalModel.fit(cs.prj_train, cs.cam_train)
+
+
+def refine_line(record: dict) -> str:
+    """'; refined 33.1 -> 39.8 dB (floor 41.2), 3 steps, 12 s' for the panel's result line."""
+    if not record or record.get("refined_psnr") is None:
+        return ""
+    return (f"; refined {record['open_loop_psnr']:.1f} -> {record['refined_psnr']:.1f} dB "
+            f"(floor {record['noise_floor_psnr']:.1f}), {record['iterations']} steps, {record['seconds']:.0f} s")
+
+
+class RefineResultJob(Job):
+    """Closed-loop refinement of the scene's result on its rig; Esc (cancel) keeps the result as it was."""
+
+    title = "LAPIG refine on the rig"
+
+    def __init__(self, seams: Seams, iterations: int, settings: RefineSettings | None = None):
+        super().__init__()
+        problem = LIMITS["refine_iterations"].problem(iterations)
+        if problem or iterations < 1:
+            raise PipelineError(problem or "refinement needs at least 1 step")
+        self.seams = seams
+        self.settings = settings or RefineSettings(iterations=iterations)
+
+    def _inputs(self):
+        store = self.seams.store
+        state = store.read()
+        blocker = panel_state.result_blocker(state)
+        if blocker:
+            raise PipelineError(blocker)
+        if self.seams.devices is None:
+            raise PipelineError("refinement needs a rig to project on and capture with")
+        folder, capture = state.result_dir, current_capture(state)
+        summary = read_summary(folder)
+        if summary.get("capture") and summary["capture"] != capture:
+            raise PipelineError("the result was made on another capture than the scene's: generate again first")
+        try:
+            cs = load_capture_set(capture, pairs=False)
+        except DatasetError as exc:
+            raise PipelineError(str(exc)) from None
+        return folder, capture, summary, cs
+
+    def steps(self):
+        folder, capture, summary, cs = self._inputs()
+        yield 0.02, "reading the result and the setup's model"
+        model = classical_of(capture)
+        names = refined_images(folder, summary)
+        valid = reachable_mask(cs.cam_black, cs.cam_white)
+        if cs.projector_valid is not None:
+            valid &= cs.projector_valid
+        native = None  # the native output is what the projector shows: refine it, where the result has one
+        native_name = names.get("projector") if names.get("projector", "").endswith(NATIVE) else None
+        native_name = native_name or ("projector" + NATIVE if _has(folder, "projector" + NATIVE) else None)
+        if native_name and _has(folder, "target" + NATIVE):
+            native = read_result_image(folder, native_name)
+            h, w = cs.cam_black.shape[:2]  # its look, averaged onto the working frame the captures are registered at
+            target = cv2.resize(read_result_image(folder, "target" + NATIVE), (w, h), interpolation=cv2.INTER_AREA)
+            start = None
+        else:
+            target = read_result_image(folder, "target")  # PSA's adapted target, at the working frame
+            start = read_result_image(folder, names.get("projector_working", "projector"))
+        try:
+            refinement = Refinement(model, target, cs.cam_black, cs.cam_white, valid,
+                                    start, self.settings, native_start=native)
+        except RefineError as exc:
+            raise PipelineError(str(exc)) from None
+        devices = self.seams.devices
+        held = hold_capture(capture, self.title)  # no capture may replace the setup while the rig refines
+
+        def loop():
+            return (yield from refine_rounds(devices, capture, refinement, self.seams.store.export_settings().bit_depth))
+
+        try:
+            yield from self.drive(loop, devices.main_thread)
+        except (CaptureError, RegistrationCheckError, RefineError) as exc:
+            raise PipelineError(str(exc)) from None
+        finally:
+            held.release()
+        yield 0.96, "writing the refined result"
+        self.result = self._write(folder, summary, refinement)
+
+    def _write(self, folder, summary, refinement):
+        record = refinement.record.to_dict()
+        record["frame"] = "native" if refinement.native is not None else "working"  # which image was captured
+        images = {REFINED: refinement.working_images[0]}
+        chosen = {"projector_working": REFINED, "projector": REFINED}
+        if refinement.native is not None:
+            images[REFINED + NATIVE] = refinement.images[0]
+            chosen["projector"] = REFINED + NATIVE
+        record["images"] = chosen
+        summary["refine"] = record
+        summary["summary_line"] = _with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
+                                               refine_line(record))
+        summary.setdefault("metrics", {}).update(
+            {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
+             "refine_noise_floor_psnr": record["noise_floor_psnr"], "refine_iterations": record["iterations"],
+             "refine_seconds": record["seconds"]})
+        write_result(folder, images, summary)  # the images first, result.json last: it names them
+        store = self.seams.store
+        line = refine_line(record)
+        store.record_result(folder, summary["summary_line"], (summary.get("surface_reach") or {}).get("message", ""))
+        # the preview and the live sinks show the refined image, as Export will write it
+        self.seams.show(result_frame(store, folder, store.export_settings().bit_depth))
+        return {"folder": folder, "refine": record, "line": line.lstrip("; ")}
+
+
+def refine_rounds(devices, capture: str, refinement: Refinement, bit_depth: int = 8):
+    """A generator of (progress, message) that runs `refinement` on the rig of `capture` (opened once, closed on
+    exit, cancel included); its record says what it did."""
+    cap = refinement.settings.iterations
+    with projection_session(devices, capture, bit_depth=bit_depth) as rig:
+        while not refinement.done:
+            images, repeats = refinement.request()
+            rounds = [rig.capture(images)[0] for _ in range(repeats)]
+            refinement.take(np.stack(rounds, axis=1).reshape((-1,) + rounds[0].shape[1:]))
+            rec = refinement.record
+            yield 0.05 + 0.9 * min(rec.iterations, cap) / (cap + 1), \
+                f"refining on the rig: step {rec.iterations}/{cap}, last capture {rec.history[-1]:.1f} dB " \
+                f"(noise floor {rec.noise_floor_psnr:.1f})"
+
+
+def run_rounds(rounds):
+    """Run a refine_rounds generator to its end, outside a job (the eval command); its return value."""
+    while True:
+        try:
+            next(rounds)
+        except StopIteration as done:
+            return done.value
+
+
+def _with_refine(line: str, refined: str) -> str:
+    """The result line with this refinement's figures in place of an earlier one's, before ' | ' (the panel
+    shows what follows it on a line of its own)."""
+    head, bar, missed = line.partition(" | ")
+    return head.split("; refined")[0] + refined + (bar + missed if bar else "")
+
+
+def _has(folder, name) -> bool:
+    import os
+
+    return os.path.isfile(os.path.join(folder, name + ".png"))

@@ -137,6 +137,8 @@ def add_parsers(sub):
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
     bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
     ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
+    bench.add_argument("--no-warmup", dest="warmup", action="store_false",
+                       help="ui: no warm-up before the first job (the session as it was before issue 28)")
     bench.add_argument("--capture", default=None,
                        help="train-step: the captured setup whose pairs Train fine-tunes on (e.g. the demo's)")
     bench.add_argument("--weights", default=None,

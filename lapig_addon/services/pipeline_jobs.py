@@ -26,7 +26,7 @@ from ...lapig_core.photometric import first_look
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
 from ...lapig_core.export.result_files import (as_stored, folder_name, heat_overlay, output_name,
                                                read_output_image, read_summary, write_new_result, write_result)
-from . import panel_state
+from . import panel_state, warmup
 from .capture_job import CaptureError
 from .export_result import result_frame
 from .jobs import Job, WorkerJob
@@ -287,6 +287,11 @@ class GenerateJob(WorkerJob):
             self._training.stop()  # then waits for that worker
 
     def work(self, job, report, cancel_event):
+        if warmup.warmup_state()["running"]:  # the session's warm-up is loading the models: not twice
+            report(0.01, "loading the text and style models")
+            while not warmup.wait_for_warmup(0.1):
+                if cancel_event.is_set():
+                    return None
         saved, look = job.get("saved"), job.get("first_look")
         # with the models saved and their choice made (or a first look): the references, the valid map and the
         # metadata only

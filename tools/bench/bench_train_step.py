@@ -48,6 +48,35 @@ def _bare_step(model, pairs, crop: int):
     return step
 
 
+def phase_profile(trainer, iterations: int = 10) -> dict:
+    """Medians (ms) of the parts of the app's iteration, as Trainer.steps() runs them: sampling the batch and its
+    crop, forward, the recipe's loss, backward, Adam."""
+    from ...lapig_core.photometric.training import apply_model
+
+    gen = torch.Generator().manual_seed(1)
+    opt = torch.optim.Adam(trainer.model.parameters(), lr=1e-4)
+    trainer.model.train()
+    name = trainer.recipe.loss_at(0)
+    parts = {k: [] for k in ("sample", "forward", "loss", "backward", "adam")}
+    for i in range(iterations + 1):
+        t0 = time.perf_counter()
+        x, s, y, crop = trainer._sample(gen)
+        t1 = time.perf_counter()
+        pred = apply_model(trainer.model, x, s, trainer._y_min, trainer._y_max)
+        t2 = time.perf_counter()
+        loss = trainer._loss(name, pred, y, crop)
+        t3 = time.perf_counter()
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        t4 = time.perf_counter()
+        opt.step()
+        t5 = time.perf_counter()
+        if i:  # the first is the warm-up
+            for key, value in zip(parts, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4)):
+                parts[key].append(value)
+    return {k: round(1000 * statistics.median(v), 1) for k, v in parts.items()}
+
+
 def time_network(cs, classical, arch: str, role: str, iterations: int) -> dict:
     pairs = pairs_from_capture_sets([cs], role)
     recipe = cpu_recipe(arch, role, max(iterations * 4, 100))  # the loss of the recipe's start; lr steps unreached
@@ -67,11 +96,12 @@ def time_network(cs, classical, arch: str, role: str, iterations: int) -> dict:
             bare()
             plain.append(time.perf_counter() - t)
     app_steps.close()
+    profile = phase_profile(Trainer(start_model(arch, role), pairs, recipe, camera_loss=camera))
     a, b = statistics.median(app), statistics.median(plain)
     return {"train_ms_per_iteration": round(1000 * a, 1), "bare_step_ms": round(1000 * b, 1),
             "ratio": round(a / b, 3), "train_ms_mean": round(1000 * statistics.mean(app), 1),
             "bare_ms_mean": round(1000 * statistics.mean(plain), 1), "iterations_timed": len(app),
-            "loss": recipe.loss_at(0), "crop": recipe.crop, "batch": recipe.batch_size}
+            "loss": recipe.loss_at(0), "crop": recipe.crop, "batch": recipe.batch_size, "app_profile_ms": profile}
 
 
 def on_a_worker(jobs: dict) -> dict:

@@ -92,14 +92,14 @@ def run(args) -> dict:
 
     # as in Blender's UI (addon.register): the prompt model runs in a helper process
     set_embedding_mode("subprocess")
-    warm = None
+    warmed = None
     if getattr(args, "warmup", True):  # as the add-on does when it is first used (blender/warm_start)
         from ...lapig_addon.services import warmup
 
         warmup.start_warmup(args.backend)
-        warm = drive_like_blender(WarmupWatch())
-        warm["seconds"] = warmup.warmup_state()["seconds"]
-        warm["error"] = warmup.warmup_state()["error"]
+        warmed = drive_like_blender(WarmupWatch())
+        warmed["seconds"] = warmup.warmup_state()["seconds"]
+        warmed["error"] = warmup.warmup_state()["error"]
     runs = []
     # twice: the first job of a session also loads the text and style models, the second finds them loaded
     for prompt in ("Make it a stained glass artwork", "Render it in the style of a Van Gogh oil painting"):
@@ -116,10 +116,10 @@ def run(args) -> dict:
             "max_main_thread_stall_ms_warm": round(warm["max_main_thread_stall_ms"], 2),
             **{k: round(v, 2) if isinstance(v, float) else v for k, v in cold.items() if k != "max_main_thread_stall_ms"},
             "warm_worst_stalls": warm["worst_stalls"], "p99_wakeup_lateness_ms_warm": round(warm["p99_wakeup_lateness_ms"], 2),
-            "warmup": None if warm is None else {
-                "max_main_thread_stall_ms": round(max(warm["max_wakeup_lateness_ms"], warm["max_step_ms"]), 2),
-                "p99_wakeup_lateness_ms": round(warm["p99_wakeup_lateness_ms"], 2), "seconds": warm["seconds"],
-                "error": warm["error"]},
+            "warmup": None if warmed is None else {
+                "max_main_thread_stall_ms": round(max(warmed["max_wakeup_lateness_ms"], warmed["max_step_ms"]), 2),
+                "p99_wakeup_lateness_ms": round(warmed["p99_wakeup_lateness_ms"], 2), "seconds": warmed["seconds"],
+                "worst_stalls": warmed["worst_stalls"], "error": warmed["error"]},
             "psa_iterations": result.iterations, "psa_seconds": round(result.seconds, 2),
             "torch_threads": torch.get_num_threads(), "bench_total_s": round(time.perf_counter() - t0, 1),
             "machine": platform.processor() or platform.machine()}

@@ -411,7 +411,10 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     styles = ", ".join(f"{n} {w:.2f}" for n, w in res.describe.get("styles", [])[:3])
     # what the prompt was read as (medium; colours; mood | a word that matched nothing), then the figure
     understood, _, missed = (res.describe.get("understood_line") or styles or job["backend"]).partition(" | ")
-    line = f"{understood}; simulated {summary['metrics']['simulated_psnr']:.1f} dB"
+    # a first look's simulator is the inverse of its compensator: its figure shows only what clipping loses, and
+    # is no measure of the look on the rig (the line says whose simulation it is)
+    sim_by = " by the classical model" if summary["models"]["first_look"] else ""
+    line = f"{understood}; simulated{sim_by} {summary['metrics']['simulated_psnr']:.1f} dB"
     line += reach_line(res.truth)
     if summary["compensator"]:
         line += f"; compensated by {summary['compensator']['chosen']}"

@@ -55,6 +55,7 @@ def test_generate_after_capture_uses_the_first_look_and_says_so(seams, monkeypat
     assert summary["models"] == {"first_look": True, "compensator": "classical", "simulator": "classical",
                                  "line": first_look.FIRST_LOOK_LINE}
     assert first_look.FIRST_LOOK_LINE in store.result[1]
+    assert "simulated by the classical model" in store.result[1]  # its own inverse: said whose figure it is
     assert store.models[0] == ""  # the networks are still not trained: the step says so
     assert sorted(os.listdir(models_dir)) == ["classical.npz", "first_look.json"]
     assert summary["metrics"]["simulated_psnr"] > 10

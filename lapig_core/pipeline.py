@@ -18,7 +18,8 @@ from .photometric import checkpoints, choice as compensator_choice
 from .common import metrics
 from .capture.dataset import CaptureSet, setup_dir_of
 from .photometric.classical import ClassicalModel
-from .photometric.classical_compensator import ClassicalCompensator
+from .photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator
+from .photometric.first_look import load_first_look
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
 from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, get_backend
 from .native_output import NativeResult, native_output
@@ -35,8 +36,10 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
     iterations: per network (default: the CPU recipe's); fewer give a rough, quick fine-tune.
     """
     out, t0 = {}, time.perf_counter()
-    # first: the compensation's camera-space loss measures its error through the classical model
-    classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
+    # first: the compensation's camera-space loss measures its error through the classical model (the capture's
+    # first look is that same fit, on the same pairs: reused where the capture has one)
+    look = load_first_look(setup_dir_of(cs), cs.meta.get("fingerprint"))
+    classical = look.classical if look is not None else ClassicalModel.fit(cs.prj_train, cs.cam_train)
     for i, (arch, role) in enumerate((("CompenNeSt", "compensation"), ("PCNet", "simulation"))):
         def progress(p, msg, i=i, arch=arch):
             if on_progress:
@@ -136,6 +139,17 @@ def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, canc
     models = SurfaceModels(chosen_compensator(comp, chosen, classical), sim, surf.s, surf.i_min, surf.i_max,
                            on_object=psa_mask(cs))
     models.choice = chosen  # which compensator, and by how much: the panel and result.json show it
+    return models
+
+
+def first_look_models(cs: CaptureSet, classical: ClassicalModel) -> SurfaceModels:
+    """The first look's models (photometric/first_look): the classical model compensates, and its forward
+    direction is the simulator PSA runs its losses through; no network is involved."""
+    surf = SurfaceTensors.from_capture_set(cs)
+    models = SurfaceModels(ClassicalCompensator(classical), ClassicalSimulator(classical), surf.s, surf.i_min,
+                           surf.i_max, on_object=psa_mask(cs))
+    models.choice = None
+    models.first_look = True
     return models
 
 

@@ -2,7 +2,7 @@ import textwrap
 
 import bpy
 
-from ..lapig_addon.blender import live_devices, scene_state, storage
+from ..lapig_addon.blender import live_devices, scene_state, storage, warm_start
 from ..lapig_addon.blender.modal_runner import active_job
 from ..lapig_addon.rigs import camera_view, device_list, live_output
 from ..lapig_addon.services import panel_state
@@ -25,6 +25,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         s = context.scene.lapig
+        warm_start.on_first_use()  # the add-on is used: the text and style models load in the background
         missing = missing_required()
         if missing:
             layout.label(text="Missing: " + ", ".join(d.package for d in missing), icon="ERROR")

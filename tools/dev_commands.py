@@ -17,7 +17,8 @@ from ..lapig_addon.cli.output import print_json
 BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui", "frame": "frame",
               "preview": "preview", "prompts": "prompts", "style-images": "style_images",
               "transport": "transport", "learned-variants": "learned_variants",
-              "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine"}
+              "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine",
+              "train-step": "train_step"}
 
 
 def _ensure_registered():
@@ -139,6 +140,10 @@ def add_parsers(sub):
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
     bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
     ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
+    bench.add_argument("--no-warmup", dest="warmup", action="store_false",
+                       help="ui: no warm-up before the first job (the session as it was before issue 28)")
+    bench.add_argument("--capture", default=None,
+                       help="train-step: the captured setup whose pairs Train fine-tunes on (e.g. the demo's)")
     bench.add_argument("--weights", default=None,
                        help="models, transport: folder of the pretrained weights the fine-tunes start from "
                             "(default: the shipped lapig_core/photometric/weights)")
@@ -189,6 +194,9 @@ def cmd_bench(args) -> int:
     args.out = args.out or f"out/bench_{args.what}"
     module = importlib.import_module(f".bench.bench_{BENCHMARKS[args.what]}", __package__)
     summary = module.run(args)
+    from .bench.machine_figure import machine_speed, with_machine_figures
+
+    summary = with_machine_figures(summary, machine_speed())  # every benchmark's timings travel
     if not args.json:
         for key, value in sorted(summary.items()):
             print(f"{key:36s} {value}")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import scene_state
+from . import scene_state, warm_start
 from .operator_boundary import ReportsErrors, report_failure
 
 _active = {"job": None}
@@ -42,6 +42,7 @@ class JobRunnerMixin(ReportsErrors):
     def invoke(self, context, event):
         if not can_run_modal(context):
             return self.execute(context)
+        warm_start.on_first_use()  # the text and style models load in the background meanwhile
         if _active["job"] is not None and not _active["job"].finished:
             self.report({"ERROR"}, "Another LAPIG job is running: wait for it or press Esc")
             return {"CANCELLED"}

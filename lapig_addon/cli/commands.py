@@ -218,7 +218,7 @@ def cmd_stylize(args) -> int:
     images = {"style_images": [(i["path"], i["weight"]) for i in lgst.get("style_images", [])]}
     images = images if images["style_images"] else {}
     print_json({"result": out["folder"], "styles": lgst.get("styles"), "understood": lgst.get("understood"),
-                **images, **summary})
+                "models": (out["summary"].get("models") or {}).get("line"), **images, **summary})
     return 0
 
 

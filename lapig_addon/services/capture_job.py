@@ -31,6 +31,24 @@ def check_settings(settings: CaptureSettings):
         raise CaptureError(problem)
 
 
+def fit_first_look_steps(setup_dir, holder: str):
+    """Steps that fit and save the capture's first look (photometric/first_look) under the capture's lock;
+    their value is the FirstLook."""
+    from ...lapig_core.capture.dataset import load_capture_set, resolve_setup
+    from ...lapig_core.capture.staging import hold_root
+    from ...lapig_core.photometric.first_look import fit_first_look
+
+    yield 0.99, "fitting the first look (the classical model)"
+    try:
+        held = hold_root(resolve_setup(setup_dir).root, holder)
+        try:
+            return fit_first_look(load_capture_set(setup_dir), setup_dir)
+        finally:
+            held.release()
+    except Exception as exc:  # the capture stands without it: Generate trains the networks first, as before
+        return str(exc) or type(exc).__name__
+
+
 class CaptureJob(Job):
     """record: write the capture into the scene store when it completes (False: a script capturing rig
     objects other than the scene's own, which must leave the scene as it was)."""
@@ -58,3 +76,12 @@ class CaptureJob(Job):
             meta = self.result["meta"]
             self.seams.store.record_capture(str(self.result["setup_dir"]), meta["fingerprint"],
                                             meta.get("transport", {}).get("label", ""))
+        # the first look: the classical model, fitted now (seconds, on a worker thread), so that Generate works
+        # at once; a cancel or a failure here keeps the capture, and Generate then trains the networks first
+        look = yield from self.drive(lambda: fit_first_look_steps(self.result["setup_dir"], self.title), False)
+        if isinstance(look, str):
+            self.result["first_look_error"] = look
+        else:
+            self.result["first_look_seconds"] = round(look.fit_seconds, 2)
+            if self.record:
+                self.seams.store.record_models("", look.status_line())

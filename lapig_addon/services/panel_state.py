@@ -92,6 +92,8 @@ def models_blocker(state: SceneState) -> str:
 
 def models_status(state: SceneState) -> StepStatus:
     if not state.models_fingerprint:
+        if state.models_status.startswith("First look"):  # Capture fitted the classical model: Generate works now
+            return StepStatus("MISSING", state.models_status)
         return StepStatus("MISSING", "Not trained for this capture (Generate trains them too)")
     if state.models_fingerprint != state.capture_fingerprint:
         return StepStatus("STALE", "Trained for an older capture")

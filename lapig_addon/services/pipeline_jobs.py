@@ -20,11 +20,13 @@ from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.native_output import OutputSizeError, output_frame, tile_for
 from ...lapig_core.photometric import choice as compensator_choice
-from ...lapig_core.pipeline import as_image, output_at, saved_models_problem, stylize, surface_models, train_models
+from ...lapig_core.pipeline import (as_image, first_look_models, output_at, saved_models_problem, stylize,
+                                    surface_models, train_models)
+from ...lapig_core.photometric import first_look
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
 from ...lapig_core.export.result_files import (as_stored, folder_name, heat_overlay, output_name,
                                                read_output_image, read_summary, write_new_result, write_result)
-from . import panel_state
+from . import panel_state, warmup
 from .capture_job import CaptureError
 from .export_result import result_frame
 from .jobs import Job, WorkerJob
@@ -79,6 +81,12 @@ def capture_record(folder: str) -> tuple[str, str]:
     return meta.get("fingerprint") or "", (meta.get("transport") or {}).get("label", "")
 
 
+def capture_first_look(folder: str):
+    """The capture's first look (photometric/first_look), or None where Capture fitted none for it."""
+    meta = read_setup_json(resolve_setup(folder).setup_json)
+    return first_look.load_first_look(setup_dir_of(resolve_setup(folder)), meta.get("fingerprint"))
+
+
 def hold_capture(folder: str, title: str):
     """The lock of the capture's data set root, where the models are written and which a capture
     must not replace meanwhile."""
@@ -106,17 +114,26 @@ class TrainModelsJob(WorkerJob):
 
     def work(self, folder, report, cancel_event):
         cs = load_capture_set(folder)
+        had_first_look = capture_first_look(folder) is not None
         trained = train_models(cs, on_progress=report, cancel_event=cancel_event, iterations=self.iterations)
         return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder,
-                "choice": trained["choice"].line(), "capture_set": cs, "trained": trained}
+                "choice": trained["choice"].line(), "capture_set": cs, "trained": trained,
+                "had_first_look": had_first_look}
 
     def finish(self, output):
         store = self.seams.store
         if self.capture:  # the named capture becomes the scene's, so the models belong to it
             store.record_capture(output["folder"], *capture_record(output["folder"]))
         # PCNet's choice, saved with the models: it stands if the renders below cannot run or are cancelled
-        store.record_models(output["fingerprint"], f"Fine-tuned in {output['seconds']:.0f} s; {output['choice']}")
+        store.record_models(output["fingerprint"], self._models_line(output, output["trained"]["choice"]))
         return output
+
+    @staticmethod
+    def _models_line(out, chosen) -> str:
+        """The models step's line: how long, the choice, and what it means for the capture's first look."""
+        line = f"Fine-tuned in {out['seconds']:.0f} s; {out['choice']}"
+        note = first_look.after_train_note(chosen) if out.get("had_first_look") else ""
+        return f"{line}; {note}" if note else line
 
     def steps(self):
         for progress, message in super().steps():
@@ -127,7 +144,7 @@ class TrainModelsJob(WorkerJob):
         out["seconds"] += time.perf_counter() - t0
         if chosen is not None:
             out["choice"] = chosen.line()
-            self.seams.store.record_models(out["fingerprint"], f"Fine-tuned in {out['seconds']:.0f} s; {out['choice']}")
+            self.seams.store.record_models(out["fingerprint"], self._models_line(out, chosen))
         # the result goes to the operator and the CLI: not the capture's arrays nor the networks
         self.result = {k: v for k, v in out.items() if k not in ("capture_set", "trained")}
 
@@ -243,6 +260,10 @@ class GenerateJob(WorkerJob):
             self._inputs = self.prepare()
         share = 0.0
         problem, self._inputs["saved"] = saved_models_problem(self._inputs["capture"])  # each checkpoint read once
+        if problem == "":  # never trained: the capture's first look, where Capture fitted one, works at once
+            self._inputs["first_look"] = capture_first_look(self._inputs["capture"])
+            if self._inputs["first_look"] is not None:
+                problem = None
         if problem is not None:
             if problem:  # damaged (the same note as surface_models gives)
                 self._inputs["notes"].append(f"the saved models could not be used ({problem}): fine-tuned them "
@@ -266,13 +287,22 @@ class GenerateJob(WorkerJob):
             self._training.stop()  # then waits for that worker
 
     def work(self, job, report, cancel_event):
-        saved = job.get("saved")
-        # with the models saved and their choice made: the references, the valid map and the metadata only
-        cs = load_capture_set(job["capture"], pairs=saved is None or saved.choice is None)
+        if warmup.warmup_state()["running"]:  # the session's warm-up is loading the models: not twice
+            report(0.01, "loading the text and style models")
+            while not warmup.wait_for_warmup(0.1):
+                if cancel_event.is_set():
+                    return None
+        saved, look = job.get("saved"), job.get("first_look")
+        # with the models saved and their choice made (or a first look): the references, the valid map and the
+        # metadata only
+        cs = load_capture_set(job["capture"], pairs=look is None and (saved is None or saved.choice is None))
         report(0.02, "loading the models")
         notes = list(job["notes"])
-        models = surface_models(cs, on_progress=lambda p, m: report(0.05 + 0.45 * p, m), cancel_event=cancel_event,
-                                iterations=self.iterations, notes=notes, saved=saved)
+        if look is not None:
+            models = first_look_models(cs, look.classical)
+        else:
+            models = surface_models(cs, on_progress=lambda p, m: report(0.05 + 0.45 * p, m),
+                                    cancel_event=cancel_event, iterations=self.iterations, notes=notes, saved=saved)
         if cancel_event.is_set():
             return None
         report(0.5, "stylizing")
@@ -300,8 +330,9 @@ class GenerateJob(WorkerJob):
         if self.capture and self._training is None:  # the named capture becomes the scene's (Train's did)
             store.record_capture(self._inputs["capture"], *capture_record(self._inputs["capture"]))
         compensator = output["summary"].get("compensator") or {}
-        store.record_models(output["summary"].get("fingerprint") or "",  # trained on the way
-                            f"Fine-tuned; {compensator['line']}" if compensator.get("line") else None)
+        if not output["summary"]["models"]["first_look"]:  # a first look trained nothing: the step stays as it is
+            store.record_models(output["summary"].get("fingerprint") or "",  # trained on the way
+                                f"Fine-tuned; {compensator['line']}" if compensator.get("line") else None)
         reach = output["summary"].get("surface_reach") or {}
         store.record_result(output["folder"], output["summary_line"], reach.get("message", ""))
         # the stored image, from memory: the sinks show the pixels Export will write
@@ -363,6 +394,9 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
                "tone_field": _tone_field_summary(res),
                "fingerprint": cs.meta.get("fingerprint"),
                "compensator": models.choice.to_dict() if getattr(models, "choice", None) else None,
+               # which models made the look: the first look (the classical model), or Train's
+               "models": first_look.first_look_record() if getattr(models, "first_look", False)
+               else first_look.trained_record(getattr(models, "choice", None)),
                "metrics": {"simulated_psnr": metrics.psnr(images["simulated"], images["target"]),
                            "simulated_psnr_nopsa": metrics.psnr(images["simulated_nopsa"], images["target_nopsa"]),
                            "psa_iterations": res.with_psa.iterations if res.with_psa else 0,
@@ -376,10 +410,15 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     styles = ", ".join(f"{n} {w:.2f}" for n, w in res.describe.get("styles", [])[:3])
     # what the prompt was read as (medium; colours; mood | a word that matched nothing), then the figure
     understood, _, missed = (res.describe.get("understood_line") or styles or job["backend"]).partition(" | ")
-    line = f"{understood}; simulated {summary['metrics']['simulated_psnr']:.1f} dB"
+    # a first look's simulator is the inverse of its compensator: its figure shows only what clipping loses, and
+    # is no measure of the look on the rig (the line says whose simulation it is)
+    sim_by = " by the classical model" if summary["models"]["first_look"] else ""
+    line = f"{understood}; simulated{sim_by} {summary['metrics']['simulated_psnr']:.1f} dB"
     line += reach_line(res.truth)
     if summary["compensator"]:
         line += f"; compensated by {summary['compensator']['chosen']}"
+    if summary["models"]["first_look"]:
+        line += f"; {first_look.FIRST_LOOK_LINE}"
     if missed:  # last: the panel shows what follows " | " on a line of its own
         line += f" | {missed}"
     summary["summary_line"] = line  # Refine on the rig adds its figures to it

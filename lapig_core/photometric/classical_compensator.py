@@ -53,3 +53,35 @@ class ClassicalCompensator(torch.nn.Module):
             return out
         raw = torch.sign(x) * x.abs().clamp_min(1e-6) ** (1.0 / self.gamma_p)  # > 1 where it would saturate
         return out, raw
+
+
+class ClassicalSimulator(torch.nn.Module):
+    """The classical model's forward direction as a differentiable module with PCNet's call signature: the
+    simulator PSA runs its losses through for a first look (a capture whose networks are not trained yet).
+
+    C = (M f_p(P) + o) ** (1 / gamma_c), f_p(P) = P ** gamma_p, per pixel (classical.ClassicalModel.simulate),
+    then within the capture bounds [i_min, i_max] where given, as PCNet's output is."""
+
+    ARCH_NAME = CLASSICAL
+
+    def __init__(self, model: ClassicalModel):
+        super().__init__()
+        h, w = model.shape
+        m = np.ascontiguousarray(model.M)  # (H, W, 3, 3), rows: camera channels
+        self.register_buffer("m", torch.from_numpy(m).permute(2, 3, 0, 1)[None].float())  # (1, 3, 3, H, W)
+        self.register_buffer("offset", torch.from_numpy(np.ascontiguousarray(model.o)).permute(2, 0, 1)[None].float())
+        self.gamma_c, self.gamma_p = float(model.gamma_c), float(model.gamma_p)
+
+    def forward(self, x, s=None, i_min=None, i_max=None):
+        if tuple(x.shape[-2:]) != tuple(self.m.shape[-2:]):
+            raise ValueError(f"the classical simulator is {self.m.shape[-2]}x{self.m.shape[-1]}, "
+                             f"the projector image {x.shape[-2]}x{x.shape[-1]}")
+        # clamp_min: the gradient of P ** gamma_p and of L ** (1/gamma_c) is unbounded at 0
+        light = x.clamp(1e-6, 1.0) ** self.gamma_p
+        linear = (self.m.to(x.dtype) * light[:, None]).sum(2) + self.offset.to(x.dtype)
+        y = linear.clamp(1e-6, 1.0) ** (1.0 / self.gamma_c)
+        if i_min is not None:
+            y = torch.maximum(y, torch.as_tensor(i_min, dtype=y.dtype))
+        if i_max is not None:
+            y = torch.minimum(y, torch.as_tensor(i_max, dtype=y.dtype))
+        return y

@@ -61,7 +61,11 @@ class PairSet:
         return torch.cat([self.surfaces[i].s for i in self.setup_index[idx].tolist()])
 
     def batch(self, idx: torch.Tensor):
-        return self.x[idx], self.s_for(idx), self.y[idx]
+        """(x, s, y) of the samples idx. s is (1,3,H,W) where every pair is one setup's: the networks broadcast
+        it, so the surface path runs once per batch instead of once per sample (the same gradient: the
+        broadcast sums what the copies would each have received)."""
+        s = self.surfaces[0].s if len(self.surfaces) == 1 else self.s_for(idx)
+        return self.x[idx], s, self.y[idx]
 
     def subset(self, count: int) -> "PairSet":
         """The first `count` pairs (the paper's 8 / 48 / 125 image budgets)."""

@@ -75,7 +75,9 @@ def test_capture_train_generate_render_and_export_without_blender(seams, tmp_pat
     # Capture: the device runs on a worker thread (a real camera's blocking grab() must not freeze the UI)
     job, captured = _capture(seams)
     meta = captured["meta"]
-    assert store.recorded == ["capture"] and store.capture_dir == str(captured["setup_dir"])
+    # then the first look (the classical model, photometric/first_look): its line, no models' fingerprint
+    assert store.recorded == ["capture", "models"] and store.capture_dir == str(captured["setup_dir"])
+    assert store.models[0] == "" and store.models[1].startswith("First look: classical model")
     assert meta["fingerprint"] == factory.rig_identity().key() == store.capture_fingerprint
     assert meta["rig"]["name"] == "site rig" and meta["rig"]["devices"]["camera"] == "fake camera 160x120"
     assert meta["device_timing"] == {"frame_bit_depths": [8], "settle_s": 0.0, "latency_s": 0.0}

@@ -314,17 +314,27 @@ def test_a_cancel_while_rendering_the_choice_keeps_pcnets_choice(captured_with_t
     assert not scene.lapig.result_dir
 
 
-def test_generate_trains_on_the_way_with_the_rendered_choice(captured_with_tests):
+def test_generate_after_capture_is_the_first_look_then_uses_trains_rendered_choice(captured_with_tests):
+    """Capture fitted the classical model: Generate works at once with it and says so (issue 28); after Train,
+    Generate uses the compensator the rig's renders chose."""
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_core.photometric import choice, first_look
+
     scene = captured_with_tests
     _psa_fast(scene)
+    assert scene_state.read(scene).models_status.startswith("First look: classical model")
     assert bpy.ops.lapig.generate() == {"FINISHED"}
-    from lapig.lapig_core.photometric import choice
-
-    assert _saved_choice(scene)["judge"] == choice.RENDERED_JUDGE
-    from lapig.lapig_addon.blender import scene_state
-
     summary = json.load(open(os.path.join(scene_state.read(scene).result_dir, "result.json")))
-    assert summary["compensator"]["judge"] == choice.RENDERED_JUDGE
+    assert summary["models"]["first_look"] is True and summary["compensator"] is None
+    assert first_look.FIRST_LOOK_LINE in scene.lapig.result_summary
+    assert not os.path.exists(os.path.join(scene_state.read(scene).capture_dir, "models", choice.CHOICE_FILE))
+
+    assert bpy.ops.lapig.train_models() == {"FINISHED"}
+    assert _saved_choice(scene)["judge"] == choice.RENDERED_JUDGE
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
+    summary = json.load(open(os.path.join(scene_state.read(scene).result_dir, "result.json")))
+    assert summary["compensator"]["judge"] == choice.RENDERED_JUDGE and summary["models"]["first_look"] is False
+    assert summary["models"]["compensator"] == _saved_choice(scene)["chosen"]
 
 
 def test_a_capture_this_rig_did_not_make_keeps_pcnets_choice(captured_with_tests):

@@ -71,6 +71,7 @@ class PCNet(nn.Module):
         white projection), broadcastable to (B, 3, H, W), or scalars; None
         means 0 / 1. The clamp keeps the simulation physically reachable.
         """
+        s_once = s  # the residual path on s alone runs once for a batch of one surface, then broadcasts
         s = s.expand_as(x) if s.shape[0] == 1 else s  # one surface for a batch
         b1 = self.sconv1(torch.cat([s, x * s], dim=1))
         b2 = self.sconv2(F.relu(b1))
@@ -84,7 +85,7 @@ class PCNet(nn.Module):
         h5 = F.relu(self.conv5(h4) + self.skip2(h2))
         h6 = F.relu(self.tconv1(h5) + self.skip1(h1))
         h7 = F.relu(self.tconv2(h6))
-        res = F.relu(self.res_c(F.relu(self.res_b(F.relu(self.res_a(s))))))
+        res = F.relu(self.res_c(F.relu(self.res_b(F.relu(self.res_a(s_once))))))
         y = F.relu(self.conv6(h7) + res)
         # minimum/maximum (not clamp) so tensor bounds broadcast per pixel.
         return torch.minimum(torch.maximum(y, _bound(i_min, y, 0.0)), _bound(i_max, y, 1.0))

@@ -1,0 +1,36 @@
+"""Timings that travel (issue 28): every benchmark's JSON carries machine_speed's torch_step_s, and its timings
+in reference steps."""
+import json
+import subprocess
+import sys
+
+from tools.bench import machine_figure
+
+
+def test_timings_get_their_reference_steps_beside_them():
+    speed = {"torch_step_s": 0.25, "cpu": "AMD EPYC", "cores": 2}
+    out = machine_figure.with_machine_figures(
+        {"total_s": 100.0, "capture_seconds": 5.0, "ratio": 1.1, "flag_s": True, "name_s": "x"}, speed)
+    assert out["torch_step_s"] == 0.25 and out["machine_speed"] == speed
+    assert out["total_s_steps"] == 400.0 and out["capture_seconds_steps"] == 20.0
+    assert "ratio_steps" not in out and "flag_s_steps" not in out and "name_s_steps" not in out
+    assert out["total_s"] == 100.0  # the seconds stay
+
+
+def test_without_a_measured_step_the_seconds_stand_alone():
+    out = machine_figure.with_machine_figures({"total_s": 3.0}, {"torch_step_s": None, "machine_speed_error": "x"})
+    assert out["torch_step_s"] is None and "total_s_steps" not in out
+
+
+def test_a_failing_measurement_is_a_message_not_an_exception(monkeypatch):
+    def broken(*a, **k):
+        return subprocess.CompletedProcess(a, 1, stdout="", stderr="Traceback...\nImportError: no torch\n")
+    monkeypatch.setattr(machine_figure.subprocess, "run", broken)
+    assert machine_figure.machine_speed() == {"torch_step_s": None, "machine_speed_error": "ImportError: no torch"}
+
+
+def test_the_measurement_prints_one_json_line_with_the_step():
+    done = subprocess.run([sys.executable, machine_figure.SCRIPT], capture_output=True, text=True, timeout=600)
+    figures = json.loads(done.stdout.strip().splitlines()[-1])
+    assert figures["torch_step_s"] is None or figures["torch_step_s"] > 0
+    assert figures["numpy_matmul_s"] > 0

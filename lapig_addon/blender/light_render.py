@@ -1,0 +1,252 @@
+"""Light maps in lux over the projector's pixels, rendered by Cycles from the projector's own viewpoint.
+
+A temporary scene links the renderable objects and a camera at the projector's pose with its
+frustum (throw ratio, lens shift), so camera pixel (i, j) looks along projector pixel (i, j)'s ray and
+sees what that pixel lights. One render with the projector showing white gives, per pixel, Cycles'
+Diffuse Direct pass (E / pi, the albedo left out: lux = 683 pi pass, lapig_core.photometry.units), the
+Diffuse Color pass (the albedo) and the object and material index passes (the object, a marked
+material); a second render, with the projector off, gives the room's light: a uniform world of that
+illuminance, or a Sun of it from the lamp's direction. Each map pixel averages 4 samples over its square
+(a map pixel covers several projector pixels); the room light from every direction takes more.
+Everything is undone on exit, even after an error; the user's scene is never rendered.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from ...lapig_core.common.exr import read_exr_channels
+from ...lapig_core.photometry.units import (LUMA, lux_from_diffuse_direct, sun_strength_for_lux,
+                                           world_strength_for_lux)
+from . import projector_nodes
+from .geometry_probe import renderable_objects
+
+STUDIO = "LAPIG light studio"
+TARGET_INDEX, REGION_INDEX = 7, 9
+
+
+class LightRenderError(ValueError):
+    """A region that does not exist or lights nothing, a rig without a projector: said in one line."""
+
+
+@dataclass
+class ProjectorLightMaps:
+    white_lux: np.ndarray  # (H, W) lux a white frame gives
+    ambient_lux: np.ndarray  # (H, W) lux of the room alone
+    albedo: np.ndarray  # (H, W) luminance share the surface reflects
+    on_object: np.ndarray  # (H, W) bool: the ray hits the target object
+    region: np.ndarray  # (H, W) bool: the marked region (the object when none is marked)
+
+
+def _find(channels: dict, *names) -> np.ndarray | None:
+    for key, value in channels.items():
+        if any(key.endswith(n) for n in names):
+            return value
+    return None
+
+
+def _rgb(channels: dict, *names) -> np.ndarray:
+    planes = [_find(channels, *(f"{n}.{c}" for n in names)) for c in "RGB"]
+    if any(p is None for p in planes):
+        raise LightRenderError(f"the render has no {names[0]} pass")
+    return np.stack(planes, -1)
+
+
+def _white_image(width, height):
+    image = bpy.data.images.new(STUDIO + " white", width, height, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    image.pixels.foreach_set(np.ones(width * height * 4, np.float32))
+    return image
+
+
+class LightStudio:
+    def __init__(self, scene, projector, target, width: int, height: int, ambient_lux: float = 0.0,
+                 lamp_direction=None, region_material: str = "", ambient_samples: int = 32):
+        self.source, self.projector, self.target = scene, projector, target
+        self.width, self.height = width, height
+        self.ambient_lux, self.lamp_direction = ambient_lux, lamp_direction
+        self.region_material = region_material
+        self.ambient_samples = ambient_samples
+        self._made, self._saved = [], []
+        self.scene = None
+        self._dir = None
+
+    def __enter__(self):
+        try:
+            self._build()
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def _build(self):
+        material = None
+        if self.region_material:
+            material = bpy.data.materials.get(self.region_material)
+            used = {slot.material for slot in self.target.material_slots}
+            if material is None or material not in used:
+                names = ", ".join(sorted(m.name for m in used if m)) or "none"
+                raise LightRenderError(f"'{self.target.name}' has no material '{self.region_material}' to mark "
+                                       f"(its materials: {names})")
+        self._dir = tempfile.mkdtemp(prefix="lapig_light_")
+        scene = bpy.data.scenes.new(STUDIO)
+        self.scene = scene
+        for ob in renderable_objects(self.source):
+            scene.collection.objects.link(ob)
+        cam_data = bpy.data.cameras.new(STUDIO)
+        cam = bpy.data.objects.new(STUDIO, cam_data)
+        self._made += [cam, cam_data]
+        scene.collection.objects.link(cam)
+        scene.camera = cam
+        cam.matrix_world = self.projector.matrix_world.normalized()
+        p = self.projector.lapig_projector
+        w, h = p.resolution_x, p.resolution_y
+        cam_data.sensor_fit = "HORIZONTAL"
+        cam_data.sensor_width = 36.0
+        cam_data.lens = p.throw_ratio * 36.0  # focal / sensor width = distance / image width
+        cam_data.clip_start = 0.001
+        cam_data.clip_end = 1e5
+        s = max(w, h)  # Blender's shift is in units of the larger side; LAPIG's image shift runs opposite
+        cam_data.shift_x = -p.shift_x * w / s
+        cam_data.shift_y = -p.shift_y * h / s
+        world = bpy.data.worlds.new(STUDIO)
+        self._made.append(world)
+        scene.world = world
+        r = scene.render
+        r.engine = "CYCLES"
+        r.resolution_x, r.resolution_y, r.resolution_percentage = self.width, self.height, 100
+        r.use_compositing = r.use_sequencer = False
+        r.film_transparent = True
+        if getattr(r.image_settings, "media_type", None) is not None:  # 5.0 on: multilayer is its own media
+            r.image_settings.media_type = "MULTI_LAYER_IMAGE"
+        r.image_settings.file_format = "OPEN_EXR_MULTILAYER"
+        r.image_settings.color_depth = "32"
+        r.image_settings.exr_codec = "NONE"
+        c = scene.cycles
+        c.device = "CPU"
+        c.use_adaptive_sampling = False
+        c.use_denoising = False
+        c.max_bounces = 0
+        c.pixel_filter_type = "BOX"
+        try:
+            scene.view_settings.view_transform = "Raw"
+        except TypeError:
+            scene.view_settings.view_transform = "Standard"
+        scene.view_settings.exposure = 0.0
+        layer = scene.view_layers[0]
+        layer.use_pass_diffuse_direct = layer.use_pass_diffuse_color = True
+        layer.use_pass_object_index = layer.use_pass_material_index = True
+        self._saved.append((self.target, "pass_index", self.target.pass_index))
+        self.target.pass_index = TARGET_INDEX
+        if material is not None:
+            self._saved.append((material, "pass_index", material.pass_index))
+            material.pass_index = REGION_INDEX
+        self._saved_image = projector_nodes.projected_image(self.projector.data)
+
+    def close(self):
+        if self.projector is not None and getattr(self, "_saved_image", None) is not None:
+            try:
+                projector_nodes.set_projected_image(self.projector.data, self._saved_image)
+            except (RuntimeError, ReferenceError):
+                pass
+        for owner, attr, value in reversed(self._saved):
+            try:
+                setattr(owner, attr, value)
+            except ReferenceError:
+                pass
+        self._saved = []
+        if self.scene is not None:
+            bpy.data.scenes.remove(self.scene)
+            self.scene = None
+        for block in self._made:
+            try:
+                collection = {bpy.types.Object: bpy.data.objects, bpy.types.Camera: bpy.data.cameras,
+                              bpy.types.World: bpy.data.worlds, bpy.types.Image: bpy.data.images,
+                              bpy.types.Light: bpy.data.lights}[type(block)]
+                collection.remove(block)
+            except (KeyError, ReferenceError):
+                pass
+        self._made = []
+        if self._dir:
+            for name in os.listdir(self._dir):
+                os.remove(os.path.join(self._dir, name))
+            os.rmdir(self._dir)
+            self._dir = None
+
+    def _render(self, name, samples, filter_width) -> dict:
+        scene = self.scene
+        scene.cycles.samples = samples
+        scene.cycles.filter_width = filter_width
+        path = os.path.join(self._dir, name + ".exr")
+        scene.render.filepath = path
+        with bpy.context.temp_override(scene=scene):
+            bpy.ops.render.render(write_still=True, scene=scene.name)
+        channels = read_exr_channels(path)
+        return channels  # rows top-down, as the projector frame
+
+    def render_maps(self) -> ProjectorLightMaps:
+        scene = self.scene
+        white = _white_image(8, 8)
+        self._made.append(white)
+        projector_nodes.set_projected_image(self.projector.data, white)
+        scene.collection.objects.link(self.projector)
+        bg = scene.world.node_tree.nodes.get("Background") if scene.world.node_tree else None
+        if bg is not None:
+            bg.inputs["Strength"].default_value = 0.0
+        scene.world.color = (0, 0, 0)
+        # 4 samples over each pixel's square: the light it covers; a ray exactly through a pixel centre can
+        # graze the shared edge of two triangles and find it dark
+        lit = self._render("white", 4, 1.0)
+        scene.collection.objects.unlink(self.projector)
+        white_lux = lux_from_diffuse_direct(_rgb(lit, "Diffuse Direct", "DiffDir"))
+        albedo = _rgb(lit, "Diffuse Color", "DiffCol") @ LUMA
+        ob_index = _find(lit, "Object Index.X", "IndexOB.X", "IndexOB.V", "Object Index.V")
+        ma_index = _find(lit, "Material Index.X", "IndexMA.X", "IndexMA.V", "Material Index.V")
+        if ob_index is None or ma_index is None:
+            raise LightRenderError("the render has no object or material index pass")
+        on_object = np.abs(ob_index - TARGET_INDEX) < 0.5
+        region = on_object & (np.abs(ma_index - REGION_INDEX) < 0.5) if self.region_material else on_object
+        ambient = np.zeros_like(white_lux)
+        if self.ambient_lux > 0:
+            ambient = self._ambient_lux(bg)
+        return ProjectorLightMaps(white_lux, ambient, albedo, on_object, region)
+
+    def _ambient_lux(self, bg) -> np.ndarray:
+        scene = self.scene
+        if self.lamp_direction is None:  # light from every direction: E = pi L on an open surface
+            if bg is None:
+                raise LightRenderError("the light studio's world has no Background node")
+            bg.inputs["Color"].default_value = (1, 1, 1, 1)
+            bg.inputs["Strength"].default_value = world_strength_for_lux(self.ambient_lux)
+            samples = self.ambient_samples
+        else:  # a lamp: a Sun whose illuminance on a surface facing it is the room's lux
+            sun = bpy.data.lights.new(STUDIO + " lamp", "SUN")
+            sun.energy = sun_strength_for_lux(self.ambient_lux)
+            sun.angle = 0.0
+            sun_obj = bpy.data.objects.new(STUDIO + " lamp", sun)
+            self._made[:0] = [sun_obj, sun]
+            direction = Vector(self.lamp_direction).normalized()  # the way the light travels
+            sun_obj.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
+            scene.collection.objects.link(sun_obj)
+            samples = 1
+        room = self._render("room", samples, 1.0 if samples > 1 else 0.01)
+        return lux_from_diffuse_direct(_rgb(room, "Diffuse Direct", "DiffDir"))
+
+
+def projector_light_maps(scene, projector, target, width: int, height: int, ambient_lux: float = 0.0,
+                         lamp_direction=None, region_material: str = "", ambient_samples: int = 32):
+    """ProjectorLightMaps of the rig at width x height projector-view pixels (see the module)."""
+    if projector is None or target is None:
+        raise LightRenderError("set up the rig first: there is no projector or no object")
+    with LightStudio(scene, projector, target, width, height, ambient_lux, lamp_direction, region_material,
+                     ambient_samples) as studio:
+        return studio.render_maps()

@@ -17,7 +17,7 @@ from ..lapig_addon.cli.output import print_json
 BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui", "frame": "frame",
               "preview": "preview", "prompts": "prompts", "style-images": "style_images",
               "transport": "transport", "learned-variants": "learned_variants",
-              "pcnet-through": "pcnet_through", "hardware": "hardware"}
+              "pcnet-through": "pcnet_through", "hardware": "hardware", "light": "light"}
 
 
 def _ensure_registered():

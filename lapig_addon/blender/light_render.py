@@ -42,6 +42,7 @@ class ProjectorLightMaps:
     albedo: np.ndarray  # (H, W) luminance share the surface reflects
     on_object: np.ndarray  # (H, W) bool: the ray hits the target object
     region: np.ndarray  # (H, W) bool: the marked region (the object when none is marked)
+    white_radiance: np.ndarray | None = None  # (H, W) the render's luminance share (W/m2/sr) under white
 
 
 def _find(channels: dict, *names) -> np.ndarray | None:
@@ -218,7 +219,33 @@ class LightStudio:
         ambient = np.zeros_like(white_lux)
         if self.ambient_lux > 0:
             ambient = self._ambient_lux(bg)
-        return ProjectorLightMaps(white_lux, ambient, albedo, on_object, region)
+        radiance = _rgb(lit, "Combined", "Image") @ LUMA
+        return ProjectorLightMaps(white_lux, ambient, albedo, on_object, region, radiance)
+
+    def render_frame_lux(self, emitted: np.ndarray) -> np.ndarray:
+        """The illuminance (lux, H x W) the projector alone gives while it emits `emitted` (relative
+        light, the frame's native H x W x 3), sampled at map pixel centres: one projector pixel each
+        when the map is at the native size."""
+        h, w = emitted.shape[:2]
+        image = bpy.data.images.new(STUDIO + " frame", w, h, float_buffer=True)
+        self._made.append(image)
+        image.colorspace_settings.name = "Non-Color"
+        rgba = np.ones((h, w, 4), np.float32)
+        rgba[..., :3] = emitted
+        image.pixels.foreach_set(np.flipud(rgba).ravel())  # Blender's rows run bottom-up
+        projector_nodes.set_projected_image(self.projector.data, image)
+        scene = self.scene
+        bg = scene.world.node_tree.nodes.get("Background") if scene.world.node_tree else None
+        if bg is not None:
+            bg.inputs["Strength"].default_value = 0.0
+        for ob in [o for o in scene.collection.objects if o.type == "LIGHT"]:
+            scene.collection.objects.unlink(ob)
+        scene.collection.objects.link(self.projector)
+        try:
+            lit = self._render("frame", 1, 0.01)
+        finally:
+            scene.collection.objects.unlink(self.projector)
+        return lux_from_diffuse_direct(_rgb(lit, "Diffuse Direct", "DiffDir"))
 
     def _ambient_lux(self, bg) -> np.ndarray:
         scene = self.scene

@@ -1,0 +1,55 @@
+"""The lumens -> watts conversion checked by a Cycles render: a white panel's illuminance at the nine
+ANSI points is lumens / image area; a region that is not there is refused in one line."""
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+pytestmark = pytest.mark.blender
+
+
+def _panel_and_projector(albedo=0.8):
+    from lapig.lapig_addon.blender import demo_scene, rig
+
+    demo_scene.new_empty_scene()
+    bpy.ops.mesh.primitive_plane_add(size=6, location=(0, 0, 0))
+    panel = bpy.context.active_object
+    material = bpy.data.materials.new("white")
+    tree = material.node_tree
+    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        tree.nodes.remove(node)
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (albedo, albedo, albedo, 1)
+    tree.links.new(diffuse.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    panel.data.materials.append(material)
+    projector = rig.create_projector(bpy.context.scene)
+    projector.location = (0, 0, 1.5)
+    bpy.context.view_layer.update()
+    return panel, projector
+
+
+def test_rendered_lux_on_a_white_panel_is_lumens_per_area(lapig_registered):
+    from lapig.lapig_addon.blender import light_render, scene_state
+    from lapig.lapig_core.photometry import units
+
+    panel, projector = _panel_and_projector()
+    model = scene_state.projector_model(projector)
+    projector.lapig_projector.brightness = units.lumens_to_watts(1000, model)
+    maps = light_render.projector_light_maps(bpy.context.scene, projector, panel, 48, 36)
+    lux = units.lux_from_radiance(maps.white_radiance, 0.8)
+    nine = [lux[int(fy * 36), int(fx * 48)] for fy in (1 / 6, 1 / 2, 5 / 6) for fx in (1 / 6, 1 / 2, 5 / 6)]
+    predicted = 1000 / units.image_area_m2(model, 1.5)
+    assert abs(np.mean(nine) / predicted - 1) < 0.02
+    assert np.allclose(maps.white_lux, lux, rtol=1e-3)  # the Diffuse Direct pass says the same
+    assert maps.on_object.all() and len(bpy.data.scenes) == 1  # the light studio is gone
+
+
+def test_an_unknown_region_material_is_refused(lapig_registered):
+    from lapig.lapig_addon.blender import light_render
+
+    panel, projector = _panel_and_projector()
+    with pytest.raises(light_render.LightRenderError, match="no material 'velvet'.*its materials: white"):
+        light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12, region_material="velvet")
+    assert len(bpy.data.scenes) == 1

@@ -224,8 +224,9 @@ class LightStudio:
 
     def render_frame_lux(self, emitted: np.ndarray) -> np.ndarray:
         """The illuminance (lux, H x W) the projector alone gives while it emits `emitted` (relative
-        light, the frame's native H x W x 3), sampled at map pixel centres: one projector pixel each
-        when the map is at the native size."""
+        light, the frame's native H x W x 3): 4 samples within a quarter pixel of each map pixel's centre,
+        so at the native size each stays inside its own projector pixel (a ray exactly through the centre
+        can graze the shared edge of two triangles and find it dark)."""
         h, w = emitted.shape[:2]
         image = bpy.data.images.new(STUDIO + " frame", w, h, float_buffer=True)
         self._made.append(image)
@@ -242,7 +243,7 @@ class LightStudio:
             scene.collection.objects.unlink(ob)
         scene.collection.objects.link(self.projector)
         try:
-            lit = self._render("frame", 1, 0.01)
+            lit = self._render("frame", 4, 0.5)
         finally:
             scene.collection.objects.unlink(self.projector)
         return lux_from_diffuse_direct(_rgb(lit, "Diffuse Direct", "DiffDir"))

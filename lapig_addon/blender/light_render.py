@@ -12,7 +12,6 @@ Everything is undone on exit, even after an error; the user's scene is never ren
 """
 from __future__ import annotations
 
-import math
 import os
 import tempfile
 from dataclasses import dataclass
@@ -22,6 +21,7 @@ import numpy as np
 from mathutils import Vector
 
 from ...lapig_core.common.exr import read_exr_channels
+from ...lapig_core.photometry.light_maps import repair_dropouts
 from ...lapig_core.photometry.units import (LUMA, lux_from_diffuse_direct, sun_strength_for_lux,
                                            world_strength_for_lux)
 from . import projector_nodes
@@ -209,6 +209,7 @@ class LightStudio:
         lit = self._render("white", 4, 1.0)
         scene.collection.objects.unlink(self.projector)
         white_lux = lux_from_diffuse_direct(_rgb(lit, "Diffuse Direct", "DiffDir"))
+        white_lux = repair_dropouts(white_lux)  # lost shadow rays on a mesh's edges
         albedo = _rgb(lit, "Diffuse Color", "DiffCol") @ LUMA
         ob_index = _find(lit, "Object Index.X", "IndexOB.X", "IndexOB.V", "Object Index.V")
         ma_index = _find(lit, "Material Index.X", "IndexMA.X", "IndexMA.V", "Material Index.V")

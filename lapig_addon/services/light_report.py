@@ -109,8 +109,15 @@ def capped_frame(plan: LightPlan, frame: np.ndarray, white_lux: np.ndarray, ambi
                                   black_level=model.black_level, margin=margin)
     capped = dose.cap_input(frame, cap, model.gamma, model.black_level, bit_depth)
     changed = float((np.abs(capped - np.asarray(frame, np.float64)) > 1e-9).any(-1).mean())
+    notes = []
+    if unmet["room_light_over_limit_share"] > 0:
+        notes.append(f"the room's light alone is over {plan.limit.limit_lux:g} lux on "
+                     f"{unmet['room_light_over_limit_share']:.0%} of the region: dim the room, no projector image can help")
+    elif unmet["projector_black_over_limit_share"] > 0:
+        notes.append(f"the projector's black level with the room's light is over the limit on "
+                     f"{unmet['projector_black_over_limit_share']:.0%} of the region: dim the room or use fewer lumens")
     return capped.astype(np.float32), {**unmet, "limit_lux": plan.limit.limit_lux, "margin": margin,
-                                       "changed_pixel_share": round(changed, 4)}
+                                       "changed_pixel_share": round(changed, 4), "notes": notes}
 
 
 def write_report(folder, report: dict) -> str:

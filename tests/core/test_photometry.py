@@ -204,3 +204,12 @@ def test_projector_table_csv(tmp_path):
     assert lines[0].split(",") == list(projector_table.COLUMNS)
     assert lines[1].startswith("P1,Epson,EB-G5350,1024,768,5000,1.5,0.0,25.0,")
     assert not list(tmp_path.glob("*.tmp*"))
+
+
+def test_dropout_repair_raises_lone_dips_and_keeps_shadow_edges():
+    lux = np.full((6, 8), 100.0)
+    lux[2, 3] = 75.0  # one of four samples lost
+    lux[:, 6:] = 5.0  # a real shadow
+    fixed = light_maps.repair_dropouts(lux)
+    assert fixed[2, 3] == 100.0
+    assert np.array_equal(fixed[:, 5:], lux[:, 5:]) and (fixed >= lux).all()

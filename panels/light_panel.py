@@ -33,6 +33,9 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
             col.prop(s, "hours_per_day")
             col.prop(s, "days_per_year")
             col.prop(s, "region_material")
+            target = context.scene.lapig.target
+            if target is not None and target.type == "MESH":
+                col.prop_search(s, "region_group", target, "vertex_groups")
         plan = scene_state.light_plan(context.scene)
         problem = plan.problem()
         if problem:

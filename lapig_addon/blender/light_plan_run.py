@@ -52,13 +52,15 @@ def render_plan_maps(scene, plan, width, height):
     model = plan_model(projector, plan)
     scale = units.lumens_to_watts(plan.resolved_lumens, model) / projector.data.energy
     maps = light_render.projector_light_maps(scene, projector, target, width, height, plan.ambient_lux,
-                                             plan.lamp_direction, plan.region_material)
+                                             plan.lamp_direction, plan.region_material,
+                                             region_group=plan.region_group)
     maps.white_lux = maps.white_lux * scale
     if not maps.on_object.any():
         raise ValueError(f"the projector does not reach '{target.name}': aim it at the object")
-    if plan.region_material and not (maps.region & maps.on_object).any():
-        raise ValueError(f"the material '{plan.region_material}' has no faces the projector lights: mark faces "
-                         "it reaches, or the whole object")
+    marked = (f"the material '{plan.region_material}'" if plan.region_material else
+              f"the vertex group '{plan.region_group}'" if plan.region_group else "")
+    if marked and not (maps.region & maps.on_object).any():
+        raise ValueError(f"{marked} has no faces the projector lights: mark faces it reaches, or the whole object")
     return maps, model, scale
 
 
@@ -104,7 +106,7 @@ def write_capped(path, scene, plan, folder) -> dict:
     room, _, scale = render_plan_maps(scene, plan, 160, 120)
     frame = result_frame(folder, model)
     with light_render.LightStudio(scene, projector, target, model.width, model.height,
-                                  region_material=plan.region_material) as studio:
+                                  region_material=plan.region_material, region_group=plan.region_group) as studio:
         native = studio.render_maps()
     white = native.white_lux * scale
     ambient = resize_image(np.repeat(room.ambient_lux[..., None], 3, -1).astype(np.float32), model.width,

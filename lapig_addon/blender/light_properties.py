@@ -4,7 +4,7 @@ them into services/light_report.LightPlan, which checks them."""
 from __future__ import annotations
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, PointerProperty, StringProperty
 
 _PRESET_ITEMS = []  # Blender needs the enum strings to stay referenced
 
@@ -40,6 +40,8 @@ class LapigLightSettings(bpy.types.PropertyGroup):
     days_per_year: FloatProperty(name="Days a year", default=300.0, min=0.0, max=366.0)
     region_material: PointerProperty(name="Region", type=bpy.types.Material,
                                      description="Mark only the faces of this material (empty: the whole object)")
+    region_group: StringProperty(name="Vertex group",
+                                 description="Or mark only the faces of this vertex group of the object")
 
 
 def register():

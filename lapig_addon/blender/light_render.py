@@ -5,7 +5,7 @@ frustum (throw ratio, lens shift), so camera pixel (i, j) looks along projector 
 sees what that pixel lights. One render with the projector showing white gives, per pixel, Cycles'
 Diffuse Direct pass (E / pi, the albedo left out: lux = 683 pi pass, lapig_core.photometry.units), the
 Diffuse Color pass (the albedo) and the object and material index passes (the object, a marked
-material); a second render, with the projector off, gives the room's light: a uniform world of that
+material, or the faces of a vertex group, rendered as a temporary part of their own); a second render, with the projector off, gives the room's light: a uniform world of that
 illuminance, or a Sun of it from the lamp's direction. Each map pixel averages 4 samples over its square
 (a map pixel covers several projector pixels); the room light from every direction takes more.
 Everything is undone on exit, even after an error; the user's scene is never rendered.
@@ -68,8 +68,9 @@ def _white_image(width, height):
 
 class LightStudio:
     def __init__(self, scene, projector, target, width: int, height: int, ambient_lux: float = 0.0,
-                 lamp_direction=None, region_material: str = "", ambient_samples: int = 32):
+                 lamp_direction=None, region_material: str = "", ambient_samples: int = 32, region_group: str = ""):
         self.source, self.projector, self.target = scene, projector, target
+        self.region_group = region_group
         self.width, self.height = width, height
         self.ambient_lux, self.lamp_direction = ambient_lux, lamp_direction
         self.region_material = region_material
@@ -148,10 +149,53 @@ class LightStudio:
         layer.use_pass_object_index = layer.use_pass_material_index = True
         self._saved.append((self.target, "pass_index", self.target.pass_index))
         self.target.pass_index = TARGET_INDEX
+        if self.region_group:  # the object as two temporary parts: the group's faces and the rest
+            for part, index in zip(self._split_by_group(), (REGION_INDEX, TARGET_INDEX)):
+                part.pass_index = index
+                scene.collection.objects.link(part)
+            if self.target.name in scene.collection.objects:
+                scene.collection.objects.unlink(self.target)
         if material is not None:
             self._saved.append((material, "pass_index", material.pass_index))
             material.pass_index = REGION_INDEX
         self._saved_image = projector_nodes.projected_image(self.projector.data)
+
+    def _split_by_group(self):
+        import bmesh
+
+        group = self.target.vertex_groups.get(self.region_group) if self.target.type == "MESH" else None
+        if group is None:
+            names = ", ".join(g.name for g in getattr(self.target, "vertex_groups", [])) or "none"
+            raise LightRenderError(f"'{self.target.name}' has no vertex group '{self.region_group}' (its vertex "
+                                   f"groups: {names})")
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        parts = []
+        for inside in (True, False):
+            bm = bmesh.new()
+            try:
+                bm.from_object(self.target, depsgraph)
+                layer = bm.verts.layers.deform.active
+                if layer is None:
+                    raise LightRenderError(f"the vertex group '{self.region_group}' has no weights")
+
+                def in_group(face):
+                    return all(v[layer].get(group.index, 0.0) >= 0.5 for v in face.verts)
+                drop = [f for f in bm.faces if in_group(f) != inside]
+                if inside and len(drop) == len(bm.faces):
+                    raise LightRenderError(f"the vertex group '{self.region_group}' has no faces (no face has all "
+                                           "its vertices at weight 0.5 or more): assign faces to it")
+                bmesh.ops.delete(bm, geom=drop, context="FACES")
+                mesh = bpy.data.meshes.new(STUDIO + " region" if inside else STUDIO + " rest")
+                bm.to_mesh(mesh)
+            finally:
+                bm.free()
+            for slot in self.target.material_slots:
+                mesh.materials.append(slot.material)
+            part = bpy.data.objects.new(mesh.name, mesh)
+            part.matrix_world = self.target.matrix_world
+            self._made[:0] = [part, mesh]
+            parts.append(part)
+        return parts
 
     def close(self):
         if self.projector is not None and getattr(self, "_saved_image", None) is not None:
@@ -172,7 +216,7 @@ class LightStudio:
             try:
                 collection = {bpy.types.Object: bpy.data.objects, bpy.types.Camera: bpy.data.cameras,
                               bpy.types.World: bpy.data.worlds, bpy.types.Image: bpy.data.images,
-                              bpy.types.Light: bpy.data.lights}[type(block)]
+                              bpy.types.Light: bpy.data.lights, bpy.types.Mesh: bpy.data.meshes}[type(block)]
                 collection.remove(block)
             except (KeyError, ReferenceError):
                 pass
@@ -215,8 +259,14 @@ class LightStudio:
         ma_index = _find(lit, "Material Index.X", "IndexMA.X", "IndexMA.V", "Material Index.V")
         if ob_index is None or ma_index is None:
             raise LightRenderError("the render has no object or material index pass")
-        on_object = np.abs(ob_index - TARGET_INDEX) < 0.5
-        region = on_object & (np.abs(ma_index - REGION_INDEX) < 0.5) if self.region_material else on_object
+        in_group = np.abs(ob_index - REGION_INDEX) < 0.5  # the vertex group's part
+        on_object = (np.abs(ob_index - TARGET_INDEX) < 0.5) | in_group
+        if self.region_group:
+            region = in_group
+        elif self.region_material:
+            region = on_object & (np.abs(ma_index - REGION_INDEX) < 0.5)
+        else:
+            region = on_object
         ambient = np.zeros_like(white_lux)
         if self.ambient_lux > 0:
             ambient = self._ambient_lux(bg)
@@ -272,10 +322,11 @@ class LightStudio:
 
 
 def projector_light_maps(scene, projector, target, width: int, height: int, ambient_lux: float = 0.0,
-                         lamp_direction=None, region_material: str = "", ambient_samples: int = 32):
+                         lamp_direction=None, region_material: str = "", ambient_samples: int = 32,
+                         region_group: str = ""):
     """ProjectorLightMaps of the rig at width x height projector-view pixels (see the module)."""
     if projector is None or target is None:
         raise LightRenderError("set up the rig first: there is no projector or no object")
     with LightStudio(scene, projector, target, width, height, ambient_lux, lamp_direction, region_material,
-                     ambient_samples) as studio:
+                     ambient_samples, region_group) as studio:
         return studio.render_maps()

@@ -290,4 +290,5 @@ def light_plan(scene):
         limit = ConservationLimit(s.category.lower(), s.limit_lux, Schedule(s.hours_per_day, s.days_per_year))
     return LightPlan(preset="" if s.preset == "NONE" else s.preset, lumens=0.0 if s.preset != "NONE" else s.lumens,
                      ambient_lux=s.ambient_lux, lamp_direction=tuple(s.lamp_direction) if s.use_lamp else None,
-                     limit=limit, region_material=s.region_material.name if s.region_material else "")
+                     limit=limit, region_material=s.region_material.name if s.region_material else "",
+                     region_group=s.region_group)

@@ -36,6 +36,7 @@ def add_parser(sub):
     r.add_argument("--hours-per-day", type=float, default=8.0, help="the show's hours a day (default 8)")
     r.add_argument("--days-per-year", type=float, default=300.0, help="the show's days a year (default 300)")
     r.add_argument("--region-material", default="", help="mark only the faces of this material (default: the object)")
+    r.add_argument("--region-group", default="", help="mark only the faces of this vertex group (default: the object)")
     r.add_argument("--size", default="160x120", help="light map size WxH (default 160x120)")
     r.add_argument("--maps", metavar="DIR", help="write the lux, luminance and contrast maps as PNGs here")
     r.add_argument("--cap-out", metavar="PNG", help="write the projector image limited to the category's lux here")
@@ -73,7 +74,8 @@ def plan_from_args(args) -> light_report.LightPlan:
                                        dose.Schedule(args.hours_per_day, args.days_per_year))
     plan = light_report.LightPlan(preset=args.preset, lumens=args.lumens, contrast=args.contrast,
                                   ambient_lux=args.ambient_lux, lamp_direction=_direction(args.lamp_direction),
-                                  limit=limit, region_material=args.region_material)
+                                  limit=limit, region_material=args.region_material,
+                                  region_group=args.region_group)
     return plan.check()
 
 

@@ -28,6 +28,7 @@ class LightPlan:
     lamp_direction: tuple | None = None  # the way the room's lamp shines (None: from every direction)
     limit: dose.ConservationLimit | None = None  # None: no conservation guard
     region_material: str = ""  # the marked region: a material of the object ('' : the whole object)
+    region_group: str = ""  # or a vertex group of it (faces whose vertices all weigh 0.5 or more)
 
     def problem(self) -> str:
         """Why the plan cannot be reported ('' when it can): every input checked before any render."""
@@ -47,6 +48,8 @@ class LightPlan:
             d = np.asarray(self.lamp_direction, float)
             if d.shape != (3,) or not np.isfinite(d).all() or np.linalg.norm(d) < 1e-9:
                 return "the lamp's direction must be three numbers, not all 0"
+        if self.region_material and self.region_group:
+            return "mark the region by a material or by a vertex group, not both"
         return self.limit.problem() if self.limit is not None else ""
 
     def check(self) -> "LightPlan":
@@ -94,7 +97,9 @@ def light_report(plan: LightPlan, maps, emitted: np.ndarray | None, model) -> di
         region = np.asarray(maps.region, bool) & np.asarray(maps.on_object, bool)
         total = maps.white_lux * emitted + maps.ambient_lux
         report["dose"] = {**dose.dose_figures(total, region, plan.limit),
-                          "region": plan.region_material or "the whole object"}
+                          "region": (f"material '{plan.region_material}'" if plan.region_material else
+                                     f"vertex group '{plan.region_group}'" if plan.region_group else
+                                     "the whole object")}
     return report
 
 

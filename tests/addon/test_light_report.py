@@ -38,6 +38,7 @@ def _maps(white=400.0, room=20.0, region_rows=slice(0, 8)):
     (dict(lumens=1000, ambient_lux=-2), "0 lux or more"),
     (dict(lumens=1000, lamp_direction=(0, 0, 0)), "not all 0"),
     (dict(lumens=1000, contrast=0.5), "more than 1:1"),
+    (dict(lumens=1000, region_material="gold", region_group="paper"), "not both"),
     (dict(lumens=1000, limit=dose.ConservationLimit("high", schedule=dose.Schedule(26, 200))), "at most 24"),
 ])
 def test_bad_plans_say_why(lr, plan, match):

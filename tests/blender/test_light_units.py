@@ -53,3 +53,26 @@ def test_an_unknown_region_material_is_refused(lapig_registered):
     with pytest.raises(light_render.LightRenderError, match="no material 'velvet'.*its materials: white"):
         light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12, region_material="velvet")
     assert len(bpy.data.scenes) == 1
+
+
+def test_a_vertex_group_marks_its_faces_and_an_empty_one_is_refused(lapig_registered):
+    from lapig.lapig_addon.blender import light_render
+
+    panel, projector = _panel_and_projector()
+    bpy.context.view_layer.objects.active = panel
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.subdivide(number_cuts=3)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    left = [v.index for v in panel.data.vertices if v.co.x <= 0.0]
+    group = panel.vertex_groups.new(name="paper")
+    group.add(left, 1.0, "REPLACE")
+    maps = light_render.projector_light_maps(bpy.context.scene, projector, panel, 32, 24, region_group="paper")
+    assert maps.on_object.all()
+    share = maps.region.mean()
+    assert 0.4 < share < 0.6 and maps.region[:, :12].all() and not maps.region[:, -12:].any()
+    panel.vertex_groups.new(name="empty")
+    with pytest.raises(light_render.LightRenderError, match="'empty' has no faces"):
+        light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12, region_group="empty")
+    with pytest.raises(light_render.LightRenderError, match="no vertex group 'velvet'.*paper, empty"):
+        light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12, region_group="velvet")
+    assert len(bpy.data.scenes) == 1 and len(bpy.data.meshes) == 1  # the parts are gone

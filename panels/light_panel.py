@@ -63,6 +63,9 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
                       icon="CHECKMARK" if ok else "ERROR")
             box.label(text=f"{dose['lux_hours_per_year_max']:,} lux.h a year at the brightest point "
                            f"(budget {dose['yearly_budget_lux_hours']:,})")
+            if dose.get("lumens_within_limit") is not None:
+                box.label(text=f"This look keeps the limit at {dose['lumens_within_limit']:,} lumens or fewer",
+                          icon="INFO")
 
 
 CLASSES = (LAPIG_PT_light,)

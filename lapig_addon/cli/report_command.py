@@ -41,7 +41,8 @@ def add_parser(sub):
     r.add_argument("--maps", metavar="DIR", help="write the lux, luminance and contrast maps as PNGs here")
     r.add_argument("--cap-out", metavar="PNG", help="write the projector image limited to the category's lux here")
     r.add_argument("--apply", action="store_true", help="set the projector light's power and black level from "
-                                                        "the plan (with --save: keep them)")
+                                                        "the plan (with --save: keep them; the brightness is part "
+                                                        "of the rig's fingerprint, so the capture goes stale)")
     r.set_defaults(func=cmd_report)
 
 

@@ -96,7 +96,14 @@ def light_report(plan: LightPlan, maps, emitted: np.ndarray | None, model) -> di
     if plan.limit is not None:
         region = np.asarray(maps.region, bool) & np.asarray(maps.on_object, bool)
         total = maps.white_lux * emitted + maps.ambient_lux
+        look = (maps.white_lux * emitted)[region]
+        room = np.broadcast_to(maps.ambient_lux, region.shape)[region]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room_left = np.where(look > 1e-9, (plan.limit.limit_lux - room) / look, np.inf)
+        scale = float(np.clip(room_left, 0.0, None).min()) if room_left.size else float("inf")
         report["dose"] = {**dose.dose_figures(total, region, plan.limit),
+                          # the lumens at which this look's brightest point on the region meets the limit
+                          "lumens_within_limit": (round(plan.resolved_lumens * scale) if scale < 1 else None),
                           "region": (f"material '{plan.region_material}'" if plan.region_material else
                                      f"vertex group '{plan.region_group}'" if plan.region_group else
                                      "the whole object")}

@@ -62,6 +62,8 @@ def test_report_of_a_look_with_a_dose(lr):
     assert report["look_lux"]["max"] == pytest.approx(100.0)
     assert report["dose"]["max_lux"] == pytest.approx(120.0) and not report["dose"]["within_limit"]
     assert report["dose"]["lux_hours_per_year_max"] == 120 * 2000
+    # 30 lux of the look may stay where 100 are now (50 - 20 of room light): 30% of the lumens
+    assert report["dose"]["lumens_within_limit"] == 600
     assert report["light_power_w"] > 0 and report["warning"] == ""  # 400 lux white in a 20 lux room: 21:1
     json.dumps(report)  # plain JSON
 

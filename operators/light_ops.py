@@ -37,6 +37,31 @@ class LAPIG_OT_light_report(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (LAPIG_OT_light_report,)
+class LAPIG_OT_light_cap(ReportsErrors, bpy.types.Operator):
+    """Limit the look so the marked region stays within its conservation limit: a new result (the free
+    one stays), which the projector, the preview and Export then use"""
+    bl_idname = "lapig.light_cap"
+    bl_label = "Limit Look to the Dose"
+
+    def execute(self, context):
+        scene = context.scene
+        plan = scene_state.light_plan(scene)
+        problem = plan.problem() or ("" if plan.limit else "choose a conservation category first")
+        folder = scene_state.read(scene).result_dir
+        if not problem and not folder:
+            problem = "generate a look first"
+        if problem:
+            self.report({"ERROR"}, problem)
+            return {"CANCELLED"}
+        out = light_plan_run.cap_result(scene, plan, folder, record=True)
+        for note in out.get("notes", []):
+            self.report({"WARNING"}, note)
+        light_plan_run.run_report(scene, plan, scene_state.read(scene).result_dir)
+        self.report({"INFO"}, f"limited look: {out['predicted_max_lux']} lux at most on the region "
+                              f"({out['changed_pixel_share']:.0%} of the pixels dimmed)")
+        return {"FINISHED"}
+
+
+CLASSES = (LAPIG_OT_light_report, LAPIG_OT_light_cap)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -44,6 +44,8 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
         row = layout.row()
         row.enabled = not problem
         row.operator("lapig.light_report", icon="LIGHT_SPOT")
+        if s.category != "NONE":
+            row.operator("lapig.light_cap", icon="LIGHT_SUN")
         folder = scene_state.read(context.scene).result_dir
         report = light_report.read_report(folder) if folder else None
         if not report:

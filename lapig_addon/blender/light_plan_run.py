@@ -97,6 +97,36 @@ def run_report(scene, plan, folder: str | None, width=160, height=120, maps_dir:
 
 def write_capped(path, scene, plan, folder) -> dict:
     """The result's projector image limited to the plan's lux limit on the marked region, written to path."""
+    capped, info = capped_frame(scene, plan, folder)
+    write_png(os.path.abspath(path), capped)
+    return {**info, "path": os.path.abspath(path)}
+
+
+def cap_result(scene, plan, folder, record: bool = False, measure_psnr: bool = False) -> dict:
+    """The limited look as a result of its own (services/dose_cap); record: make it the scene's result and
+    show it on the projector light; measure_psnr: project both on the rig for the cap's cost."""
+    from ..services import dose_cap
+    from . import scene_store
+
+    state = scene_state.read(scene)
+    if measure_psnr and not state.capture_dir:  # before anything is written
+        raise ValueError("measuring the cap's cost needs the scene's capture: capture first")
+    capped, info = capped_frame(scene, plan, folder)
+    new = dose_cap.write_capped_result(folder, capped, info)
+    out = {**info, "folder": str(new)}
+    if measure_psnr:
+        model = plan_model(scene_state.rig_objects(scene)[0], plan)
+        out.update(dose_cap.rendered_psnr_cost(scene_store.scene_seams(scene).devices, state.capture_dir, folder,
+                                               result_frame(folder, model), capped))
+    if record:
+        summary = scene.lapig.result_summary
+        scene_state.record_result(scene, str(new), summary + " | limited to the light dose")
+        scene_store.show_scene_result(scene)
+    return out
+
+
+def capped_frame(scene, plan, folder):
+    """(the result's native frame limited to the plan's lux on the marked region, what the cap did)."""
     if plan.limit is None:
         raise ValueError("limiting the look needs a conservation category")
     if not folder:
@@ -113,6 +143,5 @@ def write_capped(path, scene, plan, folder) -> dict:
                            model.height)[..., 0]
     region = native.region & native.on_object
     capped, info = light_report.capped_frame(plan, frame, white, ambient, region, model)
-    write_png(os.path.abspath(path), capped)
     predicted = white * (model.emitted(capped) @ units.LUMA) + ambient
-    return {**info, "path": os.path.abspath(path), "predicted_max_lux": round(float(predicted[region].max()), 2)}
+    return capped, {**info, "predicted_max_lux": round(float(predicted[region].max()), 2)}

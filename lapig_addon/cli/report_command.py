@@ -40,6 +40,11 @@ def add_parser(sub):
     r.add_argument("--size", default="160x120", help="light map size WxH (default 160x120)")
     r.add_argument("--maps", metavar="DIR", help="write the lux, luminance and contrast maps as PNGs here")
     r.add_argument("--cap-out", metavar="PNG", help="write the projector image limited to the category's lux here")
+    r.add_argument("--cap-result", action="store_true",
+                   help="make the look limited to the category's lux a result of its own (<result>_dose_cap; "
+                        "with --save the scene's result, which Export and the preview then use)")
+    r.add_argument("--psnr", action="store_true", help="with --cap-result: project both looks on the rig and "
+                                                       "report the cap's cost in PSNR against the target")
     r.add_argument("--apply", action="store_true", help="set the projector light's power and black level from "
                                                         "the plan (with --save: keep them; the brightness is part "
                                                         "of the rig's fingerprint, so the capture goes stale)")
@@ -98,6 +103,10 @@ def cmd_report(args) -> int:
     report = light_plan_run.run_report(scene, plan, folder or None, width, height, args.maps)
     if args.cap_out:
         report["cap"] = light_plan_run.write_capped(args.cap_out, scene, plan, folder)
+    if args.cap_result:
+        report["capped_result"] = light_plan_run.cap_result(scene, plan, folder, record=args.save,
+                                                            measure_psnr=args.psnr)
+        _save_if_asked(args)
     if args.apply:
         projector = scene.lapig.projector
         projector.lapig_projector.brightness = report["light_power_w"]

@@ -102,3 +102,25 @@ def test_export_adds_the_light_figures_and_the_table(lr, sidecar, tmp_path):
     table = sidecar.write_table_beside(tmp_path / "look.png", tmp_path)
     assert table.name == "look_projectors.csv"
     assert "LAPIG Projector,Optoma,ML500,800,600,500," in table.read_text()
+
+
+def test_the_capped_look_is_a_result_of_its_own(tmp_path):
+    from lapig_core.export.result_files import write_result
+
+    dc = importlib.import_module("lapig.lapig_addon.services.dose_cap")
+    free = tmp_path / "20261204_look"
+    frame = np.full((12, 16, 3), 0.8, np.float32)
+    write_result(free, {"projector": frame[:8, :8], "projector_native": frame, "target": frame[:8, :8]},
+                 {"prompt": "look"})
+    (free / "light_report.json").write_text("{}")
+    capped = np.full((12, 16, 3), 0.3, np.float32)
+    new = dc.write_capped_result(free, capped, {"limit_lux": 50.0})
+    assert new.name == "20261204_look_dose_cap" and not (new / "light_report.json").exists()
+    from lapig_core.export.result_files import read_output_image, read_summary
+
+    assert np.allclose(read_output_image(new, "projector"), 0.3, atol=1e-4)
+    assert np.allclose(read_output_image(free, "projector"), 0.8, atol=1e-4)  # the free look stays
+    assert read_summary(new)["dose_cap"]["capped_from"] == str(free)
+    with pytest.raises(ValueError, match="not the projector's native frame"):
+        dc.write_capped_result(free, capped[:6], {})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["20261204_look", "20261204_look_dose_cap"]

@@ -76,3 +76,32 @@ def test_a_vertex_group_marks_its_faces_and_an_empty_one_is_refused(lapig_regist
     with pytest.raises(light_render.LightRenderError, match="no vertex group 'velvet'.*paper, empty"):
         light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12, region_group="velvet")
     assert len(bpy.data.scenes) == 1 and len(bpy.data.meshes) == 1  # the parts are gone
+
+
+def test_the_light_panel_draws_the_plan_and_says_what_is_wrong(lapig_registered, small_setup):
+    from test_panels import RecordingLayout
+
+    from lapig.panels.light_panel import LAPIG_PT_light
+
+    class Layout(RecordingLayout):
+        def prop_search(self, data, name, search_data, search_name, **kwargs):
+            assert name in data.bl_rna.properties and hasattr(search_data, search_name)
+            self.log.append(("prop", name))
+
+        def _child(self, *args, **kwargs):
+            return Layout(self.log)
+
+        row = column = box = split = _child
+
+    s = bpy.context.scene.lapig_light
+    s.preset, s.category = "optoma-ml500", "HIGH"
+    log = []
+    LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+    assert ("operator", "lapig.light_report") in log and ("operator", "lapig.light_cap") in log
+    for name in ("preset", "ambient_lux", "category", "hours_per_day", "days_per_year", "region_material",
+                 "region_group"):
+        assert ("prop", name) in log
+    s.preset, s.lumens = "NONE", 0.0
+    log = []
+    LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+    assert any("brightness in lumens" in e[1] for e in log if e[0] == "label")

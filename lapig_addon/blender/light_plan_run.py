@@ -79,7 +79,8 @@ def run_report(scene, plan, folder: str | None, width=160, height=120, maps_dir:
                                               float(maps.white_lux[maps.on_object].mean()))
     look = maps.white_lux * (emitted if emitted is not None else 1.0)
     total = look + maps.ambient_lux
-    contrast = units.contrast_ratio(maps.white_lux, maps.ambient_lux, plan.resolved_contrast)
+    contrast = light_maps.finite_contrast(units.contrast_ratio(maps.white_lux, maps.ambient_lux,
+                                                               plan.resolved_contrast))
     images = {LUX_MAP: light_maps.lux_colour_map(total, maps.on_object),
               CONTRAST_MAP: light_maps.contrast_colour_map(contrast, maps.on_object),
               "light_luminance": light_maps.lux_colour_map(units.luminance_cd_m2(maps.albedo, total),

@@ -24,7 +24,7 @@ from ...lapig_core.common.exr import read_exr_channels
 from ...lapig_core.photometry.light_maps import repair_dropouts
 from ...lapig_core.photometry.units import (LUMA, lux_from_diffuse_direct, sun_strength_for_lux,
                                            world_strength_for_lux)
-from . import projector_nodes
+from . import preview, projector_nodes
 from .geometry_probe import renderable_objects
 
 STUDIO = "LAPIG light studio"
@@ -91,6 +91,9 @@ class LightStudio:
         self.close()
 
     def _build(self):
+        # the object in its own materials (the preview's copies are unlit or tinted), the preview back on close
+        self._surface = preview.real_surface(self.target, self.projector)
+        self._surface.__enter__()
         material = None
         if self.region_material:
             material = bpy.data.materials.get(self.region_material)
@@ -226,6 +229,9 @@ class LightStudio:
                 os.remove(os.path.join(self._dir, name))
             os.rmdir(self._dir)
             self._dir = None
+        surface, self._surface = getattr(self, "_surface", None), None
+        if surface is not None:
+            surface.__exit__(None, None, None)
 
     def _render(self, name, samples, filter_width) -> dict:
         scene = self.scene

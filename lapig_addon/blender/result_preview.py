@@ -55,7 +55,9 @@ def _light_map_image(projector, result_dir: str, name: str) -> bpy.types.Image:
     path = os.path.join(result_dir, name + ".png")
     if not os.path.isfile(path):
         raise ValueError("no light maps for this result yet: press Light Report")
-    return frame_image(IMAGE_PREFIX + name, resize_image(to_float(read_image(path)), model.width, model.height))
+    # the maps' colours are display (sRGB) values: made linear, the view transform shows them as drawn
+    colours = np.power(resize_image(to_float(read_image(path)), model.width, model.height), 2.2)
+    return frame_image(IMAGE_PREFIX + name, colours)
 
 
 def apply_mode(scene, mode: str, report=None) -> bool:

@@ -14,6 +14,7 @@ from .units import (PLANNING_GOOD_CONTRAST, PLANNING_MIN_CONTRAST, ambient_lux_f
                     luminance_cd_m2, white_lux_for_contrast)
 
 COVERED_SHARE = 0.95  # the fixes aim at this share of the object
+LAMP_HEADROOM = 0.7  # lamps fade: planners buy 25-30% more lumens than the first day needs (NOTES section 10)
 
 
 def _stats(values: np.ndarray) -> dict:
@@ -21,6 +22,15 @@ def _stats(values: np.ndarray) -> dict:
         return {"mean": None, "min": None, "max": None, "p05": None}
     return {"mean": round(float(values.mean()), 2), "min": round(float(values.min()), 2),
             "max": round(float(values.max()), 2), "p05": round(float(np.percentile(values, 5)), 2)}
+
+
+MAX_CONTRAST = 1e6  # a dark room and a perfect black: reported as this, not as infinity
+
+
+def finite_contrast(c: np.ndarray) -> np.ndarray:
+    """No light at all (0 / 0) is 1:1; light against no light at all is MAX_CONTRAST:1."""
+    c = np.asarray(c, np.float64)
+    return np.where(np.isnan(c), 1.0, np.minimum(c, MAX_CONTRAST))
 
 
 def light_summary(white_lux, ambient_lux, albedo, emitted, valid, lumens: float,
@@ -37,7 +47,7 @@ def light_summary(white_lux, ambient_lux, albedo, emitted, valid, lumens: float,
     look = white * np.asarray(emitted, np.float64)
     total = look + ambient
     lum = luminance_cd_m2(np.broadcast_to(albedo, white.shape), total)
-    rig_contrast = contrast_ratio(white, ambient, projector_contrast)
+    rig_contrast = finite_contrast(contrast_ratio(white, ambient, projector_contrast))
     w, a, c = white[valid], ambient[valid], rig_contrast[valid]
     below = float((c < PLANNING_MIN_CONTRAST).mean())
     # the fixes, for the dimmer part of the object (COVERED_SHARE of it reaches the target)
@@ -48,6 +58,8 @@ def light_summary(white_lux, ambient_lux, albedo, emitted, valid, lumens: float,
         need = white_lux_for_contrast(target, a_high, projector_contrast)
         fixes[f"lumens_for_{int(target)}_to_1"] = (None if not math.isfinite(need) else
                                                    round(lumens * need / max(w_low, 1e-9)))
+        fixes[f"lumens_for_{int(target)}_to_1_with_headroom"] = (
+            None if not math.isfinite(need) else round(lumens * need / max(w_low, 1e-9) / LAMP_HEADROOM))
         fixes[f"ambient_lux_for_{int(target)}_to_1"] = round(ambient_lux_for_contrast(target, w_low,
                                                                                       projector_contrast), 1)
     summary = {"lumens": lumens, "projector_contrast": projector_contrast,

@@ -105,3 +105,17 @@ def test_the_light_panel_draws_the_plan_and_says_what_is_wrong(lapig_registered,
     log = []
     LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
     assert any("brightness in lumens" in e[1] for e in log if e[0] == "label")
+
+
+def test_the_maps_see_the_real_surface_while_the_object_shows_a_preview(lapig_registered):
+    from lapig.lapig_addon.blender import light_render, preview
+
+    panel, projector = _panel_and_projector()
+    plain = light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12)
+    preview.enable_preview(panel, projector, projector.data.node_tree.nodes["LAPIG projected image"].image,
+                           appearance=True)  # an unlit copy of the material, as the Lux preview has
+    seen = light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12,
+                                             region_material="white")
+    assert np.allclose(seen.white_lux, plain.white_lux) and np.allclose(seen.albedo, 0.8, atol=1e-3)
+    assert seen.region.all() and preview.is_previewing(panel)  # the preview is back
+    preview.disable_preview(panel)

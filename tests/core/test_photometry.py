@@ -180,6 +180,7 @@ def test_summary_warns_below_5_to_1_and_its_fix_reaches_it():
     s = light_maps.light_summary(white, 100.0, 0.6, np.ones((8, 8)), valid, lumens=500)
     assert s["contrast_below_5_share"] == 1.0 and "below 5:1" in s["warning"]
     fix = s["fixes"]["lumens_for_5_to_1"]
+    assert s["fixes"]["lumens_for_5_to_1_with_headroom"] == pytest.approx(fix / 0.7, abs=1)
     brighter = white * fix / 500
     assert units.contrast_ratio(brighter, 100.0).min() >= 5 - 0.05
     dim = s["fixes"]["ambient_lux_for_5_to_1"]
@@ -213,3 +214,11 @@ def test_dropout_repair_raises_lone_dips_and_keeps_shadow_edges():
     fixed = light_maps.repair_dropouts(lux)
     assert fixed[2, 3] == 100.0
     assert np.array_equal(fixed[:, 5:], lux[:, 5:]) and (fixed >= lux).all()
+
+
+def test_a_dark_room_gives_finite_figures():
+    white = np.array([[0.0, 300.0]])
+    s = light_maps.light_summary(white, 0.0, 0.5, np.ones((1, 2)), np.ones((1, 2), bool), lumens=1000)
+    assert s["contrast_ratio"]["min"] == 1.0 and s["contrast_ratio"]["max"] == light_maps.MAX_CONTRAST
+    import json
+    json.dumps(s, allow_nan=False)

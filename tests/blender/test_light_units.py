@@ -119,3 +119,27 @@ def test_the_maps_see_the_real_surface_while_the_object_shows_a_preview(lapig_re
     assert np.allclose(seen.white_lux, plain.white_lux) and np.allclose(seen.albedo, 0.8, atol=1e-3)
     assert seen.region.all() and preview.is_previewing(panel)  # the preview is back
     preview.disable_preview(panel)
+
+
+def test_light_report_previews_and_export_carry_the_figures(small_setup, tmp_path):
+    import json
+
+    from test_existing_result import write_fake_result
+
+    scene, projector, camera, target = small_setup
+    scene.lapig.result_dir = write_fake_result(tmp_path / "result")
+    with pytest.raises(RuntimeError, match="press Light Report"):
+        bpy.ops.lapig.preview_mode(mode="LUX")
+    s = scene.lapig_light
+    s.preset, s.ambient_lux, s.category = "panasonic-pt-lb90", 100.0, "MODERATE"
+    assert bpy.ops.lapig.light_report() == {"FINISHED"}
+    assert scene.lapig.preview_mode == "LUX"
+    assert bpy.ops.lapig.preview_mode(mode="CONTRAST") == {"FINISHED"}
+    assert bpy.ops.lapig.preview_mode(mode="ORIGINAL") == {"FINISHED"}
+    path = tmp_path / "look.png"
+    assert bpy.ops.lapig.export_image(filepath=str(path)) == {"FINISHED"}
+    light = json.loads((tmp_path / "look.json").read_text())["light"]
+    assert light["lumens"] == 3000 and light["preset"]["id"] == "panasonic-pt-lb90"
+    assert light["dose"]["limit_lux"] == 200 and light["total_lux"]["max"] > 0
+    table = (tmp_path / "look_projectors.csv").read_text().splitlines()
+    assert table[0].startswith("Name,Manufacturer,Model") and ",Panasonic,PT-LB90,160,120,3000," in table[1]

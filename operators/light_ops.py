@@ -62,6 +62,27 @@ class LAPIG_OT_light_cap(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (LAPIG_OT_light_report, LAPIG_OT_light_cap)
+class LAPIG_OT_light_apply(ReportsErrors, bpy.types.Operator):
+    """Set the projector to this model: its native resolution, the throw ratio and lens shift nearest the
+    rig's within its ranges, the light power of its lumens and the black level of its contrast (the
+    capture then goes stale)"""
+    bl_idname = "lapig.light_apply"
+    bl_label = "Use This Projector"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        plan = scene_state.light_plan(context.scene)
+        problem = plan.problem()
+        if problem:
+            self.report({"ERROR"}, problem)
+            return {"CANCELLED"}
+        settings, notes = light_plan_run.apply_projector(context.scene, plan)
+        for note in notes:
+            self.report({"WARNING"}, note)
+        self.report({"INFO"}, f"projector set: {settings['brightness']:,.1f} W for {plan.resolved_lumens:,.0f} lm")
+        return {"FINISHED"}
+
+
+CLASSES = (LAPIG_OT_light_report, LAPIG_OT_light_cap, LAPIG_OT_light_apply)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -20,6 +20,7 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
         layout.prop(s, "preset")
         if s.preset == "NONE":
             layout.prop(s, "lumens")
+        layout.operator("lapig.light_apply", icon="OUTLINER_OB_LIGHT")
         layout.prop(s, "ambient_lux")
         row = layout.row()
         row.prop(s, "use_lamp")

@@ -146,3 +146,16 @@ def capped_frame(scene, plan, folder):
     capped, info = light_report.capped_frame(plan, frame, white, ambient, region, model)
     predicted = white * (model.emitted(capped) @ units.LUMA) + ambient
     return capped, {**info, "predicted_max_lux": round(float(predicted[region].max()), 2)}
+
+
+def apply_projector(scene, plan) -> tuple[dict, list[str]]:
+    """Set the scene's projector to the plan's model (services/light_report.projector_settings); the
+    brightness, resolution and lens are part of the rig's fingerprint, so the capture goes stale."""
+    projector = scene_state.rig_objects(scene)[0]
+    if projector is None:
+        raise ValueError("set up the rig first: there is no projector")
+    settings, notes = light_report.projector_settings(plan, scene_state.projector_model(projector))
+    p = projector.lapig_projector
+    for name, value in settings.items():
+        setattr(p, name, value)
+    return {k: (round(v, 6) if isinstance(v, float) else v) for k, v in settings.items()}, notes

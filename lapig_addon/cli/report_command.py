@@ -45,9 +45,10 @@ def add_parser(sub):
                         "with --save the scene's result, which Export and the preview then use)")
     r.add_argument("--psnr", action="store_true", help="with --cap-result: project both looks on the rig and "
                                                        "report the cap's cost in PSNR against the target")
-    r.add_argument("--apply", action="store_true", help="set the projector light's power and black level from "
-                                                        "the plan (with --save: keep them; the brightness is part "
-                                                        "of the rig's fingerprint, so the capture goes stale)")
+    r.add_argument("--apply", action="store_true",
+                   help="set the projector to the plan: the preset's native resolution, the throw ratio and lens "
+                        "shift nearest the rig's within its ranges, the light's power and black level (with "
+                        "--save: keep them; they are part of the rig's fingerprint, so the capture goes stale)")
     r.set_defaults(func=cmd_report)
 
 
@@ -108,10 +109,8 @@ def cmd_report(args) -> int:
                                                             measure_psnr=args.psnr)
         _save_if_asked(args)
     if args.apply:
-        projector = scene.lapig.projector
-        projector.lapig_projector.brightness = report["light_power_w"]
-        if plan.resolved_contrast:
-            projector.lapig_projector.black_level = units.black_level_from_contrast(plan.resolved_contrast)
+        settings, notes = light_plan_run.apply_projector(scene, plan)
+        report["applied"] = {"settings": settings, "notes": notes}
         _save_if_asked(args)
     print_json(report)
     return 0

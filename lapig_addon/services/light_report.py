@@ -154,3 +154,36 @@ def planning_contrast(lumens: float, model, distance_m: float, ambient_lux: floa
     """The planner's contrast on a surface square to the axis at distance_m: E = lumens / area."""
     white = units.planning_illuminance(lumens, units.image_area_m2(model, distance_m))
     return float(units.contrast_ratio(white, ambient_lux, projector_contrast))
+
+
+def projector_settings(plan: LightPlan, model) -> tuple[dict, list[str]]:
+    """The projector settings of the plan's model (a preset: its native resolution, the throw ratio and
+    lens shift nearest the rig's within its ranges; always: the light's power and the black level), and a
+    note for each setting the model cannot keep as the rig has it."""
+    plan.check()
+    p = plan.projector_preset
+    notes = []
+    settings = {}
+    throw, shift_x, shift_y = model.throw_ratio, model.shift_x, model.shift_y
+    if p is not None:
+        settings["resolution_x"], settings["resolution_y"] = p.native_resolution
+        throw = p.nearest_throw_ratio(model.throw_ratio)
+        if abs(throw - model.throw_ratio) > 1e-6:
+            notes.append(f"the {p.name} throws {p.throw_ratio[0]:g} to {p.throw_ratio[1]:g}, not "
+                         f"{model.throw_ratio:g}: set to {throw:g} (move the projector to keep the image's size)")
+        shift_x = min(max(model.shift_x, p.lens_shift_x[0]), p.lens_shift_x[1])
+        shift_y = min(max(model.shift_y, p.lens_shift_y[0]), p.lens_shift_y[1])
+        if (shift_x, shift_y) != (model.shift_x, model.shift_y):
+            notes.append(f"the {p.name}'s lens shift reaches x {p.lens_shift_x[0]:g} to {p.lens_shift_x[1]:g} and "
+                         f"y {p.lens_shift_y[0]:g} to {p.lens_shift_y[1]:g}: set to {shift_x:g}, {shift_y:g}")
+        if tuple(p.native_resolution) != (model.width, model.height):
+            notes.append(f"native resolution {p.native_resolution[0]} x {p.native_resolution[1]}: the capture "
+                         "and the looks must be made again")
+    settings.update(throw_ratio=throw, shift_x=shift_x, shift_y=shift_y)
+    shaped = type(model)(**{**model.to_dict(), **{"width": settings.get("resolution_x", model.width),
+                                                   "height": settings.get("resolution_y", model.height),
+                                                   "throw_ratio": throw, "shift_x": shift_x, "shift_y": shift_y}})
+    settings["brightness"] = units.lumens_to_watts(plan.resolved_lumens, shaped)
+    if plan.resolved_contrast:
+        settings["black_level"] = units.black_level_from_contrast(plan.resolved_contrast)
+    return settings, notes

@@ -124,3 +124,18 @@ def test_the_capped_look_is_a_result_of_its_own(tmp_path):
     with pytest.raises(ValueError, match="not the projector's native frame"):
         dc.write_capped_result(free, capped[:6], {})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["20261204_look", "20261204_look_dose_cap"]
+
+
+def test_a_preset_shapes_the_projector_and_says_what_it_cannot_keep(lr):
+    model = ProjectorModel(800, 600, throw_ratio=1.5, shift_y=0.9)
+    settings, notes = lr.projector_settings(lr.LightPlan(preset="optoma-wu1500"), model)
+    assert (settings["resolution_x"], settings["resolution_y"]) == (1920, 1200)
+    assert settings["throw_ratio"] == pytest.approx(1.54) and settings["shift_y"] == pytest.approx(0.6)
+    assert settings["black_level"] == pytest.approx(1 / 2000)
+    assert any("throws 1.54 to 1.93" in n for n in notes) and any("lens shift" in n for n in notes)
+    shaped = ProjectorModel(1920, 1200, 1.54, shift_y=0.6)
+    from lapig_core.photometry import units
+
+    assert settings["brightness"] == pytest.approx(units.lumens_to_watts(15000, shaped))
+    plain, notes = lr.projector_settings(lr.LightPlan(lumens=2000), model)
+    assert notes == [] and "resolution_x" not in plain and plain["throw_ratio"] == 1.5

@@ -98,6 +98,7 @@ def test_the_light_panel_draws_the_plan_and_says_what_is_wrong(lapig_registered,
     log = []
     LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
     assert ("operator", "lapig.light_report") in log and ("operator", "lapig.light_cap") in log
+    assert ("operator", "lapig.light_apply") in log
     for name in ("preset", "ambient_lux", "category", "hours_per_day", "days_per_year", "region_material",
                  "region_group"):
         assert ("prop", name) in log
@@ -143,3 +144,8 @@ def test_light_report_previews_and_export_carry_the_figures(small_setup, tmp_pat
     assert light["dose"]["limit_lux"] == 200 and light["total_lux"]["max"] > 0
     table = (tmp_path / "look_projectors.csv").read_text().splitlines()
     assert table[0].startswith("Name,Manufacturer,Model") and ",Panasonic,PT-LB90,160,120,3000," in table[1]
+    # Use This Projector: the model's frame, the throw nearest the rig's (1.5 is in 1.44-1.73), its power
+    assert bpy.ops.lapig.light_apply() == {"FINISHED"}
+    p = projector.lapig_projector
+    assert (p.resolution_x, p.resolution_y) == (1024, 768) and p.throw_ratio == pytest.approx(1.5)
+    assert projector.data.energy == pytest.approx(p.brightness) and p.black_level == pytest.approx(1 / 500)

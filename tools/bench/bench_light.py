@@ -170,6 +170,7 @@ def _dose_cap(out, args) -> dict:
     request = scene_state.generate_request(scene, prompt=PROMPT)
     generated = GenerateJob(seams, request, 20).run_to_completion()
     pipeline_s = time.perf_counter() - t
+    bpy.ops.wm.save_mainfile()  # with its capture and look: `report --blend out/bench_light/dose.blend` runs on it
     folder = generated["folder"]
     model = scene_state.projector_model(projector)
     frame = to_float(quantised_frame(read_output_image(folder, "projector"), model.width, model.height, 8))

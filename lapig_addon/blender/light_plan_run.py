@@ -64,10 +64,19 @@ def render_plan_maps(scene, plan, width, height):
     return maps, model, scale
 
 
-def run_report(scene, plan, folder: str | None, width=160, height=120, maps_dir: str | None = None) -> dict:
+def map_size(projector, width: int = 160) -> tuple[int, int]:
+    """A light map `width` pixels wide in the projector's shape."""
+    p = projector.lapig_projector
+    return width, max(8, round(width * p.resolution_y / p.resolution_x))
+
+
+def run_report(scene, plan, folder: str | None, width=160, maps_dir: str | None = None) -> dict:
     """The report (see services/light_report); folder: the result (None: a white frame, nothing written)."""
     plan.check()
     projector, _, target = scene_state.rig_objects(scene)
+    if projector is None or target is None:
+        raise ValueError("set up the rig first: there is no projector or no object")
+    width, height = map_size(projector, width)
     maps, model, _ = render_plan_maps(scene, plan, width, height)
     emitted = None
     if folder:
@@ -134,7 +143,7 @@ def capped_frame(scene, plan, folder):
         raise ValueError("limiting the look needs a result: generate a look first")
     projector, _, target = scene_state.rig_objects(scene)
     model = plan_model(projector, plan)
-    room, _, scale = render_plan_maps(scene, plan, 160, 120)
+    room, _, scale = render_plan_maps(scene, plan, *map_size(projector))
     frame = result_frame(folder, model)
     with light_render.LightStudio(scene, projector, target, model.width, model.height,
                                   region_material=plan.region_material, region_group=plan.region_group) as studio:

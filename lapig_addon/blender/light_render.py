@@ -102,6 +102,10 @@ class LightStudio:
                 names = ", ".join(sorted(m.name for m in used if m)) or "none"
                 raise LightRenderError(f"'{self.target.name}' has no material '{self.region_material}' to mark "
                                        f"(its materials: {names})")
+        p = self.projector.lapig_projector
+        if abs(self.width / self.height - p.resolution_x / p.resolution_y) > 0.02 * p.resolution_x / p.resolution_y:
+            raise LightRenderError(f"a light map of {self.width} x {self.height} does not have the projector's "
+                                   f"{p.resolution_x} x {p.resolution_y} shape")
         self._dir = tempfile.mkdtemp(prefix="lapig_light_")
         scene = bpy.data.scenes.new(STUDIO)
         self.scene = scene
@@ -150,6 +154,15 @@ class LightStudio:
         layer = scene.view_layers[0]
         layer.use_pass_diffuse_direct = layer.use_pass_diffuse_color = True
         layer.use_pass_object_index = layer.use_pass_material_index = True
+        # the index passes say what is the object and the region: nothing else may carry their numbers
+        for ob in scene.collection.objects:
+            if ob is not self.target and ob.pass_index in (TARGET_INDEX, REGION_INDEX):
+                self._saved.append((ob, "pass_index", ob.pass_index))
+                ob.pass_index = 0
+        for slot in self.target.material_slots:
+            if slot.material is not None and slot.material is not material and slot.material.pass_index == REGION_INDEX:
+                self._saved.append((slot.material, "pass_index", slot.material.pass_index))
+                slot.material.pass_index = 0
         self._saved.append((self.target, "pass_index", self.target.pass_index))
         self.target.pass_index = TARGET_INDEX
         if self.region_group:  # the object as two temporary parts: the group's faces and the rest

@@ -37,7 +37,8 @@ def add_parser(sub):
     r.add_argument("--days-per-year", type=float, default=300.0, help="the show's days a year (default 300)")
     r.add_argument("--region-material", default="", help="mark only the faces of this material (default: the object)")
     r.add_argument("--region-group", default="", help="mark only the faces of this vertex group (default: the object)")
-    r.add_argument("--size", default="160x120", help="light map size WxH (default 160x120)")
+    r.add_argument("--map-width", type=int, default=160,
+                   help="light map width in pixels, its height in the projector's shape (default 160)")
     r.add_argument("--maps", metavar="DIR", help="write the lux, luminance and contrast maps as PNGs here")
     r.add_argument("--cap-out", metavar="PNG", help="write the projector image limited to the category's lux here")
     r.add_argument("--cap-result", action="store_true",
@@ -64,16 +65,6 @@ def _direction(text):
     return values
 
 
-def _size(text):
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise ValueError(f"--size must look like 160x120, got '{text}'") from None
-    if not (8 <= w <= 4096 and 8 <= h <= 4096):
-        raise ValueError(f"--size must be 8 to 4096 pixels a side, got '{text}'")
-    return w, h
-
-
 def plan_from_args(args) -> light_report.LightPlan:
     limit = None
     if args.category != "none":
@@ -94,14 +85,15 @@ def cmd_report(args) -> int:
         print_json({"presets": [p.to_dict() for p in presets.all_presets()]})
         return 0
     plan = plan_from_args(args)  # before the .blend opens
-    width, height = _size(args.size)
+    if not 8 <= args.map_width <= 4096:
+        raise ValueError(f"--map-width must be 8 to 4096 pixels, got {args.map_width}")
     from ..blender import light_plan_run
     from ..blender.scene_store import BlenderSceneStore
     from .commands import _open_scene, _save_if_asked
 
     scene = _open_scene(args)
     folder = os.path.abspath(args.result) if args.result else BlenderSceneStore(scene).read().result_dir
-    report = light_plan_run.run_report(scene, plan, folder or None, width, height, args.maps)
+    report = light_plan_run.run_report(scene, plan, folder or None, args.map_width, args.maps)
     if args.cap_out:
         report["cap"] = light_plan_run.write_capped(args.cap_out, scene, plan, folder)
     if args.cap_result:

@@ -30,20 +30,25 @@ def _panel_and_projector(albedo=0.8):
     return panel, projector
 
 
-def test_rendered_lux_on_a_white_panel_is_lumens_per_area(lapig_registered):
+@pytest.mark.parametrize("frame,size", [((800, 600), (48, 36)), ((1280, 800), (48, 30))])
+def test_rendered_lux_on_a_white_panel_is_lumens_per_area(lapig_registered, frame, size):
     from lapig.lapig_addon.blender import light_render, scene_state
     from lapig.lapig_core.photometry import units
 
     panel, projector = _panel_and_projector()
+    projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y = frame
     model = scene_state.projector_model(projector)
     projector.lapig_projector.brightness = units.lumens_to_watts(1000, model)
-    maps = light_render.projector_light_maps(bpy.context.scene, projector, panel, 48, 36)
+    w, h = size
+    maps = light_render.projector_light_maps(bpy.context.scene, projector, panel, w, h)
     lux = units.lux_from_radiance(maps.white_radiance, 0.8)
-    nine = [lux[int(fy * 36), int(fx * 48)] for fy in (1 / 6, 1 / 2, 5 / 6) for fx in (1 / 6, 1 / 2, 5 / 6)]
+    nine = [lux[int(fy * h), int(fx * w)] for fy in (1 / 6, 1 / 2, 5 / 6) for fx in (1 / 6, 1 / 2, 5 / 6)]
     predicted = 1000 / units.image_area_m2(model, 1.5)
     assert abs(np.mean(nine) / predicted - 1) < 0.02
     assert np.allclose(maps.white_lux, lux, rtol=1e-3)  # the Diffuse Direct pass says the same
     assert maps.on_object.all() and len(bpy.data.scenes) == 1  # the light studio is gone
+    with pytest.raises(light_render.LightRenderError, match="does not have the projector's"):
+        light_render.projector_light_maps(bpy.context.scene, projector, panel, w, w)
 
 
 def test_an_unknown_region_material_is_refused(lapig_registered):

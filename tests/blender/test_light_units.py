@@ -1,6 +1,5 @@
 """The lumens -> watts conversion checked by a Cycles render: a white panel's illuminance at the nine
 ANSI points is lumens / image area; a region that is not there is refused in one line."""
-import math
 
 import numpy as np
 import pytest

@@ -119,7 +119,8 @@ def capped_frame(plan: LightPlan, frame: np.ndarray, white_lux: np.ndarray, ambi
         raise ValueError("set a conservation category first: there is no limit to keep")
     cap, unmet = dose.emitted_cap(white_lux, ambient_lux, region, plan.limit.limit_lux,
                                   black_level=model.black_level, margin=margin)
-    capped = dose.cap_input(frame, cap, model.gamma, model.black_level, bit_depth)
+    # the cap holds each pixel's luminance (what the lux meter reads): the least change to the look
+    capped = dose.cap_input_luminance(frame, cap, model.gamma, model.black_level, bit_depth)
     changed = float((np.abs(capped - np.asarray(frame, np.float64)) > 1e-9).any(-1).mean())
     notes = []
     if unmet["room_light_over_limit_share"] > 0:

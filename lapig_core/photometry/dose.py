@@ -9,8 +9,12 @@ as the maximum lux against the limit.
 
 The cap limits the projector image: light on a surface is linear in the projector's emitted light, so
 where a projector pixel lands on the marked region its emitted light may be at most
-(limit - ambient) / (the lux a white pixel gives there), and the frame's input value is rounded down
-to that (the inverse of ProjectorModel.emitted) so the quantised frame stays under the cap.
+(limit - ambient) / (the lux a white pixel gives there). cap_input_luminance (the one the product uses)
+holds the pixel's luminance to that with the least change of its light; cap_input holds each channel
+(stricter: it dims a saturated blue that adds little to the lux). Either rounds the input values down to
+the bit depth's steps (the inverse of ProjectorModel.emitted), so the quantised frame stays under the cap.
+On the bench's case both reach 49.5 lux under a 50 lux limit; the luminance cap costs 13.79 dB of PSNR
+against the free look's target, the per-channel one 15.34 dB.
 """
 from __future__ import annotations
 
@@ -133,3 +137,28 @@ def cap_input(frame: np.ndarray, cap: np.ndarray, gamma: float, black_level: flo
     steps = 2 ** bit_depth - 1
     top = np.floor(top * steps + 1e-9) / steps
     return np.minimum(frame, top)
+
+
+def cap_input_luminance(frame: np.ndarray, cap: np.ndarray, gamma: float, black_level: float,
+                        bit_depth: int = 8, weights=(0.2126, 0.7152, 0.0722)) -> np.ndarray:
+    """Like cap_input, but the cap holds the pixel's luminance (what a lux meter reads), not each channel:
+    the emitted light moves the least distance (L2) to luminance <= cap, e' = clip(e - lambda w, black, 1),
+    lambda by bisection; then back to input values, rounded down to the bit depth's steps."""
+    frame = np.asarray(frame, np.float64)
+    w = np.asarray(weights, np.float64)
+    e = black_level + (1.0 - black_level) * np.power(np.clip(frame, 0, 1), gamma)
+    c = np.asarray(cap, np.float64)
+    over = (e @ w) > c
+    if over.any():
+        eo, co = e[over], c[over][:, None]
+        lo, hi = np.zeros((len(eo), 1)), np.full((len(eo), 1), float(e.max() / w.min() + 1))
+        for _ in range(40):
+            mid = (lo + hi) / 2
+            fits = (np.clip(eo - mid * w, black_level, 1.0) @ w)[:, None] <= co
+            hi, lo = np.where(fits, mid, hi), np.where(fits, lo, mid)
+        e = e.copy()
+        e[over] = np.clip(eo - hi * w, black_level, 1.0)
+    rel = np.clip((e - black_level) / max(1.0 - black_level, 1e-12), 0.0, 1.0)
+    steps = 2 ** bit_depth - 1
+    capped = np.floor(np.power(rel, 1.0 / gamma) * steps + 1e-9) / steps
+    return np.where(over[..., None], np.minimum(capped, frame), frame)

@@ -222,3 +222,21 @@ def test_a_dark_room_gives_finite_figures():
     assert s["contrast_ratio"]["min"] == 1.0 and s["contrast_ratio"]["max"] == light_maps.MAX_CONTRAST
     import json
     json.dumps(s, allow_nan=False)
+
+
+def test_the_luminance_cap_holds_the_lux_with_less_change():
+    rng = np.random.default_rng(2)
+    model = ProjectorModel(32, 24, black_level=0.002)
+    white = rng.uniform(100, 900, (24, 32))
+    region = np.zeros((24, 32), bool)
+    region[4:20, 4:28] = True
+    frame = np.round(rng.uniform(0, 1, (24, 32, 3)) * 255) / 255
+    cap, _ = dose.emitted_cap(white, 5.0, region, 50.0, model.black_level)
+    lum = dose.cap_input_luminance(frame, cap, model.gamma, model.black_level, 8)
+    chan = dose.cap_input(frame, cap, model.gamma, model.black_level, 8)
+    y = model.emitted(lum) @ units.LUMA
+    assert (white * y + 5.0)[region].max() <= 50.0 + 1e-9
+    assert np.allclose(np.round(lum * 255), lum * 255) and np.array_equal(lum[~region], frame[~region])
+    assert (lum <= frame + 1e-12).all()
+    change = lambda f: np.square(model.emitted(f) - model.emitted(frame)).sum()  # noqa: E731
+    assert change(lum) < change(chan)

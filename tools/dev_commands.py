@@ -18,7 +18,7 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "preview": "preview", "prompts": "prompts", "style-images": "style_images",
               "transport": "transport", "learned-variants": "learned_variants",
               "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine",
-              "train-step": "train_step"}
+              "train-step": "train_step", "light": "light"}
 
 
 def _ensure_registered():

@@ -8,6 +8,7 @@ from ...lapig_core.common.embedding_mode import DEFAULT_MODE, set_embedding_mode
 
 _MODULES = (
     ".properties",
+    ".light_properties",
     ".preferences",
     "...operators",
     "...panels",

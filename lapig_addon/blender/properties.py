@@ -146,6 +146,8 @@ PREVIEW_MODES = [
     ("SIMULATED", "Simulated", "What PCNet predicts the camera sees"),
     ("RENDERED", "Rendered", "The Cycles capture of the projection"),
     ("COMPENSABILITY", "Problem areas", "Where the surface cannot show the target (L_ps + L_cs per pixel)"),
+    ("LUX", "Lux", "The look's illuminance on the object, log scale 1 to 10,000 lux (Light Report)"),
+    ("CONTRAST", "Contrast", "Contrast against the room: red below 5:1, amber to 10:1, green above (Light Report)"),
 ]
 
 

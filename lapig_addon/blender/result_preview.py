@@ -6,9 +6,13 @@ the original safe).
 """
 from __future__ import annotations
 
+import os
+
 import bpy
 import numpy as np
 
+from ...lapig_core.common.imageio import read_image, to_float
+from ...lapig_core.common.resample import resize_image
 from ...lapig_core.optics.projector_model import frame_from_working_image
 from ...lapig_core.export.result_files import read_output_image
 from ..services.panel_state import preview_blocker
@@ -16,6 +20,7 @@ from . import preview, projector_nodes, scene_state
 from .scene_state import projector_model
 
 IMAGE_PREFIX = "LAPIG "
+LIGHT_MAPS = {"LUX": "light_lux", "CONTRAST": "light_contrast"}  # blender/light_plan_run writes them
 MODE_IMAGES = {"TARGET": "target", "SIMULATED": "simulated", "RENDERED": "rendered",
                "COMPENSABILITY": "compensability"}
 
@@ -45,6 +50,16 @@ def _appearance_image(projector, result_dir: str, kind: str) -> bpy.types.Image:
     return frame_image(IMAGE_PREFIX + kind, frame_from_working_image(img, model.width, model.height))
 
 
+def _light_map_image(projector, result_dir: str, name: str) -> bpy.types.Image:
+    model = projector_model(projector)
+    path = os.path.join(result_dir, name + ".png")
+    if not os.path.isfile(path):
+        raise ValueError("no light maps for this result yet: press Light Report")
+    # the maps' colours are display (sRGB) values: made linear, the view transform shows them as drawn
+    colours = np.power(resize_image(to_float(read_image(path)), model.width, model.height), 2.2)
+    return frame_image(IMAGE_PREFIX + name, colours)
+
+
 def apply_mode(scene, mode: str, report=None) -> bool:
     """Switch the object's look; False (and a report) when the mode cannot be shown yet."""
     state = scene_state.read(scene)
@@ -58,6 +73,9 @@ def apply_mode(scene, mode: str, report=None) -> bool:
         elif mode == "PROJECTION":
             image = projector_nodes.projected_image(projector.data)
             preview.enable_preview(target, projector, image, appearance=False)
+        elif mode in LIGHT_MAPS:  # the Light Report's maps cover the whole projector frame
+            image = _light_map_image(projector, state.result_dir, LIGHT_MAPS[mode])
+            preview.enable_preview(target, projector, image, appearance=True)
         else:
             image = _appearance_image(projector, state.result_dir, MODE_IMAGES[mode])
             preview.enable_preview(target, projector, image, appearance=True)

@@ -281,3 +281,19 @@ def write_stylize_settings(scene, request: GenerateRequest):
     s.dark_outside, s.output_size = request.dark_outside, request.output_size
     s.style_image = request.style_images[0] if request.style_images else ""  # the panel holds one
     s.style_prompt_weight = request.style_prompt_weight
+
+
+def light_plan(scene):
+    """The Light sub-panel's settings (scene.lapig_light) as a services.light_report.LightPlan; its
+    problem() says what is wrong with them."""
+    from ...lapig_core.photometry.dose import ConservationLimit, Schedule
+    from ..services.light_report import LightPlan
+
+    s = scene.lapig_light
+    limit = None
+    if s.category != "NONE":
+        limit = ConservationLimit(s.category.lower(), s.limit_lux, Schedule(s.hours_per_day, s.days_per_year))
+    return LightPlan(preset="" if s.preset == "NONE" else s.preset, lumens=0.0 if s.preset != "NONE" else s.lumens,
+                     ambient_lux=s.ambient_lux, lamp_direction=tuple(s.lamp_direction) if s.use_lamp else None,
+                     limit=limit, region_material=s.region_material.name if s.region_material else "",
+                     region_group=s.region_group)

@@ -137,6 +137,10 @@ def _parser():
 
     sub.add_parser("devices", help="list the displays a projector window can open on, and the cameras")
 
+    from . import report_command
+
+    report_command.add_parser(sub)
+
     try:  # benchmarks, data sets, evaluation and packaging: only in a source checkout, not in the zip
         from ...tools import dev_commands
     except ImportError:

@@ -11,6 +11,7 @@ import os
 from ...lapig_core.export import projector_image as export
 from ...lapig_core.export.result_files import (output_name, read_output_image, read_result_image, read_summary,
                                                stored_bit_depth)
+from . import light_sidecar
 from .panel_state import result_blocker, rig_blocker
 from .ports import ProjectorFrame
 from .sinks import ProjectorImageFile
@@ -65,6 +66,7 @@ def metadata(store, folder: str, summary: dict) -> dict:
             "surface_reach": summary.get("surface_reach"),
             # refined on the rig: open-loop and refined PSNR of captures, steps, seconds, the noise floor
             "refine": summary.get("refine"),
+            **light_sidecar.sidecar_fields(folder),
             **store.rig_metadata(),
             # 8 for results stored before results were 16-bit: a 16-bit file then holds 8 bits of data
             "result_bit_depth": stored_bit_depth(folder, output_name(folder, "projector")),
@@ -87,7 +89,8 @@ def export_current(store, settings: ExportSettings, result: str | None = None) -
     frame = result_frame(store, folder, settings.bit_depth)
     sink = ProjectorImageFile(settings.path, metadata(store, folder, frame.summary), addon_version())
     sink.show(frame)
-    return sink.written
+    table = light_sidecar.write_table_beside(sink.written["image"], folder)  # with a light report only
+    return {**sink.written, **({"projector_table": table} if table else {})}
 
 
 def export_crossfade(store, directory: str, settings: ExportSettings, result: str | None = None,

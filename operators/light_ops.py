@@ -1,0 +1,88 @@
+import bpy
+
+from ..lapig_addon.blender import light_plan_run, result_preview, scene_state
+from ..lapig_addon.blender.operator_boundary import ReportsErrors
+from ..lapig_addon.services.panel_state import rig_blocker
+
+
+class LAPIG_OT_light_report(ReportsErrors, bpy.types.Operator):
+    """Render the look's light in lux, its contrast against the room and the light dose on the marked
+    region; the object then shows the lux map"""
+    bl_idname = "lapig.light_report"
+    bl_label = "Light Report"
+
+    def execute(self, context):
+        scene = context.scene
+        blocker = rig_blocker(scene_state.read_rig(scene))
+        if blocker:
+            self.report({"ERROR"}, blocker)
+            return {"CANCELLED"}
+        plan = scene_state.light_plan(scene)
+        problem = plan.problem()
+        if problem:
+            self.report({"ERROR"}, problem)
+            return {"CANCELLED"}
+        folder = scene_state.read(scene).result_dir or None
+        report = light_plan_run.run_report(scene, plan, folder)
+        if report["warning"]:
+            self.report({"WARNING"}, report["warning"])
+        dose = report.get("dose")
+        if dose and not dose["within_limit"]:
+            self.report({"WARNING"}, f"{dose['max_lux']} lux on the marked region: over its {dose['limit_lux']:g} "
+                                     "lux limit")
+        if folder and result_preview.apply_mode(scene, "LUX", report=self.report):
+            scene_state.record_preview_mode(scene, "LUX")
+        c = report["contrast_ratio"]["median"]
+        self.report({"INFO"}, f"look {report['look_lux']['mean']} lux mean, contrast {c}:1 against the room")
+        return {"FINISHED"}
+
+
+class LAPIG_OT_light_cap(ReportsErrors, bpy.types.Operator):
+    """Limit the look so the marked region stays within its conservation limit: a new result (the free
+    one stays), which the projector, the preview and Export then use"""
+    bl_idname = "lapig.light_cap"
+    bl_label = "Limit Look to the Dose"
+
+    def execute(self, context):
+        scene = context.scene
+        plan = scene_state.light_plan(scene)
+        problem = plan.problem() or ("" if plan.limit else "choose a conservation category first")
+        folder = scene_state.read(scene).result_dir
+        if not problem and not folder:
+            problem = "generate a look first"
+        if problem:
+            self.report({"ERROR"}, problem)
+            return {"CANCELLED"}
+        out = light_plan_run.cap_result(scene, plan, folder, record=True)
+        for note in out.get("notes", []):
+            self.report({"WARNING"}, note)
+        light_plan_run.run_report(scene, plan, scene_state.read(scene).result_dir)
+        self.report({"INFO"}, f"limited look: {out['predicted_max_lux']} lux at most on the region "
+                              f"({out['changed_pixel_share']:.0%} of the pixels dimmed)")
+        return {"FINISHED"}
+
+
+class LAPIG_OT_light_apply(ReportsErrors, bpy.types.Operator):
+    """Set the projector to this model: its native resolution, the throw ratio and lens shift nearest the
+    rig's within its ranges, the light power of its lumens and the black level of its contrast (the
+    capture then goes stale)"""
+    bl_idname = "lapig.light_apply"
+    bl_label = "Use This Projector"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        plan = scene_state.light_plan(context.scene)
+        problem = plan.problem()
+        if problem:
+            self.report({"ERROR"}, problem)
+            return {"CANCELLED"}
+        settings, notes = light_plan_run.apply_projector(context.scene, plan)
+        for note in notes:
+            self.report({"WARNING"}, note)
+        self.report({"INFO"}, f"projector set: {settings['brightness']:,.1f} W for {plan.resolved_lumens:,.0f} lm")
+        return {"FINISHED"}
+
+
+CLASSES = (LAPIG_OT_light_report, LAPIG_OT_light_cap, LAPIG_OT_light_apply)
+
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -1,0 +1,76 @@
+"""The Light sub-panel: a real projector model, the room's lux, the object's conservation category; the
+Light Report's figures (from the result's light_report.json) and its warnings."""
+import textwrap
+
+import bpy
+
+from ..lapig_addon.blender import scene_state
+from ..lapig_addon.services import light_report
+from .main_panel import LapigPanel
+
+
+class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
+    bl_label = "Light in Real Units"
+    bl_idname = "LAPIG_PT_light"
+    bl_parent_id = "LAPIG_PT_preview_export"
+
+    def draw(self, context):
+        layout = self.layout
+        s = context.scene.lapig_light
+        layout.prop(s, "preset")
+        if s.preset == "NONE":
+            layout.prop(s, "lumens")
+        layout.operator("lapig.light_apply", icon="OUTLINER_OB_LIGHT")
+        layout.prop(s, "ambient_lux")
+        row = layout.row()
+        row.prop(s, "use_lamp")
+        if s.use_lamp:
+            row.prop(s, "lamp_direction", text="")
+        layout.prop(s, "category")
+        if s.category != "NONE":
+            col = layout.column(align=True)
+            if s.category == "CUSTOM":
+                col.prop(s, "limit_lux")
+            col.prop(s, "hours_per_day")
+            col.prop(s, "days_per_year")
+            col.prop(s, "region_material")
+            target = context.scene.lapig.target
+            if target is not None and target.type == "MESH":
+                col.prop_search(s, "region_group", target, "vertex_groups")
+        plan = scene_state.light_plan(context.scene)
+        problem = plan.problem()
+        if problem:
+            for i, line in enumerate(textwrap.wrap(problem, 60)):
+                layout.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+        row = layout.row()
+        row.enabled = not problem
+        row.operator("lapig.light_report", icon="LIGHT_SPOT")
+        if s.category != "NONE":
+            row.operator("lapig.light_cap", icon="LIGHT_SUN")
+        folder = scene_state.read(context.scene).result_dir
+        report = light_report.read_report(folder) if folder else None
+        if not report:
+            return
+        box = layout.box()
+        box.label(text=f"{report['lumens']:,.0f} lm = {report['light_power_w']:,.1f} W of Blender light")
+        box.label(text=f"Look: {report['look_lux']['mean']} lux mean, {report['look_lux']['max']} max")
+        box.label(text=f"Luminance: {report['luminance_cd_m2']['mean']} cd/m2 mean")
+        box.label(text=f"Contrast against the room: {report['contrast_ratio']['median']}:1 (median)",
+                  icon="ERROR" if report["warning"] else "CHECKMARK")
+        for i, line in enumerate(textwrap.wrap(report["warning"], 60)):
+            box.label(text=line, icon="BLANK1")
+        dose = report.get("dose")
+        if dose:
+            ok = dose["within_limit"] and dose["within_yearly_budget"]
+            box.label(text=f"Dose: {dose['max_lux']} lux max, {dose['mean_lux']} mean (limit {dose['limit_lux']:g})",
+                      icon="CHECKMARK" if ok else "ERROR")
+            box.label(text=f"{dose['lux_hours_per_year_max']:,} lux.h a year at the brightest point "
+                           f"(budget {dose['yearly_budget_lux_hours']:,})")
+            if dose.get("lumens_within_limit") is not None:
+                box.label(text=f"This look keeps the limit at {dose['lumens_within_limit']:,} lumens or fewer",
+                          icon="INFO")
+
+
+CLASSES = (LAPIG_PT_light,)
+
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -1,0 +1,143 @@
+"""The light plan and report without Blender: input checks, the report on fake maps, the cap, Export's
+additions (the sidecar's figures and the projector table)."""
+import importlib
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from lapig_core.optics.projector_model import ProjectorModel
+from lapig_core.photometry import dose
+
+
+@pytest.fixture
+def lr():
+    return importlib.import_module("lapig.lapig_addon.services.light_report")
+
+
+@pytest.fixture
+def sidecar():
+    return importlib.import_module("lapig.lapig_addon.services.light_sidecar")
+
+
+def _maps(white=400.0, room=20.0, region_rows=slice(0, 8)):
+    on = np.ones((8, 10), bool)
+    region = np.zeros((8, 10), bool)
+    region[region_rows] = True
+    white_lux = np.full((8, 10), white)
+    white_lux[:, 5:] = white * 0.8
+    return SimpleNamespace(white_lux=white_lux, ambient_lux=np.full((8, 10), room), albedo=np.full((8, 10), 0.5),
+                           on_object=on, region=region)
+
+
+@pytest.mark.parametrize("plan,match", [
+    (dict(), "lumens, or choose a projector preset"),
+    (dict(lumens=-100), "more than 0 lumens"),
+    (dict(lumens=0, preset="nope"), "no projector preset 'nope'"),
+    (dict(lumens=1000, ambient_lux=-2), "0 lux or more"),
+    (dict(lumens=1000, lamp_direction=(0, 0, 0)), "not all 0"),
+    (dict(lumens=1000, contrast=0.5), "more than 1:1"),
+    (dict(lumens=1000, region_material="gold", region_group="paper"), "not both"),
+    (dict(lumens=1000, limit=dose.ConservationLimit("high", schedule=dose.Schedule(26, 200))), "at most 24"),
+])
+def test_bad_plans_say_why(lr, plan, match):
+    problem = lr.LightPlan(**plan).problem()
+    assert match in problem
+    with pytest.raises(ValueError, match=match.split(",")[0]):
+        lr.LightPlan(**plan).check()
+
+
+def test_a_preset_supplies_lumens_and_contrast(lr):
+    plan = lr.LightPlan(preset="epson-eb-g5350")
+    assert plan.problem() == "" and plan.resolved_lumens == 5000 and plan.resolved_contrast == 1000
+    assert lr.LightPlan(preset="epson-eb-g5350", lumens=4000).resolved_lumens == 4000
+
+
+def test_report_of_a_look_with_a_dose(lr):
+    limit = dose.ConservationLimit("high", schedule=dose.Schedule(10, 200))
+    plan = lr.LightPlan(lumens=2000, ambient_lux=20, limit=limit)
+    emitted = np.full((8, 10), 0.25)
+    report = lr.light_report(plan, _maps(region_rows=slice(0, 4)), emitted, ProjectorModel())
+    assert report["look_lux"]["max"] == pytest.approx(100.0)
+    assert report["dose"]["max_lux"] == pytest.approx(120.0) and not report["dose"]["within_limit"]
+    assert report["dose"]["lux_hours_per_year_max"] == 120 * 2000
+    # 30 lux of the look may stay where 100 are now (50 - 20 of room light): 30% of the lumens
+    assert report["dose"]["lumens_within_limit"] == 600
+    assert report["light_power_w"] > 0 and report["warning"] == ""  # 400 lux white in a 20 lux room: 21:1
+    json.dumps(report)  # plain JSON
+
+
+def test_a_region_the_projector_misses_is_refused(lr):
+    plan = lr.LightPlan(lumens=2000, limit=dose.ConservationLimit("high"), region_material="gold")
+    with pytest.raises(ValueError, match="no faces"):  # DoseError, of the add-on's copy of lapig_core
+        lr.light_report(plan, _maps(region_rows=slice(0, 0)), None, ProjectorModel())
+
+
+def test_the_capped_frame_keeps_the_region_within_the_limit(lr):
+    model = ProjectorModel(10, 8)
+    maps = _maps(white=900.0, room=5.0, region_rows=slice(2, 6))
+    plan = lr.LightPlan(lumens=3000, ambient_lux=5, limit=dose.ConservationLimit("high"))
+    frame = np.full((8, 10, 3), 200 / 255)
+    capped, info = lr.capped_frame(plan, frame, maps.white_lux, maps.ambient_lux, maps.region, model)
+    from lapig_core.photometry.units import LUMA
+
+    lux = maps.white_lux * (model.emitted(capped) @ LUMA) + maps.ambient_lux  # what a lux meter reads
+    assert lux[maps.region].max() <= 50 and np.allclose(capped[~maps.region], frame[~maps.region])
+    assert info["changed_pixel_share"] == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="conservation category"):
+        lr.capped_frame(lr.LightPlan(lumens=3000), frame, maps.white_lux, 5.0, maps.region, model)
+
+
+def test_export_adds_the_light_figures_and_the_table(lr, sidecar, tmp_path):
+    assert sidecar.sidecar_fields(tmp_path) == {} and sidecar.write_table_beside(tmp_path / "x.png", tmp_path) is None
+    plan = lr.LightPlan(preset="optoma-ml500", ambient_lux=100, limit=dose.ConservationLimit("moderate"))
+    report = lr.light_report(plan, _maps(white=200.0, room=100.0), None, ProjectorModel())
+    report["projector_table_row"] = {"name": "LAPIG Projector", "maker": "Optoma", "model": "ML500",
+                                     "resolution": [800, 600], "lumens": 500, "throw_ratio": 1.55, "shift_x": 0,
+                                     "shift_y": 0, "position_m": [0, -2.8, 1], "rotation_deg": [90, 0, 0],
+                                     "target_distance_m": 2.82, "target_lux": 180.0}
+    lr.write_report(tmp_path, report)
+    fields = sidecar.sidecar_fields(tmp_path)["light"]
+    assert fields["lumens"] == 500 and fields["dose"]["limit_lux"] == 200 and "below 5:1" in fields["warning"]
+    assert fields["preset"]["id"] == "optoma-ml500"
+    table = sidecar.write_table_beside(tmp_path / "look.png", tmp_path)
+    assert table.name == "look_projectors.csv"
+    assert "LAPIG Projector,Optoma,ML500,800,600,500," in table.read_text()
+
+
+def test_the_capped_look_is_a_result_of_its_own(tmp_path):
+    from lapig_core.export.result_files import write_result
+
+    dc = importlib.import_module("lapig.lapig_addon.services.dose_cap")
+    free = tmp_path / "20261204_look"
+    frame = np.full((12, 16, 3), 0.8, np.float32)
+    write_result(free, {"projector": frame[:8, :8], "projector_native": frame, "target": frame[:8, :8]},
+                 {"prompt": "look"})
+    (free / "light_report.json").write_text("{}")
+    capped = np.full((12, 16, 3), 0.3, np.float32)
+    new = dc.write_capped_result(free, capped, {"limit_lux": 50.0})
+    assert new.name == "20261204_look_dose_cap" and not (new / "light_report.json").exists()
+    from lapig_core.export.result_files import read_output_image, read_summary
+
+    assert np.allclose(read_output_image(new, "projector"), 0.3, atol=1e-4)
+    assert np.allclose(read_output_image(free, "projector"), 0.8, atol=1e-4)  # the free look stays
+    assert read_summary(new)["dose_cap"]["capped_from"] == str(free)
+    with pytest.raises(ValueError, match="not the projector's native frame"):
+        dc.write_capped_result(free, capped[:6], {})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["20261204_look", "20261204_look_dose_cap"]
+
+
+def test_a_preset_shapes_the_projector_and_says_what_it_cannot_keep(lr):
+    model = ProjectorModel(800, 600, throw_ratio=1.5, shift_y=0.9)
+    settings, notes = lr.projector_settings(lr.LightPlan(preset="optoma-wu1500"), model)
+    assert (settings["resolution_x"], settings["resolution_y"]) == (1920, 1200)
+    assert settings["throw_ratio"] == pytest.approx(1.54) and settings["shift_y"] == pytest.approx(0.6)
+    assert settings["black_level"] == pytest.approx(1 / 2000)
+    assert any("throws 1.54 to 1.93" in n for n in notes) and any("lens shift" in n for n in notes)
+    shaped = ProjectorModel(1920, 1200, 1.54, shift_y=0.6)
+    from lapig_core.photometry import units
+
+    assert settings["brightness"] == pytest.approx(units.lumens_to_watts(15000, shaped))
+    plain, notes = lr.projector_settings(lr.LightPlan(lumens=2000), model)
+    assert notes == [] and "resolution_x" not in plain and plain["throw_ratio"] == 1.5

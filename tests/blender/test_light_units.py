@@ -1,0 +1,155 @@
+"""The lumens -> watts conversion checked by a Cycles render: a white panel's illuminance at the nine
+ANSI points is lumens / image area; a region that is not there is refused in one line."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+pytestmark = pytest.mark.blender
+
+
+def _panel_and_projector(albedo=0.8):
+    from lapig.lapig_addon.blender import demo_scene, rig
+
+    demo_scene.new_empty_scene()
+    bpy.ops.mesh.primitive_plane_add(size=6, location=(0, 0, 0))
+    panel = bpy.context.active_object
+    material = bpy.data.materials.new("white")
+    tree = material.node_tree
+    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        tree.nodes.remove(node)
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (albedo, albedo, albedo, 1)
+    tree.links.new(diffuse.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    panel.data.materials.append(material)
+    projector = rig.create_projector(bpy.context.scene)
+    projector.location = (0, 0, 1.5)
+    bpy.context.view_layer.update()
+    return panel, projector
+
+
+@pytest.mark.parametrize("frame,size", [((800, 600), (48, 36)), ((1280, 800), (48, 30))])
+def test_rendered_lux_on_a_white_panel_is_lumens_per_area(lapig_registered, frame, size):
+    from lapig.lapig_addon.blender import light_render, scene_state
+    from lapig.lapig_core.photometry import units
+
+    panel, projector = _panel_and_projector()
+    projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y = frame
+    model = scene_state.projector_model(projector)
+    projector.lapig_projector.brightness = units.lumens_to_watts(1000, model)
+    w, h = size
+    maps = light_render.projector_light_maps(bpy.context.scene, projector, panel, w, h)
+    lux = units.lux_from_radiance(maps.white_radiance, 0.8)
+    nine = [lux[int(fy * h), int(fx * w)] for fy in (1 / 6, 1 / 2, 5 / 6) for fx in (1 / 6, 1 / 2, 5 / 6)]
+    predicted = 1000 / units.image_area_m2(model, 1.5)
+    assert abs(np.mean(nine) / predicted - 1) < 0.02
+    assert np.allclose(maps.white_lux, lux, rtol=1e-3)  # the Diffuse Direct pass says the same
+    assert maps.on_object.all() and len(bpy.data.scenes) == 1  # the light studio is gone
+    with pytest.raises(light_render.LightRenderError, match="does not have the projector's"):
+        light_render.projector_light_maps(bpy.context.scene, projector, panel, w, w)
+
+
+def test_an_unknown_region_material_is_refused(lapig_registered):
+    from lapig.lapig_addon.blender import light_render
+
+    panel, projector = _panel_and_projector()
+    with pytest.raises(light_render.LightRenderError, match="no material 'velvet'.*its materials: white"):
+        light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12, region_material="velvet")
+    assert len(bpy.data.scenes) == 1
+
+
+def test_a_vertex_group_marks_its_faces_and_an_empty_one_is_refused(lapig_registered):
+    from lapig.lapig_addon.blender import light_render
+
+    panel, projector = _panel_and_projector()
+    bpy.context.view_layer.objects.active = panel
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.subdivide(number_cuts=3)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    left = [v.index for v in panel.data.vertices if v.co.x <= 0.0]
+    group = panel.vertex_groups.new(name="paper")
+    group.add(left, 1.0, "REPLACE")
+    maps = light_render.projector_light_maps(bpy.context.scene, projector, panel, 32, 24, region_group="paper")
+    assert maps.on_object.all()
+    share = maps.region.mean()
+    assert 0.4 < share < 0.6 and maps.region[:, :12].all() and not maps.region[:, -12:].any()
+    panel.vertex_groups.new(name="empty")
+    with pytest.raises(light_render.LightRenderError, match="'empty' has no faces"):
+        light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12, region_group="empty")
+    with pytest.raises(light_render.LightRenderError, match="no vertex group 'velvet'.*paper, empty"):
+        light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12, region_group="velvet")
+    assert len(bpy.data.scenes) == 1 and len(bpy.data.meshes) == 1  # the parts are gone
+
+
+def test_the_light_panel_draws_the_plan_and_says_what_is_wrong(lapig_registered, small_setup):
+    from test_panels import RecordingLayout
+
+    from lapig.panels.light_panel import LAPIG_PT_light
+
+    class Layout(RecordingLayout):
+        def prop_search(self, data, name, search_data, search_name, **kwargs):
+            assert name in data.bl_rna.properties and hasattr(search_data, search_name)
+            self.log.append(("prop", name))
+
+        def _child(self, *args, **kwargs):
+            return Layout(self.log)
+
+        row = column = box = split = _child
+
+    s = bpy.context.scene.lapig_light
+    s.preset, s.category = "optoma-ml500", "HIGH"
+    log = []
+    LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+    assert ("operator", "lapig.light_report") in log and ("operator", "lapig.light_cap") in log
+    assert ("operator", "lapig.light_apply") in log
+    for name in ("preset", "ambient_lux", "category", "hours_per_day", "days_per_year", "region_material",
+                 "region_group"):
+        assert ("prop", name) in log
+    s.preset, s.lumens = "NONE", 0.0
+    log = []
+    LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+    assert any("brightness in lumens" in e[1] for e in log if e[0] == "label")
+
+
+def test_the_maps_see_the_real_surface_while_the_object_shows_a_preview(lapig_registered):
+    from lapig.lapig_addon.blender import light_render, preview
+
+    panel, projector = _panel_and_projector()
+    plain = light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12)
+    preview.enable_preview(panel, projector, projector.data.node_tree.nodes["LAPIG projected image"].image,
+                           appearance=True)  # an unlit copy of the material, as the Lux preview has
+    seen = light_render.projector_light_maps(bpy.context.scene, projector, panel, 16, 12,
+                                             region_material="white")
+    assert np.allclose(seen.white_lux, plain.white_lux) and np.allclose(seen.albedo, 0.8, atol=1e-3)
+    assert seen.region.all() and preview.is_previewing(panel)  # the preview is back
+    preview.disable_preview(panel)
+
+
+def test_light_report_previews_and_export_carry_the_figures(small_setup, tmp_path):
+    import json
+
+    from test_existing_result import write_fake_result
+
+    scene, projector, camera, target = small_setup
+    scene.lapig.result_dir = write_fake_result(tmp_path / "result")
+    with pytest.raises(RuntimeError, match="press Light Report"):
+        bpy.ops.lapig.preview_mode(mode="LUX")
+    s = scene.lapig_light
+    s.preset, s.ambient_lux, s.category = "panasonic-pt-lb90", 100.0, "MODERATE"
+    assert bpy.ops.lapig.light_report() == {"FINISHED"}
+    assert scene.lapig.preview_mode == "LUX"
+    assert bpy.ops.lapig.preview_mode(mode="CONTRAST") == {"FINISHED"}
+    assert bpy.ops.lapig.preview_mode(mode="ORIGINAL") == {"FINISHED"}
+    path = tmp_path / "look.png"
+    assert bpy.ops.lapig.export_image(filepath=str(path)) == {"FINISHED"}
+    light = json.loads((tmp_path / "look.json").read_text())["light"]
+    assert light["lumens"] == 3000 and light["preset"]["id"] == "panasonic-pt-lb90"
+    assert light["dose"]["limit_lux"] == 200 and light["total_lux"]["max"] > 0
+    table = (tmp_path / "look_projectors.csv").read_text().splitlines()
+    assert table[0].startswith("Name,Manufacturer,Model") and ",Panasonic,PT-LB90,160,120,3000," in table[1]
+    # Use This Projector: the model's frame, the throw nearest the rig's (1.5 is in 1.44-1.73), its power
+    assert bpy.ops.lapig.light_apply() == {"FINISHED"}
+    p = projector.lapig_projector
+    assert (p.resolution_x, p.resolution_y) == (1024, 768) and p.throw_ratio == pytest.approx(1.5)
+    assert projector.data.energy == pytest.approx(p.brightness) and p.black_level == pytest.approx(1 / 500)

@@ -16,6 +16,7 @@ from ...lapig_core.capture.settings import CaptureError
 from ...lapig_core.export.result_files import (NATIVE, read_result_image, read_summary, refined_images, write_result)
 from ...lapig_core.photometric import choice as compensator_choice
 from ...lapig_core.photometric.classical import ClassicalModel
+from ...lapig_core.photometric.first_look import load_first_look
 from ...lapig_core.photometric.targets import reachable_mask
 from ...lapig_core.refine.check import RegistrationCheckError
 from ...lapig_core.refine.loop import Refinement, RefineError, RefineSettings
@@ -31,10 +32,15 @@ REFINED = "projector_refined"
 
 
 def classical_of(capture: str) -> ClassicalModel:
-    """The setup's classical model: saved with the models' choice, else fitted on the capture's pairs now."""
-    saved = compensator_choice.load_choice(setup_dir_of(load_capture_set(capture, pairs=False)) / "models")
+    """The setup's classical model: saved with the models' choice, else the capture's first look, else fitted on
+    the capture's pairs now."""
+    meta_only = load_capture_set(capture, pairs=False)
+    saved = compensator_choice.load_choice(setup_dir_of(meta_only) / "models")
     if saved is not None:
         return saved[1]
+    look = load_first_look(setup_dir_of(meta_only), meta_only.meta.get("fingerprint"))
+    if look is not None:  # Capture fitted it on the same pairs: no need to fit it again
+        return look.classical
     cs = load_capture_set(capture)
     if len(cs.prj_train) < 4:
         raise PipelineError("refinement needs the capture's classical model: train the models first")

@@ -6,7 +6,8 @@ look library, builds the default backend's look for a small image (which loads t
 process where Blender has a UI, the lexicon's embeddings and the style network) and runs one small forward and
 backward pass through a network and one optimiser step, so torch's CPU kernels are chosen and its optimiser's
 imports done before the first job. Generate waits for a warm-up under way (on its own worker thread) rather than
-loading the same models beside it. A warm-up that fails says why in warmup_state() and changes nothing: the first Generate then loads what it needs, as before.
+loading the same models beside it. A warm-up that fails says why in warmup_state() and changes nothing: the first
+Generate then loads what it needs, as before.
 """
 from __future__ import annotations
 

@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ...lapig_core.common import metrics
 from ...lapig_core.common.imageio import read_image
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.common.scratch import ScratchFolder
 from ...lapig_core.export.result_files import output_name, read_output_image, read_summary, write_result
+from ...lapig_core.refine.loop import masked_psnr
 from .light_report import REPORT_FILE
 from .projection import project_and_capture
 
@@ -51,6 +51,7 @@ def rendered_psnr_cost(devices, capture_dir, folder, frame: np.ndarray, capped: 
     """Both frames projected and captured on the rig, each against the free look's target (dB)."""
     captured, _ = project_and_capture(devices, os.fspath(capture_dir), [frame, capped], chunk=2)
     target = resize_image(read_output_image(folder, "target"), captured.shape[2], captured.shape[1])
-    free, limited = (float(metrics.psnr(c, target)) for c in captured)
+    whole = np.ones(target.shape[:2], bool)  # numpy PSNR over the frame: Light Report needs no torch
+    free, limited = (masked_psnr(c, target, whole) for c in captured)
     return {"psnr_free_db": round(free, 3), "psnr_capped_db": round(limited, 3),
             "psnr_cost_db": round(free - limited, 3)}

@@ -33,8 +33,8 @@ import torch
 from ..common import metrics
 from ..common.atomic import atomic_write_bytes
 from .classical import ClassicalModel
+from .model_names import CLASSICAL, CLASSICAL_FILE, LEARNED  # noqa: F401 (choice.CLASSICAL etc. are used)
 
-LEARNED, CLASSICAL = "CompenNeSt", "classical"
 RENDERED_JUDGE = "rendered"  # the rig's own renders of both compensations (Train in Blender)
 VERIFY_IMAGES = 8  # held-back images the rendered choice projects, each compensated both ways
 PCNET_JUDGE = "PCNet"
@@ -47,7 +47,6 @@ PCNET_JUDGE = "PCNet"
 LEARNED_LEAD_DB = 1.0
 MAX_PSNR = 100.0  # an exact recovery (JSON has no infinity: result.json carries these figures)
 CHOICE_FILE = "compensator_choice.json"
-CLASSICAL_FILE = "classical.npz"
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..common.atomic import atomic_write_bytes
-from .choice import CLASSICAL, CLASSICAL_FILE, LEARNED
+from .model_names import CLASSICAL, CLASSICAL_FILE, LEARNED
 from .classical import ClassicalModel
 
 FIRST_LOOK_FILE = "first_look.json"

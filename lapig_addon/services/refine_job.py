@@ -14,7 +14,6 @@ import numpy as np
 from ...lapig_core.capture.dataset import DatasetError, load_capture_set, setup_dir_of
 from ...lapig_core.capture.settings import CaptureError
 from ...lapig_core.export.result_files import (NATIVE, read_result_image, read_summary, refined_images, write_result)
-from ...lapig_core.photometric import choice as compensator_choice
 from ...lapig_core.photometric.classical import ClassicalModel
 from ...lapig_core.photometric.first_look import load_first_look
 from ...lapig_core.photometric.targets import reachable_mask
@@ -32,15 +31,19 @@ REFINED = "projector_refined"
 
 
 def classical_of(capture: str) -> ClassicalModel:
-    """The setup's classical model: saved with the models' choice, else the capture's first look, else fitted on
-    the capture's pairs now."""
+    """The setup's classical model: the capture's first look (Train reuses that same fit), else the one saved
+    with Train's choice (a capture from before first looks), else fitted on the capture's pairs now."""
     meta_only = load_capture_set(capture, pairs=False)
-    saved = compensator_choice.load_choice(setup_dir_of(meta_only) / "models")
-    if saved is not None:
-        return saved[1]
     look = load_first_look(setup_dir_of(meta_only), meta_only.meta.get("fingerprint"))
-    if look is not None:  # Capture fitted it on the same pairs: no need to fit it again
+    if look is not None:
         return look.classical
+    try:  # Train's choice needs torch; refinement itself is numpy only
+        from ...lapig_core.photometric import choice as compensator_choice
+    except ImportError:
+        compensator_choice = None
+    saved = compensator_choice and compensator_choice.load_choice(setup_dir_of(meta_only) / "models")
+    if saved:
+        return saved[1]
     cs = load_capture_set(capture)
     if len(cs.prj_train) < 4:
         raise PipelineError("refinement needs the capture's classical model: train the models first")

@@ -5,7 +5,8 @@ import cv2
 import numpy as np
 import pytest
 
-pytestmark = pytest.mark.blender
+# torch: the refine job's module imports the pipeline jobs, which import Train's choice
+pytestmark = [pytest.mark.blender, pytest.mark.torch]
 
 
 def test_refinement_through_cycles_corrects_the_open_loop_image(lapig_registered, tmp_path):

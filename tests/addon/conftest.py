@@ -29,3 +29,14 @@ def state():
 @pytest.fixture
 def panel_state():
     return importlib.import_module(ADDON + ".services.panel_state")
+
+
+@pytest.fixture
+def seams(tmp_path):
+    """The job seams over the fake rig of job_fakes: a store, a device factory and one sink."""
+    from job_fakes import FakeFactory, FakeSink, FakeStore
+
+    ports = importlib.import_module(ADDON + ".services.ports")
+    state = importlib.import_module(ADDON + ".services.state")
+    factory = FakeFactory(ports)
+    return ports.Seams(FakeStore(state, tmp_path / "data", factory), factory, (FakeSink(),))

@@ -8,21 +8,12 @@ import os
 import numpy as np
 import pytest
 
-from job_fakes import FakeFactory, FakeSink, FakeStore
 
 ADDON = "lapig.lapig_addon"
 
 
 def _module(name):
     return importlib.import_module(f"{ADDON}.services.{name}")
-
-
-@pytest.fixture
-def seams(tmp_path):
-    ports, state = _module("ports"), _module("state")
-    factory = FakeFactory(ports)
-    store = FakeStore(state, tmp_path / "data", factory)
-    return ports.Seams(store, factory, (FakeSink(),))
 
 
 def _captured(seams):

@@ -15,7 +15,6 @@ from lapig_core.capture.dataset import DatasetError, load_capture_set
 from lapig_core.common.imageio import read_image, to_bit_depth
 from lapig_core.export.result_files import read_output_image
 
-from job_fakes import FakeFactory, FakeSink, FakeStore
 
 SERVICES = pathlib.Path(__file__).resolve().parents[2] / "lapig_addon" / "services"
 ADDON = "lapig.lapig_addon"
@@ -52,14 +51,6 @@ def test_every_service_loads_with_bpy_blocked():
     for path in sorted(SERVICES.glob("*.py")):
         if path.stem != "__init__":
             _module(path.stem)
-
-
-@pytest.fixture
-def seams(tmp_path):
-    ports, state = _module("ports"), _module("state")
-    factory = FakeFactory(ports)
-    store = FakeStore(state, tmp_path / "data", factory)
-    return ports.Seams(store, factory, (FakeSink(),))
 
 
 def _capture(seams, **settings):

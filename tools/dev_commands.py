@@ -18,7 +18,7 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "preview": "preview", "prompts": "prompts", "style-images": "style_images",
               "transport": "transport", "learned-variants": "learned_variants",
               "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine",
-              "train-step": "train_step", "light": "light"}
+              "train-step": "train_step", "light": "light", "finetune-length": "finetune_length"}
 
 
 def _ensure_registered():
@@ -141,7 +141,9 @@ def add_parsers(sub):
     bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
     ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
     bench.add_argument("--no-warmup", dest="warmup", action="store_false",
-                       help="ui: no warm-up before the first job (the session as it was before issue 28)")
+                       help="ui, preview: no warm-up before the first job (the session as it was before issue 28)")
+    bench.add_argument("--lengths", default=None,
+                       help="finetune-length: CompenNeSt fine-tune lengths in iterations (default 1000,500)")
     bench.add_argument("--capture", default=None,
                        help="train-step: the captured setup whose pairs Train fine-tunes on (e.g. the demo's)")
     bench.add_argument("--weights", default=None,

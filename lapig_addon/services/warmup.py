@@ -4,9 +4,8 @@ a session finds them loaded (BENCHMARKS: about 9.5 s cold against 2 s warm).
 The warm-up runs once per session on a worker thread, never on Blender's main thread: it imports torch and the
 look library, builds the default backend's look for a small image (which loads the prompt model, in the helper
 process where Blender has a UI, the lexicon's embeddings and the style network) and runs one small forward and
-backward pass through a network and one optimiser step, so torch's CPU kernels are chosen and its optimiser's
-imports done before the first job. Generate waits for a warm-up under way (on its own worker thread) rather than
-loading the same models beside it. A warm-up that fails says why in warmup_state() and changes nothing: the first
+backward pass through a network and one optimiser step, so torch's CPU kernels are chosen before the first job.
+Generate waits for a warm-up under way (on its own worker thread) rather than loading the same models beside it. A warm-up that fails says why in warmup_state() and changes nothing: the first
 Generate then loads what it needs, as before.
 """
 from __future__ import annotations
@@ -60,6 +59,7 @@ def warm(backend: str | None = None, size: int = 64) -> None:
     """What the first job would otherwise load: the backend's models and torch's kernels, at a small size."""
     import torch
 
+    from ...lapig_core.common.adam import Adam
     from ...lapig_core.lgst import DEFAULT_BACKEND, get_backend
     from ...lapig_core.photometric import checkpoints
 
@@ -71,10 +71,7 @@ def warm(backend: str | None = None, size: int = 64) -> None:
     net, _ = checkpoints.load_pretrained("CompenNeSt", "compensation")
     x = torch.rand(1, 3, size, size, requires_grad=True)
     net(x, surface).mean().backward()
-    # The first optimiser of a process imports torch._dynamo and sympy (seconds, some of it holding the GIL
-    # for 100-170 ms: the first job's UI stall); PSA's first Adam then finds them imported.
-    optimiser = torch.optim.Adam([x], lr=1e-3)
-    optimiser.step()
+    Adam([x], lr=1e-3).step()  # the optimiser PSA and Train use (ours: torch.optim's first import froze the UI)
 
 
 def _reset_for_tests():

@@ -14,6 +14,7 @@ import torch
 
 from . import losses
 from ..common import metrics
+from ..common.adam import Adam
 from .training_data import PairSet
 
 
@@ -161,7 +162,7 @@ class Trainer:
         r, res = self.recipe, self.result
         torch.manual_seed(r.seed)
         gen = torch.Generator().manual_seed(r.seed)
-        opt = torch.optim.Adam(self.model.parameters(), lr=r.lr, weight_decay=r.weight_decay)
+        opt = Adam(self.model.parameters(), lr=r.lr, weight_decay=r.weight_decay)
         good_state = copy.deepcopy(self.model.state_dict())
         t0 = time.perf_counter()
         eval_time = 0.0  # validation is bookkeeping: train_seconds leaves it out
@@ -213,7 +214,7 @@ class Trainer:
                                 f"{self.max_nan_recoveries} times: check the captures for NaN, "
                                 f"or lower the learning rate")
         self.model.load_state_dict(good_state)
-        opt.state.clear()
+        opt.reset_state()
 
     def run(self, on_progress=None) -> TrainResult:
         for progress, message in self.steps():

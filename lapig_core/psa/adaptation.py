@@ -43,6 +43,7 @@ from dataclasses import asdict, dataclass, field
 
 import torch
 
+from ..common.adam import Adam
 from ..common.metrics import structure_retention_torch
 from ..photometric import losses
 from ..photometric.surface_models import SurfaceModels
@@ -174,7 +175,7 @@ def _optimiser(look, settings):
                   {"params": look.field_parameters(), "lr": settings.field_lr}]
     else:
         groups = [{"params": look.parameters(), "lr": settings.lr}]
-    return torch.optim.Adam(groups)
+    return Adam(groups)
 
 
 def proxy_psa_loss(target, models: SurfaceModels, settings: PSASettings) -> torch.Tensor:
@@ -212,9 +213,7 @@ def warm_start_field(look: AdaptedLook, anchor, models: SurfaceModels, settings:
         return 0
     _, _, style_weight = settings.style_mix()
     params = look.field_parameters()
-    opt = torch.optim.Adam(params, lr=settings.warm_start_lr)
-    # the step falls linearly to a tenth, so the field settles instead of circling the minimum
-    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda k: 1.0 - 0.9 * k / settings.warm_start_steps)
+    opt = Adam(params, lr=settings.warm_start_lr)
     base, models = _at_warm_start_scale(anchor.detach(), models)
     with torch.no_grad():  # the proxy's own first value scales the style term, as `first` does later
         scale = max(float(proxy_psa_loss(base, models, settings)), 1e-8)
@@ -231,10 +230,11 @@ def warm_start_field(look: AdaptedLook, anchor, models: SurfaceModels, settings:
             best = (value, [p.detach().clone() for p in params])
         if step == settings.warm_start_steps:
             break
+        # the step falls linearly to a tenth, so the field settles instead of circling the minimum
+        opt.param_groups[0]["lr"] = settings.warm_start_lr * (1.0 - 0.9 * step / settings.warm_start_steps)
         opt.zero_grad(set_to_none=True)
         total.backward()
         opt.step()
-        sched.step()
         steps += 1
     if best is None:  # cancelled before the first step: the field stays the identity
         return 0
@@ -269,7 +269,7 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
     if isinstance(backend, AdaptedLook):
         warm_steps = warm_start_field(backend, anchor, models, settings, cancel_event)
     opt = _optimiser(backend, settings)
-    sched = torch.optim.lr_scheduler.StepLR(opt, settings.lr_step, settings.lr_gamma)
+    base_lrs = [group["lr"] for group in opt.param_groups]
     history, best, stopped = [], None, "max_iterations"
     for it in range(settings.max_iterations + 1):
         # the first iterate is always evaluated, so a cancelled run still returns a result
@@ -301,10 +301,11 @@ def run_psa(backend, models: SurfaceModels, settings: PSASettings | None = None,
             break
         if it == settings.max_iterations:
             break
+        for group, base_lr in zip(opt.param_groups, base_lrs):  # the step falls by lr_gamma every lr_step
+            group["lr"] = base_lr * settings.lr_gamma ** (it // settings.lr_step)
         opt.zero_grad(set_to_none=True)
         total.backward()
         opt.step()
-        sched.step()
     entry, state, target, comp, sim = best
     backend.load_state(state)
     return PSAResult(target, comp, sim, anchor, iterations=len(history) - 1, seconds=time.perf_counter() - t0,

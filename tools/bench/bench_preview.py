@@ -7,6 +7,9 @@ at native resolution, the result folder), each followed by the preview of the lo
 of the issue: the models are fine-tuned and the text model is loaded. Figures: prompt_to_preview_seconds
 (warm) and _cold (the first, which loads the text and style models), with the job's own split.
 
+The session's warm-up (services/warmup) starts with the capture, as it does in Blender when Capture is pressed
+(--no-warmup: the session as it was before it).
+
 Before Train, the first look (issue 28): right after Capture, which ends by fitting the classical model, two
 Generates with no Train (the classical model compensates and is PSA's simulator), each to the preview, then the
 rig renders the first one's projector images: capture_to_first_look_seconds_cold (the first job of the session,
@@ -31,6 +34,7 @@ from ...lapig_core.psa import adaptation
 from ...lapig_addon.blender import result_preview, scene_state
 from ...lapig_addon.blender.scene_store import scene_seams
 from ...lapig_addon.cli import headless
+from ...lapig_addon.services import warmup
 from ...lapig_addon.services.pipeline_jobs import GenerateJob, RenderResultJob, TrainModelsJob
 from .io_count import counted_io
 
@@ -91,6 +95,8 @@ def run(args) -> dict:
     bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out, "preview.blend"))
     scene = bpy.context.scene
     settings = scene_state.capture_settings(scene, train_count=args.train, test_count=0, seed=args.seed)
+    if args.warmup:  # as in Blender, where pressing Capture (the add-on's first use) starts it
+        warmup.start_warmup()
     t = time.perf_counter()
     captured = headless.run_capture(scene, settings)  # recorded in the scene; ends with the first look's fit
     capture_s = time.perf_counter() - t
@@ -122,4 +128,5 @@ def run(args) -> dict:
             "projector": [scene.lapig.projector.lapig_projector.resolution_x,
                           scene.lapig.projector.lapig_projector.resolution_y],
             "working_size": scene.lapig.working_size, "train_pairs": args.train,
+            "warmup": {"started_with_capture": args.warmup, **warmup.warmup_state()},
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores"}

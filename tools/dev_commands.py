@@ -18,7 +18,8 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "preview": "preview", "prompts": "prompts", "style-images": "style_images",
               "transport": "transport", "learned-variants": "learned_variants",
               "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine",
-              "train-step": "train_step", "light": "light", "finetune-length": "finetune_length"}
+              "train-step": "train_step", "light": "light", "finetune-length": "finetune_length",
+              "classical-fit": "classical_fit"}
 
 
 def _ensure_registered():
@@ -144,8 +145,9 @@ def add_parsers(sub):
                        help="ui, preview: no warm-up before the first job (the session as it was before issue 28)")
     bench.add_argument("--lengths", default=None,
                        help="finetune-length: CompenNeSt fine-tune lengths in iterations (default 1000,500)")
+    bench.add_argument("--repeats", type=int, default=3, help="classical-fit: fits per path (default 3)")
     bench.add_argument("--capture", default=None,
-                       help="train-step: the captured setup whose pairs Train fine-tunes on (e.g. the demo's)")
+                       help="train-step, classical-fit: the captured setup whose pairs Train fine-tunes on (e.g. the demo's)")
     bench.add_argument("--weights", default=None,
                        help="models, transport: folder of the pretrained weights the fine-tunes start from "
                             "(default: the shipped lapig_core/photometric/weights)")

@@ -19,6 +19,7 @@ import itertools
 
 import numpy as np
 
+from ..common.small_spd import spd_solve
 from .classical import ClassicalModel
 
 _FREE, _LOW, _HIGH = 0, 1, 2
@@ -54,7 +55,7 @@ def _box_block(a: np.ndarray, r: np.ndarray) -> np.ndarray:
     so only the others go through the 27 active sets."""
     g = np.swapaxes(a, 1, 2) @ a
     tr = np.trace(g, axis1=1, axis2=2)[:, None, None]
-    x = np.linalg.solve(g + _RIDGE * (tr + 1e-12) * np.eye(3), (np.swapaxes(a, 1, 2) @ r[..., None]))[..., 0]
+    x = spd_solve(g + _RIDGE * (tr + 1e-12) * np.eye(3), (np.swapaxes(a, 1, 2) @ r[..., None]))[..., 0]
     outside = ((x < 0) | (x > 1)).any(-1)
     if outside.any():
         x[outside] = _active_sets(a[outside], r[outside])
@@ -77,7 +78,7 @@ def _active_sets(a: np.ndarray, r: np.ndarray) -> np.ndarray:
             rhs = r - np.einsum("pij,j->pi", a, fixed)
             af = a[:, :, free]
             gf = np.swapaxes(af, 1, 2) @ af + _RIDGE * (tr + 1e-12) * eye[:free.sum(), :free.sum()]
-            xf = np.linalg.solve(gf, (np.swapaxes(af, 1, 2) @ rhs[..., None]))[..., 0]
+            xf = spd_solve(gf, (np.swapaxes(af, 1, 2) @ rhs[..., None]))[..., 0]
             x[:, free] = np.clip(xf, 0.0, 1.0)
         resid = np.einsum("pij,pj->pi", a, x) - r
         cost = (resid * resid).sum(-1)

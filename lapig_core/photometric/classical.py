@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..common.atomic import atomic_write_bytes
+from ..common.small_spd import spd_inverse, spd_solve
 
 GAMMA_RANGE = (1.0, 3.0)
 # (step, half width around the previous best); None = the whole range
@@ -122,7 +123,7 @@ class _SearchProblem:
         if key not in self._by_gp:
             x = _design(self.p, gp)
             g, xt = _normal_matrix(x, self.w)
-            self._by_gp[key] = (x, xt, np.linalg.inv(g), x.astype(np.float32))
+            self._by_gp[key] = (x, xt, spd_inverse(g), x.astype(np.float32))
         return self._by_gp[key]
 
     def _gc(self, gc: float):
@@ -249,7 +250,7 @@ class ClassicalModel:
             x = _design(p, gamma_p)
             y = np.power(c, gamma_c)
             g, xt = _normal_matrix(x, wt)
-            b = np.linalg.solve(g, xt @ y)  # (chunk, 4, 3), float64
+            b = spd_solve(g, xt @ y)  # (chunk, 4, 3), float64; SPD: the ridge
             # Too few usable samples or a numerically broken solve: predict the mean capture.
             used = np.full(len(b), n) if wt is None else wt.sum(axis=1)
             bad = (used < 4) | ~np.isfinite(b).all(axis=(1, 2))

@@ -3,7 +3,7 @@ import os
 
 import bpy
 
-from ..lapig_addon.blender import result_preview, scene_state
+from ..lapig_addon.blender import live_devices, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import BackgroundJobRunner, JobRunnerMixin, cancel_background
 from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, report_notes
 from ..lapig_addon.blender.properties import PREVIEW_MODES
@@ -48,6 +48,7 @@ class LAPIG_OT_train_background(BackgroundJobRunner, bpy.types.Operator):
             return None
         job = _pipeline_jobs().TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
         job.check()
+        job.rig_in_use = lambda: live_devices.rig_in_use(scene)  # the artist's live window stays theirs
         return job
 
     def on_done(self, context, job):

@@ -121,6 +121,8 @@ def background_line(slots: JobSlots) -> tuple[str, bool | None] | None:
         if slots.foreground_running():
             return f"Training in the background: paused at {bg.progress:.0%} while {slots.foreground.title} runs" \
                    + (f" ({note})" if note else ""), None
+        if bg.message.startswith("waiting"):  # for the rig, or for the capture's folder
+            note = bg.message + (f"; {note}" if note else "")
         return f"Training in the background: {bg.progress:.0%}" + (f" ({note})" if note else ""), True
     if slots.outcome:
         return slots.outcome, False

@@ -108,6 +108,7 @@ class TrainModelsJob(WorkerJob):
 
     title = "LAPIG training"
     TRAIN_SHARE = 0.9  # of the progress bar; the rest is the renders of the choice
+    rig_in_use = None  # a Train in the background: a callable saying why it may not open the rig now ('' if it may)
 
     def __init__(self, seams: Seams, iterations: int | None = None, capture: str | None = None):
         """iterations: fine-tuning iterations per network (None: the standard recipe); capture: a capture
@@ -190,10 +191,18 @@ class TrainModelsJob(WorkerJob):
 
         try:
             while len(captured) < count:
-                yield from self.pause_point(share + (1 - share) * 0.99 * len(captured) / count)
+                progress = share + (1 - share) * 0.99 * len(captured) / count
+                yield from self.pause_point(progress)
+                in_use = self.rig_in_use() if self.rig_in_use is not None else ""
+                if in_use:  # the artist's live window or camera view: the rig is theirs until closed
+                    time.sleep(self.poll_timeout)
+                    yield progress, f"waiting for the rig: {in_use}"
+                    continue
                 # no capture may replace the models while this runs
-                held = yield from self._hold_when_free(folder, share + (1 - share) * 0.99 * len(captured) / count)
+                held = yield from self._hold_when_free(folder, progress)
                 try:
+                    if self.pause_requested:  # asked while the lock was taken: pause before opening the device
+                        continue
                     first = len(captured)
                     captured += yield from self.drive(lambda: measure(first), devices.main_thread)
                 finally:

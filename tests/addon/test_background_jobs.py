@@ -304,3 +304,25 @@ def test_a_background_train_cancelled_while_paused_leaves_the_first_look_as_it_w
     assert train.state == "CANCELLED" and _worker_gone(train)
     assert _models_files(captured) == before and seams.store.models == models_before
     assert _lock_is_free(_root(captured))
+
+
+@pytest.mark.torch
+def test_a_background_train_waits_for_the_artists_live_window_before_it_opens_the_rig(seams):
+    pipeline_jobs, background_jobs = _module("pipeline_jobs"), _module("background_jobs")
+    seams.devices.main_thread = True
+    _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    slots, in_use = background_jobs.JobSlots(), ["close the projector window"]
+    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train.poll_timeout, train.rig_in_use = 0, lambda: in_use[0]
+    train.check()
+    slots.start_background(train)
+    opened = seams.devices.opened
+    _until(lambda: train.message.startswith("waiting for the rig"), slots.step_background, timeout=300)
+    for _ in range(5):
+        slots.step_background()
+    assert seams.devices.opened == opened and not train.finished  # the rig was not opened
+    text, ok = background_jobs.background_line(slots)
+    assert "waiting for the rig: close the projector window" in text and ok
+    in_use[0] = ""
+    _until(lambda: train.finished, slots.step_background, timeout=300)
+    assert train.state == "DONE" and seams.devices.opened > opened

@@ -32,7 +32,10 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
         extra = f", registration error {err:.2f} px" if err is not None else ""
         self.report({"INFO"}, f"Captured into {folder}{extra}")
         if train_after_capture(job, self.ran_modal, scene_state.train_in_background(context.scene)):
-            bpy.ops.lapig.train_background("INVOKE_DEFAULT")
+            try:
+                bpy.ops.lapig.train_background("INVOKE_DEFAULT")
+            except RuntimeError as exc:  # its ERROR report, raised back here: the capture itself is fine
+                self.report({"WARNING"}, f"Training in the background did not start: {exc}")
 
 
 class LAPIG_OT_import_capture(AsksForFolder, bpy.types.Operator):

@@ -208,15 +208,17 @@ class BackgroundJobRunner(ReportsErrors):
         if job.state == "DONE":
             self.on_done(context, job)
             return {"FINISHED"}
-        if job.state == "CANCELLED":
-            self.report({"WARNING"}, f"{job.title} in the background cancelled: the scene is as it was")
+        if job.state == "CANCELLED":  # by what replaced the capture, or the panel's Cancel, which said so
             return {"CANCELLED"}
         return report_failure(self, job.error, prefix=f"{job.title} in the background failed: ")
 
-    def cancel(self, context):  # Blender ends the operator (its window closed): stop the work cleanly
-        if self._job is not None:
-            self._job.stop()
-            self._end(context)
+    def cancel(self, context):  # Blender ends the operator (a file loaded, its window closed): stop cleanly
+        try:
+            if self._job is not None:
+                self._job.stop()
+                self._end(context)
+        except Exception as exc:  # never a traceback; the console says what went wrong
+            print(f"LAPIG: stopping the training in the background: {exc}")
 
     def _end(self, context):
         if self._timer is None:

@@ -17,10 +17,13 @@ BUSY = "Another LAPIG job is running: wait for it or press Esc"
 
 
 class JobSlots:
+    PAUSE_WAIT_S = 30.0  # a background job that reaches no pause point by then is not waited for any longer
+
     def __init__(self):
         self.foreground: Job | None = None
         self.background: Job | None = None
         self.outcome: str | None = None  # how the last background job ended, for the panel (None: nothing to say)
+        self._waiting_since = None  # when the foreground job began to wait for the pause
 
     # -- the foreground -------------------------------------------------------------------------------
     def foreground_running(self) -> bool:
@@ -30,7 +33,7 @@ class JobSlots:
         """Take the foreground slot (the background job is asked to pause); why not, or None."""
         if self.foreground_running():
             return BUSY
-        self.foreground = job
+        self.foreground, self._waiting_since = job, time.monotonic()
         if self.background_running():
             self.background.pause()
         return None
@@ -43,6 +46,8 @@ class JobSlots:
             return True
         bg.pause()
         bg.step()
+        if self._waiting_since is not None and time.monotonic() - self._waiting_since > self.PAUSE_WAIT_S:
+            return True  # it holds on (a long step without a pause point): the artist's job goes first anyway
         return bg.finished or bg.paused
 
     def end_foreground(self, job: Job):

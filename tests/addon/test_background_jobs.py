@@ -326,3 +326,20 @@ def test_a_background_train_waits_for_the_artists_live_window_before_it_opens_th
     in_use[0] = ""
     _until(lambda: train.finished, slots.step_background, timeout=300)
     assert train.state == "DONE" and seams.devices.opened > opened
+
+
+def test_a_background_job_that_reaches_no_pause_point_is_not_waited_for_forever(tmp_path):
+    background_jobs = _module("background_jobs")
+    slots = background_jobs.JobSlots()
+    slots.PAUSE_WAIT_S = 0.2
+    go_on = threading.Event()
+    train = _counting_job(tmp_path)
+    train.work = lambda inputs, report, cancel_event: go_on.wait(10)  # a long step that never reports
+    slots.start_background(train)
+    slots.step_background()
+    slots.start_foreground(_running_job())
+    assert not slots.foreground_may_step()
+    time.sleep(0.3)
+    assert slots.foreground_may_step() and not train.paused
+    go_on.set()
+    slots.cancel_background()

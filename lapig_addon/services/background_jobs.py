@@ -23,7 +23,7 @@ class JobSlots:
         self.foreground: Job | None = None
         self.background: Job | None = None
         self.outcome: str | None = None  # how the last background job ended, for the panel (None: nothing to say)
-        self._waiting_since = None  # when the foreground job began to wait for the pause
+        self._waiting_since = 0.0  # when the foreground job began to wait for the pause
 
     # -- the foreground -------------------------------------------------------------------------------
     def foreground_running(self) -> bool:
@@ -46,7 +46,8 @@ class JobSlots:
             return True
         bg.pause()
         bg.step()
-        if self._waiting_since is not None and time.monotonic() - self._waiting_since > self.PAUSE_WAIT_S:
+        waited = time.monotonic() - self._waiting_since if self.foreground_running() else 0.0
+        if waited > self.PAUSE_WAIT_S:
             return True  # it holds on (a long step without a pause point): the artist's job goes first anyway
         return bg.finished or bg.paused
 

@@ -343,3 +343,17 @@ def test_a_background_job_that_reaches_no_pause_point_is_not_waited_for_forever(
     assert slots.foreground_may_step() and not train.paused
     go_on.set()
     slots.cancel_background()
+
+
+def test_a_synchronous_run_in_the_ui_waits_for_the_pause_then_resumes_the_background_job(tmp_path):
+    """A script calling an operator while Train runs in the background (JobRunnerMixin.execute)."""
+    background_jobs = _module("background_jobs")
+    slots = background_jobs.JobSlots()
+    train = _counting_job(tmp_path, iterations=60)
+    slots.start_background(train)
+    _until(lambda: train.count >= 2, slots.step_background)
+    assert slots.pause_background_until_paused(timeout_s=20)
+    assert train.paused and _lock_is_free(tmp_path)
+    slots.resume_background()
+    _until(lambda: train.finished, slots.step_background)
+    assert train.state == "DONE" and train.result == 60

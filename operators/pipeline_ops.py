@@ -48,8 +48,16 @@ class LAPIG_OT_train_background(BackgroundJobRunner, bpy.types.Operator):
             return None
         job = _pipeline_jobs().TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
         job.check()
-        job.rig_in_use = lambda: live_devices.rig_in_use(scene)  # the artist's live window stays theirs
+        job.rig_in_use = lambda: live_devices.rig_in_use(job.seams.store.scene)  # their live window stays theirs
+        job.device_per_render = True  # no studio scene left between two steps, while the artist works
+        self.scene_name = scene.name
         return job
+
+    def refresh(self, context, job):
+        # an undo may have replaced the scene the job was made with: the seams of the scene of that name
+        scene = bpy.data.scenes.get(self.scene_name)
+        if scene is not None:
+            job.seams = scene_seams(scene)
 
     def on_done(self, context, job):
         self.report({"INFO"}, "Trained in the background: " + scene_state.read(context.scene).models_status)

@@ -177,6 +177,9 @@ class BackgroundJobRunner(ReportsErrors):
     def on_done(self, context, job):
         pass
 
+    def refresh(self, context, job):
+        """Before each step: what the job reads of Blender, anew (the artist works meanwhile)."""
+
     def invoke(self, context, event):
         if not can_run_modal(context):
             return {"CANCELLED"}  # a background job exists only in Blender's UI
@@ -196,6 +199,7 @@ class BackgroundJobRunner(ReportsErrors):
         job = self._job
         try:
             if event.type == "TIMER" and not job.finished:
+                self.refresh(context, job)
                 SLOTS.step_background()
                 _redraw_viewports(context)
         except Exception as exc:  # the UI itself failed (not the job: its failures end below)

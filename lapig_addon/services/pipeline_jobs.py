@@ -34,7 +34,7 @@ from .capture_job import CaptureError
 from .export_result import result_frame
 from .jobs import Job, WorkerJob
 from .ports import Seams
-from .projection import projection_steps, register_at
+from .projection import project_and_capture, projection_steps, register_at
 from .state import GenerateRequest, SceneState
 
 
@@ -109,6 +109,10 @@ class TrainModelsJob(WorkerJob):
     title = "LAPIG training"
     TRAIN_SHARE = 0.9  # of the progress bar; the rest is the renders of the choice
     rig_in_use = None  # a Train in the background: a callable saying why it may not open the rig now ('' if it may)
+    # a Train in the background: a main-thread device (Cycles' studio, a scene of its own that changes the
+    # projector's image) is opened and closed within each render's step, so the artist's undo, save or edit
+    # between two steps never meets it
+    device_per_render = False
 
     def __init__(self, seams: Seams, iterations: int | None = None, capture: str | None = None):
         """iterations: fine-tuning iterations per network (None: the standard recipe); capture: a capture
@@ -179,6 +183,12 @@ class TrainModelsJob(WorkerJob):
         count, captured = len(images), []
 
         def measure(first):
+            if self.device_per_render and devices.main_thread:  # opened, rendered and closed in this one step
+                one = project_and_capture(devices, folder, images[first:first + 1], seed=first, chunk=1)[0]
+                done = (first + 1) / count
+                yield share + (1 - share) * 0.99 * done, \
+                    f"measuring both compensations on the rig: {first + 1}/{count} captured"
+                return list(one)
             steps = projection_steps(devices, folder, images[first:], chunk=1, stop=lambda: self.pause_requested)
             while True:
                 try:
@@ -193,6 +203,7 @@ class TrainModelsJob(WorkerJob):
             while len(captured) < count:
                 progress = share + (1 - share) * 0.99 * len(captured) / count
                 yield from self.pause_point(progress)
+                devices = self.seams.devices  # as the job's owner has it now (a background job's: after an undo)
                 in_use = self.rig_in_use() if self.rig_in_use is not None else ""
                 if in_use:  # the artist's live window or camera view: the rig is theirs until closed
                     time.sleep(self.poll_timeout)

@@ -357,3 +357,22 @@ def test_a_synchronous_run_in_the_ui_waits_for_the_pause_then_resumes_the_backgr
     slots.resume_background()
     _until(lambda: train.finished, slots.step_background)
     assert train.state == "DONE" and train.result == 60
+
+
+@pytest.mark.torch
+def test_in_the_background_a_main_thread_device_is_opened_and_closed_within_each_render_step(seams):
+    pipeline_jobs = _module("pipeline_jobs")
+    from lapig_core.photometric.choice import RENDERED_JUDGE
+
+    seams.devices.main_thread = True  # Cycles: its studio is a scene of its own in the artist's file
+    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train.poll_timeout, train.device_per_render = 0, True
+    train.check()
+    opened = seams.devices.opened
+    while train.step():
+        assert seams.devices.opened == seams.devices.closed  # never open between two steps
+    assert train.state == "DONE", train.message
+    choice = json.load(open(os.path.join(captured["setup_dir"], "models", "compensator_choice.json")))
+    assert choice["judge"] == RENDERED_JUDGE
+    assert seams.devices.opened - opened == 2 * choice["validation_pairs"]  # one opening per render

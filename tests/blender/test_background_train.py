@@ -1,5 +1,5 @@
-"""Train in the background (issue 28) with Cycles: paused between the rendered choice's renders, the capture
-studio is closed and the capture's folder free; resumed, every held-back image is rendered and the choice is
+"""Train in the background (issue 28) with Cycles: each render of the rendered choice opens and closes the
+capture studio within its step; paused between two renders, the capture's folder is free; resumed, every held-back image is rendered and the choice is
 the rendered one. The panel shows it with its own Cancel. (The modal part, Blender's timers and events, needs
 Blender's UI, which the bpy module has not: the slots are stepped here as the operators' timers step them.)"""
 import os
@@ -47,12 +47,14 @@ def test_a_background_train_pauses_between_cycles_renders_and_finishes_the_rende
     assert SLOTS.background is None  # a Capture run from a script does not chain Train
     job = TrainModelsJob(scene_seams(scene), 4)
     job.poll_timeout = 0.01
+    job.device_per_render = True  # as the operator makes it: the studio never outlives a step
     job.check()
     assert SLOTS.start_background(job)
     try:
         while SLOTS.step_background() and not job.message.startswith("measuring"):
-            pass
+            assert STUDIO_NAME not in bpy.data.scenes
         assert job.message.startswith("measuring both compensations on the rig: 1/4")
+        assert STUDIO_NAME not in bpy.data.scenes  # the artist's undo or save between two steps never meets it
         assert SLOTS.start_foreground(_running_job()) is None
         while not SLOTS.foreground_may_step():
             pass
@@ -63,7 +65,7 @@ def test_a_background_train_pauses_between_cycles_renders_and_finishes_the_rende
         assert any(e[0] == "label" and e[1].startswith("Training in the background: paused") for e in log)
         SLOTS.end_foreground(SLOTS.foreground)
         while SLOTS.step_background():
-            pass
+            assert STUDIO_NAME not in bpy.data.scenes
         assert job.state == "DONE", job.message
         saved = json.load(open(os.path.join(scene_state.read(scene).capture_dir, "models", choice.CHOICE_FILE)))
         assert saved["judge"] == choice.RENDERED_JUDGE and saved["validation_pairs"] == 2

@@ -193,7 +193,8 @@ class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (LAPIG_OT_train_models, LAPIG_OT_train_background, LAPIG_OT_cancel_background_train, LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_refine_result,
+CLASSES = (LAPIG_OT_train_models, LAPIG_OT_train_background, LAPIG_OT_cancel_background_train,
+           LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_refine_result,
            LAPIG_OT_preview_mode,
            LAPIG_OT_show_comparison, LAPIG_OT_export_image, LAPIG_OT_export_crossfade)
 

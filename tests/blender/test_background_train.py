@@ -1,7 +1,8 @@
 """Train in the background (issue 28) with Cycles: each render of the rendered choice opens and closes the
-capture studio within its step; paused between two renders, the capture's folder is free; resumed, every held-back image is rendered and the choice is
-the rendered one. The panel shows it with its own Cancel. (The modal part, Blender's timers and events, needs
-Blender's UI, which the bpy module has not: the slots are stepped here as the operators' timers step them.)"""
+capture studio within its step; paused between two renders, the capture's folder is free; resumed, every
+held-back image is rendered and the choice is the rendered one. The panel shows it with its own Cancel.
+(The modal part, Blender's timers and events, needs Blender's UI, which the bpy module has not: the slots
+are stepped here as the operators' timers step them.)"""
 import os
 
 import pytest

@@ -35,7 +35,7 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
 
     iterations: per network (default: the CPU recipe's); fewer give a rough, quick fine-tune.
     """
-    out, t0 = {}, time.perf_counter()
+    out, trained, t0 = {}, {}, time.perf_counter()
     # first: the compensation's camera-space loss measures its error through the classical model (the capture's
     # first look is that same fit, on the same pairs: reused where the capture has one)
     look = load_first_look(setup_dir_of(cs), cs.meta.get("fingerprint"))
@@ -49,10 +49,11 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
                                  cancel_event=cancel_event, classical=classical)
         if result.cancelled:
             raise InterruptedError("training cancelled")
-        if save:
-            save_setup_model(setup_dir_of(cs), model, role, cs, iterations=result.iterations,
+        out[arch], trained[arch] = model, (role, result)
+    if save:  # both at once: a cancel while PCNet trains leaves the folder as it was
+        for arch, (role, result) in trained.items():
+            save_setup_model(setup_dir_of(cs), out[arch], role, cs, iterations=result.iterations,
                              train_seconds=round(result.seconds, 2))
-        out[arch] = model
     # the learned and the classical compensation, validated on the held-back pairs: the better one is used
     chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"], out["PCNet"], classical)
     if save:

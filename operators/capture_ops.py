@@ -1,9 +1,10 @@
 import bpy
 
 from ..lapig_addon.blender import scene_state, storage
-from ..lapig_addon.blender.modal_runner import JobRunnerMixin
+from ..lapig_addon.blender.modal_runner import JobRunnerMixin, cancel_background
 from ..lapig_addon.blender.operator_boundary import AsksForFolder
 from ..lapig_addon.blender.scene_store import scene_seams
+from ..lapig_addon.services.background_jobs import train_after_capture
 from ..lapig_addon.services.capture_job import CaptureJob, check_rig
 from ..lapig_core.capture.dataset import load_capture_set, setup_dir_of, summarize
 from ..lapig_core.optics.working_frame import check_aspect
@@ -14,6 +15,7 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
     """Render the capture set (references, Gray code, training and test patterns) with Cycles"""
     bl_idname = "lapig.capture"
     bl_label = "Capture"
+    replaces_models = True  # a Train in the background is cancelled first
 
     def make_job(self, context):
         require("numpy", "cv2")
@@ -29,6 +31,11 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
         err = job.result["meta"]["registration"].get("registration_error_px_median")
         extra = f", registration error {err:.2f} px" if err is not None else ""
         self.report({"INFO"}, f"Captured into {folder}{extra}")
+        if train_after_capture(job, self.ran_modal, scene_state.train_in_background(context.scene)):
+            try:
+                bpy.ops.lapig.train_background("INVOKE_DEFAULT")
+            except RuntimeError as exc:  # its ERROR report, raised back here: the capture itself is fine
+                self.report({"WARNING"}, f"Training in the background did not start: {exc}")
 
 
 class LAPIG_OT_import_capture(AsksForFolder, bpy.types.Operator):
@@ -42,6 +49,7 @@ class LAPIG_OT_import_capture(AsksForFolder, bpy.types.Operator):
         if projector_size:  # its images must cover the projector's frame (e.g. a public 256x256 set: 1:1)
             check_aspect(capture_set.frame_size, projector_size, "the data set",
                          advice="set the projector's resolution to the data set's aspect first")
+        cancel_background()  # a Train in the background works on the capture this replaces
         scene_state.record_capture(context.scene, setup_dir_of(capture_set), "")  # captured elsewhere: not tied to this rig
         self.report({"INFO"}, summarize(capture_set))
         return {"FINISHED"}

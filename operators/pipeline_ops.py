@@ -3,11 +3,12 @@ import os
 
 import bpy
 
-from ..lapig_addon.blender import result_preview, scene_state
-from ..lapig_addon.blender.modal_runner import JobRunnerMixin
+from ..lapig_addon.blender import live_devices, result_preview, scene_state
+from ..lapig_addon.blender.modal_runner import BackgroundJobRunner, JobRunnerMixin, cancel_background
 from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, report_notes
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
+from ..lapig_addon.services import panel_state
 from ..lapig_core.common.deps import require
 
 
@@ -23,6 +24,7 @@ class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
     """Fine-tune the networks on this capture (about two minutes), then render both compensations, keep the better"""
     bl_idname = "lapig.train_models"
     bl_label = "Train Models"
+    replaces_models = True  # a Train in the background is cancelled first
 
     def make_job(self, context):
         scene = context.scene
@@ -32,6 +34,44 @@ class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
 
     def on_done(self, context, job):
         self.report({"INFO"}, scene_state.read(context.scene).models_status)
+
+
+class LAPIG_OT_train_background(BackgroundJobRunner, bpy.types.Operator):
+    """Train the models in the background while you work (started after a Capture)"""
+    bl_idname = "lapig.train_background"
+    bl_label = "Train in the Background"
+    bl_options = {"INTERNAL"}
+
+    def make_job(self, context):
+        scene = context.scene
+        if panel_state.models_blocker(scene_state.read(scene)):  # no torch, no capture: the first look stays
+            return None
+        job = _pipeline_jobs().TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
+        job.check()
+        job.rig_in_use = lambda: live_devices.rig_in_use(job.seams.store.scene)  # their live window stays theirs
+        job.device_per_render = True  # no studio scene left between two steps, while the artist works
+        self.scene_name = scene.name
+        return job
+
+    def refresh(self, context, job):
+        # an undo may have replaced the scene the job was made with: the seams of the scene of that name
+        scene = bpy.data.scenes.get(self.scene_name)
+        if scene is not None:
+            job.seams = scene_seams(scene)
+
+    def on_done(self, context, job):
+        self.report({"INFO"}, "Trained in the background: " + scene_state.read(context.scene).models_status)
+
+
+class LAPIG_OT_cancel_background_train(ReportsErrors, bpy.types.Operator):
+    """Stop the training in the background; the first look stays in use"""
+    bl_idname = "lapig.cancel_background_train"
+    bl_label = "Cancel"
+
+    def execute(self, context):
+        if cancel_background():
+            self.report({"WARNING"}, "Training in the background cancelled: the scene is as it was")
+        return {"FINISHED"}
 
 
 class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
@@ -153,7 +193,8 @@ class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (LAPIG_OT_train_models, LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_refine_result,
+CLASSES = (LAPIG_OT_train_models, LAPIG_OT_train_background, LAPIG_OT_cancel_background_train,
+           LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_refine_result,
            LAPIG_OT_preview_mode,
            LAPIG_OT_show_comparison, LAPIG_OT_export_image, LAPIG_OT_export_crossfade)
 

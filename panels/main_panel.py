@@ -3,9 +3,10 @@ import textwrap
 import bpy
 
 from ..lapig_addon.blender import live_devices, scene_state, storage, warm_start
-from ..lapig_addon.blender.modal_runner import active_job
+from ..lapig_addon.blender.modal_runner import SLOTS, active_job
 from ..lapig_addon.rigs import camera_view, device_list, live_output
 from ..lapig_addon.services import panel_state
+from ..lapig_addon.services.background_jobs import background_line
 from ..lapig_addon.services.rig_check import last_check
 from ..lapig_core.common.deps import missing_required
 
@@ -256,6 +257,22 @@ class LAPIG_PT_models(LapigPanel, bpy.types.Panel):
         row.enabled = not blocked and not _job_running()
         row.operator("lapig.train_models", icon="SHADERFX",
                      text="Fine-tune Again" if status.state == "DONE" else "Train Models")
+        layout.prop(context.scene.lapig, "train_in_background")
+        _background(layout)
+
+
+def _background(layout):
+    """The Train in the background: its progress and its own Cancel (Esc is the foreground job's), or how it
+    failed."""
+    line = background_line(SLOTS)
+    if line is None:
+        return
+    text, ok = line
+    if SLOTS.background_running():
+        row = layout.row(align=True)
+        row.progress(factor=SLOTS.background.progress, text=f"{SLOTS.background.progress:.0%}")
+        row.operator("lapig.cancel_background_train", icon="CANCEL", text="Cancel")
+    _lines(layout, [(text, ok)])
 
 
 class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):

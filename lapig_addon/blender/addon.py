@@ -13,6 +13,7 @@ _MODULES = (
     "...operators",
     "...panels",
     ".live_devices",
+    ".modal_runner",
     "..cli.blender_command",
 )
 

@@ -49,6 +49,18 @@ def report(kind: str, message: str) -> None:
     print(f"LAPIG: {message}")
 
 
+def rig_in_use(scene) -> str:
+    """Why a job in the background may not open the real rig now ('' when it may): opening it would close the
+    artist's projector window or camera view (real_rig lets go of them)."""
+    if scene.lapig.rig_kind != "REAL":
+        return ""
+    if camera_view_running():
+        return "close the camera view"
+    if live_output.open_sinks():
+        return "close the projector window"
+    return ""
+
+
 # ------------------------------------------------------------------------------------ the camera view
 
 def camera_view_running() -> bool:

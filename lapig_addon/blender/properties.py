@@ -222,6 +222,9 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     finetune_iterations: IntProperty(name="Iterations", default=0, **LIMITS["finetune_iterations"].bounds(),
                                      description="Fine-tuning iterations per network; 0 for the standard "
                                                  "recipe, fewer for a rough but quick fine-tune")
+    train_in_background: BoolProperty(name="Train in the Background after Capture", default=True,
+                                      description="After a Capture, fine-tune the networks and make the rendered "
+                                                  "choice while you work; Generate uses the first look until then")
     models_fingerprint: StringProperty(name="Rig fingerprint the models were trained for")
     models_status: StringProperty(name="Models")
     # stylize

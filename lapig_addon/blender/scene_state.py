@@ -212,6 +212,11 @@ def finetune_iterations(scene) -> int | None:
     return scene.lapig.finetune_iterations or None
 
 
+def train_in_background(scene) -> bool:
+    """Whether a Capture made in the UI starts Train in the background (the Models panel's option)."""
+    return bool(scene.lapig.train_in_background)
+
+
 def refine_steps(scene) -> int:
     """The cap on Refine on the rig's steps (the panel's Refine steps)."""
     return int(scene.lapig.refine_steps)

@@ -6,9 +6,11 @@ closes the generator, so its `with`/`finally` blocks undo whatever it had change
 """
 from __future__ import annotations
 
+import threading
 import time
 from typing import Callable, Iterator
 
+from ...lapig_core.common.locking import FolderBusy
 from .errors import one_line
 
 
@@ -32,6 +34,9 @@ class Job:
         self.started_at = None
         self.finished_at = None
         self._device_steps = []  # DeviceSteps this job drives: stop() waits for their threads
+        self._go = threading.Event()  # cleared while a pause is asked for (a job in the background)
+        self._go.set()
+        self._at_pause_point = False  # the work has stopped at a pause point, its locks and devices let go
 
     def steps(self) -> Iterator[tuple[float, str]]:
         """Yield (progress 0..1, message) between chunks of work; set self.result at the end."""
@@ -41,10 +46,37 @@ class Job:
     def finished(self) -> bool:
         return self.state in {"DONE", "CANCELLED", "FAILED"}
 
+    # Pausing: a job in the background gives the cores (and its locks and devices) to the artist's job.
+    # pause() asks; the work stops at its next pause point (a worker's report(), the main thread's
+    # pause_point()); `paused` says it has; resume() lets it go on. A paused job still cancels.
+    def pause(self):
+        self._go.clear()
+
+    def resume(self):
+        self._go.set()
+
+    @property
+    def pause_requested(self) -> bool:
+        return not self._go.is_set()
+
+    @property
+    def paused(self) -> bool:
+        return self.pause_requested and self._at_pause_point and not self.finished
+
+    def pause_point(self, progress: float):
+        """Main-thread steps: `yield from` it where the job holds no lock nor device; while paused it yields
+        once and step() does not advance it until resume()."""
+        while self.pause_requested:
+            self._at_pause_point = True
+            yield progress, "paused"
+        self._at_pause_point = False
+
     def step(self) -> bool:
-        """Advance by one chunk; returns True while there is more to do."""
+        """Advance by one chunk; returns True while there is more to do (a paused job does not advance)."""
         if self.finished:
             return False
+        if self.paused:
+            return True
         if self._gen is None:
             self.state, self.started_at = "RUNNING", time.perf_counter()
             self._gen = self.steps()
@@ -127,7 +159,12 @@ class WorkerJob(Job):
     progress through a queue, finish() writes the result back into bpy on the main thread.
     Each step() only drains the queue, so Blender's main thread never waits for the work;
     poll_timeout > 0 makes synchronous runs (headless, tests) wait instead of spinning.
+    A pause stops the work in report(): the worker lets go of its locks there, waits, takes them again
+    on resume (RETAKE_S at most, while the job that had them ends) and asks resumed() whether its
+    inputs still hold.
     """
+
+    RETAKE_S = 30.0
 
     _NOT_PREPARED = object()
     _inputs = _NOT_PREPARED
@@ -151,6 +188,9 @@ class WorkerJob(Job):
     def finish(self, output):
         return output
 
+    def resumed(self, inputs):
+        """After a pause, on the worker thread with the locks taken again: raise if the inputs changed meanwhile."""
+
     def stop(self):
         """Cancel, and wait for the worker to see it: torch work left running when Python exits aborts it."""
         self.cancel()  # sets cancel_event while the worker runs
@@ -166,11 +206,17 @@ class WorkerJob(Job):
         messages = queue.Queue()
         self.cancel_event = threading.Event()
         box = {}
-        held = self.hold(inputs)
-        release = held.release if held is not None else (lambda: None)
+        locks = {"held": self.hold(inputs)}
+
+        def release():
+            held, locks["held"] = locks["held"], None
+            if held is not None:
+                held.release()
 
         def report(progress, message):
             messages.put((float(progress), str(message)))
+            if self.pause_requested:
+                self._paused_in_worker(inputs, locks, release)
 
         def target():
             try:
@@ -206,6 +252,29 @@ class WorkerJob(Job):
             raise JobCancelled()
         self.result = self.finish(box.get("output"))
         yield 1.0, "done"
+
+    def _paused_in_worker(self, inputs, locks, release):
+        """On the worker thread: let go of the locks, wait for resume() or a cancel, take them again."""
+        release()
+        self._at_pause_point = True
+        try:
+            while not self._go.wait(0.05):
+                if self.cancel_event.is_set():
+                    return  # the work sees the cancel at its next check and ends, holding nothing
+        finally:
+            self._at_pause_point = False
+        deadline = time.monotonic() + self.RETAKE_S
+        while True:
+            try:
+                locks["held"] = self.hold(inputs)
+                break
+            except FolderBusy:  # the job that paused this one is letting go of its lock
+                if self.cancel_event.is_set():
+                    return
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.1)
+        self.resumed(inputs)
 
 
 class DeviceSteps:

@@ -10,11 +10,14 @@ import os
 import shutil
 import time
 
+import numpy as np
+
 from ...lapig_core.common import metrics
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
                                            resolve_setup, setup_dir_of)
 from ...lapig_core.capture.staging import hold_root
+from ...lapig_core.common.locking import FolderBusy
 from ...lapig_core.lgst import backend_class
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
@@ -31,7 +34,7 @@ from .capture_job import CaptureError
 from .export_result import result_frame
 from .jobs import Job, WorkerJob
 from .ports import Seams
-from .projection import projection_steps, register_at
+from .projection import project_and_capture, projection_steps, register_at
 from .state import GenerateRequest, SceneState
 
 
@@ -87,6 +90,12 @@ def capture_first_look(folder: str):
     return first_look.load_first_look(setup_dir_of(resolve_setup(folder)), meta.get("fingerprint"))
 
 
+def _setup_stamp(folder: str) -> tuple:
+    """setup.json's identity on disk: a new capture swaps in a new file."""
+    st = os.stat(resolve_setup(folder).setup_json)
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
 def hold_capture(folder: str, title: str):
     """The lock of the capture's data set root, where the models are written and which a capture
     must not replace meanwhile."""
@@ -99,6 +108,11 @@ class TrainModelsJob(WorkerJob):
 
     title = "LAPIG training"
     TRAIN_SHARE = 0.9  # of the progress bar; the rest is the renders of the choice
+    rig_in_use = None  # a Train in the background: a callable saying why it may not open the rig now ('' if it may)
+    # a Train in the background: a main-thread device (Cycles' studio, a scene of its own that changes the
+    # projector's image) is opened and closed within each render's step, so the artist's undo, save or edit
+    # between two steps never meets it
+    device_per_render = False
 
     def __init__(self, seams: Seams, iterations: int | None = None, capture: str | None = None):
         """iterations: fine-tuning iterations per network (None: the standard recipe); capture: a capture
@@ -107,7 +121,9 @@ class TrainModelsJob(WorkerJob):
         self.seams, self.iterations, self.capture = seams, iterations, capture
 
     def prepare(self):
-        return current_capture(self.seams.store.read(), self.capture)
+        folder = current_capture(self.seams.store.read(), self.capture)
+        self._stamp = _setup_stamp(folder)  # what a pause checks on resume: the same capture
+        return folder
 
     def hold(self, folder):
         return hold_capture(folder, self.title)
@@ -127,6 +143,13 @@ class TrainModelsJob(WorkerJob):
         # PCNet's choice, saved with the models: it stands if the renders below cannot run or are cancelled
         store.record_models(output["fingerprint"], self._models_line(output, output["trained"]["choice"]))
         return output
+
+    @property
+    def in_use_note(self) -> str:
+        """What a Generate uses meanwhile, for the panel's line on a Train in the background."""
+        if self.result is None:  # the networks are not saved yet
+            return "first look in use until it finishes"
+        return "networks saved; choosing their compensator on the rig"
 
     @staticmethod
     def _models_line(out, chosen) -> str:
@@ -150,33 +173,81 @@ class TrainModelsJob(WorkerJob):
 
     def _render_choice(self, cs, trained, folder):
         """Render both compensations of the held-back images and save the better one as the setup's choice;
-        None when there are no held-back images to measure on."""
+        None when there are no held-back images to measure on. A pause (a job in the background) stops
+        between renders: the device closes and the lock goes, and the renders go on from there on resume."""
         v = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
         devices = self.seams.devices
         if v is None or devices is None or cs.meta.get("fingerprint") != devices.rig_identity().key():
             return None  # nothing held back, or a data set this rig did not capture (imported): PCNet's choice
-        held = hold_capture(folder, self.title)  # no capture may replace the models while this runs
-        count, share = len(v.images), self.TRAIN_SHARE
+        images, share = v.images, self.TRAIN_SHARE
+        count, captured = len(images), []
 
-        def measure():
-            steps = projection_steps(devices, folder, v.images, chunk=1)
+        def measure(first):
+            if self.device_per_render and devices.main_thread:  # opened, rendered and closed in this one step
+                one = project_and_capture(devices, folder, images[first:first + 1], seed=first, chunk=1)[0]
+                done = (first + 1) / count
+                yield share + (1 - share) * 0.99 * done, \
+                    f"measuring both compensations on the rig: {first + 1}/{count} captured"
+                return list(one)
+            steps = projection_steps(devices, folder, images[first:], chunk=1, stop=lambda: self.pause_requested)
             while True:
                 try:
-                    done = next(steps)
+                    part = next(steps)
                 except StopIteration as end:
-                    return end.value
+                    return list(end.value[0])
+                done = (first + part * (count - first)) / count
                 yield share + (1 - share) * 0.99 * done, \
                     f"measuring both compensations on the rig: {round(done * count)}/{count} captured"
 
         try:
-            captured, _ = yield from self.drive(measure, devices.main_thread)
-            chosen = compensator_choice.choose_by_captures(v, captured, rig=devices.rig_identity().name)
+            while len(captured) < count:
+                progress = share + (1 - share) * 0.99 * len(captured) / count
+                yield from self.pause_point(progress)
+                devices = self.seams.devices  # as the job's owner has it now (a background job's: after an undo)
+                in_use = self.rig_in_use() if self.rig_in_use is not None else ""
+                if in_use:  # the artist's live window or camera view: the rig is theirs until closed
+                    time.sleep(self.poll_timeout)
+                    yield progress, f"waiting for the rig: {in_use}"
+                    continue
+                # no capture may replace the models while this runs
+                held = yield from self._hold_when_free(folder, progress)
+                try:
+                    if self.pause_requested:  # asked while the lock was taken: pause before opening the device
+                        continue
+                    first = len(captured)
+                    captured += yield from self.drive(lambda: measure(first), devices.main_thread)
+                finally:
+                    held.release()
+            chosen = compensator_choice.choose_by_captures(v, np.stack(captured).astype(np.float32),
+                                                           rig=devices.rig_identity().name)
             compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, trained["classical"])
         except CaptureError as exc:
             raise PipelineError(f"{exc} (the models are trained; {trained['choice'].line()})") from None
-        finally:
-            held.release()
         return chosen
+
+    def _hold_when_free(self, folder, progress):
+        """The capture's lock, once the job that paused this one has let go of it (RETAKE_S at most); then
+        the capture checked to be the one trained on."""
+        deadline = time.monotonic() + self.RETAKE_S
+        while True:
+            try:
+                held = hold_capture(folder, self.title)
+                break
+            except FolderBusy:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(self.poll_timeout)
+                yield progress, "waiting for the capture's folder"
+        try:
+            self.resumed(folder)
+        except BaseException:
+            held.release()
+            raise
+        return held
+
+    def resumed(self, folder):
+        if _setup_stamp(folder) != self._stamp:
+            raise PipelineError("the capture was replaced while the training was paused: train again")
 
 
 def check_style_images(specs) -> None:

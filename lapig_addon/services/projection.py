@@ -18,16 +18,20 @@ from ...lapig_core.capture.settings import CaptureError
 from ...lapig_core.optics.projector_model import quantised_frame
 
 
-def projection_steps(devices, setup_dir, images, seed=0, chunk=8, bit_depth=8):
+def projection_steps(devices, setup_dir, images, seed=0, chunk=8, bit_depth=8, stop=None):
     """A generator of the fraction done after each chunk; its return value is (registered (N, h, w, 3)
     float32 at the setup's working frame, raw camera images). images: (N, H, W, 3), working frames or
-    native ones, sent to the projector as bit_depth frames (quantised_frame: the exported file's pixels)."""
+    native ones, sent to the projector as bit_depth frames (quantised_frame: the exported file's pixels).
+    stop: asked before each chunk; True closes the device there and returns the captures made so far
+    (N may then be 0: empty lists)."""
     meta, registration = _checked_setup(devices, setup_dir)
     registered, raw = [], []
     images = [np.asarray(im, np.float32) for im in images]  # working frames and native ones may mix
     with devices.setup_device(meta, seed=seed) as device:
         width, height = device.describe().projector_size
         for start in range(0, len(images), chunk):
+            if stop is not None and stop():
+                return registered, raw
             frames = [quantised_frame(im, width, height, bit_depth) for im in images[start:start + chunk]]
             for cap in device.capture(frames):
                 raw.append(cap)

@@ -1,0 +1,378 @@
+"""Train in the background (issue 28): a job pauses at its pause points (a worker's report, the main thread's
+pause_point) having let go of its lock, resumes, cancels cleanly while paused; the session's slots keep one
+background job at most, pause it for the artist's job and resume it after; a Capture done in the UI starts
+it when the option is on. bpy blocked; fake jobs, then the real Train on the fake rig of job_fakes."""
+import importlib
+import json
+import os
+import threading
+import time
+
+import pytest
+
+from lapig_core.capture.dataset import resolve_setup
+from lapig_core.common.locking import FolderBusy, FolderLock
+
+ADDON = "lapig.lapig_addon"
+
+
+def _module(name):
+    return importlib.import_module(f"{ADDON}.services.{name}")
+
+
+def _until(condition, step=lambda: None, timeout=20.0):
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            pytest.fail("timed out")
+        step()
+        time.sleep(0.002)
+
+
+def _counting_job(folder, iterations=40, reports_every=1):
+    """A worker job that counts, reports after each count (its pause points), holds the folder's lock and
+    writes its output file only at the end."""
+    jobs = _module("jobs")
+
+    class Counting(jobs.WorkerJob):
+        title = "LAPIG counting"
+        poll_timeout = 0.0  # as under Blender's timer
+
+        def __init__(self):
+            super().__init__()
+            self.count = 0
+            self.resumes = 0
+
+        def hold(self, inputs):
+            return FolderLock(folder, self.title).acquire()
+
+        def work(self, inputs, report, cancel_event):
+            for i in range(iterations):
+                if cancel_event.is_set():
+                    return None
+                self.count += 1
+                time.sleep(0.002)
+                if i % reports_every == 0:
+                    report(i / iterations, f"counted {self.count}")
+            (folder / "output.txt").write_text(str(self.count))
+            return self.count
+
+        def resumed(self, inputs):
+            self.resumes += 1
+
+    return Counting()
+
+
+def _lock_is_free(folder) -> bool:
+    try:
+        FolderLock(folder, "LAPIG check").acquire().release()
+    except FolderBusy:
+        return False
+    return True
+
+
+def _worker_gone(job):
+    return job._thread is None or not job._thread.is_alive()
+
+
+def test_a_paused_worker_stops_lets_go_of_its_lock_and_goes_on_after_resume(tmp_path):
+    job = _counting_job(tmp_path)
+    _until(lambda: job.count >= 3, job.step)
+    assert not _lock_is_free(tmp_path)
+    job.pause()
+    _until(lambda: job.paused, job.step)
+    stopped_at = job.count
+    time.sleep(0.2)
+    assert job.step() and job.count == stopped_at  # paused: no progress, whatever is stepped
+    assert _lock_is_free(tmp_path)  # the artist's job can take the capture's folder
+    job.resume()
+    _until(lambda: job.finished, job.step)
+    assert job.state == "DONE" and job.result == 40 and job.resumes == 1
+    assert (tmp_path / "output.txt").read_text() == "40"
+    _until(lambda: _worker_gone(job) and _lock_is_free(tmp_path))
+
+
+def test_a_cancel_while_paused_ends_cleanly_and_leaves_nothing_behind(tmp_path):
+    job = _counting_job(tmp_path)
+    _until(lambda: job.count >= 2, job.step)
+    job.pause()
+    _until(lambda: job.paused, job.step)
+    job.stop()  # cancels and waits for the worker: it stops without waiting for a resume
+    assert job.state == "CANCELLED" and not job.paused and job.count < 40
+    assert _worker_gone(job) and _lock_is_free(tmp_path)
+    assert sorted(os.listdir(tmp_path)) == []  # no output, and no lock file left
+
+
+def test_on_resume_a_folder_still_taken_is_waited_for_then_refused_with_its_holder(tmp_path):
+    job = _counting_job(tmp_path)
+    job.RETAKE_S = 0.3
+    _until(lambda: job.count >= 2, job.step)
+    job.pause()
+    _until(lambda: job.paused, job.step)
+    with FolderLock(tmp_path, "LAPIG capture"):  # another process captures meanwhile
+        job.resume()
+        _until(lambda: job.finished, job.step)
+    assert job.state == "FAILED" and "in use by LAPIG capture" in job.message
+    assert not (tmp_path / "output.txt").exists()
+    _until(lambda: _worker_gone(job) and _lock_is_free(tmp_path))
+
+
+def test_a_main_thread_pause_point_holds_the_steps_until_resume():
+    jobs = _module("jobs")
+    done = []
+
+    class Renders(jobs.Job):
+        def steps(self):
+            for i in range(4):
+                yield from self.pause_point(i / 4)
+                done.append(i)
+                yield (i + 1) / 4, f"render {i}"
+
+    job = Renders()
+    job.step()
+    job.pause()
+    for _ in range(5):
+        job.step()
+    assert job.paused and done == [0] and job.message == "paused"
+    job.resume()
+    assert job.run() == "DONE" and done == [0, 1, 2, 3]
+    job = Renders()
+    job.pause()
+    job.step()
+    job.cancel()  # cancelled at its pause point
+    assert job.state == "CANCELLED" and done == [0, 1, 2, 3]
+
+
+def test_the_slots_pause_the_background_job_for_the_foreground_and_keep_one_at_most(tmp_path):
+    background_jobs = _module("background_jobs")
+    slots = background_jobs.JobSlots()
+    train = _counting_job(tmp_path / "a", iterations=60)
+    assert slots.start_background(train)
+    assert not slots.start_background(_counting_job(tmp_path / "b"))  # never two
+    _until(lambda: train.count >= 3, slots.step_background)
+    assert background_jobs.background_line(slots)[0].startswith("Training in the background: ")
+
+    generate = _counting_job(tmp_path / "a", iterations=5)  # the same folder: it needs the lock
+    generate.title = "LAPIG generate"
+    assert slots.start_foreground(generate) is None
+    assert slots.start_foreground(_counting_job(tmp_path / "c")) == background_jobs.BUSY
+    _until(slots.foreground_may_step)  # steps the background job to its pause point
+    text, ok = background_jobs.background_line(slots)
+    assert "paused" in text and "LAPIG generate" in text and ok is None
+    paused_at = train.count
+    slots.step_background()  # its own timer keeps it paused while the artist's job runs
+    _until(lambda: generate.finished, lambda: slots.foreground_may_step() and generate.step())
+    assert generate.state == "DONE" and train.count == paused_at
+    slots.end_foreground(generate)
+    _until(lambda: train.finished, slots.step_background)
+    assert train.state == "DONE" and train.result == 60
+    slots.end_background(train, background_jobs.outcome_line(train))
+    assert background_jobs.background_line(slots) is None
+    assert slots.start_background(_counting_job(tmp_path / "d"))  # the slot is free again
+
+
+def test_a_background_job_started_under_a_foreground_job_waits_for_it(tmp_path):
+    background_jobs = _module("background_jobs")
+    slots = background_jobs.JobSlots()
+    capture = _counting_job(tmp_path / "a", iterations=5)
+    slots.start_foreground(capture)
+    train = _counting_job(tmp_path / "b")
+    slots.start_background(train)
+    for _ in range(20):
+        slots.step_background()
+    assert train.count <= 1 and not train.finished
+    _until(lambda: capture.finished, capture.step)
+    slots.end_foreground(capture)
+    _until(lambda: train.finished, slots.step_background)
+    assert train.state == "DONE"
+
+
+def test_cancelling_the_background_job_waits_for_its_worker_and_says_nothing_after(tmp_path):
+    background_jobs = _module("background_jobs")
+    slots = background_jobs.JobSlots()
+    train = _counting_job(tmp_path, iterations=500)
+    slots.start_background(train)
+    _until(lambda: train.count >= 2, slots.step_background)
+    assert slots.cancel_background()
+    assert train.state == "CANCELLED" and _worker_gone(train) and _lock_is_free(tmp_path)
+    assert not slots.cancel_background()  # none runs any more
+    slots.end_background(train, background_jobs.outcome_line(train))
+    assert background_jobs.background_line(slots) is None  # cancelled: nothing changed, nothing to say
+
+
+def test_a_failed_background_job_is_said_in_the_panel(tmp_path):
+    background_jobs = _module("background_jobs")
+    slots = background_jobs.JobSlots()
+    train = _counting_job(tmp_path)
+    train.work = lambda inputs, report, cancel_event: 1 / 0
+    slots.start_background(train)
+    _until(lambda: train.finished, slots.step_background)
+    slots.end_background(train, background_jobs.outcome_line(train))
+    text, ok = background_jobs.background_line(slots)
+    assert text.startswith("Training in the background failed: ") and "division by zero" in text and ok is False
+
+
+def test_a_capture_done_in_blenders_ui_starts_train_when_the_option_is_on(seams):
+    background_jobs = _module("background_jobs")
+    capture = _module("capture_job").CaptureJob(seams, seams.store.capture_settings(train_count=2, test_count=0))
+    capture.run()
+    assert capture.state == "DONE"
+    assert background_jobs.train_after_capture(capture, in_ui=True, enabled=True)
+    assert not background_jobs.train_after_capture(capture, in_ui=True, enabled=False)  # the option off
+    assert not background_jobs.train_after_capture(capture, in_ui=False, enabled=True)  # a script, the CLI
+    cancelled = _module("capture_job").CaptureJob(seams, seams.store.capture_settings())
+    cancelled.step()
+    cancelled.stop()
+    assert not background_jobs.train_after_capture(cancelled, in_ui=True, enabled=True)
+
+
+def _running_job():
+    """A foreground job as the slots see it: running until it is told otherwise."""
+    job = _module("jobs").Job()
+    job.state = "RUNNING"
+    return job
+
+
+def _root(captured):
+    """The data set root, whose lock the capture, Train and Generate take."""
+    return resolve_setup(captured["setup_dir"]).root
+
+
+def _models_files(captured):
+    return sorted(os.listdir(os.path.join(captured["setup_dir"], "models")))
+
+
+@pytest.mark.torch
+@pytest.mark.parametrize("main_thread", [False, True], ids=["real-rig-thread", "cycles-main-thread"])
+def test_generate_while_train_runs_in_the_background_uses_the_first_look_and_after_it_trains_choice(seams,
+                                                                                                      main_thread):
+    pipeline_jobs, background_jobs = _module("pipeline_jobs"), _module("background_jobs")
+    seams.devices.main_thread = main_thread
+    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    store, slots = seams.store, background_jobs.JobSlots()
+    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train.poll_timeout = 0
+    train.check()
+    assert slots.start_background(train)
+
+    generate = pipeline_jobs.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2)
+    assert slots.start_foreground(generate) is None  # the artist generates at once
+    _until(slots.foreground_may_step, timeout=120)
+    assert train.paused and train.in_use_note == "first look in use until it finishes"
+    assert generate.run() == "DONE", generate.message
+    summary = json.load(open(os.path.join(generate.result["folder"], "result.json")))
+    assert summary["models"]["first_look"] is True
+    slots.end_foreground(generate)
+
+    # paused again during the rendered choice: the device closes and the lock goes between renders
+    _until(lambda: "measuring" in train.message or train.finished, slots.step_background, timeout=300)
+    assert train.in_use_note.startswith("networks saved")
+    slots.start_foreground(_running_job())
+    _until(slots.foreground_may_step, timeout=60)
+    if main_thread:  # stepped here only: certainly between two renders
+        assert train.paused and "measuring" not in train.message
+    if not train.finished:
+        assert train.paused and seams.devices.opened == seams.devices.closed
+        assert _lock_is_free(_root(captured))
+    slots.end_foreground(slots.foreground)
+    _until(lambda: train.finished, slots.step_background, timeout=300)
+    assert train.state == "DONE", train.message
+    assert seams.devices.opened == seams.devices.closed
+    from lapig_core.photometric.choice import RENDERED_JUDGE
+
+    choice = json.load(open(os.path.join(captured["setup_dir"], "models", "compensator_choice.json")))
+    assert choice["judge"] == RENDERED_JUDGE  # every held-back image rendered, across the pause
+    assert store.models[0] == store.capture_fingerprint and "first look" in store.models[1]
+    later = pipeline_jobs.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2)
+    models = json.load(open(os.path.join(later.run_to_completion()["folder"], "result.json")))["models"]
+    assert models["first_look"] is False and models["compensator"] == choice["chosen"]
+
+
+@pytest.mark.torch
+def test_a_background_train_cancelled_while_paused_leaves_the_first_look_as_it_was(seams):
+    pipeline_jobs, background_jobs = _module("pipeline_jobs"), _module("background_jobs")
+    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    before, models_before = _models_files(captured), seams.store.models
+    slots = background_jobs.JobSlots()
+    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train.poll_timeout = 0
+    train.check()
+    slots.start_background(train)
+    slots.start_foreground(_running_job())  # any foreground job pauses it
+    _until(slots.foreground_may_step, timeout=120)
+    assert slots.cancel_background()  # a new Capture, Train pressed, the panel's Cancel
+    assert train.state == "CANCELLED" and _worker_gone(train)
+    assert _models_files(captured) == before and seams.store.models == models_before
+    assert _lock_is_free(_root(captured))
+
+
+@pytest.mark.torch
+def test_a_background_train_waits_for_the_artists_live_window_before_it_opens_the_rig(seams):
+    pipeline_jobs, background_jobs = _module("pipeline_jobs"), _module("background_jobs")
+    seams.devices.main_thread = True
+    _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    slots, in_use = background_jobs.JobSlots(), ["close the projector window"]
+    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train.poll_timeout, train.rig_in_use = 0, lambda: in_use[0]
+    train.check()
+    slots.start_background(train)
+    opened = seams.devices.opened
+    _until(lambda: train.message.startswith("waiting for the rig"), slots.step_background, timeout=300)
+    for _ in range(5):
+        slots.step_background()
+    assert seams.devices.opened == opened and not train.finished  # the rig was not opened
+    text, ok = background_jobs.background_line(slots)
+    assert "waiting for the rig: close the projector window" in text and ok
+    in_use[0] = ""
+    _until(lambda: train.finished, slots.step_background, timeout=300)
+    assert train.state == "DONE" and seams.devices.opened > opened
+
+
+def test_a_background_job_that_reaches_no_pause_point_is_not_waited_for_forever(tmp_path):
+    background_jobs = _module("background_jobs")
+    slots = background_jobs.JobSlots()
+    slots.PAUSE_WAIT_S = 0.2
+    go_on = threading.Event()
+    train = _counting_job(tmp_path)
+    train.work = lambda inputs, report, cancel_event: go_on.wait(10)  # a long step that never reports
+    slots.start_background(train)
+    slots.step_background()
+    slots.start_foreground(_running_job())
+    assert not slots.foreground_may_step()
+    time.sleep(0.3)
+    assert slots.foreground_may_step() and not train.paused
+    go_on.set()
+    slots.cancel_background()
+
+
+def test_a_synchronous_run_in_the_ui_waits_for_the_pause_then_resumes_the_background_job(tmp_path):
+    """A script calling an operator while Train runs in the background (JobRunnerMixin.execute)."""
+    background_jobs = _module("background_jobs")
+    slots = background_jobs.JobSlots()
+    train = _counting_job(tmp_path, iterations=60)
+    slots.start_background(train)
+    _until(lambda: train.count >= 2, slots.step_background)
+    assert slots.pause_background_until_paused(timeout_s=20)
+    assert train.paused and _lock_is_free(tmp_path)
+    slots.resume_background()
+    _until(lambda: train.finished, slots.step_background)
+    assert train.state == "DONE" and train.result == 60
+
+
+@pytest.mark.torch
+def test_in_the_background_a_main_thread_device_is_opened_and_closed_within_each_render_step(seams):
+    pipeline_jobs = _module("pipeline_jobs")
+    from lapig_core.photometric.choice import RENDERED_JUDGE
+
+    seams.devices.main_thread = True  # Cycles: its studio is a scene of its own in the artist's file
+    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train.poll_timeout, train.device_per_render = 0, True
+    train.check()
+    opened = seams.devices.opened
+    while train.step():
+        assert seams.devices.opened == seams.devices.closed  # never open between two steps
+    assert train.state == "DONE", train.message
+    choice = json.load(open(os.path.join(captured["setup_dir"], "models", "compensator_choice.json")))
+    assert choice["judge"] == RENDERED_JUDGE
+    assert seams.devices.opened - opened == 2 * choice["validation_pairs"]  # one opening per render

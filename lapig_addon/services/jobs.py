@@ -263,18 +263,38 @@ class WorkerJob(Job):
                     return  # the work sees the cancel at its next check and ends, holding nothing
         finally:
             self._at_pause_point = False
+        retake = self.retake(inputs)
+        while True:
+            if self.cancel_event.is_set():
+                retake.close()
+                return  # the work sees the cancel at its next check and ends, holding nothing
+            try:
+                next(retake)
+            except StopIteration as done:
+                locks["held"] = done.value
+                return
+            time.sleep(0.1)
+
+    def retake(self, inputs):
+        """Take the inputs' locks again after a pause, once the job that paused this one has let go of them
+        (RETAKE_S at most), then check with resumed() that the inputs still hold. A generator: it yields each
+        time the lock is still taken (the caller waits, or gives up by closing it) and returns the held lock."""
         deadline = time.monotonic() + self.RETAKE_S
         while True:
             try:
-                locks["held"] = self.hold(inputs)
+                held = self.hold(inputs)
                 break
-            except FolderBusy:  # the job that paused this one is letting go of its lock
-                if self.cancel_event.is_set():
-                    return
+            except FolderBusy:
+                yield
                 if time.monotonic() > deadline:
                     raise
-                time.sleep(0.1)
-        self.resumed(inputs)
+        try:
+            self.resumed(inputs)
+        except BaseException:
+            if held is not None:
+                held.release()
+            raise
+        return held
 
 
 class DeviceSteps:

@@ -17,7 +17,6 @@ from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
                                            resolve_setup, setup_dir_of)
 from ...lapig_core.capture.staging import hold_root
-from ...lapig_core.common.locking import FolderBusy
 from ...lapig_core.lgst import backend_class
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
@@ -226,24 +225,16 @@ class TrainModelsJob(WorkerJob):
         return chosen
 
     def _hold_when_free(self, folder, progress):
-        """The capture's lock, once the job that paused this one has let go of it (RETAKE_S at most); then
-        the capture checked to be the one trained on."""
-        deadline = time.monotonic() + self.RETAKE_S
+        """The capture's lock, once the job that paused this one has let go of it; then the capture checked to
+        be the one trained on (WorkerJob.retake)."""
+        retake = self.retake(folder)
         while True:
             try:
-                held = hold_capture(folder, self.title)
-                break
-            except FolderBusy:
-                if time.monotonic() > deadline:
-                    raise
-                time.sleep(self.poll_timeout)
-                yield progress, "waiting for the capture's folder"
-        try:
-            self.resumed(folder)
-        except BaseException:
-            held.release()
-            raise
-        return held
+                next(retake)
+            except StopIteration as done:
+                return done.value
+            time.sleep(self.poll_timeout)
+            yield progress, "waiting for the capture's folder"
 
     def resumed(self, folder):
         if _setup_stamp(folder) != self._stamp:

@@ -12,17 +12,6 @@ bpy = pytest.importorskip("bpy")
 pytestmark = [pytest.mark.blender, pytest.mark.torch]
 
 
-@pytest.fixture
-def captured_with_tests(small_setup, tmp_path):
-    scene = small_setup[0]
-    s = scene.lapig
-    s.train_count, s.test_count, s.working_size = 6, 2, 64
-    s.finetune_iterations = 4
-    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
-    assert bpy.ops.lapig.capture() == {"FINISHED"}
-    return bpy.context.scene
-
-
 def _running_job():
     from lapig.lapig_addon.services.jobs import Job
 

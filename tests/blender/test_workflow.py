@@ -10,18 +10,6 @@ bpy = pytest.importorskip("bpy")
 pytestmark = [pytest.mark.blender, pytest.mark.torch]
 
 
-@pytest.fixture
-def captured(small_setup, tmp_path):
-    """A saved .blend with a small capture (working size 64) of the demo panel."""
-    scene = small_setup[0]
-    s = scene.lapig
-    s.train_count, s.test_count, s.working_size = 6, 0, 64
-    s.finetune_iterations = 4  # quick fine-tune: plumbing, not quality
-    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
-    assert bpy.ops.lapig.capture() == {"FINISHED"}
-    return bpy.context.scene
-
-
 def _light_pixels(projector) -> np.ndarray:
     """The relative light the projector's image datablock holds, rows from the top."""
     from lapig.lapig_addon.blender import projector_nodes
@@ -258,18 +246,6 @@ def test_generate_from_a_style_image_records_it(captured, tmp_path):
     cv2.imwrite(str(tiny), gray[:8, :8])
     with pytest.raises(PipelineError, match="too small"):  # refused before any model runs
         GenerateJob(scene_seams(scene), scene_state.generate_request(scene, style_images=(str(tiny),))).prepare()
-
-
-@pytest.fixture
-def captured_with_tests(small_setup, tmp_path):
-    """As `captured`, with two held-back test images for the compensator choice."""
-    scene = small_setup[0]
-    s = scene.lapig
-    s.train_count, s.test_count, s.working_size = 6, 2, 64
-    s.finetune_iterations = 4
-    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
-    assert bpy.ops.lapig.capture() == {"FINISHED"}
-    return bpy.context.scene
 
 
 def _saved_choice(scene):

@@ -32,7 +32,10 @@ from .bench_transport import compensation_case, realistic_specs
 
 def _lengths(args) -> list:
     text = getattr(args, "lengths", None) or "1000,500"
-    lengths = [int(t) for t in text.split(",") if t.strip()]
+    try:
+        lengths = [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        lengths = []
     if not lengths or min(lengths) < 1:
         raise ValueError(f"--lengths must list positive iteration counts, got {text!r}")
     return lengths

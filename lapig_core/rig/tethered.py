@@ -27,7 +27,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from lapig_core.common.imageio import to_float, to_uint8
+from ..common.imageio import to_float, to_uint8
 
 from . import RigError
 

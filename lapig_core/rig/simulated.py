@@ -136,9 +136,11 @@ class SimulatedCamera:
 
     def describe(self) -> dict:
         auto = self.faults.auto_exposure and not self.exposure_locked
+        # "optics": what the simulated optics record of themselves, so the setup can be reopened on them
+        # (Train's rendered choice, Refine): the Cycles studio needs its camera's response and size
         return {"kind": "simulated camera", "fps": self.fps, "width": self.size[0], "height": self.size[1],
                 "settings": {"auto_exposure": {"asked": False, "read_back": auto, "took": not auto}},
-                "not_locked": ["auto_exposure"] if auto else []}
+                "not_locked": ["auto_exposure"] if auto else [], "optics": self.optics.describe().details}
 
     def close(self) -> None:
         pass

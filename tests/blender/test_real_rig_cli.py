@@ -47,3 +47,19 @@ def test_show_needs_a_display_and_a_result(rigged_blend):
     assert said.returncode == 1 and "show needs --display" in said.stderr
     said = _cli("show", "--blend", rigged_blend, "--display", "1")
     assert said.returncode == 1 and "the scene has no result yet" in said.stderr
+
+
+@pytest.mark.torch
+@pytest.mark.parametrize("faults", ["0", "0.1"])
+def test_the_whole_chain_on_a_simulated_real_rig(rigged_blend, tmp_path, faults):
+    """capture, train, stylize with refinement and export on --rig simulated, each exit 0, in a row."""
+    rig = ("--rig", "simulated", "--sim-latency", "0.05", "--sim-faults", faults)
+    captured = _json(_cli("capture", "--blend", rigged_blend, *rig, "--save"))
+    assert captured["registration_error_px_median"] < 1.0
+    trained = _json(_cli("train", "--blend", rigged_blend, *rig, "--save"))
+    assert os.path.normpath(trained["capture"]) == os.path.normpath(captured["setup_dir"])
+    styled = _json(_cli("stylize", "--blend", rigged_blend, *rig, "--mix", "charcoal_wash:1", "--prompt",
+                        "charcoal", "--no-psa", "--refine", "2", "--save"))
+    assert 1 <= styled["refine"]["iterations"] <= 2
+    exported = _json(_cli("export", "--blend", rigged_blend, "--out", str(tmp_path / "projector.png")))
+    assert os.path.isfile(exported["image"])

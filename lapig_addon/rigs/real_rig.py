@@ -158,14 +158,10 @@ class SimulatedRigFactory:
         return self._rig(self.optics_factory.capture_device(settings))
 
     def setup_device(self, setup_meta: dict, seed: int = 0):
+        from ...lapig_core.rig.simulated import optics_meta
+
         return self._rig(self.optics_factory.setup_device(optics_meta(setup_meta), seed), calibrated=True)
 
-
-def optics_meta(setup_meta: dict) -> dict:
-    """A simulated rig's setup.json as its optics recorded it (the simulated camera keeps their record
-    under camera.optics); a setup without one as it is (the optics factory then says what it lacks)."""
-    optics = (setup_meta.get("camera") or {}).get("optics") if isinstance(setup_meta.get("camera"), dict) else None
-    return {**setup_meta, **optics} if isinstance(optics, dict) else setup_meta
 
 
 def release_devices() -> None:

@@ -227,6 +227,14 @@ def simulated_rig(optics: CaptureDevice, faults: CameraFaults | None = None, clo
     return RigDevice(screen, camera, name="simulated rig", clock=clock, **rig_options), screen, camera
 
 
+def optics_meta(setup_meta: dict) -> dict:
+    """A simulated rig's setup.json as its optics recorded it (the simulated camera keeps their record
+    under camera.optics), so they can reopen it; any other setup as it is."""
+    camera = setup_meta.get("camera")
+    optics = camera.get("optics") if isinstance(camera, dict) else None
+    return {**setup_meta, **optics} if isinstance(optics, dict) else setup_meta
+
+
 def sync_outcome(device, screen: SimulatedScreen, camera: SimulatedCamera) -> dict:
     """How the rig's verification did against the truth: of the grabs it verified, the bad ones (not a
     clean picture of the frame on screen) and how many it caught; the good ones it threw away."""

@@ -54,10 +54,14 @@ def test_show_needs_a_display_and_a_result(rigged_blend):
 def test_the_whole_chain_on_a_simulated_real_rig(rigged_blend, tmp_path, faults):
     """capture, train, stylize with refinement and export on --rig simulated, each exit 0, in a row."""
     rig = ("--rig", "simulated", "--sim-latency", "0.05", "--sim-faults", faults)
-    captured = _json(_cli("capture", "--blend", rigged_blend, *rig, "--save"))
+    captured = _json(_cli("capture", "--blend", rigged_blend, *rig, "--test", "2", "--save"))
     assert captured["registration_error_px_median"] < 1.0
     trained = _json(_cli("train", "--blend", rigged_blend, *rig, "--save"))
     assert os.path.normpath(trained["capture"]) == os.path.normpath(captured["setup_dir"])
+    assert "in captures on the rig 'simulated rig' of" in trained["compensation"], trained["compensation"]
+    # the .blend's own rig is the studio the simulated rig's optics were: it renders the choice too
+    again = _json(_cli("train", "--blend", rigged_blend, "--iterations", "2"))
+    assert "in Cycles captures of" in again["compensation"], again["compensation"]
     styled = _json(_cli("stylize", "--blend", rigged_blend, *rig, "--mix", "charcoal_wash:1", "--prompt",
                         "charcoal", "--no-psa", "--refine", "2", "--save"))
     assert 1 <= styled["refine"]["iterations"] <= 2

@@ -108,6 +108,16 @@ def pattern(width, height, seed=0):
     return np.random.default_rng(seed).integers(0, 256, (height, width, 3), dtype=np.uint8)
 
 
+@pytest.mark.skipif(importlib.util.find_spec("sdl2") is None, reason="needs PySDL2")
+def test_without_a_screen_no_display_is_listed_and_the_reason_is_said():
+    """With no desktop SDL falls back to its offscreen driver, whose one 'display' is not a screen: the
+    listing refuses it as the window does, instead of offering display 0."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")}
+    with pytest.raises(RigError) as refused:
+        list_displays(env=env)
+    assert str(refused.value).startswith("the displays could not be listed: there is no screen here"), refused.value
+
+
 @pytest.mark.display
 def test_the_helper_lists_both_monitors(two_monitors):
     displays = list_displays(env=two_monitors)

@@ -423,3 +423,28 @@ def test_rig_real_on_the_command_line_over_a_scene_rig_without_a_display_says_wh
     assert rig_choice.apply(args, scene) is None
     r = scene.lapig.real
     assert r.display == "EPSON" and r.camera == "0" and r.use_exposure and r.exposure == -5.0  # the panel shows it
+
+
+@pytest.mark.torch
+def test_capture_train_generate_refine_and_export_through_the_operators_on_simulated_hardware(small_setup, hardware,
+                                                                                          tmp_path):
+    """The real rig's whole chain as the artist runs it: Train's rendered choice projects and captures on the
+    rig (as Refine does), Generate, Refine on the rig and Export after it."""
+    from lapig.lapig_addon.blender import scene_state
+
+    scene = small_setup[0]
+    s = scene.lapig
+    _real(scene)
+    s.train_count, s.test_count, s.working_size, s.finetune_iterations = 10, 2, 64, 3
+    assert bpy.ops.lapig.capture() == {"FINISHED"}
+    assert bpy.ops.lapig.train_models() == {"FINISHED"}
+    assert "in captures on the rig 'gallery rig' of 2 held-back images" in s.models_status, s.models_status
+    s.prompt = "charcoal"
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
+    assert bpy.ops.lapig.refine_result() == {"FINISHED"}
+    result = json.load(open(os.path.join(bpy.path.abspath(s.result_dir), "result.json"), encoding="utf-8"))
+    assert 1 <= result["refine"]["iterations"] and result["refine"]["images"]["projector"].startswith("projector_refined")
+    out = str(tmp_path / "projector.png")
+    assert bpy.ops.lapig.export_image(filepath=out) == {"FINISHED"}
+    assert os.path.isfile(out) and os.path.isfile(str(tmp_path / "projector.json"))
+    assert scene_state.read(scene).rig.kind == "REAL"

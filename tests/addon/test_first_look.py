@@ -27,7 +27,7 @@ def _summary(folder):
 @pytest.mark.torch
 def test_generate_after_capture_uses_the_first_look_and_says_so(seams, monkeypatch):
     pipeline_jobs, panel_state = _module("pipeline_jobs"), _module("panel_state")
-    from lapig_core.photometric import first_look
+    from lapig.lapig_core.photometric import first_look
 
     captured = _captured(seams)
     store = seams.store
@@ -76,8 +76,8 @@ def test_train_says_how_far_the_networks_are_from_the_first_look_and_generate_us
 
 @pytest.mark.torch
 def test_a_first_look_of_another_capture_or_a_damaged_one_is_not_used(seams):
-    from lapig_core.capture.dataset import load_capture_set
-    from lapig_core.photometric import first_look
+    from lapig.lapig_core.capture.dataset import load_capture_set
+    from lapig.lapig_core.photometric import first_look
 
     captured = _captured(seams)
     setup_dir = captured["setup_dir"]
@@ -106,8 +106,8 @@ def test_a_cancel_while_fitting_the_first_look_keeps_the_capture_without_one(sea
     assert job.state == "CANCELLED"
     store = seams.store
     assert store.recorded == ["capture"]  # the capture was complete and recorded; no first look line
-    from lapig_core.capture.dataset import load_capture_set
-    from lapig_core.photometric import first_look
+    from lapig.lapig_core.capture.dataset import load_capture_set
+    from lapig.lapig_core.photometric import first_look
 
     load_capture_set(store.capture_dir)  # the capture is whole
     # a fit already under way when the cancel came finishes whole (files written temp-then-rename); else none

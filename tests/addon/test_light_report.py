@@ -7,8 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from lapig_core.optics.projector_model import ProjectorModel
-from lapig_core.photometry import dose
+from lapig.lapig_core.optics.projector_model import ProjectorModel
+from lapig.lapig_core.photometry import dose
 
 
 @pytest.fixture
@@ -80,7 +80,7 @@ def test_the_capped_frame_keeps_the_region_within_the_limit(lr):
     plan = lr.LightPlan(lumens=3000, ambient_lux=5, limit=dose.ConservationLimit("high"))
     frame = np.full((8, 10, 3), 200 / 255)
     capped, info = lr.capped_frame(plan, frame, maps.white_lux, maps.ambient_lux, maps.region, model)
-    from lapig_core.photometry.units import LUMA
+    from lapig.lapig_core.photometry.units import LUMA
 
     lux = maps.white_lux * (model.emitted(capped) @ LUMA) + maps.ambient_lux  # what a lux meter reads
     assert lux[maps.region].max() <= 50 and np.allclose(capped[~maps.region], frame[~maps.region])
@@ -107,7 +107,7 @@ def test_export_adds_the_light_figures_and_the_table(lr, sidecar, tmp_path):
 
 
 def test_the_capped_look_is_a_result_of_its_own(tmp_path):
-    from lapig_core.export.result_files import write_result
+    from lapig.lapig_core.export.result_files import write_result
 
     dc = importlib.import_module("lapig.lapig_addon.services.dose_cap")
     free = tmp_path / "20261204_look"
@@ -118,7 +118,7 @@ def test_the_capped_look_is_a_result_of_its_own(tmp_path):
     capped = np.full((12, 16, 3), 0.3, np.float32)
     new = dc.write_capped_result(free, capped, {"limit_lux": 50.0})
     assert new.name == "20261204_look_dose_cap" and not (new / "light_report.json").exists()
-    from lapig_core.export.result_files import read_output_image, read_summary
+    from lapig.lapig_core.export.result_files import read_output_image, read_summary
 
     assert np.allclose(read_output_image(new, "projector"), 0.3, atol=1e-4)
     assert np.allclose(read_output_image(free, "projector"), 0.8, atol=1e-4)  # the free look stays
@@ -136,7 +136,7 @@ def test_a_preset_shapes_the_projector_and_says_what_it_cannot_keep(lr):
     assert settings["black_level"] == pytest.approx(1 / 2000)
     assert any("throws 1.54 to 1.93" in n for n in notes) and any("lens shift" in n for n in notes)
     shaped = ProjectorModel(1920, 1200, 1.54, shift_y=0.6)
-    from lapig_core.photometry import units
+    from lapig.lapig_core.photometry import units
 
     assert settings["brightness"] == pytest.approx(units.lumens_to_watts(15000, shaped))
     plain, notes = lr.projector_settings(lr.LightPlan(lumens=2000), model)

@@ -10,10 +10,10 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.capture.dataset import load_capture_set
-from lapig_core.export.result_files import output_name, read_output_image, read_summary, write_new_result
-from lapig_core.photometric.classical import ClassicalModel
-from lapig_core.photometric.targets import desired_targets, reachable_mask
+from lapig.lapig_core.capture.dataset import load_capture_set
+from lapig.lapig_core.export.result_files import output_name, read_output_image, read_summary, write_new_result
+from lapig.lapig_core.photometric.classical import ClassicalModel
+from lapig.lapig_core.photometric.targets import desired_targets, reachable_mask
 
 from job_fakes import FakeFactory, FakeSink, FakeStore
 
@@ -29,7 +29,7 @@ def _seams(tmp_path, simulated=False):
     ports, state = _module("services.ports"), _module("services.state")
     factory = FakeFactory(ports)
     if simulated:  # a real rig's device (frame code, latency, verified grabs) over the fake's optics
-        from lapig_core.rig.clock import VirtualClock
+        from lapig.lapig_core.rig.clock import VirtualClock
 
         factory = _module("rigs.real_rig").SimulatedRigFactory(factory, clock=VirtualClock())
     return ports.Seams(FakeStore(state, tmp_path / "data", factory), factory, (FakeSink(),))

@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from lapig_core.rig.simulated import CameraFaults
+from lapig.lapig_core.rig.simulated import CameraFaults
 
 from job_fakes import PROJECTOR_SIZE, FakeSink, FakeStore
 from test_real_rig import FakeWindow, SimulatedHardware
@@ -227,7 +227,7 @@ def test_the_device_search_keeps_both_lists_and_says_why_one_failed(monkeypatch)
 
 @pytest.fixture
 def result_folder(tmp_path):
-    from lapig_core.export.result_files import write_result
+    from lapig.lapig_core.export.result_files import write_result
 
     h, w = PROJECTOR_SIZE[1], PROJECTOR_SIZE[0]
     ramp = np.broadcast_to(np.linspace(0, 1, w, dtype=np.float32)[None, :, None], (h, w, 3)).copy()

@@ -6,9 +6,9 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.photometric import checkpoints  # noqa: E402
-from lapig_core.photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator  # noqa: E402
-from lapig_core.photometric.training_data import PairSet, SurfaceTensors  # noqa: E402
+from lapig.lapig_core.photometric import checkpoints  # noqa: E402
+from lapig.lapig_core.photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator  # noqa: E402
+from lapig.lapig_core.photometric.training_data import PairSet, SurfaceTensors  # noqa: E402
 
 from test_classical import _patterns, _truth  # noqa: E402
 

@@ -8,11 +8,11 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.lgst import (LGSTBackend, StyleTransferBackend, available_backends, get_backend, register_backend)
-from lapig_core.lgst import BACKENDS
-from lapig_core.lgst import prompt_mapping as pm
-from lapig_core.lgst.effects import PixelArt, effects_for_prompt, quantize_ste
-from lapig_core.lgst.style_catalog import BY_NAME, NAMES, STYLES
+from lapig.lapig_core.lgst import (LGSTBackend, StyleTransferBackend, available_backends, get_backend, register_backend)
+from lapig.lapig_core.lgst import BACKENDS
+from lapig.lapig_core.lgst import prompt_mapping as pm
+from lapig.lapig_core.lgst.effects import PixelArt, effects_for_prompt, quantize_ste
+from lapig.lapig_core.lgst.style_catalog import BY_NAME, NAMES, STYLES
 
 
 def _has(*modules):
@@ -147,7 +147,7 @@ def test_pixel_effect_detected_and_quantised():
 def test_torch_style_net_matches_onnx():
     from onnx.reference import ReferenceEvaluator
 
-    from lapig_core.lgst.style_net import load_style_net, model_path
+    from lapig.lapig_core.lgst.style_net import load_style_net, model_path
 
     rng = np.random.default_rng(0)
     x = rng.random((1, 3, 64, 64)).astype(np.float32)  # the graph takes RGB in [0,1]
@@ -165,7 +165,7 @@ def test_torch_style_net_matches_onnx():
 
 @needs_style_net
 def test_style_params_linear_in_mix():
-    from lapig_core.lgst.style_net import load_style_net
+    from lapig.lapig_core.lgst.style_net import load_style_net
 
     net = load_style_net()
     a, b = torch.eye(26)[2], torch.eye(26)[7]
@@ -290,7 +290,7 @@ def test_mapping_follows_art_words():
     assert {"sketch", "drawing", "charcoal"} & set(top("Turn it into a pencil sketch").tags)
     assert "Van Gogh" in top("Render it in the style of a Van Gogh oil painting").tags
     assert "mosaic" in top("a mosaic").tags
-    from lapig_core.lgst.text_embedder import active
+    from lapig.lapig_core.lgst.text_embedder import active
     if active().name == "minilm":  # sentence-transformers was loaded with every network path off
         assert os.environ.get("HF_HUB_OFFLINE") == "1" and os.environ.get("TRANSFORMERS_OFFLINE") == "1"
 
@@ -321,8 +321,8 @@ def test_backend_from_prompt_end_to_end():
 
 def test_embedding_in_a_helper_process_matches_in_process():
     pytest.importorskip("sentence_transformers")
-    from lapig_core.common.embedding_mode import set_embedding_mode
-    from lapig_core.lgst import prompt_mapping as pm
+    from lapig.lapig_core.common.embedding_mode import set_embedding_mode
+    from lapig.lapig_core.lgst import prompt_mapping as pm
 
     texts = ["Make it a stained glass artwork", "charcoal ✏️ sketch"]
     local = pm.embed(texts)

@@ -29,9 +29,9 @@ import pytest
 
 from lapig.tools import virtual_screens
 from lapig.tools.virtual_screens import missing_tools, region, screenshot
-from lapig_core.rig import RigError
-from lapig_core.rig.projector_window import CLOSED_MESSAGE, ProjectorWindow, list_displays
-from lapig_core.rig.window_process import (DisplayChoiceError, ProtocolError, choose_display, encode_message,
+from lapig.lapig_core.rig import RigError
+from lapig.lapig_core.rig.projector_window import CLOSED_MESSAGE, ProjectorWindow, list_displays
+from lapig.lapig_core.rig.window_process import (DisplayChoiceError, ProtocolError, choose_display, encode_message,
                                            read_message)
 
 

@@ -8,13 +8,13 @@ import pathlib
 import numpy as np
 import pytest
 
-from lapig_core.capture.dataset import load_capture_set
-from lapig_core.capture.fake_device import FakeDevice
-from lapig_core.capture.sequence import GeometryChecks, run_capture
-from lapig_core.capture.settings import CaptureError, CaptureSettings
-from lapig_core.rig import RigError
-from lapig_core.rig import frame_code as fc
-from lapig_core.rig.simulated import CameraFaults, simulated_rig, sync_outcome
+from lapig.lapig_core.capture.dataset import load_capture_set
+from lapig.lapig_core.capture.fake_device import FakeDevice
+from lapig.lapig_core.capture.sequence import GeometryChecks, run_capture
+from lapig.lapig_core.capture.settings import CaptureError, CaptureSettings
+from lapig.lapig_core.rig import RigError
+from lapig.lapig_core.rig import frame_code as fc
+from lapig.lapig_core.rig.simulated import CameraFaults, simulated_rig, sync_outcome
 
 FAULTY = CameraFaults(latency_s=0.1, jitter_s=0.02, drop_rate=0.06, repeat_rate=0.06, torn_rate=0.06, noise=0.004)
 

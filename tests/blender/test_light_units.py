@@ -163,9 +163,8 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
 
     from test_existing_result import write_fake_result
 
-    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.blender import light_render, scene_state
     from lapig.lapig_addon.blender.modal_runner import SLOTS
-    from lapig.lapig_addon.services import light_report
     from lapig.lapig_addon.services.jobs import WorkerJob
     from lapig.lapig_core.common.locking import LOCK_FILE, FolderLock, holder_of
 
@@ -196,17 +195,18 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
     while not (root / LOCK_FILE).exists():
         time.sleep(0.01)
     seen = []
-    capped_frame = light_report.capped_frame
+    render_maps = light_render.LightStudio.render_maps
 
-    def cap_and_see(*args, **kwargs):
+    def render_and_see(studio):  # the room's light, the projector's at its native size, the new look's report
         seen.append((train.paused, holder_of(root / LOCK_FILE)))
-        return capped_frame(*args, **kwargs)
+        return render_maps(studio)
 
-    monkeypatch.setattr(light_report, "capped_frame", cap_and_see)
+    monkeypatch.setattr(light_render.LightStudio, "render_maps", render_and_see)
     try:
         assert bpy.ops.lapig.light_cap() == {"FINISHED"}
-        assert len(seen) == 1 and seen[0][0], "the background Train was not paused"
-        assert seen[0][1].startswith("LAPIG limit to the dose"), seen[0][1]  # the cap held the capture's folder
+        assert len(seen) == 3 and all(paused for paused, _ in seen), "the background Train was not paused"
+        for _, holder in seen[:2]:  # the cap's renders: the cap holds the capture's folder
+            assert holder.startswith("LAPIG limit to the dose"), holder
         assert scene.lapig.result_dir.endswith("_dose_cap") and not train.pause_requested  # Train goes on
     finally:
         SLOTS.cancel_background()

@@ -124,26 +124,29 @@ def prepared_refinement(folder: str, capture: str, settings: RefineSettings):
     except DatasetError as exc:
         raise PipelineError(str(exc)) from None
     model = classical_of(capture)
-    names = refined_images(folder, summary)
     valid = reachable_mask(cs.cam_black, cs.cam_white)
     if cs.projector_valid is not None:
         valid &= cs.projector_valid
-    native = None  # the native output is what the projector shows: refine it, where the result has one
-    native_name = names.get("projector") if names.get("projector", "").endswith(NATIVE) else None
-    native_name = native_name or ("projector" + NATIVE if _has(folder, "projector" + NATIVE) else None)
-    if native_name and _has(folder, "target" + NATIVE):
-        native = read_result_image(folder, native_name)
-        h, w = cs.cam_black.shape[:2]  # its look, averaged onto the working frame the captures are registered at
-        target = cv2.resize(read_result_image(folder, "target" + NATIVE), (w, h), interpolation=cv2.INTER_AREA)
-        start = None
-    else:
-        target = read_result_image(folder, "target")  # PSA's adapted target, at the working frame
-        start = read_result_image(folder, names.get("projector_working", "projector"))
+    target, start, native = _images_to_refine(folder, summary, cs.cam_black.shape[:2])
     try:
         return summary, Refinement(model, target, cs.cam_black, cs.cam_white, valid, start, settings,
                                    native_start=native)
     except RefineError as exc:
         raise PipelineError(str(exc)) from None
+
+
+def _images_to_refine(folder: str, summary: dict, working_shape) -> tuple:
+    """(target, start, native) of the result: its native output where it has one (what the projector shows),
+    against its native look averaged onto the working frame; else its working-frame image and PSA's target."""
+    names = refined_images(folder, summary)
+    native_name = names.get("projector") if names.get("projector", "").endswith(NATIVE) else None
+    native_name = native_name or ("projector" + NATIVE if _has(folder, "projector" + NATIVE) else None)
+    if native_name and _has(folder, "target" + NATIVE):
+        h, w = working_shape  # the working frame the captures are registered at
+        target = cv2.resize(read_result_image(folder, "target" + NATIVE), (w, h), interpolation=cv2.INTER_AREA)
+        return target, None, read_result_image(folder, native_name)
+    start = read_result_image(folder, names.get("projector_working", "projector"))
+    return read_result_image(folder, "target"), start, None
 
 
 def write_refined(folder: str, summary: dict, refinement: Refinement):

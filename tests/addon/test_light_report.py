@@ -152,7 +152,7 @@ class _SceneLight:
         self.renders, self.reported = [], []
 
     def _lock_held(self) -> bool:
-        from lapig_core.common.locking import FolderBusy, FolderLock
+        from lapig.lapig_core.common.locking import FolderBusy, FolderLock
 
         try:
             FolderLock(self.capture_root, "the test").acquire().release()
@@ -180,9 +180,9 @@ class _SceneLight:
 
 
 def test_limit_look_to_the_dose_is_a_job_under_the_captures_lock_and_measures_on_the_factorys_device(seams, tmp_path):
-    from lapig_core.capture.dataset import resolve_setup
-    from lapig_core.common.locking import FolderLock
-    from lapig_core.export.result_files import read_output_image, read_summary, write_new_result
+    from lapig.lapig_core.capture.dataset import resolve_setup
+    from lapig.lapig_core.common.locking import FolderLock
+    from lapig.lapig_core.export.result_files import read_output_image, read_summary, write_new_result
 
     lr = importlib.import_module("lapig.lapig_addon.services.light_report")
     dc = importlib.import_module("lapig.lapig_addon.services.dose_cap")

@@ -87,7 +87,7 @@ def test_refinement_writes_the_refined_result_and_the_sinks_show_it(tmp_path):
 def test_the_classical_fit_is_a_worker_step_on_a_main_thread_rig(tmp_path, monkeypatch):
     """A capture without its first look: the job fits the classical model. With Cycles (a main-thread rig) the
     job's own steps run on Blender's thread, so the fit (seconds) must run on a worker thread."""
-    from lapig_core.photometric.first_look import FIRST_LOOK_FILE, models_dir
+    from lapig.lapig_core.photometric.first_look import FIRST_LOOK_FILE, models_dir
 
     seams = _seams(tmp_path, main_thread=True)
     folder = _result(seams, tmp_path)

@@ -296,7 +296,7 @@ def _step_until(job, condition, limit_s=10.0):
 
 
 def test_the_projector_window_opens_in_a_job_that_never_holds_the_main_thread(result_folder):
-    from lapig_core.export.result_files import read_output_image
+    from lapig.lapig_core.export.result_files import read_output_image
 
     live, ports = _module("rigs.live_output"), _module("services.ports")
     look = live.StoredLook(result_folder, *PROJECTOR_SIZE, bit_depth=8)

@@ -67,3 +67,16 @@ def test_the_whole_chain_on_a_simulated_real_rig(rigged_blend, tmp_path, faults)
     assert 1 <= styled["refine"]["iterations"] <= 2
     exported = _json(_cli("export", "--blend", rigged_blend, "--out", str(tmp_path / "projector.png")))
     assert os.path.isfile(exported["image"])
+
+
+def test_frames_faulty_beyond_rescue_are_one_line_and_the_previous_capture_stays(rigged_blend):
+    first = _json(_cli("capture", "--blend", rigged_blend, "--rig", "simulated", "--sim-faults", "0", "--save"))
+    setup = first["setup_dir"]
+    before = {name: open(os.path.join(setup, name), "rb").read() for name in ("setup.json",)}
+    blend_before = open(rigged_blend, "rb").read()
+    said = _cli("capture", "--blend", rigged_blend, "--rig", "simulated", "--sim-faults", "0.3", "--save")
+    assert said.returncode == 1 and "Traceback" not in said.stderr, said.stderr[-2000:]
+    assert len(said.stderr.strip().splitlines()) == 1, said.stderr
+    assert said.stderr.startswith("error: the camera's frames cannot be verified: "), said.stderr
+    assert {name: open(os.path.join(setup, name), "rb").read() for name in before} == before
+    assert open(rigged_blend, "rb").read() == blend_before

@@ -137,6 +137,11 @@ def projector_job(scene, window_factory=None) -> live_output.OpenWindowJob:
     problem = spec.problem(camera=False)
     if problem:
         raise ValueError(problem)
+    if window_factory is None:
+        from ..rigs import real_rig
+
+        def window_factory(display):  # the rig's hook, looked up when the window opens: tests replace it
+            return real_rig._projector_window(display)
     return live_output.OpenWindowJob(spec.display, stored_look(scene), window_factory)
 
 

@@ -269,7 +269,8 @@ class OpenWindowJob(WorkerJob):
     title = "LAPIG projector window"
 
     def __init__(self, display: str, look: StoredLook = StoredLook(), window_factory=None):
-        """window_factory(display): the real rig's (rigs/real_rig._projector_window) by default."""
+        """window_factory(display): a ProjectorWindow on that display by default (the panel passes the real
+        rig's hook, rigs/real_rig._projector_window, which tests replace)."""
         super().__init__()
         self.display, self.look, self.window_factory = str(display), look, window_factory
         self._lock = threading.Lock()
@@ -306,12 +307,11 @@ class OpenWindowJob(WorkerJob):
         self._close_unclaimed(wait=False)
 
     def _open(self):
-        factory = self.window_factory
-        if factory is None:
-            from . import real_rig
+        if self.window_factory is None:
+            from ...lapig_core.rig.projector_window import ProjectorWindow
 
-            factory = real_rig._projector_window  # looked up now: tests replace it
-        return factory(self.display)
+            return ProjectorWindow(int(self.display) if self.display.strip().isdigit() else self.display)
+        return self.window_factory(self.display)
 
     def _close_unclaimed(self, wait: bool):
         with self._lock:

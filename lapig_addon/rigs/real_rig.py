@@ -163,7 +163,6 @@ class SimulatedRigFactory:
         return self._rig(self.optics_factory.setup_device(optics_meta(setup_meta), seed), calibrated=True)
 
 
-
 def release_devices() -> None:
     """The live projector window and the camera view let go of the display and the camera, which the rig
     is about to open (a camera serves one program at a time; two full-screen windows fight)."""

@@ -128,7 +128,8 @@ def _prepare(profile: str, buffers) -> tuple[list[MpcdiBuffer], list[_Prepared]]
         if isinstance(regions, MpcdiRegion) or not isinstance(regions, Sequence) or not regions:
             raise ValueError(f"buffer {buffer.id!r} needs a non-empty list of regions")
         if profile == "sl" and len(regions) != 1:
-            raise ValueError(f"buffer {buffer.id!r} has {len(regions)} regions: profile 'sl' allows one per buffer (3.5.2)")
+            raise ValueError(f"buffer {buffer.id!r} has {len(regions)} regions: profile 'sl' allows one per buffer "
+                             "(3.5.2)")
         for region in regions:
             item = _prepare_region(region, buffer, profile)
             if region.id in region_ids:

@@ -43,6 +43,8 @@ class MpcdiFrustum:
         """The edge angles of a pinhole projector: focal lengths and principal point in pixels, the
         image's (width, height), image y down (the principal point's row cy counts from the top)."""
         width, height = size
+        if not (fx > 0 and fy > 0):
+            raise ValueError(f"a pinhole's focal lengths must be positive, got fx={fx}, fy={fy}")
         deg = math.degrees
         return cls(yaw=yaw, pitch=pitch, roll=roll,
                    right_angle=deg(math.atan((width - cx) / fx)), left_angle=-deg(math.atan(cx / fx)),
@@ -242,7 +244,10 @@ def check_coordinate_frame(frame, what: str) -> MpcdiCoordinateFrame:
         raise ValueError(f"{what} coordinate frame must be an MpcdiCoordinateFrame, got {type(frame).__name__}")
     vectors = {}
     for name in ("position", "yaw_axis", "pitch_axis", "roll_axis"):
-        vector = np.asarray(getattr(frame, name), dtype=np.float64) if getattr(frame, name) is not None else None
+        try:
+            vector = np.asarray(getattr(frame, name), dtype=np.float64)
+        except (TypeError, ValueError):
+            vector = None
         if vector is None or vector.shape != (3,) or not np.isfinite(vector).all():
             raise ValueError(f"{what} coordinate frame {name} must be three finite numbers")
         vectors[name] = vector

@@ -29,6 +29,7 @@ ALL_PROFILES = ("2d", "3d", "a3", "sl")  # table 3-2
 _MAX_MEMBERS = 10_000
 _MAX_MEMBER_BYTES = 1 << 30
 _MAX_TOTAL_BYTES = 4 << 30
+_DECLARATION = b'<?xml version="1.0" encoding="utf-8"?>'  # 3.5.2
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _PNG_COLOR_TYPE = {1: 0, 3: 2}  # componentDepth -> PNG colour type (gray, RGB)
 _DATE_PATTERN = re.compile(r"\d{4}-\d{2}-\d{2} \d{2}:\d{2}:\d{2}")
@@ -156,8 +157,7 @@ def _members(path: Path) -> dict[str, bytes]:
 
 
 def _descriptor_root(data: bytes) -> ET.Element:
-    if not data.startswith(b'<?xml version="1.0" encoding="utf-8"?>') and not \
-            data.lower().startswith(b'<?xml version="1.0" encoding="utf-8"?>'):
+    if not data[:len(_DECLARATION)].lower() == _DECLARATION:  # encoding names are case-insensitive
         raise ValueError('mpcdi.xml must begin with <?xml version="1.0" encoding="utf-8"?> (3.5.2)')
     if b"<!DOCTYPE" in data.upper() or b"<!ENTITY" in data.upper():
         raise ValueError("mpcdi.xml declares a DOCTYPE or entities: refused")
@@ -264,7 +264,8 @@ class MpcdiPackage:
                 raise ValueError(f"buffer id {buffer_id!r} is not unique")
             buffer_ids.add(buffer_id)
             width, height = (_attribute(element, name, required=False) for name in ("xResolution", "yResolution"))
-            resolution = None if width is None else (_int(width, "buffer xResolution"), _int(height, "buffer yResolution"))
+            resolution = None if width is None else (_int(width, "buffer xResolution"),
+                                                     _int(height, "buffer yResolution"))
             regions = _children(element, "region")
             if not regions or len(regions) != len(element):
                 raise ValueError(f"buffer {buffer_id!r} must hold one or more <region> tags (3.5.2)")
@@ -282,7 +283,8 @@ class MpcdiPackage:
         """The region's own facts; its files are added once the filesets are read."""
         region_id = _attribute(element, "id")
         what = f"region {region_id!r}"
-        attributes = {name: _float(_attribute(element, name), f"{what} {name}") for name in ("x", "y", "xSize", "ySize")}
+        attributes = {name: _float(_attribute(element, name), f"{what} {name}")
+                      for name in ("x", "y", "xSize", "ySize")}
         resolution = (_int(_attribute(element, "xResolution"), f"{what} xResolution"),
                       _int(_attribute(element, "yResolution"), f"{what} yResolution"))
         frustum_element = _child(element, "frustum", required=self.profile in ("3d", "sl"))
@@ -321,7 +323,8 @@ class MpcdiPackage:
         alpha = _blend_map(_child(fileset, "alphaMap"), f"{what} alphaMap", alpha=True)
         beta_element = _child(fileset, "betaMap", required=self.color_level > 2)
         beta = None if beta_element is None else _blend_map(beta_element, f"{what} betaMap", alpha=False)
-        distortion_element = _child(fileset, "distortionMap", required=self.profile == "sl" and self.geometry_level >= 2)
+        needs_distortion = self.profile == "sl" and self.geometry_level >= 2  # 3.5.2
+        distortion_element = _child(fileset, "distortionMap", required=needs_distortion)
         distortion = None if distortion_element is None else _text(distortion_element, "path")
         for path in (warp.path, alpha.path, beta and beta.path, distortion):
             if path is not None and path not in self.members:

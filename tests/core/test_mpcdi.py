@@ -84,7 +84,8 @@ FRAMES = {"left": MpcdiCoordinateFrame((-0.5, 0.75, 3.0), (0.0, 1.0, 0.0), (1.0,
 def _region_sl(name, distortion=True, **changes):
     fields = dict(id=name, resolution=(W, H), x=0.0, y=0.0, xsize=1.0, ysize=1.0, warp=_wall_points(STARTS[name]),
                   alpha=_alpha(name), beta=_beta(name), gamma=GAMMA,
-                  frustum=MpcdiFrustum.from_pinhole(80.0, 80.0, 32.0, 30.0, (W, H), yaw=-5.0 if name == "left" else 5.0),
+                  frustum=MpcdiFrustum.from_pinhole(80.0, 80.0, 32.0, 30.0, (W, H),
+                                                    yaw=-5.0 if name == "left" else 5.0),
                   coordinate_frame=FRAMES[name],
                   distortion=_warp_2d(0.0, (12, 16)) * np.float32(0.98) + np.float32(0.01) if distortion else None)
     fields.update(changes)
@@ -294,7 +295,7 @@ def test_shader_lamp_package_has_3d_points_frustum_and_frame(tmp_path):
     package = read_mpcdi(path)
     root = _root(package)
     # table 3-2: with per-pixel lens distortion maps, shader lamps are geometry level 2
-    assert (root.get("profile"), root.get("geometry"), root.get("color"), root.get("version")) == ("sl", "2", "2", "2.0")
+    assert [root.get(a) for a in ("profile", "geometry", "color", "version")] == ["sl", "2", "2", "2.0"]
     for buffer_element in root.find("display"):
         assert len(buffer_element.findall("region")) == 1  # one region per buffer (3.5.2)
     for name in STARTS:
@@ -307,7 +308,8 @@ def test_shader_lamp_package_has_3d_points_frustum_and_frame(tmp_path):
                                                                    for a in "xyz"]
         expected = _region_sl(name)
         assert region.frustum == expected.frustum  # doubles written exactly
-        assert region.frustum.left_angle < region.frustum.right_angle and region.frustum.down_angle < region.frustum.up_angle
+        assert region.frustum.left_angle < region.frustum.right_angle
+        assert region.frustum.down_angle < region.frustum.up_angle
         assert region.coordinate_frame == FRAMES[name]
         assert region.warp.geometric_unit == "m" and region.warp.origin_of_3d_data == "floorCenter"
         fileset = root.find(f"files/fileset[@region='{name}']")
@@ -368,7 +370,8 @@ BAD_INPUT = {
                                         r"allows one per buffer"),
     "sl without frustum": (dict(profile="sl", buffers=_buffers_sl(frustum=None)), r"needs a frustum"),
     "sl with 2D warp": (dict(profile="sl", buffers=_buffers_sl(warp=_warp_2d(0.0))), r"must hold 3D points"),
-    "sl frustum left >= right": (dict(profile="sl", buffers=_buffers_sl(frustum=MpcdiFrustum(0, 0, 0, -20, 20, 15, -15))),
+    "sl frustum left >= right": (dict(profile="sl",
+                                      buffers=_buffers_sl(frustum=MpcdiFrustum(0, 0, 0, -20, 20, 15, -15))),
                                  r"left angle 20 must be less than right angle -20"),
     "sl axes not orthonormal": (dict(profile="sl", buffers=_buffers_sl(coordinate_frame=MpcdiCoordinateFrame(
         (0, 0, 0), (0, 1, 0), (1, 0.1, 0), (0, 0, -1)))), r"orthonormal"),

@@ -201,7 +201,7 @@ def _check_options(profile, path, geometric_unit, origin_of_3d_data, interpolati
         raise ValueError("profile '2d' holds normalised 2D coordinates: its geometric unit and origin are 'unknown'")
     if interpolation not in INTERPOLATIONS:
         raise ValueError(f"interpolation {interpolation!r} is not one of {', '.join(INTERPOLATIONS)}")
-    if bit_depth not in BIT_DEPTHS or isinstance(bit_depth, bool):
+    if isinstance(bit_depth, bool) or not isinstance(bit_depth, int) or bit_depth not in BIT_DEPTHS:
         raise ValueError(f"blend map bit depth must be 8 or 16, got {bit_depth!r}")
     if not isinstance(date, dt.datetime):
         raise ValueError(f"date must be a datetime, got {type(date).__name__}")

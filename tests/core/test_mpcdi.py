@@ -379,6 +379,7 @@ BAD_INPUT = {
                              r"cannot have its 3D data's origin at idealEyePoint"),
     "bad alpha gamma": (dict(buffers=_buffers_2d(gamma=0.0)), r"alpha gamma must be above 0"),
     "bad bit depth": (dict(bit_depth=32), r"bit depth must be 8 or 16"),
+    "bit depth not an integer": (dict(bit_depth=16.0), r"bit depth must be 8 or 16"),
 }
 
 

@@ -100,7 +100,8 @@ def _normal_matrix(x: np.ndarray, w: np.ndarray | None) -> tuple[np.ndarray, np.
     g = xt @ x
     tr = np.trace(g, axis1=-2, axis2=-1)
     ridge = _RIDGE * tr + 1e-12
-    g[..., range(4), range(4)] += ridge[..., None]
+    n = g.shape[-1]
+    g[..., range(n), range(n)] += ridge[..., None]
     return g, xt
 
 

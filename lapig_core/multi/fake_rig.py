@@ -165,13 +165,14 @@ def incidence_from_angles(camera_size, start_deg: float, end_deg: float, axis: i
 
 def side_by_side_rig(camera_size=(64, 48), projector_size=(80, 60), noise=0.002, seed=0, **kw) -> FakeRig:
     """Two projectors, one lighting the left 60% of the view from the left, the other the right 60% from
-    the right: a 24% overlap in the middle, each dimmer (more grazing) towards the other's side."""
+    the right: a 24% overlap in the middle, each dimmer (more grazing) towards the other's side. Their
+    frames overscan the object above and below (its outline there is no frame edge)."""
     left = FakeProjector(projector_size, homography_onto(projector_size, camera_size,
-                                                         [(0.03, 0.06), (0.63, 0.03), (0.61, 0.96), (0.02, 0.93)]),
+                                                         [(0.03, -0.02), (0.63, -0.05), (0.61, 1.04), (0.02, 1.01)]),
                          gamma=2.2, gain=0.6, contrast=800.0,
                          incidence=incidence_from_angles(camera_size, 15, 75))
     right = FakeProjector(projector_size, homography_onto(projector_size, camera_size,
-                                                          [(0.37, 0.04), (0.97, 0.07), (0.98, 0.94), (0.39, 0.97)]),
+                                                          [(0.37, -0.04), (0.97, -0.01), (0.98, 1.02), (0.39, 1.05)]),
                           gamma=1.9, gain=0.5, contrast=1200.0,
                           incidence=incidence_from_angles(camera_size, 75, 15),
                           mix=[[0.86, 0.10, 0.04], [0.05, 0.90, 0.05], [0.03, 0.07, 0.90]])

@@ -64,9 +64,8 @@ def black_uplift(blacks: np.ndarray, whites: np.ndarray, reached: np.ndarray,
     count = reached.sum(axis=0)
     if weights is None:
         weights = reached / np.maximum(count, 1)
-    lum = lambda a: np.einsum("khwc,c->khw", np.asarray(a, np.float64) * reached[..., None], _LUMA)
-    black = lum(blacks).sum(axis=0)
-    white = (lum(whites) * weights).sum(axis=0)
+    black = _luminance(blacks, reached).sum(axis=0)
+    white = (_luminance(whites, reached) * weights).sum(axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         relative = np.where(white > 0, black / white, np.nan)
 
@@ -78,6 +77,11 @@ def black_uplift(blacks: np.ndarray, whites: np.ndarray, reached: np.ndarray,
     by_count = {int(n): median(count == n) / single for n in np.unique(count[count >= 2])}
     return BlackUplift(single, overlap, overlap / single, 1.0 / single, 1.0 / overlap, 1.0 - single / overlap,
                        by_count)
+
+
+def _luminance(light: np.ndarray, reached: np.ndarray) -> np.ndarray:
+    """(K,H,W,3) linear light -> (K,H,W) luminance, 0 where the projector does not reach."""
+    return np.einsum("khwc,c->khw", np.asarray(light, np.float64) * reached[..., None], _LUMA)
 
 
 def model_black_uplift(model: JointModel, contrasts, weights: np.ndarray | None = None) -> BlackUplift:

@@ -117,14 +117,15 @@ def test_camera_map_density_is_the_homographys_jacobian():
     assert np.all(got[~cmap.valid] == 0)
 
 
-def test_camera_map_sends_camera_values_back_into_the_projector_frame():
-    rig = fake_rig.side_by_side_rig(camera_size=(128, 96), projector_size=(100, 75))
+@pytest.mark.parametrize("size", [(100, 75), (400, 300)])  # coarser, then 5x finer than the camera
+def test_camera_map_sends_camera_values_back_into_the_projector_frame(size):
+    rig = fake_rig.side_by_side_rig(camera_size=(128, 96), projector_size=size)
     cmap = rig.camera_map(1)
-    image = fake_rig.smooth_frames((100, 75), 3, seed=3)[2]
+    image = fake_rig.smooth_frames(size, 3, seed=3)[2]
     there = cmap.to_projector(cmap.sample(image))
-    on = interior(cmap.footprint(), 3)
+    on = interior(cmap.footprint(), 3 * size[0] // 100)
     assert on.mean() > 0.4
-    assert np.abs(there - image)[on].max() < 0.02
+    assert np.abs(there - image)[on].max() < 0.02  # the projector pixels between camera pixels filled too
     assert np.all(there[~cmap.footprint()] == 0)  # black off the object
     extended = cmap.to_projector(cmap.sample(image), outside=None)
     assert np.all(extended[~cmap.footprint()] > 0)  # or the nearest values, extended

@@ -139,8 +139,9 @@ def test_the_split_follows_the_blend_where_it_can():
 
 
 def test_projector_images_show_the_target_on_the_rig():
-    """End to end: the encoded projector images, each resampled into its own frame, captured by the fake."""
-    rig, _, model = fitted("two", noise=0.0)
+    """End to end: the encoded projector images, each resampled into its own frame, captured by the fake.
+    The projectors are finer than the camera, about 5 projector pixels between camera pixels."""
+    rig, _, model = fitted("two", noise=0.0, projector_size=(192, 144))
     target = _reachable_target(model, seed=7, lo=0.15, hi=0.85)
     result = joint_compensate(model, target, blend_weights(model.maps, [p.incidence for p in rig.projectors]))
     seen = rig.capture(result.frames) / 255.0

@@ -11,9 +11,10 @@ Each projector's weight at a camera pixel is the product of
     projector reaches past (the object's outline) get no ramp.
 The weights are normalised to sum 1 over the projectors that reach a pixel. The one place no blend can
 be smooth is a point inside the object where two frames' hand-over edges cross (one side only this
-projector, the other only that one); frames that overscan the object keep such crossings off it. They are fractions of linear
-light; the alpha maps carry them into each projector's frame, and `encode_alpha` puts them in the
-projector's signal (alpha ** (1 / gamma_p)), the form a media server multiplies the image by.
+projector, the other only that one); frames that overscan the object keep such crossings off it.
+The weights are fractions of linear light; the alpha maps carry them into each projector's frame, and
+`encode_alpha` puts them in the projector's signal (alpha ** (1 / gamma_p)), the factor a media server
+multiplies the image by.
 """
 from __future__ import annotations
 

@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from ..capture.fake_device import default_albedo
+from ..photometric.classical import _as_float_images
 from .camera_map import CameraMap
 
 _MIX = np.array([[0.90, 0.08, 0.02], [0.06, 0.88, 0.06], [0.02, 0.10, 0.88]])
@@ -69,7 +70,9 @@ class FakeRig:
         light = np.full(self.albedo.shape, self.ambient, np.float32)
         for k, (proj, frame) in enumerate(zip(self.projectors, frames)):
             w, h = proj.size
-            emitted = np.zeros((h, w, 3), np.float32) if frame is None else _unit(frame, (h, w, 3))
+            if frame is not None and np.shape(frame) != (h, w, 3):
+                raise ValueError(f"projector {k}'s frame must be ({h}, {w}, 3), got {np.shape(frame)}")
+            emitted = np.zeros((h, w, 3), np.float32) if frame is None else _as_float_images(frame, "frame")
             emitted = np.power(emitted, np.float32(proj.gamma)) + np.float32(1.0 / proj.contrast)
             seen = cv2.warpPerspective(emitted, proj.homography, self.camera_size, flags=cv2.INTER_LINEAR,
                                        borderMode=cv2.BORDER_CONSTANT, borderValue=0)
@@ -130,13 +133,6 @@ class FakeRig:
         w, h = proj.size
         inside = (uv[..., 0] >= 0) & (uv[..., 0] <= w - 1) & (uv[..., 1] >= 0) & (uv[..., 1] <= h - 1)
         return CameraMap(uv[..., 0], uv[..., 1], inside & self.object_mask, proj.size)
-
-
-def _unit(frame, shape) -> np.ndarray:
-    a = np.asarray(frame)
-    if a.shape != shape:
-        raise ValueError(f"a projector frame must be {shape}, got {a.shape}")
-    return (a.astype(np.float32) / 255) if a.dtype == np.uint8 else np.clip(a.astype(np.float32), 0.0, 1.0)
 
 
 def _ellipse(cw: int, ch: int) -> np.ndarray:

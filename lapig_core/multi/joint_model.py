@@ -24,7 +24,8 @@ import numpy as np
 
 from ..common.atomic import atomic_write_bytes
 from ..common.small_spd import spd_solve
-from ..photometric.classical import ClassicalModel, _normal_matrix, search_gammas
+from ..photometric.classical import (ClassicalModel, _as_float_images, _design, _normal_matrix, _to_unit,
+                                     search_gammas)
 from .camera_map import CameraMap
 
 _SEARCH_PIXELS = 2000
@@ -81,7 +82,8 @@ class JointModel:
         out = np.zeros((self.count,) + self.shape + (3,), np.float32)
         for k, frame in enumerate(frames):
             if frame is not None:
-                out[k] = self.maps[k].sample(np.power(_unit(frame), np.float32(self.gamma_p[k])))
+                linear = np.power(_as_float_images(frame, f"frames[{k}]"), np.float32(self.gamma_p[k]))
+                out[k] = self.maps[k].sample(linear)
         return out
 
     def predict_linear(self, q: np.ndarray) -> np.ndarray:
@@ -125,6 +127,8 @@ class JointModel:
         shape = maps[0].camera_shape
         captures = [_captures(c, shape, f"captures[{k}]") for k, c in enumerate(captures)]
         black = _captures(black, shape, "black")
+        if len({c.dtype for c in captures + [black]}) > 1:  # one scale for all: 8-bit and float mixed
+            captures, black = [_as_float_images(c, "captures") for c in captures], _as_float_images(black, "black")
         frames = [np.asarray(f) for f in frames]
         for k, (f, c) in enumerate(zip(frames, captures)):
             if f.ndim != 4 or len(f) != len(c):
@@ -133,7 +137,7 @@ class JointModel:
             gamma_c, gamma_p = _search(maps, frames, captures, black, saturation, search_pixels, seed)
         else:
             gamma_c, gamma_p = float(gammas[0]), tuple(float(g) for g in gammas[1])
-        drives = [np.stack([m.sample(np.power(_unit(p), np.float32(gp))) for p in f])
+        drives = [np.stack([m.sample(np.power(_as_float_images(p, "frame"), np.float32(gp))) for p in f])
                   for m, f, gp in zip(maps, frames, gamma_p)]
         m, o = _least_squares(drives, captures, black, gamma_c, saturation, [mp.valid for mp in maps])
         model = cls(gamma_c, gamma_p, m, o, maps)
@@ -146,18 +150,18 @@ class JointModel:
     def _fit_rms(self, drives, captures, black) -> float:
         """RMS prediction error of the fitted captures: each projector's where it reaches, black everywhere."""
         encode = np.float32(1.0 / self.gamma_c)
-        errors = [np.power(np.clip(self.o, 0, 1), encode) - b for b in black]
+        errors = [np.power(np.clip(self.o, 0, 1), encode) - _to_unit(b) for b in black]
         for k, (d, c) in enumerate(zip(drives, captures)):
             valid = self.maps[k].valid
             for q, cap in zip(d, c):
                 lin = np.einsum("pij,pj->pi", self.M[k][valid], q[valid]) + self.o[valid]
-                errors.append(np.power(np.clip(lin, 0, 1), encode) - cap[valid])
+                errors.append(np.power(np.clip(lin, 0, 1), encode) - _to_unit(cap[valid]))
         return _rms(errors)
 
     def check(self, frames: Sequence[np.ndarray | None], capture: np.ndarray) -> float:
         """RMS (encoded units) of the prediction of a capture of several projectors at once, over the pixels
         some projector reaches: does the light of separately fitted projectors add up?"""
-        err = self.predict(frames) - _captures(capture, self.shape, "capture")[0]
+        err = self.predict(frames) - _to_unit(_captures(capture, self.shape, "capture")[0])
         return _rms([err[self.reached.any(axis=0)]])
 
     # ------------------------------------------------------------------ storage
@@ -182,22 +186,15 @@ class JointModel:
         return model
 
 
-def _unit(a) -> np.ndarray:
-    a = np.asarray(a)
-    return a.astype(np.float32) / np.float32(255) if a.dtype == np.uint8 else np.clip(a, 0, 1).astype(np.float32)
-
-
 def _captures(a, shape, name) -> np.ndarray:
-    """(H,W,3) or (N,H,W,3), uint8 or float -> (N,H,W,3) float32 in [0,1]."""
+    """(H,W,3) or (N,H,W,3) -> (N,H,W,3): uint8 kept as it is (a real capture set is large; blocks are
+    converted as they are used), floats checked and clipped to [0,1]."""
     a = np.asarray(a)
     if a.ndim == 3:
         a = a[None]
     if a.ndim != 4 or a.shape[1:] != tuple(shape) + (3,):
         raise ValueError(f"{name} must be (N,{shape[0]},{shape[1]},3) or ({shape[0]},{shape[1]},3), got {a.shape}")
-    out = _unit(a)
-    if not np.isfinite(out).all():
-        raise ValueError(f"{name} contains NaN or inf")
-    return out
+    return a if a.dtype == np.uint8 else _as_float_images(a, name)
 
 
 def _rms(errors) -> float:
@@ -214,14 +211,14 @@ def _search(maps, frames, captures, black, saturation, search_pixels, seed) -> t
     found = []
     for m, f, c in zip(maps, frames, captures):
         cams = np.concatenate([c, black])  # (N+B,H,W,3)
-        lit = m.valid & (np.ptp(cams, axis=0).max(axis=-1) > 0.02)
+        lit = m.valid & (np.ptp(cams, axis=0).max(axis=-1) > (0.02 * 255 if cams.dtype == np.uint8 else 0.02))
         pool = np.flatnonzero(lit if lit.sum() >= 64 else m.valid)
         if pool.size == 0:
             raise ValueError("a projector reaches no camera pixel: its gammas cannot be fitted")
         idx = np.sort(rng.choice(pool, size=min(search_pixels, pool.size), replace=False))
-        shown = np.stack([m.sample(_unit(p)).reshape(-1, 3)[idx] for p in f])
+        shown = np.stack([m.sample(_as_float_images(p, "frame")).reshape(-1, 3)[idx] for p in f])
         shown = np.concatenate([shown, np.zeros((len(black),) + shown.shape[1:], np.float32)])
-        seen = cams.reshape(len(cams), -1, 3)[:, idx]
+        seen = _to_unit(cams.reshape(len(cams), -1, 3)[:, idx])
         w = None if saturation is None else (~(seen >= saturation).any(-1)).astype(np.float64).T
         gc, gp, _ = search_gammas(shown.transpose(1, 0, 2), seen.transpose(1, 0, 2), w)
         found.append((gc, gp))
@@ -229,42 +226,55 @@ def _search(maps, frames, captures, black, saturation, search_pixels, seed) -> t
 
 
 def _least_squares(drives, captures, black, gamma_c, saturation, valid) -> tuple[np.ndarray, np.ndarray]:
-    """Per camera pixel, M_1..M_K and o from every alone and black capture at once: a design with one block
-    of 3 columns per projector (nonzero only in its own captures' rows) and a constant column."""
+    """Per camera pixel, M_1..M_K and the shared o from every alone and black capture at once.
+
+    Each projector's own captures give ClassicalModel's 4x4 normal equations over [M_k | o] (its design,
+    on drives already linear); all share o, and the black captures add to o's equation only. The joint
+    system is an arrow (K 3x3 blocks coupled through o): o comes from its Schur complement, then each M_k
+    from its 3x3 block, instead of one (3K+1)-square solve per pixel.
+    """
     k_count = len(drives)
     h, w = captures[0].shape[1:3]
-    hw, cols = h * w, 3 * k_count + 1
-    rows = [len(d) for d in drives] + [len(black)]
-    starts = np.cumsum([0] + rows)
-    lin_drives = [d.reshape(len(d), hw, 3) for d in drives]
-    cams = np.concatenate(captures + [black]).reshape(-1, hw, 3)
+    hw = h * w
     m = np.zeros((k_count, hw, 3, 3), np.float32)
     o = np.zeros((hw, 3), np.float32)
     for s in range(0, hw, _CHUNK):
         idx = slice(s, min(s + _CHUNK, hw))
-        n_pix = idx.stop - idx.start
-        x = np.zeros((n_pix, starts[-1], cols), np.float64)
-        for k, d in enumerate(lin_drives):
-            x[:, starts[k]:starts[k + 1], 3 * k:3 * k + 3] = d[:, idx].transpose(1, 0, 2)
-        x[:, :, -1] = 1.0
-        c = cams[:, idx].transpose(1, 0, 2).astype(np.float64)
-        # a projector's captures say nothing the model can use where it does not reach (its frame's
-        # blurred edge still lights a little there, which o, shared by all, would absorb)
-        wt = np.ones(c.shape[:2], np.float64)
-        for k, reached in enumerate(valid):
-            wt[:, starts[k]:starts[k + 1]] *= reached.reshape(-1)[idx, None]
-        if saturation is not None:
-            wt *= ~(c >= saturation).any(-1)
-        g, xt = _normal_matrix(x, wt)
-        b = spd_solve(g, xt @ np.power(c, gamma_c))  # (n_pix, cols, 3)
-        bad = ~np.isfinite(b).all(axis=(1, 2))
-        if bad.any():  # a broken solve: no projector, the black captures' mean
-            b[bad] = 0.0
-            b[bad, -1] = np.power(c[bad, starts[-2]:], gamma_c).mean(axis=1)
+        yb, wb = _linear_block(black, idx, gamma_c, saturation)
+        count = wb.sum(axis=1)  # o's own equation: sum w o + sum_k b_k . M_k = sum w y
+        target = (wb[..., None] * yb).sum(axis=1)
+        parts = []
         for k in range(k_count):
-            m[k, idx] = np.swapaxes(b[:, 3 * k:3 * k + 3, :], 1, 2)  # rows: camera channels
-        o[idx] = b[:, -1, :]
+            y, wt = _linear_block(captures[k], idx, gamma_c, saturation)
+            # a projector's captures say nothing the model can use where it does not reach (its frame's
+            # blurred edge still lights a little there, which o, shared by all, would absorb)
+            wt *= valid[k].reshape(-1)[idx, None]
+            d = drives[k].reshape(len(drives[k]), hw, 3)[:, idx].transpose(1, 0, 2).astype(np.float64)
+            g, xt = _normal_matrix(_design(d, 1.0), wt)
+            rhs = xt @ y  # (P,4,3)
+            coupling = g[:, :3, 3:]  # (P,3,1): how o enters projector k's equations
+            inv = spd_solve(g[:, :3, :3], np.concatenate([rhs[:, :3], coupling], axis=2))  # G^-1 [r | b]
+            count += g[:, 3, 3] - (coupling[..., 0] * inv[:, :, 3]).sum(axis=1)
+            target += rhs[:, 3] - np.einsum("pi,pic->pc", coupling[..., 0], inv[:, :, :3])
+            parts.append(inv)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            offset = target / count[:, None]
+        bad = ~np.isfinite(offset).all(axis=1) | (count <= 0)
+        offset[bad] = yb[bad].mean(axis=1)  # a broken solve: no projector, the black captures' mean
+        o[idx] = offset
+        for k, inv in enumerate(parts):
+            beta = inv[:, :, :3] - inv[:, :, 3:] * offset[:, None, :]  # (P, projector ch, camera ch)
+            beta[bad | ~np.isfinite(beta).all(axis=(1, 2))] = 0.0
+            m[k, idx] = np.swapaxes(beta, 1, 2)  # rows: camera channels
     m = m.reshape(k_count, h, w, 3, 3)
-    for k, reached in enumerate(valid):  # where a projector's light never arrives its columns were empty
+    for k, reached in enumerate(valid):  # where a projector's light never arrives its block was empty
         m[k][~reached] = 0.0
     return m, o.reshape(h, w, 3)
+
+
+def _linear_block(captures, idx, gamma_c, saturation) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels idx of (N,H,W,3) captures -> linearised (P,N,3) float64 and sample weights (P,N): 0 for a
+    capture with a channel at or above `saturation` (it only says "at least that bright")."""
+    c = _to_unit(captures.reshape(len(captures), -1, 3)[:, idx].transpose(1, 0, 2))
+    wt = np.ones(c.shape[:2]) if saturation is None else (~(c >= saturation).any(-1)).astype(np.float64)
+    return np.power(c, gamma_c), wt

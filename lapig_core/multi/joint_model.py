@@ -29,7 +29,7 @@ from ..photometric.classical import (ClassicalModel, _as_float_images, _design, 
 from .camera_map import CameraMap
 
 _SEARCH_PIXELS = 2000
-_CHUNK = 16384  # camera pixels per block of the least squares: bounds memory at (chunk, samples, 3K+1)
+_CHUNK = 16384  # camera pixels per block of the least squares: bounds memory at (chunk, N_k, 4) float64
 
 
 @dataclass(eq=False)

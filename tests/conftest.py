@@ -25,11 +25,14 @@ def _load_extension_package(name="lapig"):
     return package
 
 
-# `python -m pytest` puts the working directory (the root) on sys.path: take it off, as installed
+# `python -m pytest` puts the working directory (the root) on sys.path, and pytest itself may (a root folder
+# whose name is no Python name): take it off, and refuse the top-level names whatever sys.path holds
 sys.path[:] = [p for p in sys.path if pathlib.Path(p or ".").resolve() != ROOT]
 _load_extension_package()
 
-from package_names import files_loaded_twice  # noqa: E402 (tests/ is on sys.path as the conftest's folder)
+from package_names import TopLevelNamesRefused, files_loaded_twice  # noqa: E402 (tests/ is the conftest's folder)
+
+sys.meta_path.insert(0, TopLevelNamesRefused())
 
 
 def pytest_sessionfinish(session, exitstatus):

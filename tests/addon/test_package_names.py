@@ -1,6 +1,5 @@
 """One package name in a test run: the code is `lapig.lapig_core...`, and a second name is caught."""
 import importlib.util
-import sys
 import types
 
 import pytest
@@ -16,7 +15,8 @@ def test_the_top_level_names_are_not_importable():
 
 
 def test_a_file_loaded_under_two_names_is_found():
-    real = sys.modules["lapig.lapig_core.common.imageio"]
+    import lapig.lapig_core.common.imageio as real
+
     copy = types.ModuleType("lapig_core.common.imageio")
     copy.__file__ = real.__file__
     twice = files_loaded_twice({"lapig.lapig_core.common.imageio": real, "lapig_core.common.imageio": copy})

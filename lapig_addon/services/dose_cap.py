@@ -16,7 +16,7 @@ from ...lapig_core.common.imageio import read_image
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.common.scratch import ScratchFolder
 from ...lapig_core.export.result_files import output_name, read_output_image, read_summary, write_result
-from ...lapig_core.refine.loop import masked_psnr
+from ...lapig_core.common.psnr import masked_psnr
 from .light_report import REPORT_FILE
 from .projection import project_and_capture
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..capture.device import CaptureDevice, DeviceInfo, GeometryChecks
 from ..capture.settings import CaptureError
+from ..common.imageio import to_uint8
 from . import RigError
 from . import frame_code as fc
 from .clock import REAL_CLOCK
@@ -95,7 +96,8 @@ class RigDevice(CaptureDevice):
     def capture(self, frames) -> list[np.ndarray]:
         if self.sync is None:
             raise RigError("the rig shot a frame before its calibration (lock_exposure)")
-        return [self.sync.shoot(_eight_bit(frame)) for frame in frames]
+        # the window shows 8 bits a channel (what HDMI carries from a desktop): a 16-bit frame is rounded
+        return [self.sync.shoot(to_uint8(frame)) for frame in frames]
 
     def vary_noise(self, draw: int) -> None:
         """A real camera's noise is new every grab; a simulated one passes this on to its optics."""
@@ -147,13 +149,6 @@ class RigDevice(CaptureDevice):
         black = still(np.zeros((h, w, 3), np.uint8))
         lit = {key: still(fc.single_cell(self.layout, *key)) for key in self.layout.cells()}
         return fc.locate_cells(black, lit)
-
-
-def _eight_bit(frame: np.ndarray) -> np.ndarray:
-    """The window shows 8 bits a channel (what HDMI carries from a desktop): a 16-bit frame is rounded."""
-    if frame.dtype == np.uint16:
-        return ((frame.astype(np.uint32) + 128) // 257).astype(np.uint8)
-    return frame
 
 
 def _agree(a, b, change: float = 0.15, pixels: int = 8) -> bool:

@@ -12,6 +12,7 @@ from lapig_core.capture.dataset import load_capture_set
 from lapig_core.capture.fake_device import FakeDevice
 from lapig_core.capture.sequence import GeometryChecks, run_capture
 from lapig_core.capture.settings import CaptureError, CaptureSettings
+from lapig_core.common.steps import run_to_end
 from lapig_core.rig import RigError
 from lapig_core.rig import frame_code as fc
 from lapig_core.rig.simulated import CameraFaults, simulated_rig, sync_outcome
@@ -25,12 +26,7 @@ def _optics(seed=0):
 
 def _run(device, root, checks=None, **settings):
     base = dict(out_dir=str(root), setup_name="wall", train_count=6, test_count=2, working_size=64)
-    steps = run_capture(device, CaptureSettings(**{**base, **settings}), checks)
-    try:
-        while True:
-            next(steps)
-    except StopIteration as done:
-        return done.value
+    return run_to_end(run_capture(device, CaptureSettings(**{**base, **settings}), checks))
 
 
 def _checks(optics):

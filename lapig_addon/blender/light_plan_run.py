@@ -66,8 +66,8 @@ def render_plan_maps(scene, plan, width, height):
 
 def map_size(projector, width: int = 160) -> tuple[int, int]:
     """A light map `width` pixels wide in the projector's shape."""
-    p = projector.lapig_projector
-    return width, max(8, round(width * p.resolution_y / p.resolution_x))
+    columns, rows = scene_state.projector_size(projector)
+    return width, max(8, round(width * rows / columns))
 
 
 def run_report(scene, plan, folder: str | None, width=160, maps_dir: str | None = None) -> dict:
@@ -129,8 +129,7 @@ def cap_result(scene, plan, folder, record: bool = False, measure_psnr: bool = F
         out.update(dose_cap.rendered_psnr_cost(scene_store.scene_seams(scene).devices, state.capture_dir, folder,
                                                result_frame(folder, model), capped))
     if record:
-        summary = scene.lapig.result_summary
-        scene_state.record_result(scene, str(new), summary + " | limited to the light dose")
+        scene_state.record_result(scene, str(new), scene_state.result_summary(scene) + " | limited to the light dose")
         scene_store.show_scene_result(scene)
     return out
 
@@ -164,7 +163,5 @@ def apply_projector(scene, plan) -> tuple[dict, list[str]]:
     if projector is None:
         raise ValueError("set up the rig first: there is no projector")
     settings, notes = light_report.projector_settings(plan, scene_state.projector_model(projector))
-    p = projector.lapig_projector
-    for name, value in settings.items():
-        setattr(p, name, value)
+    scene_state.write_projector_settings(projector, settings)
     return {k: (round(v, 6) if isinstance(v, float) else v) for k, v in settings.items()}, notes

@@ -1,6 +1,7 @@
 import bpy
 
 from ..lapig_addon.blender import light_plan_run, result_preview, scene_state
+from ..lapig_addon.blender.modal_runner import JobRunnerMixin
 from ..lapig_addon.blender.operator_boundary import ReportsErrors
 from ..lapig_addon.services.panel_state import rig_blocker
 
@@ -37,29 +38,28 @@ class LAPIG_OT_light_report(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class LAPIG_OT_light_cap(ReportsErrors, bpy.types.Operator):
+class LAPIG_OT_light_cap(JobRunnerMixin, bpy.types.Operator):
     """Limit the look so the marked region stays within its conservation limit: a new result (the free
     one stays), which the projector, the preview and Export then use"""
     bl_idname = "lapig.light_cap"
     bl_label = "Limit Look to the Dose"
 
-    def execute(self, context):
+    def make_job(self, context):
         scene = context.scene
         plan = scene_state.light_plan(scene)
         problem = plan.problem() or ("" if plan.limit else "choose a conservation category first")
-        folder = scene_state.read(scene).result_dir
-        if not problem and not folder:
+        if not problem and not scene_state.read(scene).result_dir:
             problem = "generate a look first"
         if problem:
-            self.report({"ERROR"}, problem)
-            return {"CANCELLED"}
-        out = light_plan_run.cap_result(scene, plan, folder, record=True)
+            raise ValueError(problem)
+        return light_plan_run.cap_job(scene, plan)
+
+    def on_done(self, context, job):
+        out = job.result
         for note in out.get("notes", []):
             self.report({"WARNING"}, note)
-        light_plan_run.run_report(scene, plan, scene_state.read(scene).result_dir)
         self.report({"INFO"}, f"limited look: {out['predicted_max_lux']} lux at most on the region "
                               f"({out['changed_pixel_share']:.0%} of the pixels dimmed)")
-        return {"FINISHED"}
 
 
 class LAPIG_OT_light_apply(ReportsErrors, bpy.types.Operator):

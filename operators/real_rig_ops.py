@@ -114,7 +114,7 @@ class LAPIG_OT_camera_view(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class LAPIG_OT_show_on_projector(ReportsErrors, bpy.types.Operator):
+class LAPIG_OT_show_on_projector(JobRunnerMixin, bpy.types.Operator):
     """Open the projector window on the real rig's display with the current look; every Generate then shows
     its look there too. Again (or Esc in the window) to close it"""
     bl_idname = "lapig.show_on_projector"
@@ -122,14 +122,28 @@ class LAPIG_OT_show_on_projector(ReportsErrors, bpy.types.Operator):
 
     def execute(self, context):
         if live_output.open_sinks():
-            live_devices.close_projector()
-            self.report({"INFO"}, "Projector window closed")
-            return {"FINISHED"}
-        sink = live_devices.show_on_projector(context.scene)
+            return self._close()
+        return JobRunnerMixin.execute(self, context)
+
+    def invoke(self, context, event):
+        if live_output.open_sinks():
+            return self._close()
+        return JobRunnerMixin.invoke(self, context, event)
+
+    def make_job(self, context):
+        return live_devices.projector_job(context.scene)  # the window opens on the job's worker thread
+
+    def on_done(self, context, job):
+        live_devices.projector_opened()
+        sink = job.result
         if sink.problem:
             self.report({"WARNING"}, sink.problem)
         w, h = sink.window.size
         self.report({"INFO"}, f"Projector window open, {w}x{h}: Esc in it closes it")
+
+    def _close(self):
+        live_devices.close_projector(wait=False)
+        self.report({"INFO"}, "Projector window closed")
         return {"FINISHED"}
 
 

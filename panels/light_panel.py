@@ -6,7 +6,8 @@ import bpy
 
 from ..lapig_addon.blender import scene_state
 from ..lapig_addon.services import light_report
-from .main_panel import LapigPanel
+from ..lapig_addon.services.dose_cap import DoseCapJob
+from .main_panel import LapigPanel, _job_running, _progress
 
 
 class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
@@ -42,8 +43,9 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
         if problem:
             for i, line in enumerate(textwrap.wrap(problem, 60)):
                 layout.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+        _progress(layout, DoseCapJob.title)
         row = layout.row()
-        row.enabled = not problem
+        row.enabled = not problem and not _job_running()
         row.operator("lapig.light_report", icon="LIGHT_SPOT")
         if s.category != "NONE":
             row.operator("lapig.light_cap", icon="LIGHT_SUN")

@@ -154,7 +154,7 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
         blocked = _blocked(layout, state.rig.devices_problem)
 
         box = layout.box()
-        _progress(box)
+        _progress(box, other_than=live_output.OpenWindowJob.title)
         row = box.row()
         row.enabled = not blocked and not busy
         row.operator("lapig.check_rig", icon="CHECKMARK")
@@ -175,6 +175,7 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
 
         box = layout.box()
         showing = bool(live_output.open_sinks())
+        _progress(box, live_output.OpenWindowJob.title)  # its helper takes seconds to start
         row = box.row()
         row.enabled = showing or not busy
         row.operator("lapig.show_on_projector", icon="WINDOW", depress=showing,
@@ -227,10 +228,11 @@ def _job_running() -> bool:
     return job is not None and not job.finished
 
 
-def _progress(layout, title=None):
-    """The running job's progress bar; with `title`, only that job's (the panel beside its button)."""
+def _progress(layout, title=None, other_than=None):
+    """The running job's progress bar; with `title`, only that job's (the panel beside its button); with
+    `other_than`, any job's but that one's (it has its own bar)."""
     job = active_job()
-    if job is not None and not job.finished and (title is None or job.title == title):
+    if job is not None and not job.finished and (title is None or job.title == title) and job.title != other_than:
         layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
 
 

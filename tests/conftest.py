@@ -1,14 +1,44 @@
-"""Test setup: load the repository root as the extension package `lapig`, as Blender does.
+"""Test setup: load the repository root as the extension package `lapig`, as Blender does, and only so.
 
-lapig_core is also importable on its own (`import lapig_core`) for the bpy-free tests.
+The tests import the code as `lapig.lapig_core...` and `lapig.lapig_addon...`: under one name, as the
+installed extension has it (a top-level `lapig_core` does not exist there, and two names would make two
+copies of every class: an exception of one copy is not caught as the other's). The repository root is not
+on sys.path (pytest.ini), and a run that loads a source file under two names fails at its end.
 """
 import importlib.util
+import pathlib
+import sys
 
 import pytest
 
-from lapig_addon.__main__ import _load_extension_package
+ROOT = pathlib.Path(__file__).resolve().parent.parent
 
+
+def _load_extension_package(name="lapig"):
+    """The repository root as the package `name` (lapig_addon/__main__.py does the same for the CLI)."""
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, ROOT / "__init__.py", submodule_search_locations=[str(ROOT)])
+    package = importlib.util.module_from_spec(spec)
+    sys.modules[name] = package
+    spec.loader.exec_module(package)
+    return package
+
+
+# `python -m pytest` puts the working directory (the root) on sys.path: take it off, as installed
+sys.path[:] = [p for p in sys.path if pathlib.Path(p or ".").resolve() != ROOT]
 _load_extension_package()
+
+from package_names import files_loaded_twice  # noqa: E402 (tests/ is on sys.path as the conftest's folder)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    twice = files_loaded_twice()
+    if twice:
+        lines = [f"{path}: {', '.join(names)}" for path, names in sorted(twice.items())]
+        print("\nerror: the run loaded these files under two package names (import them as lapig.lapig_core... "
+              "or lapig.lapig_addon...):\n  " + "\n  ".join(lines), file=sys.stderr)
+        session.exitstatus = 1
 
 HAS_TORCH = importlib.util.find_spec("torch") is not None
 

@@ -10,6 +10,7 @@ import contextlib
 
 from ...lapig_core.capture.settings import CaptureError, CaptureSettings
 from ...lapig_core.optics.camera_model import CameraResponse
+from ...lapig_core.rig.simulated import optics_meta
 from ..services.panel_state import rig_blocker
 from ..services.ports import RigIdentity
 from . import preview, scene_state
@@ -56,6 +57,8 @@ class CyclesDeviceFactory:
         return self._studio(samples=settings.samples, ambient=settings.ambient, seed=settings.seed)
 
     def setup_device(self, setup_meta: dict, seed: int = 0):
+        # a capture on the simulated rig was rendered by this studio: its optics' record reopens it
+        setup_meta = optics_meta(setup_meta)
         try:
             camera = setup_meta["camera"]
             response, size = CameraResponse(**camera["response"]), tuple(camera["resolution"])

@@ -8,20 +8,13 @@ import os
 
 import numpy as np
 
-from ...lapig_core.common.imageio import to_float, write_png
+from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.resample import resize_image
-from ...lapig_core.export.result_files import read_output_image
-from ...lapig_core.optics.projector_model import quantised_frame
 from ...lapig_core.photometry import light_maps, units
 from ..services import light_report
 from . import light_render, rig, scene_state
 
 LUX_MAP, CONTRAST_MAP = "light_lux", "light_contrast"  # result-folder PNGs the preview shows
-
-
-def result_frame(folder, model) -> np.ndarray:
-    """The result's projector frame as the projector receives it (native, 8-bit steps, float)."""
-    return to_float(quantised_frame(read_output_image(folder, "projector"), model.width, model.height, 8))
 
 
 def plan_model(projector, plan):
@@ -80,7 +73,7 @@ def run_report(scene, plan, folder: str | None, width=160, maps_dir: str | None 
     maps, model, _ = render_plan_maps(scene, plan, width, height)
     emitted = None
     if folder:
-        small = resize_image(model.emitted(result_frame(folder, model)).astype(np.float32), width, height)
+        small = resize_image(model.emitted(light_report.native_frame(folder, model)).astype(np.float32), width, height)
         emitted = small @ units.LUMA
     report = light_report.light_report(plan, maps, emitted, model)
     report["result"] = folder or None
@@ -112,48 +105,63 @@ def write_capped(path, scene, plan, folder) -> dict:
     return {**info, "path": os.path.abspath(path)}
 
 
-def cap_result(scene, plan, folder, record: bool = False, measure_psnr: bool = False) -> dict:
-    """The limited look as a result of its own (services/dose_cap); record: make it the scene's result and
-    show it on the projector light; measure_psnr: project both on the rig for the cap's cost."""
-    from ..services import dose_cap
-    from . import scene_store
+def cap_job(scene, plan, folder: str | None = None, record: bool = True, measure_psnr: bool = False):
+    """Limit Look to the Dose as a job (services/dose_cap.DoseCapJob) on the scene's seams: its result (or
+    `folder`), its capture's lock, its rig's device factory."""
+    from ..services.dose_cap import DoseCapJob
+    from .scene_store import scene_seams
 
-    state = scene_state.read(scene)
-    if measure_psnr and not state.capture_dir:  # before anything is written
-        raise ValueError("measuring the cap's cost needs the scene's capture: capture first")
-    capped, info = capped_frame(scene, plan, folder)
-    new = dose_cap.write_capped_result(folder, capped, info)
-    out = {**info, "folder": str(new)}
-    if measure_psnr:
-        model = plan_model(scene_state.rig_objects(scene)[0], plan)
-        out.update(dose_cap.rendered_psnr_cost(scene_store.scene_seams(scene).devices, state.capture_dir, folder,
-                                               result_frame(folder, model), capped))
-    if record:
-        scene_state.record_result(scene, str(new), scene_state.result_summary(scene) + " | limited to the light dose")
-        scene_store.show_scene_result(scene)
-    return out
+    return DoseCapJob(scene_seams(scene), plan, SceneLight(scene, plan), folder, record=record,
+                      measure_psnr=measure_psnr)
+
+
+def cap_result(scene, plan, folder, record: bool = False, measure_psnr: bool = False) -> dict:
+    """The limited look as a result of its own, the job run to its end (the command line); record: it becomes
+    the scene's result; measure_psnr: both projected on the rig for the cap's cost."""
+    return cap_job(scene, plan, folder, record, measure_psnr).run_to_completion()
 
 
 def capped_frame(scene, plan, folder):
     """(the result's native frame limited to the plan's lux on the marked region, what the cap did)."""
-    if plan.limit is None:
-        raise ValueError("limiting the look needs a conservation category")
+    from ..services.dose_cap import capped_look
+
     if not folder:
         raise ValueError("limiting the look needs a result: generate a look first")
-    projector, _, target = scene_state.rig_objects(scene)
-    model = plan_model(projector, plan)
-    room, _, scale = render_plan_maps(scene, plan, *map_size(projector))
-    frame = result_frame(folder, model)
-    with light_render.LightStudio(scene, projector, target, model.width, model.height,
-                                  region_material=plan.region_material, region_group=plan.region_group) as studio:
-        native = studio.render_maps()
-    white = native.white_lux * scale
-    ambient = resize_image(np.repeat(room.ambient_lux[..., None], 3, -1).astype(np.float32), model.width,
-                           model.height)[..., 0]
-    region = native.region & native.on_object
-    capped, info = light_report.capped_frame(plan, frame, white, ambient, region, model)
-    predicted = white * (model.emitted(capped) @ units.LUMA) + ambient
-    return capped, {**info, "predicted_max_lux": round(float(predicted[region].max()), 2)}
+    light = SceneLight(scene, plan)
+    room, native = light.room(), light.native()
+    return capped_look(plan, light.model, light_report.native_frame(folder, light.model), room, native)
+
+
+class SceneLight:
+    """The scene's light from its projector in lux, as the dose cap needs it (services/dose_cap.LightRenders):
+    Cycles renders, each on Blender's main thread."""
+
+    def __init__(self, scene, plan):
+        if plan.limit is None:
+            raise ValueError("limiting the look needs a conservation category")
+        self.scene, self.plan = scene, plan
+        self.projector, _, self.target = scene_state.rig_objects(scene)
+        if self.projector is None or self.target is None:
+            raise ValueError("set up the rig first: there is no projector or no object")
+        self.model = plan_model(self.projector, plan)
+        self.scale = None  # the plan's lumens over the light's power, found by room()
+
+    def room(self):
+        maps, _, self.scale = render_plan_maps(self.scene, self.plan, *map_size(self.projector))
+        return maps
+
+    def native(self):
+        if self.scale is None:
+            self.room()
+        with light_render.LightStudio(self.scene, self.projector, self.target, self.model.width, self.model.height,
+                                      region_material=self.plan.region_material,
+                                      region_group=self.plan.region_group) as studio:
+            maps = studio.render_maps()
+        maps.white_lux = maps.white_lux * self.scale
+        return maps
+
+    def report(self, folder: str) -> dict:
+        return run_report(self.scene, self.plan, folder)
 
 
 def apply_projector(scene, plan) -> tuple[dict, list[str]]:

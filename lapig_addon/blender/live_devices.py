@@ -3,9 +3,10 @@
 - The camera view: the newest picture of the worker thread's camera goes into the image 'LAPIG camera
   view' a few times per second (a bpy.app.timers function; the grab itself never runs on Blender's
   thread). A camera that fails stops the view, and the report area and the panel say why.
-- The live projector window: opened on the real rig's display with the scene's current result (the
-  ProjectorFrame Export writes); while it is open every Generate shows its look there too (scene_seams adds
-  it to the sinks). A timer watches it, so the panel follows an Esc in the window.
+- The live projector window: opened by a job (rigs/live_output.OpenWindowJob: its helper process starts on a
+  worker thread) on the real rig's display with the scene's current result (the ProjectorFrame Export
+  writes); while it is open every Generate shows its look there too (scene_seams adds it to the sinks). A
+  timer watches it, so the panel follows an Esc in the window.
 Both stop when another .blend is loaded, and when the add-on is disabled.
 """
 from __future__ import annotations
@@ -16,7 +17,6 @@ from bpy.app.handlers import persistent
 
 from ..rigs import camera_view, live_output
 from . import scene_state
-from .scene_store import scene_result_frame
 
 IMAGE_NAME = "LAPIG camera view"
 CAMERA_PERIOD_S = 0.2  # five pictures a second
@@ -129,27 +129,42 @@ def refresh_camera_view():
 
 # ------------------------------------------------------------------------------ the projector window
 
-def show_on_projector(scene, window_factory=None):
-    """Open the live projector window on the real rig's display and show the scene's current result (the
-    identification frame before there is one); the sink (live_output.ProjectorWindowSink)."""
+def projector_job(scene, window_factory=None) -> live_output.OpenWindowJob:
+    """The job that opens the live projector window on the real rig's display with the scene's current result
+    (the identification frame before there is one); ValueError where the scene has no display chosen. The
+    scene is read here, on the main thread; the window opens on the job's worker thread."""
     spec = _real_spec(scene, "Show on Projector")
     problem = spec.problem(camera=False)
     if problem:
         raise ValueError(problem)
-    frame = scene_result_frame(scene)  # read first: a result that cannot be read opens no window
-    sink = live_output.open_live(spec.display, window_factory)
-    if frame is None:
-        sink.window.show(live_output.identification_frame(sink.window.size))
-    else:
-        sink.show(frame)
+    if window_factory is None:
+        from ..rigs import real_rig
+
+        def window_factory(display):  # the rig's hook, looked up when the window opens: tests replace it
+            return real_rig._projector_window(display)
+    return live_output.OpenWindowJob(spec.display, stored_look(scene), window_factory)
+
+
+def stored_look(scene) -> live_output.StoredLook:
+    """The scene's result as the window shows it (what Export writes), or none."""
+    folder = scene_state.read(scene).result_dir
+    projector = scene_state.rig_objects(scene)[0]
+    if not folder or projector is None:
+        return live_output.StoredLook()
+    model = scene_state.projector_model(projector)
+    return live_output.StoredLook(folder, model.width, model.height, scene_state.export_settings(scene).bit_depth)
+
+
+def projector_opened() -> None:
+    """After the job: a timer watches the window, so the panel follows an Esc in it."""
     _seen["window_open"] = True
     if not bpy.app.timers.is_registered(watch_live_window):
         bpy.app.timers.register(watch_live_window, first_interval=WINDOW_PERIOD_S)
-    return sink
 
 
-def close_projector() -> None:
-    live_output.close_live()
+def close_projector(wait: bool = True) -> None:
+    """wait=False (the panel's button): the window is forgotten now and its helper ends on a worker thread."""
+    live_output.close_live(wait)
     _seen["window_open"] = False
 
 
@@ -164,16 +179,17 @@ def watch_live_window():
 
 # ---------------------------------------------------------------------------------- file load, disable
 
-def stop_all() -> None:
+def stop_all(wait: bool = True) -> None:
+    """wait=False: the projector window's helper ends on a worker thread (another file loads meanwhile)."""
     stop_camera_view()
-    close_projector()
+    close_projector(wait)
     if bpy.app.timers.is_registered(watch_live_window):
         bpy.app.timers.unregister(watch_live_window)
 
 
 @persistent
 def _on_load(*_args) -> None:
-    stop_all()
+    stop_all(wait=False)
 
 
 def register():

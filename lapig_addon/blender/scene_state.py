@@ -276,11 +276,6 @@ def record_models(scene, fingerprint: str, status: str | None = None):
         s.models_status = status
 
 
-def result_summary(scene) -> str:
-    """The result's line as the panel shows it."""
-    return scene.lapig.result_summary
-
-
 def record_result(scene, folder, summary_line: str, reach_message: str = ""):
     """reach_message: the plain sentence when most of the look is out of the surface's reach."""
     s = scene.lapig

@@ -7,7 +7,9 @@ Esc in the window closes it; the next show() then says so.
 """
 from __future__ import annotations
 
+import threading
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -59,20 +61,35 @@ CLOSED_NOTE = "The projector window was closed (Esc or its close button)"
 
 
 def open_live(display, window_factory=None) -> ProjectorWindowSink:
-    """Open the projector window on ``display`` (closing a live one first) and make it a sink of every job."""
+    """Open the projector window on ``display`` (closing a live one first) and make it a sink of every job.
+    This waits for the window's helper process (seconds): Blender's UI opens it with OpenWindowJob."""
     close_live()
-    _CLOSED["note"] = ""
     if window_factory is None:
         from ...lapig_core.rig.projector_window import ProjectorWindow as window_factory
-    sink = ProjectorWindowSink(window_factory(int(display) if str(display).strip().isdigit() else display))
+    return make_live(ProjectorWindowSink(window_factory(int(display) if str(display).strip().isdigit() else display)))
+
+
+def make_live(sink: ProjectorWindowSink) -> ProjectorWindowSink:
+    """The sink of an open window becomes the live one (a live one before it is closed)."""
+    close_live(wait=False)
+    _CLOSED["note"] = ""
     _LIVE.append(sink)
     return sink
 
 
-def close_live() -> None:
+def close_live(wait: bool = True) -> None:
+    """Close the live windows. wait=False: they are forgotten now and closed on a worker thread (a helper
+    process takes about a second to end, too long for Blender's main thread)."""
     while _LIVE:
-        _LIVE.pop().window.close()
+        close_window(_LIVE.pop().window, wait)
     _CLOSED["note"] = ""
+
+
+def close_window(window, wait: bool = True) -> None:
+    if wait:
+        window.close()
+    else:
+        threading.Thread(target=window.close, name="LAPIG: closing the projector window", daemon=True).start()
 
 
 def open_sinks() -> tuple:
@@ -220,3 +237,80 @@ class CrossfadeJob(WorkerJob):
             return play(self.sink.window, frames, self.fps, on_frame=on_frame)
         except _Stopped:
             return None
+
+
+@dataclass(frozen=True)
+class StoredLook:
+    """The result the window shows first, named on Blender's main thread and read on the worker: its folder ('':
+    none yet, the identification frame), the projector's native size and the export's bit depth."""
+    folder: str = ""
+    width: int = 0
+    height: int = 0
+    bit_depth: int = 8
+
+    def frame(self) -> ProjectorFrame | None:
+        if not self.folder:
+            return None
+        from ...lapig_core.export.result_files import read_output_image
+
+        return ProjectorFrame(read_output_image(self.folder, "projector"), self.width, self.height, self.bit_depth,
+                              folder=self.folder)
+
+
+class OpenWindowJob(WorkerJob):
+    """Open the projector window on a worker thread (its helper process takes up to 20 s to start), show the
+    look on it and make it the live window (finish(), on the main thread). A cancel ends the job at once; a
+    window that opens after it is closed, never live."""
+
+    title = "LAPIG projector window"
+
+    def __init__(self, display: str, look: StoredLook = StoredLook(), window_factory=None):
+        """window_factory(display): a ProjectorWindow on that display by default (the panel passes the real
+        rig's hook, rigs/real_rig._projector_window, which tests replace)."""
+        super().__init__()
+        self.display, self.look, self.window_factory = str(display), look, window_factory
+        self._lock = threading.Lock()
+        self._unclaimed = None  # the window opened, until finish() makes it live or a cancel closes it
+
+    def work(self, inputs, report, cancel_event):
+        report(0.05, f"opening the projector window on display {self.display}")
+        frame = self.look.frame()  # read first: a result that cannot be read opens no window
+        window = self._open()
+        with self._lock:
+            self._unclaimed = window
+        if cancel_event.is_set():
+            self._close_unclaimed(wait=True)
+            return None
+        try:
+            report(0.9, "showing the look")
+            sink = ProjectorWindowSink(window)
+            if frame is None:
+                window.show(identification_frame(window.size))
+            else:
+                sink.show(frame)
+        except BaseException:
+            self._close_unclaimed(wait=True)
+            raise
+        return sink
+
+    def finish(self, sink):
+        with self._lock:
+            self._unclaimed = None
+        return make_live(sink)
+
+    def cancel(self):
+        super().cancel()  # the worker is told: a window it opens from now on, it closes itself
+        self._close_unclaimed(wait=False)
+
+    def _open(self):
+        if self.window_factory is None:
+            from ...lapig_core.rig.projector_window import ProjectorWindow
+
+            return ProjectorWindow(int(self.display) if self.display.strip().isdigit() else self.display)
+        return self.window_factory(self.display)
+
+    def _close_unclaimed(self, wait: bool):
+        with self._lock:
+            window, self._unclaimed = self._unclaimed, None
+        if window is not None:
+            close_window(window, wait)

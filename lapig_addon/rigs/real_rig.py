@@ -158,7 +158,9 @@ class SimulatedRigFactory:
         return self._rig(self.optics_factory.capture_device(settings))
 
     def setup_device(self, setup_meta: dict, seed: int = 0):
-        return self._rig(self.optics_factory.setup_device(setup_meta, seed), calibrated=True)
+        from ...lapig_core.rig.simulated import optics_meta
+
+        return self._rig(self.optics_factory.setup_device(optics_meta(setup_meta), seed), calibrated=True)
 
 
 def release_devices() -> None:

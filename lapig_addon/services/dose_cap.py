@@ -1,26 +1,136 @@
 """The look limited to the light dose, as a result of its own: a copy of the result whose projector image
 is the capped frame, so Export, the preview and the projector show the limited look; the free one stays.
 
-No bpy. The capped frame comes from light_report.capped_frame (at the projector's native size); its
-cost in PSNR is measured by projecting both frames on the rig (services/projection) against the free
-look's target, as Render Real Capture measures a result."""
+No bpy. DoseCapJob (Limit Look to the Dose, and the `report --cap-result` command) runs it as a foreground job
+like Refine: the light maps are rendered through a LightRenders (Cycles, on Blender's main thread), the cap and
+the files are made on a worker thread, all under the capture's folder lock; its cost in PSNR is measured by
+projecting both frames on the rig, the device factory's device driven on the thread it needs (services/projection),
+against the free look's target, as Render Real Capture measures a result."""
 from __future__ import annotations
 
 import os
 import shutil
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
+from ...lapig_core.capture.dataset import resolve_setup
+from ...lapig_core.capture.staging import hold_root
 from ...lapig_core.common.imageio import read_image
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.common.scratch import ScratchFolder
 from ...lapig_core.export.result_files import output_name, read_output_image, read_summary, write_result
+from ...lapig_core.optics.projector_model import ProjectorModel
+from ...lapig_core.photometry import units
 from ...lapig_core.common.psnr import masked_psnr
-from .light_report import REPORT_FILE
-from .projection import project_and_capture
+from . import light_report
+from .export_result import result_frame
+from .jobs import Job
+from .ports import Seams
+from .projection import projection_steps
 
 SUFFIX = "_dose_cap"
+LIMITED = " | limited to the light dose"  # after the result's line: the panel shows it on a line of its own
+
+
+class LightRenders(Protocol):
+    """The scene's light from the projector's viewpoint, in lux (blender/light_plan_run.SceneLight: Cycles
+    renders, on Blender's main thread)."""
+
+    model: ProjectorModel  # the plan's projector: its native size, gamma and black level
+
+    def room(self):
+        """The light maps at the report's size (white_lux scaled to the plan's lumens, ambient_lux)."""
+
+    def native(self):
+        """The maps at the projector's native size, scaled as room()'s (white_lux, region, on_object)."""
+
+    def report(self, folder: str) -> dict:
+        """The light report of a result, written into it."""
+
+
+class DoseCapJob(Job):
+    """Limit the scene's result so the marked region stays within the plan's lux limit, as a new result.
+
+    record: the new result becomes the scene's (the light, the preview and a live window show it) and its
+    light report is written; measure_psnr: both frames projected on the rig for the cap's cost. Nothing is
+    recorded before the new folder is complete; a cancel leaves the scene as it was."""
+
+    title = "LAPIG limit to the dose"
+
+    def __init__(self, seams: Seams, plan, light: LightRenders, folder: str | None = None, record: bool = True,
+                 measure_psnr: bool = False):
+        """folder: the result to limit (None: the scene's)."""
+        super().__init__()
+        self.seams, self.plan, self.light, self.folder = seams, plan, light, folder
+        self.record, self.measure_psnr = record, measure_psnr
+
+    def _inputs(self) -> tuple[str, str]:
+        """(the result folder, the scene's capture or ''), checked before anything is rendered."""
+        if self.plan.limit is None:
+            raise ValueError("limiting the look needs a conservation category")
+        state = self.seams.store.read()
+        folder = self.folder or state.result_dir
+        if not folder:
+            raise ValueError("limiting the look needs a result: generate a look first")
+        if self.measure_psnr and not state.capture_dir:
+            raise ValueError("measuring the cap's cost needs the scene's capture: capture first")
+        if self.measure_psnr and self.seams.devices is None:
+            raise ValueError("measuring the cap's cost needs a rig to project on")
+        return folder, state.capture_dir
+
+    def steps(self):
+        folder, capture = self._inputs()
+        # as Generate and Refine: no capture replaces the setup (nor Train writes beside it) meanwhile
+        held = hold_root(resolve_setup(capture).root, self.title) if capture else None
+        try:
+            yield 0.05, "rendering the room's light"
+            room = self.light.room()
+            yield 0.35, "rendering the projector's light at its native size"
+            native = self.light.native()
+            free, capped, info, new = yield from self.drive(
+                lambda: capped_result_steps(self.plan, self.light.model, folder, room, native), False)
+            out = {**info, "folder": str(new)}
+            if self.measure_psnr:
+                devices = self.seams.devices
+                out.update((yield from self.drive(
+                    lambda: psnr_cost_steps(devices, capture, folder, free, capped), devices.main_thread)))
+        finally:
+            if held is not None:
+                held.release()
+        if self.record:
+            yield 0.9, "the light report of the limited look"
+            self._record(str(new))
+        self.result = out
+
+    def _record(self, new: str):
+        """The limited look becomes the scene's result, shown on the light (and a live window), with its report."""
+        store = self.seams.store
+        summary = read_summary(new)
+        store.record_result(new, (summary.get("summary_line") or summary.get("prompt") or "result") + LIMITED)
+        self.seams.show(result_frame(store, new, store.export_settings().bit_depth, summary=summary))
+        self.light.report(new)
+
+
+def capped_result_steps(plan, model: ProjectorModel, folder, room, native):
+    """Steps whose value is (the free frame, the capped frame, what the cap did, the new result's folder)."""
+    yield 0.6, "limiting the look"
+    free = light_report.native_frame(folder, model)
+    capped, info = capped_look(plan, model, free, room, native)
+    yield 0.7, "writing the limited look"
+    return free, capped, info, write_capped_result(folder, capped, info)
+
+
+def capped_look(plan, model: ProjectorModel, frame: np.ndarray, room, native) -> tuple[np.ndarray, dict]:
+    """The native frame limited to the plan's lux on the marked region (light_report.capped_frame), and what the
+    cap did, with the brightest lux it predicts there."""
+    ambient = resize_image(np.repeat(room.ambient_lux[..., None], 3, -1).astype(np.float32), model.width,
+                           model.height)[..., 0]
+    region = native.region & native.on_object
+    capped, info = light_report.capped_frame(plan, frame, native.white_lux, ambient, region, model)
+    predicted = native.white_lux * (model.emitted(capped) @ units.LUMA) + ambient
+    return capped, {**info, "predicted_max_lux": round(float(predicted[region].max()), 2)}
 
 
 def write_capped_result(folder, capped: np.ndarray, cap_info: dict) -> Path:
@@ -38,7 +148,8 @@ def write_capped_result(folder, capped: np.ndarray, cap_info: dict) -> Path:
     scratch = ScratchFolder(folder.parent, ".writing_")
     try:
         for entry in folder.iterdir():
-            if entry.is_file() and entry.name not in ("result.json", REPORT_FILE, f"{name}.png", "comparison.png"):
+            if entry.is_file() and entry.name not in ("result.json", light_report.REPORT_FILE, f"{name}.png",
+                                                      "comparison.png"):
                 shutil.copy2(entry, scratch.path / entry.name)
         write_result(scratch.path, {name: np.clip(capped, 0, 1)}, summary)
     except BaseException:
@@ -47,9 +158,17 @@ def write_capped_result(folder, capped: np.ndarray, cap_info: dict) -> Path:
     return scratch.move_to_new_folder(folder.name + SUFFIX)
 
 
-def rendered_psnr_cost(devices, capture_dir, folder, frame: np.ndarray, capped: np.ndarray) -> dict:
-    """Both frames projected and captured on the rig, each against the free look's target (dB)."""
-    captured, _ = project_and_capture(devices, os.fspath(capture_dir), [frame, capped], chunk=2)
+def psnr_cost_steps(devices, capture_dir, folder, frame: np.ndarray, capped: np.ndarray):
+    """Steps that project both frames on the rig; their value is each one's PSNR against the free look's target
+    (dB) and the difference."""
+    projected = projection_steps(devices, os.fspath(capture_dir), [frame, capped], chunk=2)
+    while True:
+        try:
+            done = next(projected)
+        except StopIteration as end:
+            captured = end.value[0]
+            break
+        yield 0.7 + 0.2 * done, "projecting the free and the limited look on the rig"
     target = resize_image(read_output_image(folder, "target"), captured.shape[2], captured.shape[1])
     whole = np.ones(target.shape[:2], bool)  # numpy PSNR over the frame: Light Report needs no torch
     free, limited = (masked_psnr(c, target, whole) for c in captured)

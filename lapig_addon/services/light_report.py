@@ -13,7 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...lapig_core.common.atomic import commit
+from ...lapig_core.common.imageio import to_float
 from ...lapig_core.common.jsonable import json_default_or_str
+from ...lapig_core.export.result_files import read_output_image
+from ...lapig_core.optics.projector_model import quantised_frame
 from ...lapig_core.photometry import dose, light_maps, presets, units
 
 REPORT_FILE = "light_report.json"
@@ -108,6 +111,11 @@ def light_report(plan: LightPlan, maps, emitted: np.ndarray | None, model) -> di
                                      f"vertex group '{plan.region_group}'" if plan.region_group else
                                      "the whole object")}
     return report
+
+
+def native_frame(folder, model) -> np.ndarray:
+    """A result's projector frame as the projector receives it (native, 8-bit steps, float)."""
+    return to_float(quantised_frame(read_output_image(folder, "projector"), model.width, model.height, 8))
 
 
 def capped_frame(plan: LightPlan, frame: np.ndarray, white_lux: np.ndarray, ambient_lux, region, model,

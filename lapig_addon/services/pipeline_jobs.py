@@ -101,6 +101,17 @@ def hold_capture(folder: str, title: str):
     return hold_root(resolve_setup(folder).root, title)
 
 
+def _why_not_measured(cs, verification, devices) -> str:
+    """Why the rig cannot measure the choice, for the models line: a data set this rig did not capture
+    (imported, or made on another rig); '' otherwise."""
+    if verification is None or devices is None:
+        return ""  # nothing to measure (the capture's test count), or no rig: PCNet's choice, as its line says
+    if cs.meta.get("fingerprint") != devices.rig_identity().key():
+        made_on = cs.meta.get("device") or "another rig"
+        return f"not measured on the rig: the capture was made on '{made_on}', not on this rig"
+    return ""
+
+
 class TrainModelsJob(WorkerJob):
     """Fine-tune the networks (worker thread), then choose the compensator by measurement: the rig renders
     both compensations of the held-back images, as it rendered the capture (main thread, bpy)."""
@@ -112,6 +123,7 @@ class TrainModelsJob(WorkerJob):
     # projector's image) is opened and closed within each render's step, so the artist's undo, save or edit
     # between two steps never meets it
     device_per_render = False
+    choice_skipped = ""  # why the rig did not measure the choice, for the models line
 
     def __init__(self, seams: Seams, iterations: int | None = None, capture: str | None = None):
         """iterations: fine-tuning iterations per network (None: the standard recipe); capture: a capture
@@ -167,6 +179,9 @@ class TrainModelsJob(WorkerJob):
         if chosen is not None:
             out["choice"] = chosen.line()
             self.seams.store.record_models(out["fingerprint"], self._models_line(out, chosen))
+        elif self.choice_skipped:
+            out["choice"] = f"{out['choice']} ({self.choice_skipped})"
+            self.seams.store.record_models(out["fingerprint"], self._models_line(out, out["trained"]["choice"]))
         # the result goes to the operator and the CLI: not the capture's arrays nor the networks
         self.result = {k: v for k, v in out.items() if k not in ("capture_set", "trained")}
 
@@ -176,8 +191,9 @@ class TrainModelsJob(WorkerJob):
         between renders: the device closes and the lock goes, and the renders go on from there on resume."""
         v = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
         devices = self.seams.devices
-        if v is None or devices is None or cs.meta.get("fingerprint") != devices.rig_identity().key():
-            return None  # nothing held back, or a data set this rig did not capture (imported): PCNet's choice
+        self.choice_skipped = _why_not_measured(cs, v, devices)
+        if v is None or devices is None or self.choice_skipped:  # PCNet's choice stands
+            return None
         images, share = v.images, self.TRAIN_SHARE
         count, captured = len(images), []
 

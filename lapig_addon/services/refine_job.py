@@ -13,7 +13,8 @@ import numpy as np
 
 from ...lapig_core.capture.dataset import DatasetError, load_capture_set, setup_dir_of
 from ...lapig_core.capture.settings import CaptureError
-from ...lapig_core.export.result_files import (NATIVE, read_result_image, read_summary, refined_images, write_result)
+from ...lapig_core.export.result_files import (NATIVE, read_output_image, read_result_image, read_summary, refined_images,
+                                                write_result)
 from ...lapig_core.photometric.classical import ClassicalModel
 from ...lapig_core.photometric.first_look import load_first_look
 from ...lapig_core.photometric.targets import reachable_mask
@@ -72,6 +73,7 @@ class RefineResultJob(Job):
         self.settings = settings or RefineSettings(iterations=iterations)
 
     def _inputs(self):
+        """The result folder and the capture, from the scene (the main thread: the store reads bpy)."""
         store = self.seams.store
         state = store.read()
         blocker = panel_state.result_blocker(state)
@@ -79,40 +81,13 @@ class RefineResultJob(Job):
             raise PipelineError(blocker)
         if self.seams.devices is None:
             raise PipelineError("refinement needs a rig to project on and capture with")
-        folder, capture = state.result_dir, current_capture(state)
-        summary = read_summary(folder)
-        if summary.get("capture") and summary["capture"] != capture:
-            raise PipelineError("the result was made on another capture than the scene's: generate again first")
-        try:
-            cs = load_capture_set(capture, pairs=False)
-        except DatasetError as exc:
-            raise PipelineError(str(exc)) from None
-        return folder, capture, summary, cs
+        return state.result_dir, current_capture(state)
 
     def steps(self):
-        folder, capture, summary, cs = self._inputs()
-        yield 0.02, "reading the result and the setup's model"
-        model = classical_of(capture)
-        names = refined_images(folder, summary)
-        valid = reachable_mask(cs.cam_black, cs.cam_white)
-        if cs.projector_valid is not None:
-            valid &= cs.projector_valid
-        native = None  # the native output is what the projector shows: refine it, where the result has one
-        native_name = names.get("projector") if names.get("projector", "").endswith(NATIVE) else None
-        native_name = native_name or ("projector" + NATIVE if _has(folder, "projector" + NATIVE) else None)
-        if native_name and _has(folder, "target" + NATIVE):
-            native = read_result_image(folder, native_name)
-            h, w = cs.cam_black.shape[:2]  # its look, averaged onto the working frame the captures are registered at
-            target = cv2.resize(read_result_image(folder, "target" + NATIVE), (w, h), interpolation=cv2.INTER_AREA)
-            start = None
-        else:
-            target = read_result_image(folder, "target")  # PSA's adapted target, at the working frame
-            start = read_result_image(folder, names.get("projector_working", "projector"))
-        try:
-            refinement = Refinement(model, target, cs.cam_black, cs.cam_white, valid,
-                                    start, self.settings, native_start=native)
-        except RefineError as exc:
-            raise PipelineError(str(exc)) from None
+        folder, capture = self._inputs()
+        # reading the images and fitting the classical model take seconds: a worker step, since with Cycles
+        # this generator runs on Blender's main thread
+        summary, refinement = yield from self.drive(lambda: prepared_refinement(folder, capture, self.settings), False)
         devices = self.seams.devices
         held = hold_capture(capture, self.title)  # no capture may replace the setup while the rig refines
 
@@ -125,32 +100,76 @@ class RefineResultJob(Job):
             raise PipelineError(str(exc)) from None
         finally:
             held.release()
-        yield 0.96, "writing the refined result"
-        self.result = self._write(folder, summary, refinement)
+        written = yield from self.drive(lambda: write_refined(folder, summary, refinement), False)
+        self.result = self._record(folder, *written)
 
-    def _write(self, folder, summary, refinement):
-        record = refinement.record.to_dict()
-        record["frame"] = "native" if refinement.native is not None else "working"  # which image was captured
-        images = {REFINED: refinement.working_images[0]}
-        chosen = {"projector_working": REFINED, "projector": REFINED}
-        if refinement.native is not None:
-            images[REFINED + NATIVE] = refinement.images[0]
-            chosen["projector"] = REFINED + NATIVE
-        record["images"] = chosen
-        summary["refine"] = record
-        summary["summary_line"] = _with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
-                                               refine_line(record))
-        summary.setdefault("metrics", {}).update(
-            {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
-             "refine_noise_floor_psnr": record["noise_floor_psnr"], "refine_iterations": record["iterations"],
-             "refine_seconds": record["seconds"]})
-        write_result(folder, images, summary)  # the images first, result.json last: it names them
+    def _record(self, folder, summary, record, image):
+        """The refined result into the scene (the main thread): its line, the light, the preview and the live window."""
         store = self.seams.store
-        line = refine_line(record)
         store.record_result(folder, summary["summary_line"], (summary.get("surface_reach") or {}).get("message", ""))
         # the preview and the live sinks show the refined image, as Export will write it
-        self.seams.show(result_frame(store, folder, store.export_settings().bit_depth))
-        return {"folder": folder, "refine": record, "line": line.lstrip("; ")}
+        self.seams.show(result_frame(store, folder, store.export_settings().bit_depth, image=image, summary=summary))
+        return {"folder": folder, "refine": record, "line": refine_line(record).lstrip("; ")}
+
+
+def prepared_refinement(folder: str, capture: str, settings: RefineSettings):
+    """Steps whose value is (the result's summary, the Refinement of its projector image against its target on
+    the setup's classical model); the native output where the result has one."""
+    yield 0.02, "reading the result and the setup's model"
+    summary = read_summary(folder)
+    if summary.get("capture") and summary["capture"] != capture:
+        raise PipelineError("the result was made on another capture than the scene's: generate again first")
+    try:
+        cs = load_capture_set(capture, pairs=False)
+    except DatasetError as exc:
+        raise PipelineError(str(exc)) from None
+    model = classical_of(capture)
+    valid = reachable_mask(cs.cam_black, cs.cam_white)
+    if cs.projector_valid is not None:
+        valid &= cs.projector_valid
+    target, start, native = _images_to_refine(folder, summary, cs.cam_black.shape[:2])
+    try:
+        return summary, Refinement(model, target, cs.cam_black, cs.cam_white, valid, start, settings,
+                                   native_start=native)
+    except RefineError as exc:
+        raise PipelineError(str(exc)) from None
+
+
+def _images_to_refine(folder: str, summary: dict, working_shape) -> tuple:
+    """(target, start, native) of the result: its native output where it has one (what the projector shows),
+    against its native look averaged onto the working frame; else its working-frame image and PSA's target."""
+    names = refined_images(folder, summary)
+    native_name = names.get("projector") if names.get("projector", "").endswith(NATIVE) else None
+    native_name = native_name or ("projector" + NATIVE if _has(folder, "projector" + NATIVE) else None)
+    if native_name and _has(folder, "target" + NATIVE):
+        h, w = working_shape  # the working frame the captures are registered at
+        target = cv2.resize(read_result_image(folder, "target" + NATIVE), (w, h), interpolation=cv2.INTER_AREA)
+        return target, None, read_result_image(folder, native_name)
+    start = read_result_image(folder, names.get("projector_working", "projector"))
+    return read_result_image(folder, "target"), start, None
+
+
+def write_refined(folder: str, summary: dict, refinement: Refinement):
+    """Steps that write the refined images, then result.json naming them; their value is (the summary written,
+    the refinement's record, the projector image as stored)."""
+    yield 0.96, "writing the refined result"
+    record = refinement.record.to_dict()
+    record["frame"] = "native" if refinement.native is not None else "working"  # which image was captured
+    images = {REFINED: refinement.working_images[0]}
+    chosen = {"projector_working": REFINED, "projector": REFINED}
+    if refinement.native is not None:
+        images[REFINED + NATIVE] = refinement.images[0]
+        chosen["projector"] = REFINED + NATIVE
+    record["images"] = chosen
+    summary["refine"] = record
+    summary["summary_line"] = _with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
+                                           refine_line(record))
+    summary.setdefault("metrics", {}).update(
+        {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
+         "refine_noise_floor_psnr": record["noise_floor_psnr"], "refine_iterations": record["iterations"],
+         "refine_seconds": record["seconds"]})
+    write_result(folder, images, summary)  # the images first, result.json last: it names them
+    return summary, record, read_output_image(folder, "projector")
 
 
 def refine_rounds(devices, capture: str, refinement: Refinement, bit_depth: int = 8):

@@ -22,6 +22,7 @@ from . import RigError
 from . import frame_code as fc
 from .clock import REAL_CLOCK
 from .health import run_checks
+from .still_pictures import FAULTY_SHARE, StillPictures
 from .sync import FrameSync, measure_latency
 
 
@@ -124,34 +125,14 @@ class RigDevice(CaptureDevice):
 
     def _locate_cells(self, settle: float) -> fc.CellMap:
         """Show each code cell alone (after a black frame), with generous waits; nothing is verified yet,
-        so each picture is grabbed twice and kept once both agree and differ from the previous cell's."""
+        so each picture is one that several grabs agree on (rig.still_pictures). Where the code cannot be
+        read in both bands and the grabs often agreed with nothing, the camera's frames cannot be verified,
+        and the health checks would read faulty frames: stop and say so."""
         w, h = self.output.size
-        previous = None
-
-        def still(frame, tries=6):
-            nonlocal previous
-            shown = self.output.show(frame)
-            for attempt in range(tries):
-                self.clock.sleep_until(shown + 2 * settle * (attempt + 1))  # longer each time: a late camera
-                pictures = []
-                for _ in range(2):
-                    self.camera.flush()
-                    pictures.append(self.camera.grab()[0])
-                # the same as the previous frame's picture: stale, unless it stays so (a cell the camera
-                # does not see looks like black)
-                new = previous is None or not _agree(previous, pictures[0]) or attempt >= 2
-                if _agree(*pictures) and new:
-                    previous = pictures[0]
-                    return pictures[0]
-            raise RigError("the camera's pictures of the same still frame keep changing: its auto exposure "
-                           "or auto gain is probably on (lock them), or the camera moves, or its cable is loose")
-
-        black = still(np.zeros((h, w, 3), np.uint8))
-        lit = {key: still(fc.single_cell(self.layout, *key)) for key in self.layout.cells()}
-        return fc.locate_cells(black, lit)
-
-
-def _agree(a, b, change: float = 0.15, pixels: int = 8) -> bool:
-    """Two camera pictures of the same frame: fewer than ``pixels`` pixels changed by more than ``change``
-    (a single code cell lights only a few hundred pixels, so a share would miss it)."""
-    return int((np.abs(fc.luma(a) - fc.luma(b)) > change).sum()) < pixels
+        stills = StillPictures(self.output, self.camera, self.clock, settle)
+        black = stills.black(np.zeros((h, w, 3), np.uint8))
+        lit = {key: stills.lit(fc.single_cell(self.layout, *key), black) for key in self.layout.cells()}
+        cells = fc.locate_cells(black, lit)
+        if len(cells.readable_bands()) < 2 and stills.faulty_share() > FAULTY_SHARE:
+            raise RigError(stills.unverifiable())
+        return cells

@@ -136,9 +136,11 @@ class SimulatedCamera:
 
     def describe(self) -> dict:
         auto = self.faults.auto_exposure and not self.exposure_locked
+        # "optics": what the simulated optics record of themselves, so the setup can be reopened on them
+        # (Train's rendered choice, Refine): the Cycles studio needs its camera's response and size
         return {"kind": "simulated camera", "fps": self.fps, "width": self.size[0], "height": self.size[1],
                 "settings": {"auto_exposure": {"asked": False, "read_back": auto, "took": not auto}},
-                "not_locked": ["auto_exposure"] if auto else []}
+                "not_locked": ["auto_exposure"] if auto else [], "optics": self.optics.describe().details}
 
     def close(self) -> None:
         pass
@@ -223,6 +225,14 @@ def simulated_rig(optics: CaptureDevice, faults: CameraFaults | None = None, clo
     camera = SimulatedCamera(screen, optics, faults, fps, buffer_frames, clock, seed)
     rig_options.setdefault("geometry", optics.geometry_checks())  # the optics' truth (Cycles knows it)
     return RigDevice(screen, camera, name="simulated rig", clock=clock, **rig_options), screen, camera
+
+
+def optics_meta(setup_meta: dict) -> dict:
+    """A simulated rig's setup.json as its optics recorded it (the simulated camera keeps their record
+    under camera.optics), so they can reopen it; any other setup as it is."""
+    camera = setup_meta.get("camera")
+    optics = camera.get("optics") if isinstance(camera, dict) else None
+    return {**setup_meta, **optics} if isinstance(optics, dict) else setup_meta
 
 
 def sync_outcome(device, screen: SimulatedScreen, camera: SimulatedCamera) -> dict:

@@ -32,14 +32,8 @@ def measure_latency(output, camera, clock, switches: int = 4, timeout_s: float =
     black = np.zeros((h, w, 3), np.uint8)
     white = np.full((h, w, 3), 255, np.uint8)
     samples, intervals = [], []
-    output.show(black)
-    clock.sleep(0.5)
-    camera.flush()
-    dark = _mean_level(camera.grab()[0])
-    output.show(white)
-    clock.sleep(0.5)
-    camera.flush()
-    bright = _mean_level(camera.grab()[0])
+    dark = _steady_level(output, camera, clock, black, min)
+    bright = _steady_level(output, camera, clock, white, max)
     if bright - dark < 0.02:
         raise RigError("the camera does not see the projector change from black to white: aim the camera "
                        "at the projection and uncover the lens; lock its exposure (an auto exposure evens "
@@ -68,6 +62,15 @@ def measure_latency(output, camera, clock, switches: int = 4, timeout_s: float =
     positive = [i for i in intervals if i > 1e-4]
     return {"latency_s": float(max(samples)), "samples_s": [round(s, 4) for s in samples],
             "frame_interval_s": float(np.median(positive)) if positive else 0.0}
+
+
+def _steady_level(output, camera, clock, frame, pick, grabs: int = 5) -> float:
+    """The camera's level of a still frame over several grabs: the darkest of black's (a repeated bright
+    picture or a torn one is brighter) and the brightest of white's (a dropped picture is black)."""
+    output.show(frame)
+    clock.sleep(0.5)
+    camera.flush()
+    return pick(_mean_level(camera.grab()[0]) for _ in range(grabs))
 
 
 @dataclass

@@ -191,7 +191,15 @@ class Window:
                 "driver": self.driver, "framebuffer": self.framebuffer, "pid": os.getpid(),
                 "python": sys.version.split()[0]}
 
+    def refuse_invisible_driver(self) -> None:
+        """SDL falls back to a driver that draws nowhere when there is no desktop: its 'display' is not a
+        screen (a capture would "project" into nothing); only a driver asked for by name (tests) is allowed."""
+        if self.driver in INVISIBLE_DRIVERS and not os.environ.get("SDL_VIDEODRIVER"):
+            raise RuntimeError(f"there is no screen here (SDL found only its '{self.driver}' driver): run this on "
+                               "the computer the projector is connected to, in its desktop session")
+
     def displays(self) -> list:
+        self.refuse_invisible_driver()  # listed, it would be offered as a projector's display
         sdl2 = self.sdl2
         count = sdl2.SDL_GetNumVideoDisplays()
         if count < 0:
@@ -212,11 +220,7 @@ class Window:
 
     def open(self, wanted) -> dict:
         sdl2 = self.sdl2
-        if self.driver in INVISIBLE_DRIVERS and not os.environ.get("SDL_VIDEODRIVER"):
-            # SDL falls back to a driver that draws nowhere when there is no desktop: a capture would
-            # "project" into nothing; only a driver asked for by name (tests) is allowed
-            raise RuntimeError(f"there is no screen here (SDL found only its '{self.driver}' driver): run this on "
-                               "the computer the projector is connected to, in its desktop session")
+        self.refuse_invisible_driver()
         if self.window is not None:
             self.destroy()
         display = choose_display(self.displays(), wanted)

@@ -12,9 +12,9 @@ import os
 import threading
 from dataclasses import replace
 
-from lapig_core.capture.fake_device import FakeDevice
-from lapig_core.capture.settings import CaptureSettings
-from lapig_core.optics.projector_model import ProjectorModel
+from lapig.lapig_core.capture.fake_device import FakeDevice
+from lapig.lapig_core.capture.settings import CaptureSettings
+from lapig.lapig_core.optics.projector_model import ProjectorModel
 
 PROJECTOR_SIZE = (64, 48)
 

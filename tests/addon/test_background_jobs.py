@@ -10,8 +10,8 @@ import time
 
 import pytest
 
-from lapig_core.capture.dataset import resolve_setup
-from lapig_core.common.locking import FolderBusy, FolderLock
+from lapig.lapig_core.capture.dataset import resolve_setup
+from lapig.lapig_core.common.locking import FolderBusy, FolderLock
 
 ADDON = "lapig.lapig_addon"
 
@@ -278,7 +278,7 @@ def test_generate_while_train_runs_in_the_background_uses_the_first_look_and_aft
     _until(lambda: train.finished, slots.step_background, timeout=300)
     assert train.state == "DONE", train.message
     assert seams.devices.opened == seams.devices.closed
-    from lapig_core.photometric.choice import RENDERED_JUDGE
+    from lapig.lapig_core.photometric.choice import RENDERED_JUDGE
 
     choice = json.load(open(os.path.join(captured["setup_dir"], "models", "compensator_choice.json")))
     assert choice["judge"] == RENDERED_JUDGE  # every held-back image rendered, across the pause
@@ -362,7 +362,7 @@ def test_a_synchronous_run_in_the_ui_waits_for_the_pause_then_resumes_the_backgr
 @pytest.mark.torch
 def test_in_the_background_a_main_thread_device_is_opened_and_closed_within_each_render_step(seams):
     pipeline_jobs = _module("pipeline_jobs")
-    from lapig_core.photometric.choice import RENDERED_JUDGE
+    from lapig.lapig_core.photometric.choice import RENDERED_JUDGE
 
     seams.devices.main_thread = True  # Cycles: its studio is a scene of its own in the artist's file
     captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()

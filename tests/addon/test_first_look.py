@@ -27,7 +27,7 @@ def _summary(folder):
 @pytest.mark.torch
 def test_generate_after_capture_uses_the_first_look_and_says_so(seams, monkeypatch):
     pipeline_jobs, panel_state = _module("pipeline_jobs"), _module("panel_state")
-    from lapig_core.photometric import first_look
+    from lapig.lapig_core.photometric import first_look
 
     captured = _captured(seams)
     store = seams.store
@@ -63,8 +63,8 @@ def test_train_says_how_far_the_networks_are_from_the_first_look_and_generate_us
     line = store.models[1]
     assert store.models[0] == store.capture_fingerprint
     # the line says what the measurement means for the first look (every case: test_first_look_core)
-    from lapig_core.photometric.choice import CompensatorChoice
-    from lapig_core.photometric.first_look import after_train_note
+    from lapig.lapig_core.photometric.choice import CompensatorChoice
+    from lapig.lapig_core.photometric.first_look import after_train_note
 
     note = after_train_note(CompensatorChoice(choice["chosen"], choice["learned_psnr"], choice["classical_psnr"], 1))
     assert note and note in line
@@ -78,8 +78,8 @@ def test_train_says_how_far_the_networks_are_from_the_first_look_and_generate_us
 
 @pytest.mark.torch
 def test_a_first_look_of_another_capture_or_a_damaged_one_is_not_used(seams):
-    from lapig_core.capture.dataset import load_capture_set
-    from lapig_core.photometric import first_look
+    from lapig.lapig_core.capture.dataset import load_capture_set
+    from lapig.lapig_core.photometric import first_look
 
     captured = _captured(seams)
     setup_dir = captured["setup_dir"]
@@ -101,14 +101,16 @@ def test_a_first_look_of_another_capture_or_a_damaged_one_is_not_used(seams):
 def test_a_cancel_while_fitting_the_first_look_keeps_the_capture_and_the_whole_fit(seams, monkeypatch):
     import threading
 
+    from lapig.lapig_core.capture.dataset import load_capture_set
+    from lapig.lapig_core.photometric import first_look
+
     capture_job = _module("capture_job")
-    fitting = importlib.import_module("lapig.lapig_core.photometric.first_look")
-    started, fit = threading.Event(), fitting.fit_first_look
+    started, fit = threading.Event(), first_look.fit_first_look
 
     def fit_when_seen(*args):  # the test knows the fit is under way before it cancels
         started.set()
         return fit(*args)
-    monkeypatch.setattr(fitting, "fit_first_look", fit_when_seen)
+    monkeypatch.setattr(first_look, "fit_first_look", fit_when_seen)
     job = capture_job.CaptureJob(seams, seams.store.capture_settings())
     while job.step():
         if job.message.startswith("fitting the first look"):
@@ -118,9 +120,6 @@ def test_a_cancel_while_fitting_the_first_look_keeps_the_capture_and_the_whole_f
     assert job.state == "CANCELLED"
     store = seams.store
     assert store.recorded == ["capture"]  # the capture was complete and recorded; no first look line
-    from lapig_core.capture.dataset import load_capture_set
-    from lapig_core.photometric import first_look
-
     load_capture_set(store.capture_dir)  # the capture is whole
     # the fit under way when the cancel came finished whole (files written temp-then-rename)
     assert first_look.load_first_look(store.capture_dir, store.capture_fingerprint) is not None

@@ -4,7 +4,7 @@ import threading
 
 import pytest
 
-from lapig_core.common.locking import FolderBusy, FolderLock
+from lapig.lapig_core.common.locking import FolderBusy, FolderLock
 
 
 @pytest.fixture

@@ -11,9 +11,9 @@ import threading
 import numpy as np
 import pytest
 
-from lapig_core.capture.dataset import DatasetError, load_capture_set
-from lapig_core.common.imageio import read_image, to_bit_depth
-from lapig_core.export.result_files import read_output_image
+from lapig.lapig_core.capture.dataset import DatasetError, load_capture_set
+from lapig.lapig_core.common.imageio import read_image, to_bit_depth
+from lapig.lapig_core.export.result_files import read_output_image
 
 
 SERVICES = pathlib.Path(__file__).resolve().parents[2] / "lapig_addon" / "services"

@@ -7,8 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from lapig_core.optics.projector_model import ProjectorModel
-from lapig_core.photometry import dose
+from lapig.lapig_core.optics.projector_model import ProjectorModel
+from lapig.lapig_core.photometry import dose
 
 
 @pytest.fixture
@@ -80,7 +80,7 @@ def test_the_capped_frame_keeps_the_region_within_the_limit(lr):
     plan = lr.LightPlan(lumens=3000, ambient_lux=5, limit=dose.ConservationLimit("high"))
     frame = np.full((8, 10, 3), 200 / 255)
     capped, info = lr.capped_frame(plan, frame, maps.white_lux, maps.ambient_lux, maps.region, model)
-    from lapig_core.photometry.units import LUMA
+    from lapig.lapig_core.photometry.units import LUMA
 
     lux = maps.white_lux * (model.emitted(capped) @ LUMA) + maps.ambient_lux  # what a lux meter reads
     assert lux[maps.region].max() <= 50 and np.allclose(capped[~maps.region], frame[~maps.region])
@@ -107,7 +107,7 @@ def test_export_adds_the_light_figures_and_the_table(lr, sidecar, tmp_path):
 
 
 def test_the_capped_look_is_a_result_of_its_own(tmp_path):
-    from lapig_core.export.result_files import write_result
+    from lapig.lapig_core.export.result_files import write_result
 
     dc = importlib.import_module("lapig.lapig_addon.services.dose_cap")
     free = tmp_path / "20261204_look"
@@ -118,7 +118,7 @@ def test_the_capped_look_is_a_result_of_its_own(tmp_path):
     capped = np.full((12, 16, 3), 0.3, np.float32)
     new = dc.write_capped_result(free, capped, {"limit_lux": 50.0})
     assert new.name == "20261204_look_dose_cap" and not (new / "light_report.json").exists()
-    from lapig_core.export.result_files import read_output_image, read_summary
+    from lapig.lapig_core.export.result_files import read_output_image, read_summary
 
     assert np.allclose(read_output_image(new, "projector"), 0.3, atol=1e-4)
     assert np.allclose(read_output_image(free, "projector"), 0.8, atol=1e-4)  # the free look stays
@@ -136,8 +136,78 @@ def test_a_preset_shapes_the_projector_and_says_what_it_cannot_keep(lr):
     assert settings["black_level"] == pytest.approx(1 / 2000)
     assert any("throws 1.54 to 1.93" in n for n in notes) and any("lens shift" in n for n in notes)
     shaped = ProjectorModel(1920, 1200, 1.54, shift_y=0.6)
-    from lapig_core.photometry import units
+    from lapig.lapig_core.photometry import units
 
     assert settings["brightness"] == pytest.approx(units.lumens_to_watts(15000, shaped))
     plain, notes = lr.projector_settings(lr.LightPlan(lumens=2000), model)
     assert notes == [] and "resolution_x" not in plain and plain["throw_ratio"] == 1.5
+
+
+class _SceneLight:
+    """blender/light_plan_run.SceneLight's fake: flat light maps at the projector's size, and whether the
+    capture's lock was held (by someone) while each was rendered."""
+
+    def __init__(self, model, capture_root):
+        self.model, self.capture_root = model, capture_root
+        self.renders, self.reported = [], []
+
+    def _lock_held(self) -> bool:
+        from lapig.lapig_core.common.locking import FolderBusy, FolderLock
+
+        try:
+            FolderLock(self.capture_root, "the test").acquire().release()
+        except FolderBusy:
+            return True
+        return False
+
+    def _maps(self, width, height):
+        white = np.full((height, width), 900.0)
+        region = np.zeros((height, width), bool)
+        region[height // 4: 3 * height // 4] = True
+        return SimpleNamespace(white_lux=white, ambient_lux=np.full((height, width), 5.0),
+                               on_object=np.ones((height, width), bool), region=region)
+
+    def room(self):
+        self.renders.append(("room", self._lock_held()))
+        return self._maps(16, 12)
+
+    def native(self):
+        self.renders.append(("native", self._lock_held()))
+        return self._maps(self.model.width, self.model.height)
+
+    def report(self, folder):
+        self.reported.append(folder)
+
+
+def test_limit_look_to_the_dose_is_a_job_under_the_captures_lock_and_measures_on_the_factorys_device(seams, tmp_path):
+    from lapig.lapig_core.capture.dataset import resolve_setup
+    from lapig.lapig_core.common.locking import FolderLock
+    from lapig.lapig_core.export.result_files import read_output_image, read_summary, write_new_result
+
+    lr = importlib.import_module("lapig.lapig_addon.services.light_report")
+    dc = importlib.import_module("lapig.lapig_addon.services.dose_cap")
+    capture_job = importlib.import_module("lapig.lapig_addon.services.capture_job")
+    captured = capture_job.CaptureJob(seams, seams.store.capture_settings(train_count=4, test_count=0)).run_to_completion()
+    model = seams.store.projector_model()
+    look = np.full((model.height, model.width, 3), 0.9, np.float32)
+    free = write_new_result(tmp_path / "results", "look", {"projector": look, "target": look * 0.8},
+                            {"prompt": "a look", "summary_line": "a look; simulated 30.0 dB"})
+    seams.store.record_result(str(free), "a look; simulated 30.0 dB")
+    root = resolve_setup(captured["setup_dir"]).root
+    light = _SceneLight(model, root)
+    plan = lr.LightPlan(lumens=3000, ambient_lux=5, limit=dose.ConservationLimit("high"))
+    factory = seams.devices
+    opened = factory.opened
+    out = dc.DoseCapJob(seams, plan, light, measure_psnr=True).run_to_completion()
+
+    assert light.renders == [("room", True), ("native", True)]  # the capture's folder held by the job
+    FolderLock(root, "the test").acquire().release()  # and let go of at the end
+    assert factory.opened == opened + 1 and factory.closed == factory.opened  # the rig opened once, and closed
+    assert f"LAPIG: {dc.DoseCapJob.title}" in factory.threads  # by the job, on a worker as the factory asks
+    assert "psnr_cost_db" in out and out["psnr_free_db"] > 0  # both frames projected on the factory's rig
+    new = out["folder"]
+    assert seams.store.result[:2] == (new, "a look; simulated 30.0 dB | limited to the light dose")
+    assert light.reported == [new]  # its light report written
+    capped = read_output_image(new, "projector")
+    np.testing.assert_array_equal(seams.sinks[0].frames[-1].image, capped)  # the light and the live window show it
+    assert capped.max() < 0.9 and read_summary(new)["dose_cap"]["capped_from"] == str(free)

@@ -7,9 +7,9 @@ import threading
 import numpy as np
 import pytest
 
-from lapig_core.capture.fake_device import FakeDevice
-from lapig_core.rig.clock import VirtualClock
-from lapig_core.rig.simulated import CameraFaults, SimulatedCamera, SimulatedScreen
+from lapig.lapig_core.capture.fake_device import FakeDevice
+from lapig.lapig_core.rig.clock import VirtualClock
+from lapig.lapig_core.rig.simulated import CameraFaults, SimulatedCamera, SimulatedScreen
 
 from job_fakes import PROJECTOR_SIZE, FakeSink, FakeStore
 
@@ -61,7 +61,7 @@ def test_a_real_rig_captures_on_a_worker_thread_and_records_what_it_measured(rig
     assert meta["fingerprint"] == seams.devices.rig_identity().key() == seams.store.capture_fingerprint
     assert meta["sync"]["frame_code"].startswith("verified") and meta["sync"]["rejected"]
     assert meta["device_timing"]["latency_s"] >= 0.1 and meta["health"]["problems"] == []
-    from lapig_core.rig.simulated import sync_outcome
+    from lapig.lapig_core.rig.simulated import sync_outcome
 
     got = sync_outcome(seams.devices.last_device, hardware.screen, hardware.camera)
     assert got["caught"] == got["bad"] > 0 and got["false_alarms"] == 0
@@ -138,7 +138,7 @@ def test_the_live_window_shows_the_pixels_export_writes_and_survives_an_esc(stat
 
 def test_a_crossfade_plays_at_its_frame_rate():
     live = _module("rigs.live_output")
-    from lapig_core.export.projector_image import crossfade_frames
+    from lapig.lapig_core.export.projector_image import crossfade_frames
 
     class Clock:
         now = 0.0

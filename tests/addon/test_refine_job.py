@@ -5,15 +5,16 @@ import importlib
 import json
 import os
 import pathlib
+import threading
 
 import cv2
 import numpy as np
 import pytest
 
-from lapig_core.capture.dataset import load_capture_set
-from lapig_core.export.result_files import output_name, read_output_image, read_summary, write_new_result
-from lapig_core.photometric.classical import ClassicalModel
-from lapig_core.photometric.targets import desired_targets, reachable_mask
+from lapig.lapig_core.capture.dataset import load_capture_set
+from lapig.lapig_core.export.result_files import output_name, read_output_image, read_summary, write_new_result
+from lapig.lapig_core.photometric.classical import ClassicalModel
+from lapig.lapig_core.photometric.targets import desired_targets, reachable_mask
 
 from job_fakes import FakeFactory, FakeSink, FakeStore
 
@@ -25,11 +26,11 @@ def _module(name):
     return importlib.import_module(f"{ADDON}.{name}")
 
 
-def _seams(tmp_path, simulated=False):
+def _seams(tmp_path, simulated=False, main_thread=False):
     ports, state = _module("services.ports"), _module("services.state")
-    factory = FakeFactory(ports)
+    factory = FakeFactory(ports, main_thread=main_thread)
     if simulated:  # a real rig's device (frame code, latency, verified grabs) over the fake's optics
-        from lapig_core.rig.clock import VirtualClock
+        from lapig.lapig_core.rig.clock import VirtualClock
 
         factory = _module("rigs.real_rig").SimulatedRigFactory(factory, clock=VirtualClock())
     return ports.Seams(FakeStore(state, tmp_path / "data", factory), factory, (FakeSink(),))
@@ -81,6 +82,27 @@ def test_refinement_writes_the_refined_result_and_the_sinks_show_it(tmp_path):
     assert sidecar["refine"]["refined_psnr"] == rec["refined_psnr"]
     # the device was opened once for every round of captures, and closed
     assert seams.devices.closed == seams.devices.opened == 2  # the capture's and the refinement's
+
+
+def test_the_classical_fit_is_a_worker_step_on_a_main_thread_rig(tmp_path, monkeypatch):
+    """A capture without its first look: the job fits the classical model. With Cycles (a main-thread rig) the
+    job's own steps run on Blender's thread, so the fit (seconds) must run on a worker thread."""
+    from lapig.lapig_core.photometric.first_look import FIRST_LOOK_FILE, models_dir
+
+    seams = _seams(tmp_path, main_thread=True)
+    folder = _result(seams, tmp_path)
+    os.remove(models_dir(read_summary(folder)["capture"]) / FIRST_LOOK_FILE)
+    classical = importlib.import_module("lapig.lapig_core.photometric.classical").ClassicalModel
+    fit, fitted_on = classical.fit.__func__, []
+
+    def fit_and_say_where(cls, *args, **kwargs):
+        fitted_on.append(threading.current_thread())
+        return fit(cls, *args, **kwargs)
+
+    monkeypatch.setattr(classical, "fit", classmethod(fit_and_say_where))
+    rec = _module("services.refine_job").RefineResultJob(seams, 2).run_to_completion()["refine"]
+    assert rec["refined_psnr"] > rec["open_loop_psnr"]
+    assert fitted_on and threading.main_thread() not in fitted_on, "the classical model was fitted on the main thread"
 
 
 def test_refinement_runs_through_a_simulated_real_rig(tmp_path):

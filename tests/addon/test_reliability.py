@@ -125,7 +125,7 @@ def test_ctrl_c_in_a_worker_job_stops_and_joins_the_worker(monkeypatch):
 
 
 def _tiny_set(root, fingerprint):
-    from lapig_core.capture.dataset import DatasetLayout, write_capture, write_projector_images, write_setup_json
+    from lapig.lapig_core.capture.dataset import DatasetLayout, write_capture, write_projector_images, write_setup_json
 
     layout = DatasetLayout(root, "wall")
     images = [np.full((8, 8, 3), v, np.float32) for v in (0.0, 1.0, 0.5)]
@@ -139,7 +139,7 @@ def _tiny_set(root, fingerprint):
 
 
 def test_a_non_text_fingerprint_is_refused_when_the_set_is_loaded(tmp_path):
-    from lapig_core.capture.dataset import DatasetError, load_capture_set
+    from lapig.lapig_core.capture.dataset import DatasetError, load_capture_set
 
     assert load_capture_set(_tiny_set(tmp_path / "good", "90d1dc1c").setup_dir).meta["fingerprint"] == "90d1dc1c"
     with pytest.raises(DatasetError, match='"fingerprint" must be text, got 12345'):
@@ -155,7 +155,7 @@ def test_a_non_text_fingerprint_is_refused_when_the_set_is_loaded(tmp_path):
 def test_a_checkpoint_with_a_damaged_header_is_refused_with_its_name(tmp_path, damage, message):
     import torch
 
-    from lapig_core.photometric import checkpoints
+    from lapig.lapig_core.photometric import checkpoints
 
     data = torch.load(checkpoints.pretrained_path("PCNet", "simulation"), map_location="cpu", weights_only=True)
     damage(data["header"])
@@ -170,7 +170,7 @@ def test_a_checkpoint_with_a_damaged_header_is_refused_with_its_name(tmp_path, d
 
 
 def test_export_into_an_existing_folder_is_refused_and_writes_nothing_beside_it(tmp_path):
-    from lapig_core.export.projector_image import ExportError, crossfade_sequence, export_projector_image
+    from lapig.lapig_core.export.projector_image import ExportError, crossfade_sequence, export_projector_image
 
     folder = tmp_path / "exports"
     folder.mkdir()

@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from lapig_core.rig.simulated import CameraFaults
+from lapig.lapig_core.rig.simulated import CameraFaults
 
 from job_fakes import PROJECTOR_SIZE, FakeSink, FakeStore
 from test_real_rig import FakeWindow, SimulatedHardware
@@ -227,7 +227,7 @@ def test_the_device_search_keeps_both_lists_and_says_why_one_failed(monkeypatch)
 
 @pytest.fixture
 def result_folder(tmp_path):
-    from lapig_core.export.result_files import write_result
+    from lapig.lapig_core.export.result_files import write_result
 
     h, w = PROJECTOR_SIZE[1], PROJECTOR_SIZE[0]
     ramp = np.broadcast_to(np.linspace(0, 1, w, dtype=np.float32)[None, :, None], (h, w, 3)).copy()
@@ -263,6 +263,85 @@ def test_the_crossfade_plays_on_the_live_window_and_ends_on_the_look(tmp_path, s
     finally:
         live.close_live()
     assert live.status_lines() == []  # closed on purpose: nothing to say
+
+
+class _SlowWindows:
+    """A window factory whose windows open when the test says so, as the helper process does after its start
+    (up to 20 s): which thread opened each, and each window made."""
+
+    def __init__(self, fails: str = ""):
+        self.started, self.release, self.fails = threading.Event(), threading.Event(), fails
+        self.threads, self.windows = [], []
+
+    def __call__(self, display):
+        self.started.set()
+        assert self.release.wait(10)
+        self.threads.append(threading.current_thread())
+        if self.fails:
+            raise _module("rigs.live_output").RigError(self.fails)
+        self.windows.append(FakeWindow())
+        return self.windows[-1]
+
+
+def _step_until(job, condition, limit_s=10.0):
+    """Step the job as Blender's timer does (never waiting); the longest step in seconds."""
+    job.poll_timeout, longest, deadline = 0, 0.0, time.monotonic() + limit_s
+    while not condition():
+        assert time.monotonic() < deadline, job.message
+        t = time.perf_counter()
+        job.step()
+        longest = max(longest, time.perf_counter() - t)
+        time.sleep(0.005)
+    return longest
+
+
+def test_the_projector_window_opens_in_a_job_that_never_holds_the_main_thread(result_folder):
+    from lapig.lapig_core.export.result_files import read_output_image
+
+    live, ports = _module("rigs.live_output"), _module("services.ports")
+    look = live.StoredLook(result_folder, *PROJECTOR_SIZE, bit_depth=8)
+    windows = _SlowWindows()
+    job = live.OpenWindowJob("1", look, window_factory=windows)
+    try:
+        longest = _step_until(job, windows.started.is_set)
+        longest = max(longest, _step_until(job, lambda: job.message.startswith("opening")))
+        assert job.message == "opening the projector window on display 1" and live.open_sinks() == ()
+        windows.release.set()
+        longest = max(longest, _step_until(job, lambda: job.finished))
+        assert job.state == "DONE", job.message
+        assert longest < 0.1 and threading.main_thread() not in windows.threads
+        assert live.open_sinks() == (job.result,) and job.result.window is windows.windows[0]
+        expected = ports.ProjectorFrame(read_output_image(result_folder, "projector"), *PROJECTOR_SIZE, 8).pixels
+        np.testing.assert_array_equal(windows.windows[0].shown[-1], expected)  # the look Export writes
+    finally:
+        live.close_live()
+
+    # Esc while the helper starts: the job ends at once, and the window, once open, is closed and never live
+    windows = _SlowWindows()
+    job = live.OpenWindowJob("1", live.StoredLook(), window_factory=windows)
+    _step_until(job, windows.started.is_set)
+    job.cancel()
+    assert job.state == "CANCELLED"
+    windows.release.set()
+    job.stop()  # waits for the worker
+    assert len(windows.windows) == 1 and not windows.windows[0].is_open and live.open_sinks() == ()
+
+    # a helper that does not start: the job fails with its one line, and nothing is live
+    said = "the projector window did not open on display '1': the helper did not start within 20 s; its stderr: nothing"
+    windows = _SlowWindows(fails=said)
+    windows.release.set()
+    job = live.OpenWindowJob("1", live.StoredLook(), window_factory=windows)
+    assert job.run() == "FAILED" and job.message == said and live.open_sinks() == ()
+
+    # no result yet: the identification frame
+    windows = _SlowWindows()
+    windows.release.set()
+    sink = live.OpenWindowJob("1", live.StoredLook(), window_factory=windows).run_to_completion()
+    try:
+        np.testing.assert_array_equal(windows.windows[0].shown[-1], live.identification_frame(PROJECTOR_SIZE))
+        assert live.open_sinks() == (sink,)
+    finally:
+        live.close_live()
 
 
 def test_the_identification_frame_outlines_the_display():

@@ -5,7 +5,7 @@ import pytest
 @pytest.fixture
 def scene_capture(state):
     """The Capture panel of a scene whose ambient light and gray level are not the defaults."""
-    from lapig_core.capture.settings import CaptureSettings
+    from lapig.lapig_core.capture.settings import CaptureSettings
 
     return CaptureSettings(out_dir="/data/Wall", setup_name="Wall", train_count=32, test_count=8,
                            working_size=256, gray_level=0.4, samples=1, ambient=0.12, seed=0,

@@ -153,3 +153,61 @@ def test_light_report_previews_and_export_carry_the_figures(small_setup, tmp_pat
     p = projector.lapig_projector
     assert (p.resolution_x, p.resolution_y) == (1024, 768) and p.throw_ratio == pytest.approx(1.5)
     assert projector.data.energy == pytest.approx(p.brightness) and p.black_level == pytest.approx(1 / 500)
+
+
+def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captures_folder(small_setup, tmp_path,
+                                                                                           monkeypatch):
+    """A foreground job like Refine: the background Train pauses (and lets go of the capture's folder), the cap
+    holds that folder while it renders and writes, and Train goes on afterwards."""
+    import time
+
+    from test_existing_result import write_fake_result
+
+    from lapig.lapig_addon.blender import light_render, scene_state
+    from lapig.lapig_addon.blender.modal_runner import SLOTS
+    from lapig.lapig_addon.services.jobs import WorkerJob
+    from lapig.lapig_core.common.locking import LOCK_FILE, FolderLock, holder_of
+
+    scene, projector = small_setup[:2]
+    root = tmp_path / "data"
+    (root / "setups" / "panel").mkdir(parents=True)  # the scene's capture, as the data set lays it out
+    scene_state.record_capture(scene, str(root / "setups" / "panel"), scene_state.read_rig(scene).fingerprint)
+    p = projector.lapig_projector
+    scene.lapig.result_dir = write_fake_result(tmp_path / "result", p.resolution_x, p.resolution_y)
+    s = scene.lapig_light
+    s.preset, s.ambient_lux, s.category = "panasonic-pt-lb90", 10.0, "HIGH"
+
+    class TrainHoldingTheCapture(WorkerJob):
+        title = "LAPIG training"
+
+        def hold(self, inputs):
+            return FolderLock(root, self.title).acquire()
+
+        def work(self, inputs, report, cancel_event):
+            while not cancel_event.is_set():
+                report(0.5, "training")
+                time.sleep(0.01)
+
+    train = TrainHoldingTheCapture()
+    train.poll_timeout = 0
+    assert SLOTS.start_background(train)
+    SLOTS.step_background()
+    while not (root / LOCK_FILE).exists():
+        time.sleep(0.01)
+    seen = []
+    render_maps = light_render.LightStudio.render_maps
+
+    def render_and_see(studio):  # the room's light, the projector's at its native size, the new look's report
+        seen.append((train.paused, holder_of(root / LOCK_FILE)))
+        return render_maps(studio)
+
+    monkeypatch.setattr(light_render.LightStudio, "render_maps", render_and_see)
+    try:
+        assert bpy.ops.lapig.light_cap() == {"FINISHED"}
+        assert len(seen) == 3 and all(paused for paused, _ in seen), "the background Train was not paused"
+        for _, holder in seen[:2]:  # the cap's renders: the cap holds the capture's folder
+            assert holder.startswith("LAPIG limit to the dose"), holder
+        assert scene.lapig.result_dir.endswith("_dose_cap") and not train.pause_requested  # Train goes on
+    finally:
+        SLOTS.cancel_background()
+        SLOTS.end_background(train, None)

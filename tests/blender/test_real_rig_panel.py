@@ -6,6 +6,7 @@ virtual two-monitor screen of tools/virtual_screens (marker `display`)."""
 import json
 import os
 import subprocess
+import threading
 import time
 
 import numpy as np
@@ -338,6 +339,94 @@ def test_the_camera_view_fills_its_image_and_stops_on_toggle_error_and_file_load
     assert camera_view.current_view() is None and not view.running
 
 
+class _StartingWindows:
+    """ProjectorWindow as the operator reaches it: the window of a helper process that starts when the test
+    says so (up to 20 s for a real one), or fails to; which thread opened each."""
+
+    def __init__(self, fails: str = ""):
+        self.started, self.release, self.fails = threading.Event(), threading.Event(), fails
+        self.threads, self.windows = [], []
+
+    def __call__(self, display, **kwargs):
+        from lapig.lapig_core.rig import RigError
+
+        self.started.set()
+        assert self.release.wait(20)
+        self.threads.append(threading.current_thread())
+        if self.fails:
+            raise RigError(self.fails)
+
+        class Window:
+            size, is_open, shown = (160, 120), True, []
+
+            def show(self, pixels):
+                self.shown.append(pixels)
+                return time.perf_counter()
+
+            def close(self):
+                self.is_open = False
+
+        self.windows.append(Window())
+        return self.windows[-1]
+
+
+@pytest.fixture
+def starting_windows(monkeypatch):
+    from lapig.lapig_core.rig import projector_window
+
+    windows = _StartingWindows()
+    monkeypatch.setattr(projector_window, "ProjectorWindow", windows)
+    return windows
+
+
+def test_show_on_projector_starts_the_windows_helper_off_the_main_thread(small_setup, starting_windows):
+    from lapig.lapig_addon.rigs import live_output
+
+    _real(small_setup[0])
+    starting_windows.release.set()
+    assert bpy.ops.lapig.show_on_projector() == {"FINISHED"}
+    assert starting_windows.threads, "no window was opened"
+    assert threading.main_thread() not in starting_windows.threads, "the window's helper started on Blender's main thread"
+    assert live_output.open_sinks()[0].window is starting_windows.windows[0]
+    assert bpy.ops.lapig.show_on_projector() == {"FINISHED"}  # again: closed
+    assert not live_output.open_sinks()
+
+
+def test_the_panel_says_the_window_is_opening_esc_cancels_and_a_failure_is_one_line(small_setup, starting_windows):
+    from lapig.lapig_addon.blender import live_devices
+    from lapig.lapig_addon.blender.modal_runner import SLOTS
+    from lapig.lapig_addon.rigs import live_output
+
+    _real(small_setup[0])
+    job = live_devices.projector_job(small_setup[0])  # what the operator runs, stepped as its timer does
+    job.poll_timeout = 0
+    assert SLOTS.start_foreground(job) is None
+    try:
+        deadline = time.monotonic() + 20
+        while not job.message.startswith("opening"):
+            assert time.monotonic() < deadline, job.message
+            job.step()
+            time.sleep(0.01)
+        log = draw_panels(bpy.context, [])
+        opening = ("progress", "opening the projector window on display 1 (Esc to cancel)")
+        assert log[log.index(("operator", "lapig.show_on_projector")) - 1] == opening  # above the window's button
+        job.cancel()  # Esc
+        assert job.state == "CANCELLED"
+    finally:
+        SLOTS.end_foreground(job)
+        starting_windows.release.set()
+        job.stop()
+    assert not live_output.open_sinks() and not starting_windows.windows[0].is_open
+    assert not [e for e in draw_panels(bpy.context, []) if e[0] == "progress"]
+
+    starting_windows.fails = "the projector window did not open on display '1': the helper did not start within 20 s"
+    with pytest.raises(RuntimeError) as failed:
+        bpy.ops.lapig.show_on_projector()
+    said = str(failed.value).strip()
+    assert said == ("Error: LAPIG projector window failed: the projector window did not open on display '1': the "
+                    "helper did not start within 20 s") and not live_output.open_sinks()
+
+
 # ------------------------------------------------------------------ the live window on a virtual screen
 
 @pytest.fixture(scope="module")
@@ -423,3 +512,28 @@ def test_rig_real_on_the_command_line_over_a_scene_rig_without_a_display_says_wh
     assert rig_choice.apply(args, scene) is None
     r = scene.lapig.real
     assert r.display == "EPSON" and r.camera == "0" and r.use_exposure and r.exposure == -5.0  # the panel shows it
+
+
+@pytest.mark.torch
+def test_capture_train_generate_refine_and_export_through_the_operators_on_simulated_hardware(small_setup, hardware,
+                                                                                          tmp_path):
+    """The real rig's whole chain as the artist runs it: Train's rendered choice projects and captures on the
+    rig (as Refine does), Generate, Refine on the rig and Export after it."""
+    from lapig.lapig_addon.blender import scene_state
+
+    scene = small_setup[0]
+    s = scene.lapig
+    _real(scene)
+    s.train_count, s.test_count, s.working_size, s.finetune_iterations = 10, 2, 64, 3
+    assert bpy.ops.lapig.capture() == {"FINISHED"}
+    assert bpy.ops.lapig.train_models() == {"FINISHED"}
+    assert "in captures on the rig 'gallery rig' of 2 held-back images" in s.models_status, s.models_status
+    s.prompt = "charcoal"
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
+    assert bpy.ops.lapig.refine_result() == {"FINISHED"}
+    result = json.load(open(os.path.join(bpy.path.abspath(s.result_dir), "result.json"), encoding="utf-8"))
+    assert 1 <= result["refine"]["iterations"] and result["refine"]["images"]["projector"].startswith("projector_refined")
+    out = str(tmp_path / "projector.png")
+    assert bpy.ops.lapig.export_image(filepath=out) == {"FINISHED"}
+    assert os.path.isfile(out) and os.path.isfile(str(tmp_path / "projector.json"))
+    assert scene_state.read(scene).rig.kind == "REAL"

@@ -6,9 +6,9 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.lgst import get_backend
-from lapig_core.lgst.arbitrary_backend import ArbitraryStyleBackend, mix_vectors
-from lapig_core.common.style_image import StyleImageError
+from lapig.lapig_core.lgst import get_backend
+from lapig.lapig_core.lgst.arbitrary_backend import ArbitraryStyleBackend, mix_vectors
+from lapig.lapig_core.common.style_image import StyleImageError
 
 pytestmark = pytest.mark.torch
 
@@ -37,7 +37,7 @@ def _session(name, float_activations):
     import onnx
     import onnxruntime as ort
 
-    from lapig_core.lgst.arbitrary_net import model_file
+    from lapig.lapig_core.lgst.arbitrary_net import model_file
 
     model = onnx.load(str(model_file(name)))
     graph = model.graph
@@ -59,7 +59,7 @@ def _session(name, float_activations):
 
 
 def _run_onnx(float_activations, image, size=64):
-    from lapig_core.lgst.arbitrary_net import PREDICT_FILE, TRANSFORM_FILE
+    from lapig.lapig_core.lgst.arbitrary_net import PREDICT_FILE, TRANSFORM_FILE
 
     nhwc = image.permute(0, 2, 3, 1).numpy()
     predict = _session(PREDICT_FILE, float_activations)
@@ -72,7 +72,7 @@ def _run_onnx(float_activations, image, size=64):
 
 @needs_ort
 def test_port_matches_the_onnx_graph_run_by_onnxruntime():
-    from lapig_core.lgst.arbitrary_net import load_predictor, load_transformer
+    from lapig.lapig_core.lgst.arbitrary_net import load_predictor, load_transformer
 
     image = _image(64, 1)
     vector, styled = _run_onnx(True, image)
@@ -87,7 +87,7 @@ def test_port_matches_the_onnx_graph_run_by_onnxruntime():
 def test_port_is_near_the_int8_runtime():
     """The int8 graph rounds every activation; the float port stays within that rounding's reach
     (measured at 64 px: style vector mean 0.08, image mean 0.11), and a wrong layer would be far off."""
-    from lapig_core.lgst.arbitrary_net import load_predictor, load_transformer
+    from lapig.lapig_core.lgst.arbitrary_net import load_predictor, load_transformer
 
     image = _image(64, 2)
     vector, styled = _run_onnx(False, image)
@@ -116,7 +116,7 @@ def _cpu_has_vnni() -> bool:
 
 @needs_nets
 def test_style_params_are_linear_in_the_vector():
-    from lapig_core.lgst.arbitrary_net import load_transformer
+    from lapig.lapig_core.lgst.arbitrary_net import load_transformer
 
     net = load_transformer()
     a, b = torch.randn(100), torch.randn(100)

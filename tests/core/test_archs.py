@@ -4,8 +4,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.photometric.archs import ARCHS, CompenNeSt, PCNet, build, count_parameters, describe
-from lapig_core.photometric.losses import compensation_saturation_loss
+from lapig.lapig_core.photometric.archs import ARCHS, CompenNeSt, PCNet, build, count_parameters, describe
+from lapig.lapig_core.photometric.losses import compensation_saturation_loss
 
 
 def _imgs(b=2, h=32, w=32, seed=0):

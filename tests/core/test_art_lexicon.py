@@ -8,8 +8,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.lgst import art_lexicon  # noqa: E402
-from lapig_core.lgst.art_lexicon import ENTRIES, entry  # noqa: E402
+from lapig.lapig_core.lgst import art_lexicon  # noqa: E402
+from lapig.lapig_core.lgst.art_lexicon import ENTRIES, entry  # noqa: E402
 
 pytestmark = pytest.mark.torch
 
@@ -79,7 +79,7 @@ def test_names_are_found_as_written_misspelt_and_without_their_painter():
     assert [m.entry.name for m in art_lexicon.find_written("Picasso's blue period")] == ["Picasso's Blue Period"]
     assert [m.entry.name for m in art_lexicon.find_written("ゴッホ風に")] == ["Van Gogh"]
     assert art_lexicon.find_misspelt("Make it a Kandinski", [])[0].entry.name == "Kandinsky"
-    from lapig_core.lgst.prompt_plan import _common_words
+    from lapig.lapig_core.lgst.prompt_plan import _common_words
 
     # runs with a common word are no names ("movie poster" is not "soviet poster")
     assert art_lexicon.find_misspelt("Teal and orange, like a movie poster", [], _common_words()) == []
@@ -90,7 +90,7 @@ def test_names_are_found_as_written_misspelt_and_without_their_painter():
 @needs_text
 @pytest.mark.parametrize("prompt,name", PAPER)
 def test_the_papers_prompts_all_map_to_their_entry(prompt, name):
-    from lapig_core.lgst.prompt_plan import plan_prompt
+    from lapig.lapig_core.lgst.prompt_plan import plan_prompt
 
     plan = plan_prompt(prompt)
     assert plan.entry is not None and plan.entry.name == name and plan.unmatched == [], plan.summary()
@@ -99,7 +99,7 @@ def test_the_papers_prompts_all_map_to_their_entry(prompt, name):
 
 @needs_text
 def test_the_name_is_what_the_look_is_about():
-    from lapig_core.lgst.prompt_plan import plan_prompt
+    from lapig.lapig_core.lgst.prompt_plan import plan_prompt
 
     plan = plan_prompt("Paint it like Monet's water lilies")
     assert plan.entry.name == "Monet" and plan.entry_works == ["water lilies"]
@@ -125,7 +125,7 @@ def test_the_name_is_what_the_look_is_about():
 
 @needs_text
 def test_names_in_other_languages_resolve():
-    from lapig_core.lgst.prompt_plan import plan_prompt
+    from lapig.lapig_core.lgst.prompt_plan import plan_prompt
 
     for prompt, name in (("Un tableau de Monet", "Monet"), ("Jugendstil", "Art Nouveau"),
                          ("Une miniature persane", "Persian miniature"),
@@ -140,7 +140,7 @@ def test_names_in_other_languages_resolve():
 
 @needs_e5
 def test_a_name_no_alias_lists_is_found_by_meaning_with_the_multilingual_embedder():
-    from lapig_core.lgst.prompt_plan import plan_prompt
+    from lapig.lapig_core.lgst.prompt_plan import plan_prompt
 
     plan = plan_prompt("Kubizm")  # Polish
     assert plan.entry.name == "Cubism" and plan.entry_how == "meaning"
@@ -149,7 +149,7 @@ def test_a_name_no_alias_lists_is_found_by_meaning_with_the_multilingual_embedde
 
 @needs_text
 def test_unknown_names_get_the_three_nearest_entries():
-    from lapig_core.lgst.prompt_plan import plan_prompt
+    from lapig.lapig_core.lgst.prompt_plan import plan_prompt
 
     plan = plan_prompt("Make it a Zorblax painting")
     assert plan.entry is None
@@ -165,7 +165,7 @@ def test_unknown_names_get_the_three_nearest_entries():
 @needs_text
 @needs_style_net
 def test_a_named_look_is_a_chain_psa_can_move():
-    from lapig_core.lgst import get_backend
+    from lapig.lapig_core.lgst import get_backend
 
     y, x = torch.meshgrid(torch.linspace(0, 1, 40), torch.linspace(0, 1, 40), indexing="ij")
     surface = (torch.stack([x, y, 1 - x * y]) * 0.7 + 0.15)[None]

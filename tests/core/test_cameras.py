@@ -10,12 +10,12 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.rig import RigError
-from lapig_core.rig import cameras
-from lapig_core.rig.cameras import OpenCVCamera, list_cameras, native_backend, resolve_backend, to_rgb
-from lapig_core.rig import tethered
-from lapig_core.rig.gphoto import GphotoTrigger
-from lapig_core.rig.tethered import TetheredFolderCamera, decode_frame, ends_complete
+from lapig.lapig_core.rig import RigError
+from lapig.lapig_core.rig import cameras
+from lapig.lapig_core.rig.cameras import OpenCVCamera, list_cameras, native_backend, resolve_backend, to_rgb
+from lapig.lapig_core.rig import tethered
+from lapig.lapig_core.rig.gphoto import GphotoTrigger
+from lapig.lapig_core.rig.tethered import TetheredFolderCamera, decode_frame, ends_complete
 
 COLOURS = [(255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 0), (0, 255, 255), (128, 128, 128)]  # RGB
 W, H = 64, 48

@@ -9,14 +9,14 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.capture import staging
-from lapig_core.capture.dataset import DatasetError, load_capture_set
-from lapig_core.capture.fake_device import FakeDevice
-from lapig_core.capture.registration import Registration, frame_grid
-from lapig_core.capture.sequence import GeometryChecks, pattern_images, run_capture
-from lapig_core.capture.settings import CaptureError, CaptureSettings
-from lapig_core.common.locking import FolderBusy
-from lapig_core.common.steps import run_to_end
+from lapig.lapig_core.capture import staging
+from lapig.lapig_core.capture.dataset import DatasetError, load_capture_set
+from lapig.lapig_core.capture.fake_device import FakeDevice
+from lapig.lapig_core.capture.registration import Registration, frame_grid
+from lapig.lapig_core.capture.sequence import GeometryChecks, pattern_images, run_capture
+from lapig.lapig_core.capture.settings import CaptureError, CaptureSettings
+from lapig.lapig_core.common.locking import FolderBusy
+from lapig.lapig_core.common.steps import run_to_end
 
 SETUP = "plane"
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lapig_core.photometric.classical import ClassicalModel
+from lapig.lapig_core.photometric.classical import ClassicalModel
 
 GC, GP = 2.2, 1.8
 H, W = 32, 40

@@ -5,8 +5,8 @@ import pytest
 
 pytest.importorskip("torch")  # the colour parser is plain Python, but the lgst package imports torch
 
-from lapig_core.lgst.colour_names import ALL_COLOURS, CSS_COLOURS, hex_to_rgb  # noqa: E402
-from lapig_core.lgst.colours import colour_by_name, parse_colours  # noqa: E402
+from lapig.lapig_core.lgst.colour_names import ALL_COLOURS, CSS_COLOURS, hex_to_rgb  # noqa: E402
+from lapig.lapig_core.lgst.colours import colour_by_name, parse_colours  # noqa: E402
 
 
 def names(text):

@@ -4,9 +4,9 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.photometric import choice  # noqa: E402
-from lapig_core.photometric.classical import ClassicalModel  # noqa: E402
-from lapig_core.photometric.classical_compensator import ClassicalCompensator  # noqa: E402
+from lapig.lapig_core.photometric import choice  # noqa: E402
+from lapig.lapig_core.photometric.classical import ClassicalModel  # noqa: E402
+from lapig.lapig_core.photometric.classical_compensator import ClassicalCompensator  # noqa: E402
 from lapig.tools.research import projector_space_choice as by_pairs  # noqa: E402
 
 
@@ -139,13 +139,13 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
     """train_models measures the fine-tuned network against the classical model and records the better one,
     and surface_models hands out that compensator with the choice: the network where it won, the classical
     model where the saved choice says classical."""
-    from lapig_core.capture.dataset import load_capture_set
-    from lapig_core.capture.fake_device import FakeDevice
-    from lapig_core.capture.sequence import GeometryChecks, run_capture
-    from lapig_core.capture.settings import CaptureSettings
-    from lapig_core.common.steps import run_to_end
-    from lapig_core.capture.dataset import setup_dir_of
-    from lapig_core.pipeline import surface_models, train_models
+    from lapig.lapig_core.capture.dataset import load_capture_set
+    from lapig.lapig_core.capture.fake_device import FakeDevice
+    from lapig.lapig_core.capture.sequence import GeometryChecks, run_capture
+    from lapig.lapig_core.capture.settings import CaptureSettings
+    from lapig.lapig_core.common.steps import run_to_end
+    from lapig.lapig_core.capture.dataset import setup_dir_of
+    from lapig.lapig_core.pipeline import surface_models, train_models
 
     device = FakeDevice(projector_size=(48, 36), camera_size=(96, 72))
     settings = CaptureSettings(out_dir=str(tmp_path), train_count=12, test_count=4, working_size=48, chunk=8)
@@ -195,8 +195,8 @@ def test_the_rendered_choice_takes_the_compensator_whose_captures_come_nearer():
 
 
 def test_the_verification_compensates_held_back_images_both_ways_inside_the_surfaces_range():
-    from lapig_core.capture.dataset import CaptureSet
-    from lapig_core.photometric.checkpoints import new_model
+    from lapig.lapig_core.capture.dataset import CaptureSet
+    from lapig.lapig_core.photometric.checkpoints import new_model
 
     prj, cam = _pairs(24, 6)
     classical = ClassicalModel.fit(prj[:16], cam[:16])

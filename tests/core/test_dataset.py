@@ -7,10 +7,10 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.common import atomic
-from lapig_core.capture.dataset import (PRJ_DIGEST_KEY, DatasetError, DatasetLayout, list_images, load_capture_set, projector_images_digest, setup_dir_of, summarize, write_capture, write_projector_images, write_setup_json)
-from lapig_core.common.imageio import ImageReadError, read_image, to_float, to_uint8, write_png
-from lapig_core.capture.patterns import generate_patterns, reference_patterns
+from lapig.lapig_core.common import atomic
+from lapig.lapig_core.capture.dataset import (PRJ_DIGEST_KEY, DatasetError, DatasetLayout, list_images, load_capture_set, projector_images_digest, setup_dir_of, summarize, write_capture, write_projector_images, write_setup_json)
+from lapig.lapig_core.common.imageio import ImageReadError, read_image, to_float, to_uint8, write_png
+from lapig.lapig_core.capture.patterns import generate_patterns, reference_patterns
 
 SIZE = 32
 

@@ -11,12 +11,12 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.common import atomic
-from lapig_core.export.projector_image import ExportError, crossfade_sequence, export_projector_image
-from lapig_core.export.result_files import read_result_image, stored_bit_depth, write_result
-from lapig_core.common.imageio import to_bit_depth, to_float, to_uint8, to_uint16, write_png
-from lapig_core.common.resample import SAME_SIZE, UPSCALE
-from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, quantised_frame
+from lapig.lapig_core.common import atomic
+from lapig.lapig_core.export.projector_image import ExportError, crossfade_sequence, export_projector_image
+from lapig.lapig_core.export.result_files import read_result_image, stored_bit_depth, write_result
+from lapig.lapig_core.common.imageio import to_bit_depth, to_float, to_uint8, to_uint16, write_png
+from lapig.lapig_core.common.resample import SAME_SIZE, UPSCALE
+from lapig.lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, quantised_frame
 
 W, H, WW, WH = 64, 48, 32, 24  # native 64x48 projector, its 32x24 working frame
 

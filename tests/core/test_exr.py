@@ -4,7 +4,7 @@ import struct
 import numpy as np
 import pytest
 
-from lapig_core.common.exr import ExrError, pass_rgb, read_exr_channels
+from lapig.lapig_core.common.exr import ExrError, pass_rgb, read_exr_channels
 
 
 def _attribute(name, kind, value: bytes) -> bytes:

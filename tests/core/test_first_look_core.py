@@ -6,11 +6,11 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.photometric import checkpoints  # noqa: E402
-from lapig_core.photometric.choice import CLASSICAL, LEARNED, CompensatorChoice  # noqa: E402
-from lapig_core.photometric.first_look import after_train_note  # noqa: E402
-from lapig_core.photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator  # noqa: E402
-from lapig_core.photometric.training_data import PairSet, SurfaceTensors  # noqa: E402
+from lapig.lapig_core.photometric import checkpoints  # noqa: E402
+from lapig.lapig_core.photometric.choice import CLASSICAL, LEARNED, CompensatorChoice  # noqa: E402
+from lapig.lapig_core.photometric.first_look import after_train_note  # noqa: E402
+from lapig.lapig_core.photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator  # noqa: E402
+from lapig.lapig_core.photometric.training_data import PairSet, SurfaceTensors  # noqa: E402
 
 from test_classical import _patterns, _truth  # noqa: E402
 

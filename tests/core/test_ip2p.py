@@ -14,8 +14,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.lgst import BACKENDS, LGSTUnavailable, get_backend
-from lapig_core.lgst import ip2p_backend as ip2p
+from lapig.lapig_core.lgst import BACKENDS, LGSTUnavailable, get_backend
+from lapig.lapig_core.lgst import ip2p_backend as ip2p
 
 PROMPT = "Make it a Claymation"
 HAS_DIFFUSERS = all(importlib.util.find_spec(m) is not None for m in ("diffusers", "transformers"))
@@ -248,9 +248,9 @@ def test_checkpointing_gives_the_same_gradient(tiny_model):
 
 
 def test_runs_inside_psa(tiny_model):
-    from lapig_core.psa import adaptation as psa
-    from lapig_core.photometric.checkpoints import new_model
-    from lapig_core.photometric.surface_models import SurfaceModels
+    from lapig.lapig_core.psa import adaptation as psa
+    from lapig.lapig_core.photometric.checkpoints import new_model
+    from lapig.lapig_core.photometric.surface_models import SurfaceModels
 
     torch.manual_seed(0)
     s = torch.rand(1, 3, 32, 32) * 0.5 + 0.25

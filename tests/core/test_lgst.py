@@ -8,11 +8,11 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.lgst import (LGSTBackend, StyleTransferBackend, available_backends, get_backend, register_backend)
-from lapig_core.lgst import BACKENDS
-from lapig_core.lgst import prompt_mapping as pm
-from lapig_core.lgst.effects import PixelArt, effects_for_prompt, quantize_ste
-from lapig_core.lgst.style_catalog import BY_NAME, NAMES, STYLES
+from lapig.lapig_core.lgst import (LGSTBackend, StyleTransferBackend, available_backends, get_backend, register_backend)
+from lapig.lapig_core.lgst import BACKENDS
+from lapig.lapig_core.lgst import prompt_mapping as pm
+from lapig.lapig_core.lgst.effects import PixelArt, effects_for_prompt, quantize_ste
+from lapig.lapig_core.lgst.style_catalog import BY_NAME, NAMES, STYLES
 
 
 def _has(*modules):
@@ -147,7 +147,7 @@ def test_pixel_effect_detected_and_quantised():
 def test_torch_style_net_matches_onnx():
     from onnx.reference import ReferenceEvaluator
 
-    from lapig_core.lgst.style_net import load_style_net, model_path
+    from lapig.lapig_core.lgst.style_net import load_style_net, model_path
 
     rng = np.random.default_rng(0)
     x = rng.random((1, 3, 64, 64)).astype(np.float32)  # the graph takes RGB in [0,1]
@@ -165,7 +165,7 @@ def test_torch_style_net_matches_onnx():
 
 @needs_style_net
 def test_style_params_linear_in_mix():
-    from lapig_core.lgst.style_net import load_style_net
+    from lapig.lapig_core.lgst.style_net import load_style_net
 
     net = load_style_net()
     a, b = torch.eye(26)[2], torch.eye(26)[7]
@@ -294,7 +294,7 @@ def test_mapping_follows_art_words():
 
 @needs_text_model
 def test_minilm_loads_with_every_network_path_off(monkeypatch):
-    from lapig_core.lgst import minilm
+    from lapig.lapig_core.lgst import minilm
 
     for name in ("HF_HUB_OFFLINE", "TRANSFORMERS_OFFLINE"):
         monkeypatch.delenv(name, raising=False)
@@ -329,8 +329,8 @@ def test_backend_from_prompt_end_to_end():
 
 def test_embedding_in_a_helper_process_matches_in_process():
     pytest.importorskip("sentence_transformers")
-    from lapig_core.common.embedding_mode import set_embedding_mode
-    from lapig_core.lgst import prompt_mapping as pm
+    from lapig.lapig_core.common.embedding_mode import set_embedding_mode
+    from lapig.lapig_core.lgst import prompt_mapping as pm
 
     texts = ["Make it a stained glass artwork", "charcoal ✏️ sketch"]
     local = pm.embed(texts)

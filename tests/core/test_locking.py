@@ -10,8 +10,8 @@ import time
 
 import pytest
 
-from lapig_core.common import scratch
-from lapig_core.common.locking import LOCK_FILE, FolderBusy, FolderLock
+from lapig.lapig_core.common import scratch
+from lapig.lapig_core.common.locking import LOCK_FILE, FolderBusy, FolderLock
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 HOLD = ("import sys, time; from lapig_core.common.locking import FolderLock; "

@@ -4,8 +4,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.lgst.looks import BY_NAME, LOOKS, MEDIA, palette_stage  # noqa: E402
-from lapig_core.lgst.looks.ops import luminance  # noqa: E402
+from lapig.lapig_core.lgst.looks import BY_NAME, LOOKS, MEDIA, palette_stage  # noqa: E402
+from lapig.lapig_core.lgst.looks.ops import luminance  # noqa: E402
 
 pytestmark = pytest.mark.torch
 

@@ -6,8 +6,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.photometric import losses
-from lapig_core.common import metrics
+from lapig.lapig_core.photometric import losses
+from lapig.lapig_core.common import metrics
 
 
 def _ref_ssim(x, y):
@@ -115,7 +115,7 @@ def test_metrics_numpy_torch_uint8_agree():
 
 
 def test_masked_psnr_counts_the_masked_pixels_in_numpy_and_torch_alike():
-    from lapig_core.common.psnr import masked_psnr
+    from lapig.lapig_core.common.psnr import masked_psnr
 
     x = np.full((2, 8, 8, 3), 0.4)
     y = x.copy()
@@ -222,7 +222,7 @@ def test_sharpness_is_the_laplacian_energy_and_falls_with_blur():
 
 
 def _camera_loss(h=8, w=8, diag=(1.0, 1.0, 1.0), gamma_p=1.0, weight=None):
-    from lapig_core.photometric.losses import CameraSpaceLoss
+    from lapig.lapig_core.photometric.losses import CameraSpaceLoss
 
     m = torch.diag(torch.tensor(diag))[:, :, None, None].expand(3, 3, h, w).clone()
     weight = torch.ones(1, 1, h, w) if weight is None else weight
@@ -254,7 +254,7 @@ def test_camera_space_loss_is_the_error_the_camera_sees():
 
 
 def test_camera_space_loss_crops_with_its_images_and_checks_shapes():
-    from lapig_core.photometric.losses import CameraSpaceLoss
+    from lapig.lapig_core.photometric.losses import CameraSpaceLoss
 
     torch.manual_seed(1)
     m = torch.rand(3, 3, 16, 12)

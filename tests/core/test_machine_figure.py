@@ -4,7 +4,7 @@ import json
 import subprocess
 import sys
 
-from tools.bench import machine_figure
+from lapig.tools.bench import machine_figure
 
 
 def test_timings_get_their_reference_steps_beside_them():

@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 torch = pytest.importorskip("torch")  # the torch-free tier of older and newer Blenders skips this
 
-from lapig_core.capture.native_references import registered_references
-from lapig_core.native_output import (OutputSizeError, native_output, output_frame, tile_for)
-from lapig_core.photometric.checkpoints import new_model
-from lapig_core.photometric.tiling import tiled
-from lapig_core.pipeline import stylize
-from lapig_core.photometric.surface_models import SurfaceModels
-from lapig_core.psa.adaptation import PSASettings
-from lapig_core.photometric.training_data import SurfaceTensors
+from lapig.lapig_core.capture.native_references import registered_references
+from lapig.lapig_core.native_output import (OutputSizeError, native_output, output_frame, tile_for)
+from lapig.lapig_core.photometric.checkpoints import new_model
+from lapig.lapig_core.photometric.tiling import tiled
+from lapig.lapig_core.pipeline import stylize
+from lapig.lapig_core.photometric.surface_models import SurfaceModels
+from lapig.lapig_core.psa.adaptation import PSASettings
+from lapig.lapig_core.photometric.training_data import SurfaceTensors
 
 from test_whole_frame import _capture
 

@@ -4,8 +4,8 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.common.imageio import write_png
-from lapig_core.capture.patterns import (PatternFolderError, generate_pattern, generate_patterns, load_image_folder, reference_patterns)
+from lapig.lapig_core.common.imageio import write_png
+from lapig.lapig_core.capture.patterns import (PatternFolderError, generate_pattern, generate_patterns, load_image_folder, reference_patterns)
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from lapig_core.optics.projector_model import ProjectorModel
-from lapig_core.photometry import dose, light_maps, presets, projector_table, units
+from lapig.lapig_core.optics.projector_model import ProjectorModel
+from lapig.lapig_core.photometry import dose, light_maps, presets, projector_table, units
 
 
 def _grid_illuminance(model, watts, n=400):

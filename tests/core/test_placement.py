@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from lapig_core.optics.placement import place_rig
+from lapig.lapig_core.optics.placement import place_rig
 
 
 def _grid_panel(width=2.0, height=1.5, normal_y=-1.0):

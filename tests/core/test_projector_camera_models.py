@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from lapig_core.optics.camera_model import CameraResponse, auto_exposure_stops, clipped_fraction
-from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image
+from lapig.lapig_core.optics.camera_model import CameraResponse, auto_exposure_stops, clipped_fraction
+from lapig.lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image
 
 
 def test_pixel_ray_round_trip_with_lens_shift():

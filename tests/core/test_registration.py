@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lapig_core.capture.registration import (Registration, RegistrationError, frame_grid, supersampled_map, warp_to_projector, working_map)
-from lapig_core.capture.structured_light import projector_to_camera_map
+from lapig.lapig_core.capture.registration import (Registration, RegistrationError, frame_grid, supersampled_map, warp_to_projector, working_map)
+from lapig.lapig_core.capture.structured_light import projector_to_camera_map
 
 # The rig lives beside us. Reuse that module if pytest already imported it (its renders are
 # cached), else load it by path, so this works whatever pytest's import mode.

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lapig_core.common.small_spd import cholesky, spd_inverse, spd_solve
+from lapig.lapig_core.common.small_spd import cholesky, spd_inverse, spd_solve
 
 
 def _spd(count, k, seed=0, ridge=1e-3):

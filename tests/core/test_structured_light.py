@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.capture.structured_light import (BLACK_THRESHOLD, WHITE_THRESHOLD, decode_graycode, graycode_patterns, pattern_count, projector_to_camera_map)
+from lapig.lapig_core.capture.structured_light import (BLACK_THRESHOLD, WHITE_THRESHOLD, decode_graycode, graycode_patterns, pattern_count, projector_to_camera_map)
 
 PW, PH = 800, 600
 CW, CH = 640, 480
@@ -286,7 +286,7 @@ def test_map_with_a_depth_discontinuity():
 
 
 def test_frame_border_is_extended_by_linear_extrapolation():
-    from lapig_core.capture.structured_light import _extend_frame_border
+    from lapig.lapig_core.capture.structured_light import _extend_frame_border
 
     ys, xs = np.mgrid[0:20, 0:30].astype(np.float32)
     cam = np.stack([0.5 * xs + 0.1 * ys + 3, 0.4 * ys - 0.05 * xs + 7], -1)  # an affine map

@@ -3,7 +3,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig_core.common.style_image import (MAX_SIDE, MIN_SIDE, StyleImageError, check_path, load_style_image,
+from lapig.lapig_core.common.style_image import (MAX_SIDE, MIN_SIDE, StyleImageError, check_path, load_style_image,
                                          parse_style_image_spec, prepare_array)
 
 

@@ -8,14 +8,14 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.common import metrics
-from lapig_core.common.surfaces import make_surface
-from lapig_core.lgst.base import LGSTBackend
-from lapig_core.photometric.checkpoints import new_model
-from lapig_core.photometric.surface_models import SurfaceModels
-from lapig_core.psa import adaptation as psa
-from lapig_core.psa import reach
-from lapig_core.psa.tone_field import AdaptedLook, ToneField
+from lapig.lapig_core.common import metrics
+from lapig.lapig_core.common.surfaces import make_surface
+from lapig.lapig_core.lgst.base import LGSTBackend
+from lapig.lapig_core.photometric.checkpoints import new_model
+from lapig.lapig_core.photometric.surface_models import SurfaceModels
+from lapig.lapig_core.psa import adaptation as psa
+from lapig.lapig_core.psa import reach
+from lapig.lapig_core.psa.tone_field import AdaptedLook, ToneField
 
 pytestmark = pytest.mark.torch
 SIZE = 48

@@ -5,11 +5,11 @@ import json
 import numpy as np
 import pytest
 
-from lapig_core.common.imageio import read_image
-from lapig_core.export.result_files import (folder_name, heat_overlay, output_name, read_output_image,
+from lapig.lapig_core.common.imageio import read_image
+from lapig.lapig_core.export.result_files import (folder_name, heat_overlay, output_name, read_output_image,
                                             read_result_image, read_summary, stored_bit_depth, write_new_result,
                                             write_result)
-from lapig_core.photometric.targets import desired_targets, reachable_mask, reachable_range
+from lapig.lapig_core.photometric.targets import desired_targets, reachable_mask, reachable_range
 
 
 def test_desired_targets_live_in_the_reachable_range():
@@ -30,7 +30,7 @@ def test_desired_targets_live_in_the_reachable_range():
 
 @pytest.mark.torch
 def test_masked_psnr_ignores_pixels_outside_the_mask():
-    from lapig_core.common import metrics
+    from lapig.lapig_core.common import metrics
 
     a = np.zeros((8, 8, 3), np.float32)
     b = a.copy()
@@ -44,7 +44,7 @@ def test_masked_psnr_ignores_pixels_outside_the_mask():
 
 @pytest.mark.torch
 def test_masked_psnr_takes_a_mask_per_image():
-    from lapig_core.common import metrics
+    from lapig.lapig_core.common import metrics
 
     target = np.zeros((2, 8, 8, 3), np.float32)
     pred = target.copy()
@@ -60,7 +60,7 @@ def test_masked_psnr_takes_a_mask_per_image():
 
 @pytest.mark.torch
 def test_figures_on_the_object_leave_the_frame_around_it_out():
-    from lapig_core.common import metrics
+    from lapig.lapig_core.common import metrics
 
     rng = np.random.default_rng(0)
     target = rng.random((48, 64, 3)).astype(np.float32)

@@ -6,10 +6,10 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig_core.photometric import checkpoints, finetune, pretrain
-from lapig_core.capture.dataset import load_capture_set
-from lapig_core.photometric.training import (COMPENNEST_FINETUNE, PCNET_TRAIN, Recipe, Trainer, TrainingError, evaluate_pairs)
-from lapig_core.photometric.training_data import pairs_from_capture_sets
+from lapig.lapig_core.photometric import checkpoints, finetune, pretrain
+from lapig.lapig_core.capture.dataset import load_capture_set
+from lapig.lapig_core.photometric.training import (COMPENNEST_FINETUNE, PCNET_TRAIN, Recipe, Trainer, TrainingError, evaluate_pairs)
+from lapig.lapig_core.photometric.training_data import pairs_from_capture_sets
 
 from test_dataset import make_dataset
 
@@ -166,8 +166,8 @@ def test_finetune_at_a_working_size_below_the_crop(capture_set, tmp_path):
 
 
 def test_the_compensation_fine_tune_measures_its_error_as_the_camera_sees_it(capture_set):
-    from lapig_core.photometric.classical import ClassicalModel
-    from lapig_core.photometric.training import CAMERA_LOSS
+    from lapig.lapig_core.photometric.classical import ClassicalModel
+    from lapig.lapig_core.photometric.training import CAMERA_LOSS
 
     recipe = finetune.cpu_recipe("CompenNeSt", "compensation", 20)
     assert recipe.loss_schedule == ((0, CAMERA_LOSS),) and recipe.lr_steps == (14,) and finetune.cpu_recipe("CompenNeSt", "compensation").iterations == 1000 and recipe.weight_decay == 0
@@ -191,7 +191,7 @@ def test_the_compensation_fine_tune_measures_its_error_as_the_camera_sees_it(cap
                 camera_loss=camera.cropped(slice(0, 16), slice(0, 16)))
 
     def camera_error(model):
-        from lapig_core.photometric.training import predict
+        from lapig.lapig_core.photometric.training import predict
         return float(camera(predict(model, pairs.x, capture_set_surface(capture_set)), pairs.y))
 
     start = finetune.start_model("CompenNeSt", "compensation")
@@ -205,5 +205,5 @@ def test_the_compensation_fine_tune_measures_its_error_as_the_camera_sees_it(cap
 
 
 def capture_set_surface(cs):
-    from lapig_core.photometric.training_data import SurfaceTensors
+    from lapig.lapig_core.photometric.training_data import SurfaceTensors
     return SurfaceTensors.from_capture_set(cs).s

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from lapig_core.optics import transport as light
-from lapig_core.optics.transport import FAST, LightTransport
+from lapig.lapig_core.optics import transport as light
+from lapig.lapig_core.optics.transport import FAST, LightTransport
 
 
 def _edge_blur_radius(profile):

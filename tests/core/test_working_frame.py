@@ -3,8 +3,8 @@
 import pytest
 torch = pytest.importorskip("torch")  # the torch-free tier of older and newer Blenders skips this
 
-from lapig_core.optics.working_frame import WorkingFrameError, check_aspect, working_frame
-from lapig_core.photometric import archs
+from lapig.lapig_core.optics.working_frame import WorkingFrameError, check_aspect, working_frame
+from lapig.lapig_core.photometric import archs
 
 
 @pytest.mark.parametrize("long_side, projector, frame", [

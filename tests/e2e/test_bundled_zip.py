@@ -60,6 +60,7 @@ def test_the_linux_zip_alone_gives_a_working_generate(tmp_path):
     proc = subprocess.run([python, script, built["path"], str(work), "--bundled"], env=env, capture_output=True,
                           text=True, timeout=1800)
     assert proc.returncode == 0 and "E2E OK" in proc.stdout, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "E2E MODULES imported" in proc.stdout and "E2E REAL RIG simulated" in proc.stdout, proc.stdout[-3000:]
     timing = json.loads(proc.stdout.split("E2E TIMING ")[1].splitlines()[0])
     print(f"zip {built['mb']} MB; install to finished Generate {timing['install_to_generate_seconds']} s")
     assert importlib.util.find_spec("torch")  # the zip was built from this venv's torch

@@ -25,6 +25,8 @@ def test_extension_builds_installs_enables_runs_and_disables(tmp_path):
     proc = subprocess.run([sys.executable, script, zip_path, str(work)] + torch_free, env=env, capture_output=True,
                           text=True, timeout=600)
     assert proc.returncode == 0 and "E2E OK" in proc.stdout, proc.stdout[-3000:] + proc.stderr[-3000:]
+    if not torch_free:  # the installed package's every module, and the real rig through its operators
+        assert "E2E MODULES imported" in proc.stdout and "E2E REAL RIG simulated" in proc.stdout, proc.stdout[-3000:]
 
 
 def test_zip_holds_only_tracked_files_of_the_extension(tmp_path):

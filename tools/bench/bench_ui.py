@@ -1,15 +1,24 @@
-"""`python -m lapig_addon bench ui --json`: how long Blender's main thread stalls while PSA runs.
+"""`python -m lapig_addon bench ui --json`: how long Blender's main thread stalls while PSA runs, and while
+the real rig's projector window opens from the panel.
 
 A PSA job runs in the job engine exactly as the Generate operator runs it (jobs.WorkerJob: torch on
 a worker thread, poll_timeout 0 as under the modal timer). The main thread plays Blender's event
 loop: it wakes every 10 ms, and every 50 ms it steps the job like the modal timer does. A stall is
 the lateness of a wake-up plus the time a step takes; the figure is the worst one over the job.
+
+The projector window (`--parts window`): Show on Projector's job, made by the operator's make_job on a scene
+with a real rig and a result at the display's size, stepped through the job slots as its modal timer steps it;
+the window is a real helper process (lapig_core/rig/projector_window) on SDL's dummy video driver (no display
+here: the helper starts, opens and shows as on the projector's computer, drawing nowhere). Then the panel's
+Close. Beside it, the old path: the window opened and closed on the main thread (live_output.open_live).
 """
 from __future__ import annotations
 
 import os
 import platform
+import threading
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import torch
@@ -83,6 +92,20 @@ def drive_like_blender(job, tick=0.010, timer=0.050) -> dict:
 
 def run(args) -> dict:
     t0 = time.perf_counter()
+    parts = [p.strip() for p in (getattr(args, "parts", "") or "psa,window").split(",") if p.strip()]
+    unknown = sorted(set(parts) - {"psa", "window"})
+    if unknown:
+        raise ValueError(f"bench ui --parts: unknown {', '.join(unknown)}: use psa, window")
+    summary = psa_stalls(args) if "psa" in parts else {}
+    if "window" in parts:
+        window = projector_window_stalls(os.path.abspath(args.out))
+        summary["max_main_thread_stall_ms_projector_window"] = window["max_main_thread_stall_ms"]
+        summary["projector_window"] = window
+    return {**summary, "bench_total_s": round(time.perf_counter() - t0, 1), "loadavg": list(os.getloadavg()),
+            "machine": platform.processor() or platform.machine()}
+
+
+def psa_stalls(args) -> dict:
     spec = syn.BENCH_SETUPS[0]
     data = os.path.abspath(args.data)
     syn.render_synthetic_setups([spec], data, train=125, test=30, seed=500, skip_existing=True)
@@ -121,5 +144,137 @@ def run(args) -> dict:
                 "p99_wakeup_lateness_ms": round(warmed["p99_wakeup_lateness_ms"], 2), "seconds": warmed["seconds"],
                 "worst_stalls": warmed["worst_stalls"], "error": warmed["error"]},
             "psa_iterations": result.iterations, "psa_seconds": round(result.seconds, 2),
-            "torch_threads": torch.get_num_threads(), "bench_total_s": round(time.perf_counter() - t0, 1),
-            "machine": platform.processor() or platform.machine()}
+            "torch_threads": torch.get_num_threads()}
+
+
+# ------------------------------------------------------------------------ the projector window, from the panel
+
+class ForegroundSlot:
+    """A job in the foreground slot, stepped as JobRunnerMixin's modal timer steps it (once the background job,
+    if any, has paused)."""
+
+    def __init__(self, slots, job):
+        self.slots, self.job = slots, job
+
+    @property
+    def message(self):
+        return self.job.message
+
+    @property
+    def finished(self):
+        return self.job.finished
+
+    @property
+    def state(self):
+        return self.job.state
+
+    def step(self):
+        if self.slots.foreground_may_step():
+            self.job.step()
+        return not self.job.finished
+
+
+class ThreadWatch:
+    """A worker thread seen as a job by drive_like_blender: the event loop runs until it ends."""
+
+    state = "DONE"
+
+    def __init__(self, thread, message):
+        self.thread, self.message = thread, message
+
+    @property
+    def finished(self):
+        return self.thread is None or not self.thread.is_alive()
+
+    def step(self):
+        return not self.finished
+
+
+def _stall(figures: dict) -> float:
+    return round(max(figures["max_wakeup_lateness_ms"], figures["max_step_ms"]), 2)
+
+
+def _real_rig_scene(folder: str, display: dict):
+    """A demo scene with a real rig on `display` (camera 0, never opened here) and a result at its size."""
+    import bpy
+
+    from ...lapig_addon.blender import rig, scene_state
+    from ...lapig_addon.cli import headless
+    from ...lapig_core.export.result_files import write_result
+
+    scene, projector, camera, target = headless.build_demo_setup("panel", "sakura", folder=folder,
+                                                                 camera_resolution=(160, 120))
+    w, h = display["width"], display["height"]
+    projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y = w, h
+    rig.add_rig(bpy.context, target, projector, camera)
+    s = scene.lapig
+    s.rig_kind, s.real.display, s.real.camera, s.real.camera_source = "REAL", str(display["index"]), "0", "DEVICE"
+    ramp = np.broadcast_to(np.linspace(0, 1, w, dtype=np.float32)[None, :, None], (h, w, 3)).copy()
+    result = write_result(os.path.join(folder, "result"), {"projector": ramp, "target": ramp}, {"prompt": "bench"})
+    scene_state.record_result(scene, str(result), "bench")
+    return scene
+
+
+def _closing_thread():
+    return next((t for t in threading.enumerate() if t.name == "LAPIG: closing the projector window"), None)
+
+
+def projector_window_stalls(out: str) -> dict:
+    """Show on Projector as the panel runs it, then its Close, and the old synchronous open and close."""
+    from ...lapig_addon.blender import live_devices
+    from ...lapig_addon.blender.modal_runner import SLOTS
+    from ...lapig_addon.rigs import live_output
+    from ...lapig_core.rig.projector_window import list_displays
+    from ...operators.real_rig_ops import LAPIG_OT_show_on_projector
+
+    before = os.environ.get("SDL_VIDEODRIVER")
+    os.environ["SDL_VIDEODRIVER"] = "dummy"  # no display here: SDL's driver that draws nowhere, asked by name
+    try:
+        display = list_displays()[0]
+        scene = _real_rig_scene(os.path.join(out, "window_scene"), display)
+        # the operator's path: its make_job, the job in the foreground slot, stepped by the modal timer
+        job = LAPIG_OT_show_on_projector.make_job(None, SimpleNamespace(scene=scene))
+        job.poll_timeout = 0
+        refusal = SLOTS.start_foreground(job)
+        if refusal:
+            raise RuntimeError(refusal)
+        t = time.perf_counter()
+        try:
+            opening = drive_like_blender(ForegroundSlot(SLOTS, job))
+        finally:
+            SLOTS.end_foreground(job)
+        open_s = time.perf_counter() - t
+        if job.state != "DONE":
+            raise RuntimeError(f"the projector window's job ended {job.state}: {job.message}")
+        live_devices.projector_opened()  # the operator's on_done
+        sink = job.result
+        shown = {"size": list(sink.window.size), "problem": sink.problem,
+                 "helper": {k: sink.window.describe().get(k) for k in ("video_driver", "sdl_version", "helper_pid")}}
+        # the panel's Close (the operator's toggle): the helper ends on a worker thread
+        t = time.perf_counter()
+        live_devices.close_projector(wait=False)
+        close_call_ms = 1000 * (time.perf_counter() - t)
+        closing = drive_like_blender(ThreadWatch(_closing_thread(), "closing"))
+        # the old path, for comparison: the window opened and closed on the main thread
+        t = time.perf_counter()
+        old = live_output.open_live(str(display["index"]))
+        old_open_ms = 1000 * (time.perf_counter() - t)
+        old.window.show(live_output.identification_frame(old.window.size))
+        t = time.perf_counter()
+        live_output.close_live()
+        old_close_ms = 1000 * (time.perf_counter() - t)
+    finally:
+        live_output.close_live()
+        if before is None:
+            os.environ.pop("SDL_VIDEODRIVER", None)
+        else:
+            os.environ["SDL_VIDEODRIVER"] = before
+    closing_stall = max(_stall(closing), round(close_call_ms, 2))  # the Close call itself runs on the main thread
+    return {"max_main_thread_stall_ms": max(_stall(opening), closing_stall),
+            "opening": {"max_main_thread_stall_ms": _stall(opening), "seconds": round(open_s, 3),
+                        "p99_wakeup_lateness_ms": round(opening["p99_wakeup_lateness_ms"], 2),
+                        "steps": opening["steps"], "worst_stalls": opening["worst_stalls"]},
+            "closing": {"max_main_thread_stall_ms": closing_stall,
+                        "call_ms": round(close_call_ms, 2), "worst_stalls": closing["worst_stalls"]},
+            "before_on_main_thread": {"open_ms": round(old_open_ms, 1), "close_ms": round(old_close_ms, 1)},
+            "window": shown, "display": {k: display.get(k) for k in ("index", "name", "width", "height")}}

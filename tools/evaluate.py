@@ -106,7 +106,8 @@ def evaluate_refine(cs, models, rig_objects, setup_dir, images, iterations) -> t
     factory of the rig's objects), then captured once more with a fresh noise draw: (figures, images). The
     figures are metrics.evaluate's, as with_psa's, beside the loop's record; the native image refined too."""
     from ..lapig_addon.blender.cycles_factory import CyclesDeviceFactory
-    from ..lapig_addon.services.refine_job import refine_rounds, run_rounds
+    from ..lapig_addon.services.refine_job import refine_rounds
+    from ..lapig_core.common.steps import run_to_end
     from ..lapig_core.photometric.choice import load_choice
     from ..lapig_core.photometric.classical import ClassicalModel
     from ..lapig_core.photometric.targets import reachable_mask
@@ -122,7 +123,7 @@ def evaluate_refine(cs, models, rig_objects, setup_dir, images, iterations) -> t
                             RefineSettings(iterations=iterations))
     devices = CyclesDeviceFactory(*rig_objects)
     t = time.perf_counter()
-    run_rounds(refine_rounds(devices, setup_dir, refinement))
+    run_to_end(refine_rounds(devices, setup_dir, refinement))
     seconds = time.perf_counter() - t
     projector_image = refinement.images[0]
     captured = render_working_images(*rig_objects, setup_dir, projector_image[None], seed=97)[0]
@@ -135,7 +136,7 @@ def evaluate_refine(cs, models, rig_objects, setup_dir, images, iterations) -> t
         small = cv2.resize(native["target"], (target.shape[1], target.shape[0]), interpolation=cv2.INTER_AREA)
         on_native = Refinement(model, small, cs.cam_black, cs.cam_white, valid, None,
                                RefineSettings(iterations=iterations), native_start=native["projector_image"])
-        run_rounds(refine_rounds(devices, setup_dir, on_native))
+        run_to_end(refine_rounds(devices, setup_dir, on_native))
         _, raw = render_working_images(*rig_objects, setup_dir, on_native.images, return_raw=True, seed=98)
         cap_native, on = register_at(setup_dir, raw[0], w, h)
         out["native_psnr"] = round(metrics.masked_psnr(cap_native, native["target"], on), 4)

@@ -59,8 +59,8 @@ def render_plan_maps(scene, plan, width, height):
 
 def map_size(projector, width: int = 160) -> tuple[int, int]:
     """A light map `width` pixels wide in the projector's shape."""
-    p = projector.lapig_projector
-    return width, max(8, round(width * p.resolution_y / p.resolution_x))
+    columns, rows = scene_state.projector_size(projector)
+    return width, max(8, round(width * rows / columns))
 
 
 def run_report(scene, plan, folder: str | None, width=160, maps_dir: str | None = None) -> dict:
@@ -171,7 +171,5 @@ def apply_projector(scene, plan) -> tuple[dict, list[str]]:
     if projector is None:
         raise ValueError("set up the rig first: there is no projector")
     settings, notes = light_report.projector_settings(plan, scene_state.projector_model(projector))
-    p = projector.lapig_projector
-    for name, value in settings.items():
-        setattr(p, name, value)
+    scene_state.write_projector_settings(projector, settings)
     return {k: (round(v, 6) if isinstance(v, float) else v) for k, v in settings.items()}, notes

@@ -52,7 +52,7 @@ def report(kind: str, message: str) -> None:
 def rig_in_use(scene) -> str:
     """Why a job in the background may not open the real rig now ('' when it may): opening it would close the
     artist's projector window or camera view (real_rig lets go of them)."""
-    if scene.lapig.rig_kind != "REAL":
+    if not scene_state.uses_real_rig(scene):
         return ""
     if camera_view_running():
         return "close the camera view"

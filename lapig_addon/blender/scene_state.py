@@ -24,6 +24,19 @@ def projector_model(obj) -> ProjectorModel:
                           shift_x=p.shift_x, shift_y=p.shift_y, gamma=p.gamma, black_level=p.black_level)
 
 
+def projector_size(obj) -> tuple[int, int]:
+    """The projector's (width, height) in pixels."""
+    p = obj.lapig_projector
+    return p.resolution_x, p.resolution_y
+
+
+def write_projector_settings(obj, settings: dict) -> None:
+    """Set the projector's settings by name (services/light_report.projector_settings: a real model's)."""
+    p = obj.lapig_projector
+    for name, value in settings.items():
+        setattr(p, name, value)
+
+
 def light_transport(projector, camera) -> LightTransport:
     """How the captures of this projector and camera render light (lapig_core.optics.transport)."""
     p = projector.lapig_projector
@@ -69,13 +82,18 @@ def rig_objects(scene) -> tuple:
 CAMERA_CONTROLS = ("exposure", "gain", "focus", "white_balance")  # each with its use_ toggle in scene.lapig.real
 
 
+def uses_real_rig(scene) -> bool:
+    """Whether the scene's rig is a real projector and camera (the panel's Rig)."""
+    return scene.lapig.rig_kind == "REAL"
+
+
 def real_rig_spec(scene):
     """The scene's real rig (rigs/real_rig.RigSpec), built from the panel's settings (scene.lapig.real), or
     None where the scene uses the virtual one. The one reader of those settings."""
     from ..rigs.real_rig import RigSpec
 
     s = scene.lapig
-    if s.rig_kind != "REAL":
+    if not uses_real_rig(scene):
         return None
     r = s.real
     settings = {key: getattr(r, key) for key in CAMERA_CONTROLS if getattr(r, "use_" + key)}
@@ -151,8 +169,7 @@ def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
                outside_scene=tuple(ob.name for ob in objects if ob.name not in scene.objects),
                fingerprint=_fingerprint(scene, projector, camera, target, len(objects) == 3),
                transport=light_transport(projector, camera).label() if projector and camera else "",
-               projector_size=(projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y)
-               if projector else None,
+               projector_size=projector_size(projector) if projector else None,
                kind="REAL" if spec else "VIRTUAL",
                label=f"the real rig '{spec.name}'" if spec else "the virtual rig",
                devices_problem=spec.problem() if spec else "")

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...lapig_core.common.imageio import to_uint8
 from ...lapig_core.rig import RigError
 from ..services.jobs import WorkerJob
 from ..services.ports import ProjectorFrame
@@ -32,10 +33,7 @@ def window_pixels(frame: ProjectorFrame, size) -> np.ndarray:
     problem = size_problem(frame.width, frame.height, size)
     if problem:
         raise RigError(problem)
-    pixels = frame.pixels
-    if pixels.dtype == np.uint16:
-        pixels = ((pixels.astype(np.uint32) + 128) // 257).astype(np.uint8)
-    return pixels
+    return to_uint8(frame.pixels)
 
 
 class ProjectorWindowSink:
@@ -132,9 +130,7 @@ def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
         wait = due - clock.perf_counter()
         if wait > 0:
             clock.sleep(wait)
-        if pixels.dtype == np.uint16:
-            pixels = ((pixels.astype(np.uint32) + 128) // 257).astype(np.uint8)
-        on_screen = window.show(pixels)
+        on_screen = window.show(to_uint8(pixels))  # a 16-bit frame shows its top 8 bits
         late += on_screen - due > period / 2
         shown += 1
         if on_frame is not None:

@@ -23,7 +23,7 @@ from ...lapig_core.common.scratch import ScratchFolder
 from ...lapig_core.export.result_files import output_name, read_output_image, read_summary, write_result
 from ...lapig_core.optics.projector_model import ProjectorModel
 from ...lapig_core.photometry import units
-from ...lapig_core.refine.loop import masked_psnr
+from ...lapig_core.common.psnr import masked_psnr
 from . import light_report
 from .export_result import result_frame
 from .jobs import Job

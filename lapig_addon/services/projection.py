@@ -15,6 +15,7 @@ import numpy as np
 from ...lapig_core.capture import dataset as ds
 from ...lapig_core.capture.registration import Registration
 from ...lapig_core.capture.settings import CaptureError
+from ...lapig_core.common.steps import run_to_end
 from ...lapig_core.optics.projector_model import quantised_frame
 
 
@@ -78,12 +79,7 @@ def projection_session(devices, setup_dir, seed=0, bit_depth=8):
 
 def project_and_capture(devices, setup_dir, images, seed=0, chunk=8, bit_depth=8):
     """projection_steps run to the end: (registered, raw)."""
-    steps = projection_steps(devices, setup_dir, images, seed, chunk, bit_depth)
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            return done.value
+    return run_to_end(projection_steps(devices, setup_dir, images, seed, chunk, bit_depth))
 
 
 def register_at(setup_dir, raw_capture, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:

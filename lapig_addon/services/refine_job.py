@@ -187,15 +187,6 @@ def refine_rounds(devices, capture: str, refinement: Refinement, bit_depth: int 
                 f"(noise floor {rec.noise_floor_psnr:.1f})"
 
 
-def run_rounds(rounds):
-    """Run a refine_rounds generator to its end, outside a job (the eval command); its return value."""
-    while True:
-        try:
-            next(rounds)
-        except StopIteration as done:
-            return done.value
-
-
 def _with_refine(line: str, refined: str) -> str:
     """The result line with this refinement's figures in place of an earlier one's, before ' | ' (the panel
     shows what follows it on a line of its own)."""

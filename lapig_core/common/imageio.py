@@ -65,20 +65,41 @@ def to_bit_depth(img: np.ndarray, bit_depth: int) -> np.ndarray:
     return to_uint8(img) if bit_depth == 8 else to_uint16(img)
 
 
-def _to_rgb(img: np.ndarray) -> np.ndarray:
-    """Float image of any channel layout OpenCV returns -> (H, W, 3) RGB."""
+def _to_rgb(img: np.ndarray, alpha_over_black: bool) -> np.ndarray:
+    """Pixels in any channel layout OpenCV returns -> (H, W, 3) RGB; alpha over black (float pixels then)
+    or dropped."""
     if img.ndim == 2:
         img = img[:, :, None]
     channels = img.shape[2]
+    if channels in (2, 4) and alpha_over_black:  # transparent areas project as black
+        img = to_float(img)
+        img = img[:, :, :-1] * img[:, :, -1:]
+    elif channels in (2, 4):
+        img = img[:, :, :-1]
+    channels = img.shape[2]
     if channels == 1:
         return np.repeat(img, 3, axis=2)
-    if channels == 2:  # gray + alpha: transparent areas project as black
-        return np.repeat(img[:, :, :1] * img[:, :, 1:], 3, axis=2)
     if channels == 3:
         return np.ascontiguousarray(img[:, :, ::-1])
-    if channels == 4:  # BGRA: transparent areas project as black
-        return np.ascontiguousarray(img[:, :, 2::-1] * img[:, :, 3:4])
-    raise ValueError(f"unsupported channel count {channels}")
+    raise ValueError(f"unsupported channel count {img.shape[2]}")
+
+
+def decode_image(data, exif_turn: bool = True, alpha_over_black: bool = True) -> np.ndarray | None:
+    """The RGB (H, W, 3) pixels of an image file's bytes, in the file's type (uint8, uint16, float32;
+    float32 where alpha was laid over black); None when they do not decode.
+
+    exif_turn: a JPEG is turned by its EXIF orientation (it holds no alpha); everything else is decoded
+    unchanged, keeping 16-bit depth and alpha. A camera's frames keep the sensor's grid (exif_turn=False:
+    every frame the same geometry) and drop alpha, which means nothing in a photograph.
+    """
+    data = np.frombuffer(data, np.uint8) if isinstance(data, (bytes, bytearray)) else data
+    if not data.size:
+        return None
+    turn = exif_turn and data[:3].tobytes() == _JPEG_MAGIC
+    img = cv2.imdecode(data, cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH if turn else cv2.IMREAD_UNCHANGED)
+    if img is None or img.size == 0:
+        return None
+    return _to_rgb(img, alpha_over_black)
 
 
 def read_image(path) -> np.ndarray:
@@ -94,19 +115,13 @@ def read_image(path) -> np.ndarray:
         data = np.fromfile(path, dtype=np.uint8)
     except OSError as exc:
         raise ImageReadError(f"cannot read image file {path}: {exc}") from exc
-    # JPEG cannot hold alpha, so decode it with EXIF rotation applied;
-    # everything else UNCHANGED to keep 16-bit depth and the alpha channel.
-    if data[:3].tobytes() == _JPEG_MAGIC:
-        flags = cv2.IMREAD_ANYCOLOR | cv2.IMREAD_ANYDEPTH
-    else:
-        flags = cv2.IMREAD_UNCHANGED
-    img = cv2.imdecode(data, flags) if data.size else None
-    if img is None:
-        raise ImageReadError(
-            f"cannot decode image file {path}: it is empty, truncated or not a supported image format"
-        )
     try:
-        return _to_rgb(to_float(img))
+        img = decode_image(data)
+        if img is None:
+            raise ImageReadError(
+                f"cannot decode image file {path}: it is empty, truncated or not a supported image format"
+            )
+        return to_float(img)
     except (TypeError, ValueError) as exc:
         raise ImageReadError(f"cannot use image file {path}: {exc}") from exc
 

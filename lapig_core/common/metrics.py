@@ -17,6 +17,8 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
+from .psnr import masked_psnr as masked_psnr_numpy, psnr_from_mse
+
 SSIM_WIN_SIZE = 11
 SSIM_SIGMA = 1.5
 SSIM_K = (0.01, 0.03)
@@ -89,8 +91,7 @@ def mse(pred, target) -> float:
 
 def psnr(pred, target) -> float:
     """10 log10(1 / MSE) for data range 1; inf for identical images."""
-    m = mse(pred, target)
-    return math.inf if m == 0 else 10.0 * math.log10(1.0 / m)
+    return psnr_from_mse(mse(pred, target))
 
 
 def rmse(pred, target) -> float:
@@ -116,14 +117,8 @@ def masked_psnr(pred, target, mask) -> float:
     Full-frame figures include pixels that are black in every image (off the object), which
     inflates them; this one does not.
     """
-    p, t = _pair(pred, target)
-    m = torch.as_tensor(np.asarray(mask, bool))
-    if not m.any():
-        return math.nan
-    err = ((p - t) ** 2).mean(dim=1)
-    err = err[m] if m.ndim == 3 else err[:, m]
-    value = float(err.mean())
-    return math.inf if value == 0 else 10.0 * math.log10(1.0 / value)
+    p, t = (x.permute(0, 2, 3, 1).cpu().numpy() for x in _pair(pred, target))
+    return masked_psnr_numpy(p, t, mask)
 
 
 def masked_ssim(pred, target, mask) -> float:
@@ -144,8 +139,8 @@ def evaluate_on(pred, target, mask) -> dict:
     p, t = _pair(pred, target)
     m = torch.as_tensor(np.asarray(mask, bool))
     err = float(((p - t) ** 2).mean(dim=1)[:, m].mean()) if m.any() else math.nan
-    psnr = math.inf if err == 0 else 10.0 * math.log10(1.0 / err)  # masked_psnr's, from the same error
-    return {"psnr": psnr, "rmse": math.sqrt(p.shape[1] * err), "ssim": masked_ssim(pred, target, mask)}
+    return {"psnr": psnr_from_mse(err), "rmse": math.sqrt(p.shape[1] * err),
+            "ssim": masked_ssim(pred, target, mask)}
 
 
 def sharpness(img, mask=None, sigma: float = 0.0) -> float:

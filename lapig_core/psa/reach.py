@@ -15,6 +15,7 @@ import numpy as np
 import torch
 
 from ..common.metrics import to_nchw
+from ..common.psnr import psnr_from_mse
 
 REACH_TOLERANCE = 2.0 / 255  # two 8-bit levels: within the camera's noise of the bound
 MOSTLY_OUT = 0.5  # below this share a look is "mostly out of reach" and the artist is told
@@ -45,7 +46,7 @@ def clamp_bound_psnr(look, i_min, i_max, mask=None) -> float:
     look, i_min, i_max, mask = _tensors(look, i_min, i_max, mask)
     clamped = torch.minimum(torch.maximum(look, i_min), i_max)
     mse = _over_pixels(((clamped - look) ** 2).mean(dim=1), mask)
-    return math.inf if mse == 0 else 10.0 * math.log10(1.0 / mse)
+    return psnr_from_mse(mse)
 
 
 def out_of_reach_split(look, i_min, i_max, mask=None) -> dict:

@@ -11,9 +11,9 @@ with the classical model's prediction of it:
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
+
+from ..common.psnr import masked_psnr
 
 SHIFT_PX = 2  # largest shift tried, in working-frame pixels
 SHIFT_LEAD_DB = 1.0  # a shift must match this much better than in place to mean a move
@@ -22,13 +22,6 @@ MIN_AGREEMENT_DB = 18.0  # capture against prediction, in place: below this the 
 
 class RegistrationCheckError(ValueError):
     """The captures no longer line up with the capture the models were fitted on."""
-
-
-def _psnr(a, b, mask) -> float:
-    if not mask.any():
-        return math.nan
-    mse = float(((a - b) ** 2).mean(-1)[..., mask].mean())
-    return math.inf if mse == 0 else 10 * math.log10(1.0 / mse)
 
 
 def _shifted(img, dy, dx, image_axes=(-3, -2)):
@@ -51,7 +44,7 @@ def registration_problem(captured, predicted, valid) -> str:
         shifts = [(0, 0)]
     else:
         shifts = [(dy, dx) for dy in range(-SHIFT_PX, SHIFT_PX + 1) for dx in range(-SHIFT_PX, SHIFT_PX + 1)]
-    scores = {s: _psnr(captured, _shifted(predicted, *s), inner) for s in shifts}
+    scores = {s: masked_psnr(captured, _shifted(predicted, *s), inner) for s in shifts}
     here = scores[(0, 0)]
     best = max(scores, key=scores.get)
     if best != (0, 0) and scores[best] > here + SHIFT_LEAD_DB:

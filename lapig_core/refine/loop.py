@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from ..common.psnr import masked_psnr
 from ..photometric.box_solve import box_compensate_linear, response_weights
 from ..photometric.classical import ClassicalModel
 from .check import RegistrationCheckError, registration_problem
@@ -63,13 +64,6 @@ class RefineSettings:
         if self.max_repeats < 1:
             return f"max_repeats must be at least 1, got {self.max_repeats}"
         return ""
-
-
-def masked_psnr(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
-    """PSNR over the pixels of mask (H, W), every image and channel (numpy: refinement needs no torch)."""
-    err = ((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2).mean(-1)
-    value = float(err[..., mask].mean()) if mask.any() else math.nan
-    return math.inf if value == 0 else 10.0 * math.log10(1.0 / value)
 
 
 @dataclass

@@ -10,6 +10,7 @@ from urllib.parse import urlsplit, urlunsplit
 import cv2
 import numpy as np
 
+from ..common.imageio import to_uint8
 from . import RigError
 
 BACKENDS = {"any": cv2.CAP_ANY, "v4l2": cv2.CAP_V4L2, "dshow": cv2.CAP_DSHOW, "msmf": cv2.CAP_MSMF,
@@ -87,7 +88,7 @@ def resolve_backend(backend: str, kind: str) -> int:
 def to_rgb(frame: np.ndarray) -> np.ndarray:
     """A frame as OpenCV returns it (BGR, BGRA or grey; 8 or 16 bits) -> uint8 (H, W, 3) RGB."""
     if frame.dtype == np.uint16:
-        frame = ((frame.astype(np.uint32) + 128) // 257).astype(np.uint8)
+        frame = to_uint8(frame)
     elif frame.dtype != np.uint8:
         frame = np.clip(frame, 0, 255).astype(np.uint8)
     if frame.ndim == 2 or frame.shape[2] == 1:

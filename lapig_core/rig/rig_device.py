@@ -17,6 +17,7 @@ import numpy as np
 
 from ..capture.device import CaptureDevice, DeviceInfo, GeometryChecks
 from ..capture.settings import CaptureError
+from ..common.imageio import to_uint8
 from . import RigError
 from . import frame_code as fc
 from .clock import REAL_CLOCK
@@ -96,7 +97,8 @@ class RigDevice(CaptureDevice):
     def capture(self, frames) -> list[np.ndarray]:
         if self.sync is None:
             raise RigError("the rig shot a frame before its calibration (lock_exposure)")
-        return [self.sync.shoot(_eight_bit(frame)) for frame in frames]
+        # the window shows 8 bits a channel (what HDMI carries from a desktop): a 16-bit frame is rounded
+        return [self.sync.shoot(to_uint8(frame)) for frame in frames]
 
     def vary_noise(self, draw: int) -> None:
         """A real camera's noise is new every grab; a simulated one passes this on to its optics."""
@@ -134,10 +136,3 @@ class RigDevice(CaptureDevice):
         if len(cells.readable_bands()) < 2 and stills.faulty_share() > FAULTY_SHARE:
             raise RigError(stills.unverifiable())
         return cells
-
-
-def _eight_bit(frame: np.ndarray) -> np.ndarray:
-    """The window shows 8 bits a channel (what HDMI carries from a desktop): a 16-bit frame is rounded."""
-    if frame.dtype == np.uint16:
-        return ((frame.astype(np.uint32) + 128) // 257).astype(np.uint8)
-    return frame

@@ -24,10 +24,9 @@ import time
 from collections import deque
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from ..common.imageio import to_float, to_uint8
+from ..common.imageio import decode_image, to_float, to_uint8
 
 from . import RigError
 
@@ -53,16 +52,10 @@ def ends_complete(data: bytes) -> bool | None:
 
 def decode_frame(data: bytes, keep_16_bit: bool = False) -> tuple[np.ndarray, int] | None:
     """(RGB image, the file's bit depth) of an image file's bytes; None when they do not decode."""
-    raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
-    if raw is None or raw.size == 0:
+    rgb = decode_image(data, exif_turn=False, alpha_over_black=False)
+    if rgb is None:
         return None
-    depth = {np.dtype(np.uint8): 8, np.dtype(np.uint16): 16}.get(raw.dtype, 32)
-    if raw.ndim == 2:
-        raw = raw[:, :, None]
-    if raw.shape[2] == 1:
-        rgb = np.repeat(raw, 3, axis=2)
-    else:  # BGR or BGRA: the alpha of a photograph means nothing, it is dropped
-        rgb = np.ascontiguousarray(raw[:, :, 2::-1])
+    depth = {np.dtype(np.uint8): 8, np.dtype(np.uint16): 16}.get(rgb.dtype, 32)
     return (to_float(rgb) if keep_16_bit else to_uint8(rgb)), depth
 
 

@@ -62,10 +62,12 @@ def test_train_says_how_far_the_networks_are_from_the_first_look_and_generate_us
     ahead = choice["learned_psnr"] - choice["classical_psnr"]
     line = store.models[1]
     assert store.models[0] == store.capture_fingerprint
-    if choice["chosen"] == "CompenNeSt":
-        assert f"the networks are {ahead:.2f} dB ahead of the first look" in line
-    else:
-        assert "the first look's classical model stays the compensator" in line
+    # the line says what the measurement means for the first look (every case: test_first_look_core)
+    from lapig.lapig_core.photometric.choice import CompensatorChoice
+    from lapig.lapig_core.photometric.first_look import after_train_note
+
+    note = after_train_note(CompensatorChoice(choice["chosen"], choice["learned_psnr"], choice["classical_psnr"], 1))
+    assert note and note in line
     out = pipeline_jobs.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2).run_to_completion()
     models = _summary(out["folder"])["models"]
     assert models["first_look"] is False and models["compensator"] == choice["chosen"]
@@ -96,23 +98,28 @@ def test_a_first_look_of_another_capture_or_a_damaged_one_is_not_used(seams):
 
 
 @pytest.mark.torch
-def test_a_cancel_while_fitting_the_first_look_keeps_the_capture_without_one(seams):
+def test_a_cancel_while_fitting_the_first_look_keeps_the_capture_and_the_whole_fit(seams, monkeypatch):
+    import threading
+
+    from lapig.lapig_core.capture.dataset import load_capture_set
+    from lapig.lapig_core.photometric import first_look
+
     capture_job = _module("capture_job")
+    started, fit = threading.Event(), first_look.fit_first_look
+
+    def fit_when_seen(*args):  # the test knows the fit is under way before it cancels
+        started.set()
+        return fit(*args)
+    monkeypatch.setattr(first_look, "fit_first_look", fit_when_seen)
     job = capture_job.CaptureJob(seams, seams.store.capture_settings())
     while job.step():
         if job.message.startswith("fitting the first look"):
+            assert started.wait(60)
             job.stop()
             break
     assert job.state == "CANCELLED"
     store = seams.store
     assert store.recorded == ["capture"]  # the capture was complete and recorded; no first look line
-    from lapig.lapig_core.capture.dataset import load_capture_set
-    from lapig.lapig_core.photometric import first_look
-
     load_capture_set(store.capture_dir)  # the capture is whole
-    # a fit already under way when the cancel came finishes whole (files written temp-then-rename); else none
-    record = os.path.join(store.capture_dir, "models", first_look.FIRST_LOOK_FILE)
-    if os.path.exists(record):
-        assert first_look.load_first_look(store.capture_dir, store.capture_fingerprint) is not None
-    else:
-        assert first_look.load_first_look(store.capture_dir, store.capture_fingerprint) is None
+    # the fit under way when the cancel came finished whole (files written temp-then-rename)
+    assert first_look.load_first_look(store.capture_dir, store.capture_fingerprint) is not None

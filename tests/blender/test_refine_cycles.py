@@ -15,7 +15,8 @@ def test_refinement_through_cycles_corrects_the_open_loop_image(lapig_registered
     from lapig.lapig_addon.blender import rig, scene_state
     from lapig.lapig_addon.blender.cycles_factory import CyclesDeviceFactory
     from lapig.lapig_addon.cli import headless
-    from lapig.lapig_addon.services.refine_job import refine_rounds, run_rounds
+    from lapig.lapig_addon.services.refine_job import refine_rounds
+    from lapig.lapig_core.common.steps import run_to_end
     from lapig.lapig_core.capture.dataset import load_capture_set
     from lapig.lapig_core.photometric.box_solve import box_compensate
     from lapig.lapig_core.photometric.classical import ClassicalModel
@@ -37,7 +38,7 @@ def test_refinement_through_cycles_corrects_the_open_loop_image(lapig_registered
     weak = box_compensate(model, targets) * 0.8 ** (1 / model.gamma_p)  # a model 20 % off in its light
     devices = CyclesDeviceFactory(scene, projector, camera, target)
     refinement = Refinement(model, targets, cs.cam_black, cs.cam_white, valid, weak, RefineSettings(iterations=3))
-    run_rounds(refine_rounds(devices, setup_dir, refinement))
+    run_to_end(refine_rounds(devices, setup_dir, refinement))
     rec = refinement.record
     assert rec.refined_psnr > rec.open_loop_psnr + 3, rec.to_dict()
     assert np.isfinite(rec.noise_floor_psnr) and rec.noise_floor_psnr > rec.open_loop_psnr
@@ -47,6 +48,6 @@ def test_refinement_through_cycles_corrects_the_open_loop_image(lapig_registered
     native = cv2.resize(weak[0], (160, 120), interpolation=cv2.INTER_LINEAR)
     on_native = Refinement(model, targets, cs.cam_black, cs.cam_white, valid, None, RefineSettings(iterations=3),
                            native_start=native)
-    run_rounds(refine_rounds(devices, setup_dir, on_native))
+    run_to_end(refine_rounds(devices, setup_dir, on_native))
     assert on_native.images.shape == (1, 120, 160, 3)
     assert on_native.record.refined_psnr > on_native.record.open_loop_psnr + 3, on_native.record.to_dict()

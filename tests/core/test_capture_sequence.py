@@ -16,6 +16,7 @@ from lapig.lapig_core.capture.registration import Registration, frame_grid
 from lapig.lapig_core.capture.sequence import GeometryChecks, pattern_images, run_capture
 from lapig.lapig_core.capture.settings import CaptureError, CaptureSettings
 from lapig.lapig_core.common.locking import FolderBusy
+from lapig.lapig_core.common.steps import run_to_end
 
 SETUP = "plane"
 
@@ -34,17 +35,12 @@ def _capture(root, device=None, stop_after=None, **kw):
     """Run a capture to its end (returns its result and progress), or close it once it has
     yielded ``stop_after`` (a progress message prefix), as the job engine does on a cancel."""
     device = device or FakeDevice()
-    steps = run_capture(device, _settings(root, **kw), _checks(device))
     progress = []
-    try:
-        while True:
-            fraction, message = next(steps)
-            progress.append(fraction)
-            if stop_after and message.startswith(stop_after):
-                steps.close()
-                return None, progress
-    except StopIteration as done:
-        return done.value, progress
+
+    def seen(step):
+        progress.append(step[0])
+        return bool(stop_after) and step[1].startswith(stop_after)
+    return run_to_end(run_capture(device, _settings(root, **kw), _checks(device)), seen), progress
 
 
 def _snapshot(root) -> dict:

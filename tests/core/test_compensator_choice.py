@@ -143,18 +143,14 @@ def test_fine_tuning_measures_both_and_the_setup_compensates_with_the_better(tmp
     from lapig.lapig_core.capture.fake_device import FakeDevice
     from lapig.lapig_core.capture.sequence import GeometryChecks, run_capture
     from lapig.lapig_core.capture.settings import CaptureSettings
+    from lapig.lapig_core.common.steps import run_to_end
     from lapig.lapig_core.capture.dataset import setup_dir_of
     from lapig.lapig_core.pipeline import surface_models, train_models
 
     device = FakeDevice(projector_size=(48, 36), camera_size=(96, 72))
     settings = CaptureSettings(out_dir=str(tmp_path), train_count=12, test_count=4, working_size=48, chunk=8)
     checks = GeometryChecks(coverage=device.coverage, exact_projector_to_camera=device.exact_projector_to_camera)
-    steps = run_capture(device, settings, checks)
-    try:
-        while True:
-            next(steps)
-    except StopIteration as done:
-        cs = load_capture_set(done.value["setup_dir"])
+    cs = load_capture_set(run_to_end(run_capture(device, settings, checks))["setup_dir"])
     trained = train_models(cs, iterations=2)
     picked = trained["choice"]
     assert picked.validation_pairs == 4 and picked.judge == choice.PCNET_JUDGE

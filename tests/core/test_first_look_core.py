@@ -7,6 +7,8 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from lapig.lapig_core.photometric import checkpoints  # noqa: E402
+from lapig.lapig_core.photometric.choice import CLASSICAL, LEARNED, CompensatorChoice  # noqa: E402
+from lapig.lapig_core.photometric.first_look import after_train_note  # noqa: E402
 from lapig.lapig_core.photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator  # noqa: E402
 from lapig.lapig_core.photometric.training_data import PairSet, SurfaceTensors  # noqa: E402
 
@@ -69,3 +71,14 @@ def test_one_surface_per_batch_gives_the_gradient_of_eight_copies(arch):
     two = PairSet(x, y, torch.tensor([0, 1] * 4), [SurfaceTensors(s, s, s), SurfaceTensors(s * 0.5, s, s)],
                   "compensation")
     assert two.batch(idx)[1].shape[0] == 8
+
+
+@pytest.mark.parametrize("chosen, learned, classical, said", [
+    (LEARNED, 31.5, 30.0, "the networks are 1.50 dB ahead of the first look: Generate again to use them"),
+    (CLASSICAL, 29.0, 30.0, "the first look's classical model stays the compensator (1.00 dB ahead of CompenNeSt)"),
+    (CLASSICAL, 30.5, 30.0, "the first look's classical model stays the compensator (CompenNeSt only 0.50 dB ahead, "
+                            "less than the lead it needs)"),
+    (LEARNED, None, None, ""),  # nothing measured: nothing to say
+])
+def test_after_train_says_which_compensator_the_measurement_chose(chosen, learned, classical, said):
+    assert after_train_note(CompensatorChoice(chosen, learned, classical, 4)) == said

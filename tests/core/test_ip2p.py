@@ -109,11 +109,27 @@ def test_missing_folder_unavailable_with_clear_message(tmp_path):
     assert backend.model == str(missing)
     with pytest.raises(LGSTUnavailable) as err:
         backend.prepare(_surface(), PROMPT)
-    msg = str(err.value)
-    assert "styletransfer" in msg
-    if HAS_DIFFUSERS:
-        assert f"InstructPix2Pix weights not found at {missing}" in msg and "hf download" in msg
-        assert why.startswith("InstructPix2Pix weights not found")
+    assert "styletransfer" in str(err.value)
+
+
+@needs_diffusers
+def test_missing_weights_say_where_and_how_to_download_them(tmp_path):
+    missing = tmp_path / "no_weights_here"
+    ok, why = ip2p.InstructPix2PixBackend.availability(model=str(missing))
+    assert why.startswith(f"InstructPix2Pix weights not found at {missing}")
+    with pytest.raises(LGSTUnavailable, match="hf download") as err:
+        get_backend("instruct-pix2pix", model=str(missing)).prepare(_surface(), PROMPT)
+    assert f"InstructPix2Pix weights not found at {missing}" in str(err.value)
+
+
+def test_missing_packages_are_named_before_the_weights(tmp_path, monkeypatch):
+    find_spec = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "diffusers" else find_spec(name, *a))
+    ok, why = ip2p.InstructPix2PixBackend.availability(model=str(tmp_path))
+    assert ok is False and why.startswith("InstructPix2Pix needs the 'diffusers' package")
+    with pytest.raises(LGSTUnavailable, match="InstructPix2Pix needs diffusers and transformers"):
+        get_backend("instruct-pix2pix", model=str(tmp_path)).prepare(_surface(), PROMPT)
 
 
 def test_empty_prompt_is_rejected_before_loading(tmp_path):

@@ -290,9 +290,17 @@ def test_mapping_follows_art_words():
     assert {"sketch", "drawing", "charcoal"} & set(top("Turn it into a pencil sketch").tags)
     assert "Van Gogh" in top("Render it in the style of a Van Gogh oil painting").tags
     assert "mosaic" in top("a mosaic").tags
-    from lapig.lapig_core.lgst.text_embedder import active
-    if active().name == "minilm":  # sentence-transformers was loaded with every network path off
-        assert os.environ.get("HF_HUB_OFFLINE") == "1" and os.environ.get("TRANSFORMERS_OFFLINE") == "1"
+
+
+@needs_text_model
+def test_minilm_loads_with_every_network_path_off(monkeypatch):
+    from lapig.lapig_core.lgst import minilm
+
+    for name in ("HF_HUB_OFFLINE", "TRANSFORMERS_OFFLINE"):
+        monkeypatch.delenv(name, raising=False)
+    minilm._load_model.cache_clear()  # whichever embedder is active, MiniLM's own load sets them
+    minilm._load_model()
+    assert os.environ.get("HF_HUB_OFFLINE") == "1" and os.environ.get("TRANSFORMERS_OFFLINE") == "1"
 
 
 @needs_text_model

@@ -114,6 +114,22 @@ def test_metrics_numpy_torch_uint8_agree():
         metrics.mse(x, y[:8])
 
 
+def test_masked_psnr_counts_the_masked_pixels_in_numpy_and_torch_alike():
+    from lapig.lapig_core.common.psnr import masked_psnr
+
+    x = np.full((2, 8, 8, 3), 0.4)
+    y = x.copy()
+    y[:, :4] += 0.1  # the top half off by 0.1 (20 dB), the bottom half exact
+    top = np.zeros((8, 8), bool)
+    top[:4] = True
+    assert masked_psnr(y, x, top) == pytest.approx(20.0)
+    per_image = np.stack([top, ~top])  # one mask per image: half the pixels off
+    assert masked_psnr(y, x, per_image) == pytest.approx(20.0 + 10 * math.log10(2))
+    assert masked_psnr(y, x, ~top) == math.inf and math.isnan(masked_psnr(y, x, np.zeros((8, 8), bool)))
+    for mask in (top, per_image):  # the torch metric is the numpy one, on channel-first tensors too
+        assert metrics.masked_psnr(torch.from_numpy(y).permute(0, 3, 1, 2), x, mask) == masked_psnr(y, x, mask)
+
+
 # -- photometric losses ----------------------------------------------------------
 
 def test_photometric_loss_combinations():

@@ -10,7 +10,8 @@ import pytest
 from lapig.lapig_core.photometric.box_solve import box_compensate, box_least_squares
 from lapig.lapig_core.photometric.classical import ClassicalModel
 from lapig.lapig_core.refine.check import RegistrationCheckError, registration_problem
-from lapig.lapig_core.refine.loop import Refinement, RefineError, RefineSettings, masked_psnr, run
+from lapig.lapig_core.common.psnr import masked_psnr
+from lapig.lapig_core.refine.loop import Refinement, RefineError, RefineSettings, run
 
 H, W = 32, 40
 GC, GP = 2.2, 2.0

@@ -11,6 +11,7 @@ from lapig.lapig_core.capture.dataset import load_capture_set
 from lapig.lapig_core.capture.fake_device import FakeDevice, default_homography
 from lapig.lapig_core.capture.sequence import GeometryChecks, run_capture
 from lapig.lapig_core.capture.settings import CaptureSettings
+from lapig.lapig_core.common.steps import run_to_end
 from lapig.lapig_core.export.projector_image import export_projector_image
 from lapig.lapig_core.common.imageio import read_image
 from lapig.lapig_core.photometric.finetune import cpu_recipe, finetune
@@ -31,12 +32,7 @@ def _capture(root, projector, shift_px=0.0):
     device = FakeDevice(projector_size=projector, camera_size=CAMERA, homography=homography)
     settings = CaptureSettings(out_dir=str(root), train_count=8, test_count=0, working_size=64, chunk=8)
     checks = GeometryChecks(coverage=device.coverage, exact_projector_to_camera=device.exact_projector_to_camera)
-    steps = run_capture(device, settings, checks)
-    try:
-        while True:
-            next(steps)
-    except StopIteration as done:
-        return load_capture_set(done.value["setup_dir"])
+    return load_capture_set(run_to_end(run_capture(device, settings, checks))["setup_dir"])
 
 
 @pytest.fixture(scope="module", params=[(64, 48), (64, 36)], ids=["4:3", "16:9"])

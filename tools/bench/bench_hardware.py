@@ -26,6 +26,7 @@ import numpy as np
 from ...lapig_core.capture.fake_device import FakeDevice
 from ...lapig_core.capture.sequence import GeometryChecks, run_capture
 from ...lapig_core.capture.settings import CaptureError, CaptureSettings
+from ...lapig_core.common.steps import run_to_end
 from ...lapig_core.rig.simulated import CameraFaults, simulated_rig, sync_outcome
 
 PUBLIC_CODE_SECONDS_PER_CAPTURE = 0.2 + 13 / 30
@@ -41,12 +42,7 @@ def _capture(device, out, name, optics=None, patterns=12):
         if optics is not None else None
     settings = CaptureSettings(out_dir=out, setup_name=name, train_count=patterns - patterns // 4,
                                test_count=patterns // 4, working_size=128, check_grid_step=8)
-    steps = run_capture(device, settings, checks)
-    try:
-        while True:
-            next(steps)
-    except StopIteration as done:
-        return done.value["meta"]
+    return run_to_end(run_capture(device, settings, checks))["meta"]
 
 
 def run(args) -> dict:

@@ -16,6 +16,7 @@ Side-by-side sheets (target | open loop | refined | errors x4) of the first imag
 from __future__ import annotations
 
 import json
+import math
 import os
 import platform
 import time
@@ -26,11 +27,12 @@ from ...lapig_addon.blender.cycles_factory import CyclesDeviceFactory
 from ...lapig_addon.services.projection import projection_session
 from ...lapig_core.common.atomic import atomic_write_bytes
 from ...lapig_core.common.imageio import write_png
+from ...lapig_core.common.psnr import masked_psnr
 from ...lapig_core.common.sheets import labelled_grid
 from ...lapig_core.photometric.box_solve import box_compensate
 from ...lapig_core.photometric.classical import ClassicalModel
 from ...lapig_core.photometric.targets import desired_targets, reachable_mask
-from ...lapig_core.refine.loop import Refinement, RefineSettings, masked_psnr, run as run_loop
+from ...lapig_core.refine.loop import Refinement, RefineSettings, run as run_loop
 from .. import synthetic_setups as syn
 
 # the demo's wall (the demo scene: a panel with the sakura texture), in the realistic transport
@@ -57,11 +59,9 @@ def error_image(capture, target, mask):
 
 
 def _psnr_where(caps, target, where):
-    """Masked PSNR over the (N, H, W) selection; None where it selects nothing."""
-    if not where.any():
-        return None
-    err = ((caps.astype(np.float64) - target) ** 2).mean(-1)[where].mean()
-    return round(float(10 * np.log10(1.0 / err)), 4) if err > 0 else None
+    """Masked PSNR over the (N, H, W) selection; None where it selects nothing or matches exactly."""
+    value = masked_psnr(caps, target, where)
+    return round(value, 4) if math.isfinite(value) else None
 
 
 def crop_sheet(name, target, open_loop, refined, mask):

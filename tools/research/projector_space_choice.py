@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from ...lapig_core.common.psnr import psnr_from_mse
 from ...lapig_core.photometric.choice import CLASSICAL, LEARNED, MAX_PSNR, CompensatorChoice
 
 UNCLIPPED_MARGIN = 0.02  # a capture this far inside (I-, I+) identifies its projector value (noise ~0.003)
@@ -43,8 +44,7 @@ def validation_psnr(compensate, cam: np.ndarray, prj: np.ndarray, mask: np.ndarr
     values = []
     for p, t, k in zip(pred, np.asarray(prj, np.float32), keep):
         if k.any():
-            err = float(np.mean((p - t)[k] ** 2))
-            values.append(min(MAX_PSNR, 10.0 * math.log10(1.0 / max(err, 1e-30))))
+            values.append(min(MAX_PSNR, psnr_from_mse(float(np.mean((p - t)[k] ** 2)))))
     return float(np.mean(values)) if values else math.nan
 
 

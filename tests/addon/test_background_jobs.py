@@ -11,9 +11,11 @@ import time
 import pytest
 
 from lapig_core.capture.dataset import resolve_setup
-from lapig_core.common.locking import FolderBusy, FolderLock
 
 ADDON = "lapig.lapig_addon"
+# the add-on package's lock, whose FolderBusy the job engine catches (the top-level lapig_core's is another class)
+locking = importlib.import_module("lapig.lapig_core.common.locking")
+FolderBusy, FolderLock = locking.FolderBusy, locking.FolderLock
 
 
 def _module(name):
@@ -110,11 +112,29 @@ def test_on_resume_a_folder_still_taken_is_waited_for_then_refused_with_its_hold
     job.pause()
     _until(lambda: job.paused, job.step)
     with FolderLock(tmp_path, "LAPIG capture"):  # another process captures meanwhile
+        resumed_at = time.monotonic()
         job.resume()
         _until(lambda: job.finished, job.step)
+    assert time.monotonic() - resumed_at >= job.RETAKE_S  # waited for, not refused at once
     assert job.state == "FAILED" and "in use by LAPIG capture" in job.message
     assert not (tmp_path / "output.txt").exists()
     _until(lambda: _worker_gone(job) and _lock_is_free(tmp_path))
+
+
+def test_on_resume_a_folder_taken_for_a_moment_is_waited_for_and_the_work_goes_on(tmp_path):
+    job = _counting_job(tmp_path)
+    _until(lambda: job.count >= 2, job.step)
+    job.pause()
+    _until(lambda: job.paused, job.step)
+    capture = FolderLock(tmp_path, "LAPIG capture").acquire()  # the foreground job's, still ending
+    job.resume()
+    for _ in range(20):
+        job.step()
+        time.sleep(0.005)
+    assert not job.finished
+    capture.release()
+    _until(lambda: job.finished, job.step)
+    assert job.state == "DONE" and job.result == 40 and job.resumes == 1
 
 
 def test_a_main_thread_pause_point_holds_the_steps_until_resume():

@@ -217,6 +217,8 @@ class WorkerJob(Job):
             messages.put((float(progress), str(message)))
             if self.pause_requested:
                 self._paused_in_worker(inputs, locks, release)
+            if self.cancel_event.is_set():  # the work stops here: a loop that would end now must not save
+                raise JobCancelled()
 
         def target():
             try:
@@ -254,20 +256,21 @@ class WorkerJob(Job):
         yield 1.0, "done"
 
     def _paused_in_worker(self, inputs, locks, release):
-        """On the worker thread: let go of the locks, wait for resume() or a cancel, take them again."""
+        """On the worker thread: let go of the locks, wait for resume() or a cancel, take them again. A cancel
+        raises JobCancelled: the work ends here, holding nothing and saving nothing."""
         release()
         self._at_pause_point = True
         try:
             while not self._go.wait(0.05):
                 if self.cancel_event.is_set():
-                    return  # the work sees the cancel at its next check and ends, holding nothing
+                    raise JobCancelled()
         finally:
             self._at_pause_point = False
         retake = self.retake(inputs)
         while True:
             if self.cancel_event.is_set():
                 retake.close()
-                return  # the work sees the cancel at its next check and ends, holding nothing
+                raise JobCancelled()
             try:
                 next(retake)
             except StopIteration as done:

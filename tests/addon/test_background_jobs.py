@@ -31,9 +31,10 @@ def _until(condition, step=lambda: None, timeout=20.0):
         time.sleep(0.002)
 
 
-def _counting_job(folder, iterations=40, reports_every=1):
+def _counting_job(folder, iterations=40, reports_every=1, pause_at=None):
     """A worker job that counts, reports after each count (its pause points), holds the folder's lock and
-    writes its output file only at the end."""
+    writes its output file only at the end. As the Trainer, it checks for a cancel at the top of its loop only.
+    pause_at: the count whose report it is paused at."""
     jobs = _module("jobs")
 
     class Counting(jobs.WorkerJob):
@@ -54,6 +55,8 @@ def _counting_job(folder, iterations=40, reports_every=1):
                     return None
                 self.count += 1
                 time.sleep(0.002)
+                if self.count == pause_at:
+                    self.pause()
                 if i % reports_every == 0:
                     report(i / iterations, f"counted {self.count}")
             (folder / "output.txt").write_text(str(self.count))
@@ -103,6 +106,16 @@ def test_a_cancel_while_paused_ends_cleanly_and_leaves_nothing_behind(tmp_path):
     assert job.state == "CANCELLED" and not job.paused and job.count < 40
     assert _worker_gone(job) and _lock_is_free(tmp_path)
     assert sorted(os.listdir(tmp_path)) == []  # no output, and no lock file left
+
+
+def test_a_cancel_while_paused_at_the_last_report_stops_the_work_before_it_saves(tmp_path):
+    """Train paused at PCNet's last report, then cancelled: its loop would end without checking for a cancel
+    again, and save."""
+    job = _counting_job(tmp_path, iterations=5, pause_at=5)
+    _until(lambda: job.paused, job.step)
+    job.stop()
+    assert job.state == "CANCELLED" and _worker_gone(job)
+    assert sorted(os.listdir(tmp_path)) == []  # nothing saved, and no lock file left
 
 
 def test_on_resume_a_folder_still_taken_is_waited_for_then_refused_with_its_holder(tmp_path):

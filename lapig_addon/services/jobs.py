@@ -105,9 +105,10 @@ class Job:
 
     poll_timeout = 0.05  # > 0: synchronous runs (headless, tests) wait for a worker instead of spinning
 
-    def drive(self, make_steps, main_thread: bool) -> "DeviceSteps":
-        """Steps that drive a capture device on the thread it needs (DeviceSteps); `yield from` them."""
-        steps = DeviceSteps(make_steps, main_thread, self.poll_timeout, self.title)
+    def drive(self, make_steps, main_thread: bool, holding=None) -> "DeviceSteps":
+        """Steps that drive a capture device on the thread it needs (DeviceSteps); `yield from` them.
+        holding: a lock the device works under (release()), let go once the device is closed."""
+        steps = DeviceSteps(make_steps, main_thread, self.poll_timeout, self.title, holding)
         self._device_steps.append(steps)
         return steps
 
@@ -307,18 +308,30 @@ class DeviceSteps:
     With main_thread (Cycles renders through bpy) it runs where the job is stepped; without, it runs
     on a worker thread whose steps are relayed here, so a real camera's blocking grab() never freezes
     Blender. Closing this generator (a cancel) closes the inner one on the thread that runs it, and
-    its `with` blocks close the device; join() waits for that."""
+    its `with` blocks close the device; join() waits for that. `holding` (a lock, or None) is let go
+    only then: a cancel does not wait for a blocked grab, and the next job must not open the device
+    meanwhile."""
 
-    def __init__(self, make_steps, main_thread: bool, poll_timeout: float = 0.05, title: str = "LAPIG device"):
+    def __init__(self, make_steps, main_thread: bool, poll_timeout: float = 0.05, title: str = "LAPIG device",
+                 holding=None):
         self.make_steps, self.main_thread = make_steps, main_thread
         self.poll_timeout, self.title = poll_timeout, title
+        self._holding = holding
         self._thread = None
         self._stop = None
 
     def __iter__(self):
-        if self.main_thread:
+        if not self.main_thread:
+            return (yield from self._relayed())
+        try:
             return (yield from self.make_steps())
-        return (yield from self._relayed())
+        finally:  # the device was closed here, with its steps
+            self._let_go()
+
+    def _let_go(self):
+        held, self._holding = self._holding, None
+        if held is not None:
+            held.release()
 
     def _relayed(self):
         import queue
@@ -341,9 +354,16 @@ class DeviceSteps:
                         return
             except BaseException as exc:  # handed to the job's thread, raised there
                 box["error"] = exc
+            finally:  # the device is closed: now its lock may go, even if the job stopped waiting long ago
+                self._let_go()
 
-        thread = self._thread = threading.Thread(target=target, name=f"{THREAD_PREFIX}{self.title}", daemon=True)
-        thread.start()
+        thread = threading.Thread(target=target, name=f"{THREAD_PREFIX}{self.title}", daemon=True)
+        try:
+            thread.start()
+        except BaseException:
+            self._let_go()
+            raise
+        self._thread = thread
         progress = (0.0, "starting the device")
         try:
             while thread.is_alive() or not messages.empty():

@@ -298,15 +298,19 @@ def test_generate_while_train_runs_in_the_background_uses_the_first_look_and_aft
     slots.end_foreground(generate)
 
     # paused again during the rendered choice: the device closes and the lock goes between renders
-    _until(lambda: "measuring" in train.message or train.finished, slots.step_background, timeout=300)
+    # a camera on its own thread waits at its first grab until the pause is asked (Cycles: stepped here only)
+    grabs = seams.devices.grab_gate = threading.Event()
+    if main_thread:
+        grabs.set()
+    opened = seams.devices.opened
+    _until(lambda: seams.devices.opened > opened, slots.step_background, timeout=300)
     assert train.in_use_note.startswith("networks saved")
     slots.start_foreground(_running_job())
+    grabs.set()
     _until(slots.foreground_may_step, timeout=60)
-    if main_thread:  # stepped here only: certainly between two renders
-        assert train.paused and "measuring" not in train.message
-    if not train.finished:
-        assert train.paused and seams.devices.opened == seams.devices.closed
-        assert _lock_is_free(_root(captured))
+    assert train.paused and "measuring" not in train.message  # between two renders
+    assert seams.devices.opened == seams.devices.closed
+    assert _lock_is_free(_root(captured))
     slots.end_foreground(slots.foreground)
     _until(lambda: train.finished, slots.step_background, timeout=300)
     assert train.state == "DONE", train.message
@@ -337,6 +341,48 @@ def test_a_background_train_cancelled_while_paused_leaves_the_first_look_as_it_w
     assert train.state == "CANCELLED" and _worker_gone(train)
     assert _models_files(captured) == before and seams.store.models == models_before
     assert _lock_is_free(_root(captured))
+
+
+@pytest.mark.torch
+def test_a_train_cancelled_while_paused_at_pcnets_last_report_saves_nothing(seams):
+    pipeline_jobs = _module("pipeline_jobs")
+    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    before, models_before = _models_files(captured), seams.store.models
+
+    class PausedAtPCNet(pipeline_jobs.TrainModelsJob):
+        def work(self, folder, report, cancel_event):
+            def pause_at_pcnet(progress, message):  # 2 iterations: PCNet reports once, at its last
+                if message.startswith("PCNet"):
+                    self.pause()
+                report(progress, message)
+
+            return super().work(folder, pause_at_pcnet, cancel_event)
+
+    train = PausedAtPCNet(seams, 2)
+    train.poll_timeout = 0
+    _until(lambda: train.paused, train.step, timeout=120)
+    train.stop()
+    assert train.state == "CANCELLED" and _worker_gone(train)
+    assert _models_files(captured) == before and seams.store.models == models_before
+    assert _lock_is_free(_root(captured))
+
+
+@pytest.mark.torch
+def test_a_cancelled_train_lets_go_of_the_capture_only_once_its_camera_is_closed(seams):
+    """Esc while the rendered choice's camera grabs on its own thread: a background job that resumed on the
+    lock meanwhile would open the same camera."""
+    pipeline_jobs = _module("pipeline_jobs")
+    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    grabs = seams.devices.grab_gate = threading.Event()  # the camera's grab blocks until set
+    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train.poll_timeout = 0
+    _until(lambda: seams.devices.opened > seams.devices.closed, train.step, timeout=300)
+    train.cancel()  # the UI stops waiting; the camera is still grabbing
+    assert train.state == "CANCELLED" and not _lock_is_free(_root(captured))
+    grabs.set()
+    _until(lambda: _lock_is_free(_root(captured)))
+    assert seams.devices.opened == seams.devices.closed  # closed before the lock went
+    train.stop()
 
 
 @pytest.mark.torch

@@ -98,6 +98,16 @@ class Job:
             self._gen.close()  # runs the generator's cleanup at its current yield
         self._finish("CANCELLED", self.progress, "cancelled")
 
+    def fail(self, error: Exception):
+        """End the job as failed with `error`, from outside its steps (what kept it from going on); its
+        cleanup runs as on a cancel."""
+        if self.finished:
+            return
+        if self._gen is not None:
+            self._gen.close()
+        self.error = error
+        self._finish("FAILED", self.progress, one_line(error))
+
     def stop(self):
         """Cancel and return once no work of this job runs any more."""
         self.cancel()

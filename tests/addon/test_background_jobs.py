@@ -407,19 +407,67 @@ def test_a_background_train_waits_for_the_artists_live_window_before_it_opens_th
     assert train.state == "DONE" and seams.devices.opened > opened
 
 
-def test_a_background_job_that_reaches_no_pause_point_is_not_waited_for_forever(tmp_path):
+class _Clock:
+    """background_jobs' time, moved on by the test."""
+
+    def __init__(self):
+        self.now = 0.0
+        self.sleep = time.sleep
+
+    def monotonic(self):
+        return self.now
+
+
+def _long_step_then_a_report(folder, go_on):
+    """A background job holding the folder's lock through a long step without a pause point (a fit, a load)."""
+    train = _counting_job(folder)
+
+    def work(inputs, report, cancel_event):
+        go_on.wait(20)
+        report(0.5, "fitted")
+        return "fitted"
+
+    train.work = work
+    return train
+
+
+def test_a_foreground_job_waits_for_a_background_train_that_takes_long_to_pause(tmp_path, monkeypatch):
     background_jobs = _module("background_jobs")
-    slots = background_jobs.JobSlots()
-    slots.PAUSE_WAIT_S = 0.2
-    go_on = threading.Event()
-    train = _counting_job(tmp_path)
-    train.work = lambda inputs, report, cancel_event: go_on.wait(10)  # a long step that never reports
+    clock = _Clock()
+    monkeypatch.setattr(background_jobs, "time", clock)
+    slots, go_on = background_jobs.JobSlots(), threading.Event()
+    train = _long_step_then_a_report(tmp_path, go_on)
     slots.start_background(train)
     slots.step_background()
-    slots.start_foreground(_running_job())
+    generate = _counting_job(tmp_path, iterations=5)  # the same folder: it needs the lock the Train holds
+    slots.start_foreground(generate)
+    clock.now += 120  # four times the old 30 s cap, well short of a stuck job: the artist's job still waits
+    assert not slots.foreground_may_step() and not generate.finished
+    assert generate.message == background_jobs.WAITING_FOR_PAUSE
+    assert "pausing" in background_jobs.background_line(slots)[0]
+    go_on.set()
+    _until(slots.foreground_may_step)
+    _until(lambda: generate.finished, generate.step)
+    assert generate.state == "DONE", generate.message
+    slots.end_foreground(generate)
+    _until(lambda: train.finished, slots.step_background)
+    assert train.state == "DONE" and train.result == "fitted"
+
+
+def test_a_background_job_that_never_pauses_fails_the_foreground_job_saying_so(tmp_path, monkeypatch):
+    background_jobs = _module("background_jobs")
+    clock = _Clock()
+    monkeypatch.setattr(background_jobs, "time", clock)
+    slots, go_on = background_jobs.JobSlots(), threading.Event()
+    train = _long_step_then_a_report(tmp_path, go_on)
+    slots.start_background(train)
+    slots.step_background()
+    generate = _running_job()
+    slots.start_foreground(generate)
+    clock.now += slots.STUCK_S + 1
     assert not slots.foreground_may_step()
-    time.sleep(0.3)
-    assert slots.foreground_may_step() and not train.paused
+    assert generate.state == "FAILED" and generate.message.startswith("the training in the background did not pause")
+    assert "Cancel" in generate.message and not train.finished  # the artist decides: cancel it, or wait
     go_on.set()
     slots.cancel_background()
 

@@ -4,6 +4,8 @@ Train starts in the background after a Capture made in Blender's UI (train_after
 networks and the rendered choice come while the artist works with the first look. The background job
 gives way: a foreground job (Generate, Preview's renders, Export's jobs...) pauses it and steps only once
 it has let go of its locks and devices (foreground_may_step), and it resumes when the foreground job ends.
+Until then the foreground job waits and says so, however long the background job's step takes; one that
+reaches no pause point in STUCK_S is stuck, and the foreground job fails saying what to do.
 Whatever replaces the capture or the models (a new Capture, Train pressed) cancels it first.
 No bpy: blender/modal_runner holds one JobSlots and steps it from the operators' timers.
 """
@@ -14,10 +16,16 @@ import time
 from .jobs import Job
 
 BUSY = "Another LAPIG job is running: wait for it or press Esc"
+WAITING_FOR_PAUSE = "waiting for the training in the background to pause"
+
+
+class BackgroundJobStuck(ValueError):  # a ValueError: its message is worded for the artist (errors.one_line)
+    """The background job reached no pause point in JobSlots.STUCK_S: it still holds its locks and devices."""
 
 
 class JobSlots:
-    PAUSE_WAIT_S = 30.0  # a background job that reaches no pause point by then is not waited for any longer
+    # a background job that reaches no pause point by then is stuck: going first anyway would fail on its lock
+    STUCK_S = 300.0
 
     def __init__(self):
         self.foreground: Job | None = None
@@ -46,10 +54,21 @@ class JobSlots:
             return True
         bg.pause()
         bg.step()
-        waited = time.monotonic() - self._waiting_since if self.foreground_running() else 0.0
-        if waited > self.PAUSE_WAIT_S:
-            return True  # it holds on (a long step without a pause point): the artist's job goes first anyway
-        return bg.finished or bg.paused
+        if bg.finished or bg.paused:
+            return True
+        if self.foreground_running():
+            self._wait_for_pause()
+        return False
+
+    def _wait_for_pause(self):
+        """The foreground job says it waits; after STUCK_S it fails, saying what to do."""
+        waited = time.monotonic() - self._waiting_since
+        if waited <= self.STUCK_S:
+            self.foreground.message = WAITING_FOR_PAUSE
+            return
+        self.foreground.fail(BackgroundJobStuck(
+            f"the training in the background did not pause in {waited:.0f} s and still holds the capture: "
+            f"Cancel it in the Models panel, then start {self.foreground.title} again"))
 
     def end_foreground(self, job: Job):
         """The foreground job ended: the background job goes on."""
@@ -125,7 +144,8 @@ def background_line(slots: JobSlots) -> tuple[str, bool | None] | None:
     if bg is not None and not bg.finished:
         note = getattr(bg, "in_use_note", "")
         if slots.foreground_running():
-            return f"Training in the background: paused at {bg.progress:.0%} while {slots.foreground.title} runs" \
+            state = "paused" if bg.paused else "pausing"
+            return f"Training in the background: {state} at {bg.progress:.0%} while {slots.foreground.title} runs" \
                    + (f" ({note})" if note else ""), None
         if bg.message.startswith("waiting"):  # for the rig, or for the capture's folder
             note = bg.message + (f"; {note}" if note else "")

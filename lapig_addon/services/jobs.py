@@ -98,6 +98,16 @@ class Job:
             self._gen.close()  # runs the generator's cleanup at its current yield
         self._finish("CANCELLED", self.progress, "cancelled")
 
+    def fail(self, error: Exception):
+        """End the job as failed with `error`, from outside its steps (what kept it from going on); its
+        cleanup runs as on a cancel."""
+        if self.finished:
+            return
+        if self._gen is not None:
+            self._gen.close()
+        self.error = error
+        self._finish("FAILED", self.progress, one_line(error))
+
     def stop(self):
         """Cancel and return once no work of this job runs any more."""
         self.cancel()
@@ -105,9 +115,10 @@ class Job:
 
     poll_timeout = 0.05  # > 0: synchronous runs (headless, tests) wait for a worker instead of spinning
 
-    def drive(self, make_steps, main_thread: bool) -> "DeviceSteps":
-        """Steps that drive a capture device on the thread it needs (DeviceSteps); `yield from` them."""
-        steps = DeviceSteps(make_steps, main_thread, self.poll_timeout, self.title)
+    def drive(self, make_steps, main_thread: bool, holding=None) -> "DeviceSteps":
+        """Steps that drive a capture device on the thread it needs (DeviceSteps); `yield from` them.
+        holding: a lock the device works under (release()), let go once the device is closed."""
+        steps = DeviceSteps(make_steps, main_thread, self.poll_timeout, self.title, holding)
         self._device_steps.append(steps)
         return steps
 
@@ -217,6 +228,8 @@ class WorkerJob(Job):
             messages.put((float(progress), str(message)))
             if self.pause_requested:
                 self._paused_in_worker(inputs, locks, release)
+            if self.cancel_event.is_set():  # the work stops here: a loop that would end now must not save
+                raise JobCancelled()
 
         def target():
             try:
@@ -254,20 +267,21 @@ class WorkerJob(Job):
         yield 1.0, "done"
 
     def _paused_in_worker(self, inputs, locks, release):
-        """On the worker thread: let go of the locks, wait for resume() or a cancel, take them again."""
+        """On the worker thread: let go of the locks, wait for resume() or a cancel, take them again. A cancel
+        raises JobCancelled: the work ends here, holding nothing and saving nothing."""
         release()
         self._at_pause_point = True
         try:
             while not self._go.wait(0.05):
                 if self.cancel_event.is_set():
-                    return  # the work sees the cancel at its next check and ends, holding nothing
+                    raise JobCancelled()
         finally:
             self._at_pause_point = False
         retake = self.retake(inputs)
         while True:
             if self.cancel_event.is_set():
                 retake.close()
-                return  # the work sees the cancel at its next check and ends, holding nothing
+                raise JobCancelled()
             try:
                 next(retake)
             except StopIteration as done:
@@ -304,18 +318,30 @@ class DeviceSteps:
     With main_thread (Cycles renders through bpy) it runs where the job is stepped; without, it runs
     on a worker thread whose steps are relayed here, so a real camera's blocking grab() never freezes
     Blender. Closing this generator (a cancel) closes the inner one on the thread that runs it, and
-    its `with` blocks close the device; join() waits for that."""
+    its `with` blocks close the device; join() waits for that. `holding` (a lock, or None) is let go
+    only then: a cancel does not wait for a blocked grab, and the next job must not open the device
+    meanwhile."""
 
-    def __init__(self, make_steps, main_thread: bool, poll_timeout: float = 0.05, title: str = "LAPIG device"):
+    def __init__(self, make_steps, main_thread: bool, poll_timeout: float = 0.05, title: str = "LAPIG device",
+                 holding=None):
         self.make_steps, self.main_thread = make_steps, main_thread
         self.poll_timeout, self.title = poll_timeout, title
+        self._holding = holding
         self._thread = None
         self._stop = None
 
     def __iter__(self):
-        if self.main_thread:
+        if not self.main_thread:
+            return (yield from self._relayed())
+        try:
             return (yield from self.make_steps())
-        return (yield from self._relayed())
+        finally:  # the device was closed here, with its steps
+            self._let_go()
+
+    def _let_go(self):
+        held, self._holding = self._holding, None
+        if held is not None:
+            held.release()
 
     def _relayed(self):
         import queue
@@ -338,9 +364,16 @@ class DeviceSteps:
                         return
             except BaseException as exc:  # handed to the job's thread, raised there
                 box["error"] = exc
+            finally:  # the device is closed: now its lock may go, even if the job stopped waiting long ago
+                self._let_go()
 
-        thread = self._thread = threading.Thread(target=target, name=f"{THREAD_PREFIX}{self.title}", daemon=True)
-        thread.start()
+        thread = threading.Thread(target=target, name=f"{THREAD_PREFIX}{self.title}", daemon=True)
+        try:
+            thread.start()
+        except BaseException:
+            self._let_go()
+            raise
+        self._thread = thread
         progress = (0.0, "starting the device")
         try:
             while thread.is_alive() or not messages.empty():

@@ -226,13 +226,12 @@ class TrainModelsJob(WorkerJob):
                     continue
                 # no capture may replace the models while this runs
                 held = yield from self._hold_when_free(folder, progress)
-                try:
-                    if self.pause_requested:  # asked while the lock was taken: pause before opening the device
-                        continue
-                    first = len(captured)
-                    captured += yield from self.drive(lambda: measure(first), devices.main_thread)
-                finally:
+                if self.pause_requested:  # asked while the lock was taken: pause before opening the device
                     held.release()
+                    continue
+                first = len(captured)
+                # the lock goes once the device is closed, on the camera's thread after a cancel
+                captured += yield from self.drive(lambda: measure(first), devices.main_thread, holding=held)
             chosen = compensator_choice.choose_by_captures(v, np.stack(captured).astype(np.float32),
                                                            rig=devices.rig_identity().name)
             compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, trained["classical"])

@@ -94,12 +94,10 @@ class RefineResultJob(Job):
         def loop():
             return (yield from refine_rounds(devices, capture, refinement, self.seams.store.export_settings().bit_depth))
 
-        try:
-            yield from self.drive(loop, devices.main_thread)
+        try:  # the lock goes once the rig is closed, on the camera's thread after a cancel
+            yield from self.drive(loop, devices.main_thread, holding=held)
         except (CaptureError, RegistrationCheckError, RefineError) as exc:
             raise PipelineError(str(exc)) from None
-        finally:
-            held.release()
         written = yield from self.drive(lambda: write_refined(folder, summary, refinement), False)
         self.result = self._record(folder, *written)
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import glob
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -50,28 +51,63 @@ def _write_temp(target: Path, data: bytes, error) -> Path:
     return Path(tmp_name)
 
 
+def _keep_previous(target: Path, tmp: Path, error) -> Path | None:
+    """A hidden copy of the file at `target` (a hard link where the file system has them), named after its
+    temporary file, for commit() to put back; None where there is no file yet."""
+    if not target.exists():
+        return None
+    kept = tmp.with_name(tmp.name[:-len(TEMP_SUFFIX)] + ".previous" + TEMP_SUFFIX)
+    with _reported(target, error):
+        try:
+            os.link(target, kept)
+        except OSError:  # no hard links here (FAT, some network shares): a copy
+            shutil.copyfile(target, kept)
+    return kept
+
+
+def _undo(done: list[Path], kept: dict) -> None:
+    """Put the previous files back in place of the ones renamed there, newest first; remove the new ones."""
+    for target in reversed(done):
+        with contextlib.suppress(OSError):
+            if kept[target] is not None:  # popped: should this fail, the previous file stays under its kept name
+                os.replace(kept.pop(target), target)
+            else:
+                os.unlink(target)
+
+
+def _remove(paths) -> None:
+    for path in paths:
+        if path is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+
+
 def commit(files: list[tuple[Path, bytes]], error=None) -> list[Path]:
     """Write every (path, bytes) to a temporary name first, then rename them all into place.
 
     Nothing appears under a final name until every byte of every file is written; a failure before
     that leaves no file behind. Renames go in the given order, so put the file that signals "done"
-    last; if a rename fails, the ones already done are undone. The folders must exist. `error`:
-    (OSError, path) -> the exception to raise instead (the OSError as its cause).
+    last; if a rename fails, the ones already done are undone: the previous files are back, byte for
+    byte (each is kept beside its target until the commit is through). The folders must exist.
+    `error`: (OSError, path) -> the exception to raise instead (the OSError as its cause).
     """
+    targets = [Path(target) for target, _ in files]
     temps: list[Path] = []
+    kept: dict[Path, Path | None] = {}  # target -> its previous file, kept under a temporary name
     done: list[Path] = []
     try:
-        for target, data in files:
-            temps.append(_write_temp(Path(target), data, error))
-        for (target, _), tmp in zip(files, temps):
-            with _reported(Path(target), error):
+        for target, (_, data) in zip(targets, files):
+            temps.append(_write_temp(target, data, error))
+            kept[target] = _keep_previous(target, temps[-1], error)
+        for target, tmp in zip(targets, temps):
+            with _reported(target, error):
                 os.replace(tmp, target)
             done.append(target)
     except BaseException:
-        for path in temps + done:
-            with contextlib.suppress(OSError):
-                os.unlink(path)
+        _undo(done, kept)
+        _remove(temps + list(kept.values()))
         raise
+    _remove(kept.values())
     return done
 
 

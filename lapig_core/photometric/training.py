@@ -203,6 +203,8 @@ class Trainer:
                 if "val_psnr" in entry:
                     msg += f", validation {entry['val_psnr']:.2f} dB"
                 yield it / r.iterations, msg
+        if self._cancelled():  # asked during the last report (a job paused there): no loop top checks it
+            res.cancelled = True
         res.iterations, res.seconds = it, time.perf_counter() - t0 - eval_time
         self.model.eval()
 

@@ -67,7 +67,7 @@ def helper_environment(base: dict | None = None) -> dict:
 
 
 class _Helper:
-    """The child process, its two pipe readers and the answers waiting to be taken."""
+    """The child process, its two pipe readers, its one writer and the answers waiting to be taken."""
 
     def __init__(self, python: str, env: dict | None):
         self.messages: queue.Queue = queue.Queue()
@@ -85,8 +85,11 @@ class _Helper:
         except OSError as exc:
             raise RigError(f"the projector window's helper could not start with {python}: {exc}") from exc
         weakref.finalize(self, _kill, self.proc)  # at the interpreter's exit at the latest
+        self._outbox: queue.Queue = queue.Queue()  # (bytes to write, done event) for the writer; None ends it
         threading.Thread(target=self._read_stdout, name="lapig-window-answers", daemon=True).start()
         threading.Thread(target=self._read_stderr, name="lapig-window-stderr", daemon=True).start()
+        self._writer = threading.Thread(target=self._write_stdin, name="lapig-window-requests", daemon=True)
+        self._writer.start()
 
     def _read_stdout(self) -> None:
         try:
@@ -106,6 +109,22 @@ class _Helper:
         finally:
             self.exited.set()
             self.messages.put(None)
+            self._outbox.put(None)  # the helper has ended: so does its writer
+
+    def _write_stdin(self) -> None:
+        """The writer: each request's bytes into the helper's stdin, in order; a write error is handed back."""
+        while True:
+            request = self._outbox.get()
+            if request is None:
+                return
+            parts, done = request
+            try:
+                for part in parts:
+                    self.proc.stdin.write(part)
+                self.proc.stdin.flush()
+            except (OSError, ValueError) as exc:
+                done.error = exc
+            done.set()
 
     def _read_stderr(self) -> None:
         try:
@@ -127,22 +146,30 @@ class _Helper:
         _kill(self.proc)
 
     def send(self, header: dict, payload=None, timeout_s: float = CALL_TIMEOUT_S) -> None:
+        """Write one request through the writer thread; OSError when it could not be written."""
         size = 0 if payload is None else memoryview(payload).nbytes
-        # a helper that stops reading would block the write for ever: the timer kills it, which breaks the pipe
-        timer = threading.Timer(timeout_s, self.kill)
-        timer.daemon = True
-        timer.start()
-        try:
-            self.proc.stdin.write(encode_message(header, size))
-            if size:
-                self.proc.stdin.write(payload)
-            self.proc.stdin.flush()
-        finally:
-            timer.cancel()
+        done = _Written()
+        self._outbox.put(([encode_message(header, size)] + ([payload] if size else []), done))
+        deadline = time.monotonic() + timeout_s
+        while not done.wait(0.05):
+            if not self._writer.is_alive():  # the helper ended before the request was taken
+                raise BrokenPipeError("the helper has ended")
+            if time.monotonic() > deadline:
+                # a helper that stops reading blocks the write for ever: killing it breaks the pipe, the write ends
+                self.kill()
+                done.wait(5.0)
+                raise done.error or BrokenPipeError(f"the helper took no request for {timeout_s:.0f} s")
+        if done.error is not None:
+            raise done.error
 
     def receive(self, timeout_s: float) -> dict | None:
         """The next message, None when the helper ended; raises queue.Empty after timeout_s."""
         return self.messages.get(timeout=timeout_s)
+
+
+class _Written(threading.Event):
+    """Set by the writer thread once a request is written; `error`: why it could not be."""
+    error: BaseException | None = None
 
 
 def _kill(proc) -> None:

@@ -2,7 +2,8 @@
 
 - FakeStore: the scene's settings and what the jobs record, in memory.
 - FakeFactory: the numpy fake projector and camera (lapig_core.capture.fake_device) as a rig; by
-  default off the main thread, like a real camera, and optionally slow to settle.
+  default off the main thread, like a real camera, optionally slow to settle, and held at each grab
+  (grab_gate) as a real camera's blocking grab.
 - FakeSink: keeps every frame it is shown.
 The modules under test are passed in (they are imported afresh with bpy blocked by conftest)."""
 from __future__ import annotations
@@ -24,6 +25,7 @@ class FakeFactory:
         self.ports, self.main_thread, self.settle_s, self.name = ports, main_thread, settle_s, name
         self.opened, self.closed, self.threads = 0, 0, set()
         self.moved = False  # the rig's identity changes, as a moved real camera's would
+        self.grab_gate = None  # a threading.Event: the devices opened from now on grab only while it is set
 
     def rig_identity(self):
         devices = {"projector": "fake projector 64x48", "camera": "fake camera 160x120" + (" moved" if self.moved else "")}
@@ -31,7 +33,8 @@ class FakeFactory:
 
     @contextlib.contextmanager
     def _device(self):
-        device = SettlingFakeDevice(self.settle_s, projector_size=PROJECTOR_SIZE, camera_size=(160, 120), seed=1)
+        device = SettlingFakeDevice(self.settle_s, projector_size=PROJECTOR_SIZE, camera_size=(160, 120), seed=1,
+                                    gate=self.grab_gate)
         self.opened += 1
         self.threads.add(threading.current_thread().name)
         try:
@@ -47,12 +50,17 @@ class FakeFactory:
 
 
 class SettlingFakeDevice(FakeDevice):
-    def __init__(self, settle_s=0.0, **kw):
+    def __init__(self, settle_s=0.0, gate=None, **kw):
         super().__init__(**kw)
-        self.settle_s = settle_s
+        self.settle_s, self.gate = settle_s, gate
 
     def describe(self):
         return replace(super().describe(), settle_s=self.settle_s, latency_s=0.0)
+
+    def grab(self):
+        if self.gate is not None and not self.gate.wait(30):  # as a real camera's grab blocks
+            raise TimeoutError("the test never opened the grab gate")
+        return super().grab()
 
 
 class FakeStore:

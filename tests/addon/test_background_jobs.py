@@ -11,9 +11,11 @@ import time
 import pytest
 
 from lapig.lapig_core.capture.dataset import resolve_setup
-from lapig.lapig_core.common.locking import FolderBusy, FolderLock
 
 ADDON = "lapig.lapig_addon"
+# the add-on package's lock, whose FolderBusy the job engine catches
+locking = importlib.import_module("lapig.lapig_core.common.locking")
+FolderBusy, FolderLock = locking.FolderBusy, locking.FolderLock
 
 
 def _module(name):
@@ -29,9 +31,10 @@ def _until(condition, step=lambda: None, timeout=20.0):
         time.sleep(0.002)
 
 
-def _counting_job(folder, iterations=40, reports_every=1):
+def _counting_job(folder, iterations=40, reports_every=1, pause_at=None):
     """A worker job that counts, reports after each count (its pause points), holds the folder's lock and
-    writes its output file only at the end."""
+    writes its output file only at the end. As the Trainer, it checks for a cancel at the top of its loop only.
+    pause_at: the count whose report it is paused at."""
     jobs = _module("jobs")
 
     class Counting(jobs.WorkerJob):
@@ -52,6 +55,8 @@ def _counting_job(folder, iterations=40, reports_every=1):
                     return None
                 self.count += 1
                 time.sleep(0.002)
+                if self.count == pause_at:
+                    self.pause()
                 if i % reports_every == 0:
                     report(i / iterations, f"counted {self.count}")
             (folder / "output.txt").write_text(str(self.count))
@@ -103,6 +108,16 @@ def test_a_cancel_while_paused_ends_cleanly_and_leaves_nothing_behind(tmp_path):
     assert sorted(os.listdir(tmp_path)) == []  # no output, and no lock file left
 
 
+def test_a_cancel_while_paused_at_the_last_report_stops_the_work_before_it_saves(tmp_path):
+    """Train paused at PCNet's last report, then cancelled: its loop would end without checking for a cancel
+    again, and save."""
+    job = _counting_job(tmp_path, iterations=5, pause_at=5)
+    _until(lambda: job.paused, job.step)
+    job.stop()
+    assert job.state == "CANCELLED" and _worker_gone(job)
+    assert sorted(os.listdir(tmp_path)) == []  # nothing saved, and no lock file left
+
+
 def test_on_resume_a_folder_still_taken_is_waited_for_then_refused_with_its_holder(tmp_path):
     job = _counting_job(tmp_path)
     job.RETAKE_S = 0.3
@@ -110,11 +125,29 @@ def test_on_resume_a_folder_still_taken_is_waited_for_then_refused_with_its_hold
     job.pause()
     _until(lambda: job.paused, job.step)
     with FolderLock(tmp_path, "LAPIG capture"):  # another process captures meanwhile
+        resumed_at = time.monotonic()
         job.resume()
         _until(lambda: job.finished, job.step)
+    assert time.monotonic() - resumed_at >= job.RETAKE_S  # waited for, not refused at once
     assert job.state == "FAILED" and "in use by LAPIG capture" in job.message
     assert not (tmp_path / "output.txt").exists()
     _until(lambda: _worker_gone(job) and _lock_is_free(tmp_path))
+
+
+def test_on_resume_a_folder_taken_for_a_moment_is_waited_for_and_the_work_goes_on(tmp_path):
+    job = _counting_job(tmp_path)
+    _until(lambda: job.count >= 2, job.step)
+    job.pause()
+    _until(lambda: job.paused, job.step)
+    capture = FolderLock(tmp_path, "LAPIG capture").acquire()  # the foreground job's, still ending
+    job.resume()
+    for _ in range(20):
+        job.step()
+        time.sleep(0.005)
+    assert not job.finished
+    capture.release()
+    _until(lambda: job.finished, job.step)
+    assert job.state == "DONE" and job.result == 40 and job.resumes == 1
 
 
 def test_a_main_thread_pause_point_holds_the_steps_until_resume():
@@ -265,15 +298,19 @@ def test_generate_while_train_runs_in_the_background_uses_the_first_look_and_aft
     slots.end_foreground(generate)
 
     # paused again during the rendered choice: the device closes and the lock goes between renders
-    _until(lambda: "measuring" in train.message or train.finished, slots.step_background, timeout=300)
+    # a camera on its own thread waits at its first grab until the pause is asked (Cycles: stepped here only)
+    grabs = seams.devices.grab_gate = threading.Event()
+    if main_thread:
+        grabs.set()
+    opened = seams.devices.opened
+    _until(lambda: seams.devices.opened > opened, slots.step_background, timeout=300)
     assert train.in_use_note.startswith("networks saved")
     slots.start_foreground(_running_job())
+    grabs.set()
     _until(slots.foreground_may_step, timeout=60)
-    if main_thread:  # stepped here only: certainly between two renders
-        assert train.paused and "measuring" not in train.message
-    if not train.finished:
-        assert train.paused and seams.devices.opened == seams.devices.closed
-        assert _lock_is_free(_root(captured))
+    assert train.paused and "measuring" not in train.message  # between two renders
+    assert seams.devices.opened == seams.devices.closed
+    assert _lock_is_free(_root(captured))
     slots.end_foreground(slots.foreground)
     _until(lambda: train.finished, slots.step_background, timeout=300)
     assert train.state == "DONE", train.message
@@ -307,6 +344,48 @@ def test_a_background_train_cancelled_while_paused_leaves_the_first_look_as_it_w
 
 
 @pytest.mark.torch
+def test_a_train_cancelled_while_paused_at_pcnets_last_report_saves_nothing(seams):
+    pipeline_jobs = _module("pipeline_jobs")
+    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    before, models_before = _models_files(captured), seams.store.models
+
+    class PausedAtPCNet(pipeline_jobs.TrainModelsJob):
+        def work(self, folder, report, cancel_event):
+            def pause_at_pcnet(progress, message):  # 2 iterations: PCNet reports once, at its last
+                if message.startswith("PCNet"):
+                    self.pause()
+                report(progress, message)
+
+            return super().work(folder, pause_at_pcnet, cancel_event)
+
+    train = PausedAtPCNet(seams, 2)
+    train.poll_timeout = 0
+    _until(lambda: train.paused, train.step, timeout=120)
+    train.stop()
+    assert train.state == "CANCELLED" and _worker_gone(train)
+    assert _models_files(captured) == before and seams.store.models == models_before
+    assert _lock_is_free(_root(captured))
+
+
+@pytest.mark.torch
+def test_a_cancelled_train_lets_go_of_the_capture_only_once_its_camera_is_closed(seams):
+    """Esc while the rendered choice's camera grabs on its own thread: a background job that resumed on the
+    lock meanwhile would open the same camera."""
+    pipeline_jobs = _module("pipeline_jobs")
+    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    grabs = seams.devices.grab_gate = threading.Event()  # the camera's grab blocks until set
+    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train.poll_timeout = 0
+    _until(lambda: seams.devices.opened > seams.devices.closed, train.step, timeout=300)
+    train.cancel()  # the UI stops waiting; the camera is still grabbing
+    assert train.state == "CANCELLED" and not _lock_is_free(_root(captured))
+    grabs.set()
+    _until(lambda: _lock_is_free(_root(captured)))
+    assert seams.devices.opened == seams.devices.closed  # closed before the lock went
+    train.stop()
+
+
+@pytest.mark.torch
 def test_a_background_train_waits_for_the_artists_live_window_before_it_opens_the_rig(seams):
     pipeline_jobs, background_jobs = _module("pipeline_jobs"), _module("background_jobs")
     seams.devices.main_thread = True
@@ -328,19 +407,67 @@ def test_a_background_train_waits_for_the_artists_live_window_before_it_opens_th
     assert train.state == "DONE" and seams.devices.opened > opened
 
 
-def test_a_background_job_that_reaches_no_pause_point_is_not_waited_for_forever(tmp_path):
+class _Clock:
+    """background_jobs' time, moved on by the test."""
+
+    def __init__(self):
+        self.now = 0.0
+        self.sleep = time.sleep
+
+    def monotonic(self):
+        return self.now
+
+
+def _long_step_then_a_report(folder, go_on):
+    """A background job holding the folder's lock through a long step without a pause point (a fit, a load)."""
+    train = _counting_job(folder)
+
+    def work(inputs, report, cancel_event):
+        go_on.wait(20)
+        report(0.5, "fitted")
+        return "fitted"
+
+    train.work = work
+    return train
+
+
+def test_a_foreground_job_waits_for_a_background_train_that_takes_long_to_pause(tmp_path, monkeypatch):
     background_jobs = _module("background_jobs")
-    slots = background_jobs.JobSlots()
-    slots.PAUSE_WAIT_S = 0.2
-    go_on = threading.Event()
-    train = _counting_job(tmp_path)
-    train.work = lambda inputs, report, cancel_event: go_on.wait(10)  # a long step that never reports
+    clock = _Clock()
+    monkeypatch.setattr(background_jobs, "time", clock)
+    slots, go_on = background_jobs.JobSlots(), threading.Event()
+    train = _long_step_then_a_report(tmp_path, go_on)
     slots.start_background(train)
     slots.step_background()
-    slots.start_foreground(_running_job())
+    generate = _counting_job(tmp_path, iterations=5)  # the same folder: it needs the lock the Train holds
+    slots.start_foreground(generate)
+    clock.now += 120  # four times the old 30 s cap, well short of a stuck job: the artist's job still waits
+    assert not slots.foreground_may_step() and not generate.finished
+    assert generate.message == background_jobs.WAITING_FOR_PAUSE
+    assert "pausing" in background_jobs.background_line(slots)[0]
+    go_on.set()
+    _until(slots.foreground_may_step)
+    _until(lambda: generate.finished, generate.step)
+    assert generate.state == "DONE", generate.message
+    slots.end_foreground(generate)
+    _until(lambda: train.finished, slots.step_background)
+    assert train.state == "DONE" and train.result == "fitted"
+
+
+def test_a_background_job_that_never_pauses_fails_the_foreground_job_saying_so(tmp_path, monkeypatch):
+    background_jobs = _module("background_jobs")
+    clock = _Clock()
+    monkeypatch.setattr(background_jobs, "time", clock)
+    slots, go_on = background_jobs.JobSlots(), threading.Event()
+    train = _long_step_then_a_report(tmp_path, go_on)
+    slots.start_background(train)
+    slots.step_background()
+    generate = _running_job()
+    slots.start_foreground(generate)
+    clock.now += slots.STUCK_S + 1
     assert not slots.foreground_may_step()
-    time.sleep(0.3)
-    assert slots.foreground_may_step() and not train.paused
+    assert generate.state == "FAILED" and generate.message.startswith("the training in the background did not pause")
+    assert "Cancel" in generate.message and not train.finished  # the artist decides: cancel it, or wait
     go_on.set()
     slots.cancel_background()
 

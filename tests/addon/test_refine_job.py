@@ -6,12 +6,13 @@ import json
 import os
 import pathlib
 import threading
+import time
 
 import cv2
 import numpy as np
 import pytest
 
-from lapig.lapig_core.capture.dataset import load_capture_set
+from lapig.lapig_core.capture.dataset import load_capture_set, resolve_setup
 from lapig.lapig_core.export.result_files import output_name, read_output_image, read_summary, write_new_result
 from lapig.lapig_core.photometric.classical import ClassicalModel
 from lapig.lapig_core.photometric.targets import desired_targets, reachable_mask
@@ -128,6 +129,36 @@ def test_a_cancelled_refinement_leaves_the_result_as_it_was(tmp_path):
     assert seams.store.result[1] == "test look; simulated 30.0 dB" and len(seams.sinks[0].frames) == 0
     job.stop()  # waits for the worker thread, which closes the device at its next step
     assert seams.devices.closed == seams.devices.opened
+
+
+def _capture_is_free(seams) -> bool:
+    """Whether a job could take the capture's lock now (the one Refine holds while the rig captures)."""
+    locking = importlib.import_module("lapig.lapig_core.common.locking")
+    try:
+        locking.FolderLock(resolve_setup(seams.store.capture_dir).root, "LAPIG check").acquire().release()
+    except locking.FolderBusy:
+        return False
+    return True
+
+
+def test_a_cancelled_refinement_lets_go_of_the_capture_only_once_its_camera_is_closed(tmp_path):
+    """Esc while the camera grabs on its own thread: the background Train, resumed on the free lock, would open
+    the same camera and window."""
+    seams = _seams(tmp_path)
+    _result(seams, tmp_path)
+    grabs = seams.devices.grab_gate = threading.Event()  # the camera's grab blocks until set
+    job = _module("services.refine_job").RefineResultJob(seams, 4)
+    job.poll_timeout = 0.01
+    while seams.devices.opened < 2 and job.step():  # the capture's, then the refinement's
+        pass
+    job.cancel()  # the UI stops waiting; the camera is still grabbing
+    assert job.state == "CANCELLED" and not _capture_is_free(seams)
+    grabs.set()
+    deadline = time.monotonic() + 20
+    while not _capture_is_free(seams) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert _capture_is_free(seams) and seams.devices.closed == seams.devices.opened
+    job.stop()
 
 
 def test_a_changed_rig_or_a_moved_object_is_refused_and_nothing_written(tmp_path):

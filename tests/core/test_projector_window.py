@@ -85,6 +85,57 @@ def test_a_helper_that_does_not_answer_is_killed_and_said(tmp_path):
     assert time.monotonic() - started < 8
 
 
+FAKE_HELPER = """
+import sys
+from lapig.lapig_core.rig.window_process import encode_message, read_message
+
+def answer(header):
+    sys.stdout.buffer.write(encode_message(header))
+    sys.stdout.buffer.flush()
+
+answer({"event": "ready", "sdl": "none: a fake helper"})
+frames = 0
+while True:
+    message = read_message(sys.stdin.buffer)
+    if message is None or message[0]["cmd"] == "close":
+        break
+    if message[0]["cmd"] == "open":
+        answer({"ok": True, "display": {"index": 1, "name": "fake"}, "size": [16, 8]})
+    else:
+        frames += 1
+        answer({"ok": True, "frame": frames})
+"""
+
+
+def test_frames_are_sent_by_one_thread_per_window_not_one_per_frame(tmp_path, monkeypatch):
+    helper = tmp_path / "fake_helper.py"
+    helper.write_text(FAKE_HELPER)
+    python = tmp_path / "fake-python"
+    python.write_text(f"#!/bin/sh\nexec '{sys.executable}' '{helper}'\n")
+    python.chmod(0o755)
+    started, start = [], threading.Thread.start
+
+    def counted_start(thread):
+        started.append(thread.name)
+        start(thread)
+
+    with ProjectorWindow(1, python=str(python)) as window:
+        monkeypatch.setattr(threading.Thread, "start", counted_start)
+        for i in range(50):
+            window.show(pattern(16, 8, seed=i))
+        monkeypatch.undo()
+        assert window.describe()["frames_shown"] == 50
+    assert started == []  # before: a timer thread per frame
+    deadline = time.monotonic() + 10
+    while _writers() and time.monotonic() < deadline:  # the window's own writer ends with its helper
+        time.sleep(0.01)
+    assert not _writers()
+
+
+def _writers():
+    return [t for t in threading.enumerate() if t.name == "lapig-window-requests"]
+
+
 @pytest.mark.skipif(importlib.util.find_spec("sdl2") is None, reason="needs PySDL2 (pip install pysdl2 pysdl2-dll)")
 def test_a_helper_without_sdl2_says_what_to_install(tmp_path):
     env = dict(os.environ, PYSDL2_DLL_PATH=str(tmp_path))  # no SDL2 library there

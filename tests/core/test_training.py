@@ -71,6 +71,20 @@ def test_progress_cancel_and_crop(capture_set):
         Trainer(model, pairs, _recipe(crop=18))
 
 
+def test_a_cancel_during_the_last_report_is_a_cancel(capture_set):
+    """A job paused at the last report is cancelled there: no iteration follows to check it at the loop's top."""
+    pairs = pairs_from_capture_sets([capture_set], "simulation")
+    cancel = threading.Event()
+
+    def on_progress(p, msg):
+        if p >= 1.0:
+            cancel.set()
+
+    model = checkpoints.new_model("PCNet")
+    result = Trainer(model, pairs, _recipe(4, crop=16), report_every=2, cancel_event=cancel).run(on_progress)
+    assert result.cancelled
+
+
 def test_nan_guard_recovers_then_gives_up(capture_set):
     pairs = pairs_from_capture_sets([capture_set], "compensation")
     model = checkpoints.new_model("CompenNeSt")

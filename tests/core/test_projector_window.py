@@ -86,8 +86,8 @@ def test_a_helper_that_does_not_answer_is_killed_and_said(tmp_path):
 
 
 FAKE_HELPER = """
-import sys
-from lapig.lapig_core.rig.window_process import encode_message, read_message
+import sys  # the helper process: lapig_core is top-level on its path (ProjectorWindow sets it)
+from lapig_core.rig.window_process import encode_message, read_message
 
 def answer(header):
     sys.stdout.buffer.write(encode_message(header))

@@ -143,9 +143,12 @@ class TrainModelsJob(WorkerJob):
         cs = load_capture_set(folder)
         had_first_look = capture_first_look(folder) is not None
         trained = train_models(cs, on_progress=report, cancel_event=cancel_event, iterations=self.iterations)
+        # both compensations of the held-back images, here on the worker: CompenNeSt's forward pass would
+        # otherwise hold Blender's main thread, where the rendered choice's steps run with Cycles
+        verification = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
         return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder,
                 "choice": trained["choice"].line(), "capture_set": cs, "trained": trained,
-                "had_first_look": had_first_look}
+                "verification": verification, "had_first_look": had_first_look}
 
     def finish(self, output):
         store = self.seams.store
@@ -174,7 +177,7 @@ class TrainModelsJob(WorkerJob):
             yield self.TRAIN_SHARE * progress, ("models trained" if progress >= 1.0 else message)
         out = self.result
         t0 = time.perf_counter()
-        chosen = yield from self._render_choice(out["capture_set"], out["trained"], out["folder"])
+        chosen = yield from self._render_choice(out["capture_set"], out["trained"], out["folder"], out["verification"])
         out["seconds"] += time.perf_counter() - t0
         if chosen is not None:
             out["choice"] = chosen.line()
@@ -183,13 +186,12 @@ class TrainModelsJob(WorkerJob):
             out["choice"] = f"{out['choice']} ({self.choice_skipped})"
             self.seams.store.record_models(out["fingerprint"], self._models_line(out, out["trained"]["choice"]))
         # the result goes to the operator and the CLI: not the capture's arrays nor the networks
-        self.result = {k: v for k, v in out.items() if k not in ("capture_set", "trained")}
+        self.result = {k: v for k, v in out.items() if k not in ("capture_set", "trained", "verification")}
 
-    def _render_choice(self, cs, trained, folder):
-        """Render both compensations of the held-back images and save the better one as the setup's choice;
-        None when there are no held-back images to measure on. A pause (a job in the background) stops
+    def _render_choice(self, cs, trained, folder, v):
+        """Render both compensations of the held-back images (``v``, computed on the worker) and save the better
+        one as the setup's choice; None when there are no held-back images to measure on. A pause (a job in the background) stops
         between renders: the device closes and the lock goes, and the renders go on from there on resume."""
-        v = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
         devices = self.seams.devices
         self.choice_skipped = _why_not_measured(cs, v, devices)
         if v is None or devices is None or self.choice_skipped:  # PCNet's choice stands

@@ -503,3 +503,23 @@ def test_in_the_background_a_main_thread_device_is_opened_and_closed_within_each
     choice = json.load(open(os.path.join(captured["setup_dir"], "models", "compensator_choice.json")))
     assert choice["judge"] == RENDERED_JUDGE
     assert seams.devices.opened - opened == 2 * choice["validation_pairs"]  # one opening per render
+
+
+@pytest.mark.torch
+def test_trains_choice_computes_its_compensations_off_a_main_thread_rig(seams, monkeypatch):
+    """With Cycles (a main-thread rig) the rendered choice's steps run on Blender's thread: CompenNeSt's pass
+    over the held-back images (the compensations it renders) must run on the training's worker thread."""
+    pipeline_jobs = _module("pipeline_jobs")
+    seams.devices.main_thread = True
+    _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    choice = importlib.import_module("lapig.lapig_core.photometric.choice")
+    verification, computed_on = choice.verification, []
+
+    def verification_and_where(*args, **kwargs):
+        computed_on.append(threading.current_thread())
+        return verification(*args, **kwargs)
+
+    monkeypatch.setattr(pipeline_jobs.compensator_choice, "verification", verification_and_where)
+    out = pipeline_jobs.TrainModelsJob(seams, 2).run_to_completion()
+    assert "held-back images" in out["choice"] and "verification" not in out
+    assert computed_on and threading.main_thread() not in computed_on, "the choice's compensations ran on the main thread"

@@ -12,7 +12,7 @@ from __future__ import annotations
 import bpy
 from bpy.app.handlers import persistent
 
-from ..services.background_jobs import JobSlots, outcome_line
+from ..services.background_jobs import WAITING_FOR_PAUSE, JobSlots, outcome_line
 from . import scene_state, warm_start
 from .operator_boundary import ReportsErrors, report_failure
 
@@ -131,8 +131,8 @@ class JobRunnerMixin(ReportsErrors):
             if SLOTS.foreground_may_step():  # the background job has paused: the cores are this job's
                 job.step()
                 message = job.message
-            else:
-                message = "waiting for the training in the background to pause"
+            else:  # the slots say so in the job's message (or why the wait failed)
+                message = job.message or WAITING_FOR_PAUSE
             scene_state.record_job_progress(context.scene, job.progress, message)
             context.window_manager.progress_update(int(job.progress * 1000))
             context.workspace.status_text_set(f"{job.title}: {message} ({job.progress:.0%}) - Esc to cancel")

@@ -61,6 +61,7 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
         compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
     out["choice"], out["classical"] = chosen, classical
     out["seconds"] = time.perf_counter() - t0
+    out["steps_seconds"] = {arch: result.seconds for arch, (_, result) in trained.items()}  # the iterations alone
     out["device"] = compute_device.describe(device)
     return out
 

@@ -112,6 +112,14 @@ def _why_not_measured(cs, verification, devices) -> str:
     return ""
 
 
+def device_choice(store, explicit: str | None) -> str:
+    """'auto' or 'cpu': the command's, else the store's (the preference; read in prepare(), on the main thread)."""
+    choice = explicit or store.compute_device()
+    if choice not in compute_device.CHOICES:
+        raise PipelineError(f"unknown device '{choice}': use {' or '.join(compute_device.CHOICES)}")
+    return choice
+
+
 class TrainModelsJob(WorkerJob):
     """Fine-tune the networks (worker thread), then choose the compensator by measurement: the rig renders
     both compensations of the held-back images, as it rendered the capture (main thread, bpy)."""
@@ -136,7 +144,7 @@ class TrainModelsJob(WorkerJob):
     def prepare(self):
         folder = current_capture(self.seams.store.read(), self.capture)
         self._stamp = _setup_stamp(folder)  # what a pause checks on resume: the same capture
-        self._device_choice = self.device or self.seams.store.compute_device()  # the store on the main thread
+        self._device_choice = device_choice(self.seams.store, self.device)
         return folder
 
     def hold(self, folder):
@@ -331,7 +339,7 @@ class GenerateJob(WorkerJob):
                 "settings": psa_settings_from(r),
                 "results": self.result_root or os.path.join(store.data_root(), "results"),
                 "bit_depth": store.export_settings().bit_depth,
-                "device": self.device or store.compute_device(),
+                "device": device_choice(store, self.device),
                 "name": folder_name(prompt or mix or style_name(r.style_images), datetime.datetime.now())}
 
     def hold(self, job):

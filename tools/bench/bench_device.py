@@ -213,7 +213,10 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
 
 def cpu_record(summary: dict, speed: dict, note: str) -> dict:
     """What is stored beside the fixture: the CPU's figures, the machine's speed, and how it was loaded."""
-    return {**summary, "torch_step_s": speed.get("torch_step_s"), "machine_speed": speed, "note": note}
+    own = {k: v for k, v in summary.items() if k not in ("parity_db", "parity_ok", "parity_note",
+                                                          "cpu_figures_written")}
+    return {**own, "gpu_parity_db": None, "torch_step_s": speed.get("torch_step_s"), "machine_speed": speed,
+            "note": note}
 
 
 def run(args) -> dict:

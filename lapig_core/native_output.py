@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import torch
 
 from .capture.native_references import registered_references
+from .common.compute_device import memory_budget_mb
 from .optics.working_frame import NETWORK_MULTIPLE, WorkingFrameError
 from .photometric.tiling import CONTEXT, tiled
 from .photometric.training_data import to_tensor
@@ -84,24 +85,38 @@ class NativeResult:
     seconds: float
 
 
+def device_tile(width: int, height: int, device, budget_mb: float | None = None) -> int:
+    """tile_for with ``budget_mb``, else the budget of the device the frame is compensated on: a share of
+    a CUDA device's free memory (compute_device.memory_budget_mb), DEFAULT_BUDGET_MB elsewhere."""
+    return tile_for(width, height, budget_mb if budget_mb is not None else memory_budget_mb(device))
+
+
+def compensate_frame(compensator, target: torch.Tensor, s: torch.Tensor, tile: int) -> torch.Tensor:
+    """The compensator's projector image of ``target`` (1,3,H,W) for the surface ``s`` at that size, in
+    tiles of ``tile``, where the compensator is (the result stays there)."""
+    height, width = target.shape[-2:]
+    # a per-pixel compensator (the classical one, where it was chosen) takes its parameters at this size
+    per_pixel = compensator.frame_inputs(height, width) if hasattr(compensator, "frame_inputs") else []
+    return tiled(lambda x, surface, *more: compensator(x, surface, *more), [target, s, *per_pixel], tile)
+
+
 def native_output(setup_dir, models, backend, state: dict, width: int, height: int,
                   dark_outside: bool = True, budget_mb: float | None = None,
                   tile: int | None = None) -> NativeResult:
     """theta (``state``, from a PSA result) rendered and compensated at width x height.
 
     ``models``: the setup's SurfaceModels (its CompenNeSt); ``backend``: the prepared LGST backend
-    the state belongs to; ``tile``: the tile core side (None: from the budget)."""
+    the state belongs to; ``tile``: the tile core side (None: from the budget: on a CUDA device, from its
+    free memory). It runs where the models are; the images come back on the CPU."""
     t0 = time.perf_counter()
-    tile = tile or tile_for(width, height, budget_mb)  # refuse before any work
+    device = models.device
+    tile = tile or device_tile(width, height, device, budget_mb)  # refuse before any work
     refs = registered_references(setup_dir, width, height)
     backend.load_state(state)
-    target = backend.render_at(to_tensor(refs.white))
-    s = to_tensor(refs.gray)
-    # a per-pixel compensator (the classical one, where it was chosen) takes its parameters at this size
-    per_pixel = models.compensator.frame_inputs(height, width) if hasattr(models.compensator, "frame_inputs") else []
-    projector_image = tiled(lambda x, surface, *more: models.compensator(x, surface, *more), [target, s, *per_pixel],
-                            tile)
+    target = backend.render_at(to_tensor(refs.white).to(device))
+    projector_image = compensate_frame(models.compensator, target, to_tensor(refs.gray).to(device), tile)
     valid = torch.from_numpy(refs.valid)
     if dark_outside:
-        projector_image = projector_image * valid[None, None].to(projector_image.dtype)
-    return NativeResult(target, projector_image, valid, tile, time.perf_counter() - t0)
+        projector_image = projector_image * valid[None, None].to(device=projector_image.device,
+                                                                 dtype=projector_image.dtype)
+    return NativeResult(target.cpu(), projector_image.cpu(), valid, tile, time.perf_counter() - t0)

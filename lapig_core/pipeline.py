@@ -15,13 +15,13 @@ import numpy as np
 import torch
 
 from .photometric import checkpoints, choice as compensator_choice
-from .common import metrics
+from .common import compute_device, metrics
 from .capture.dataset import CaptureSet, setup_dir_of
 from .photometric.classical import ClassicalModel
 from .photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator
 from .photometric.first_look import load_first_look
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
-from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, get_backend
+from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, backend_class, get_backend
 from .native_output import NativeResult, native_output
 from .photometric.surface_models import SurfaceModels
 from .psa.adaptation import PSAResult, PSASettings, run_psa, without_psa
@@ -30,10 +30,11 @@ from .photometric.training_data import SurfaceTensors
 
 
 def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
-                 iterations: int | None = None) -> dict:
+                 iterations: int | None = None, device=None) -> dict:
     """Fine-tune CompenNeSt and PCNet on all the captured training pairs, from the pretrained weights.
 
     iterations: per network (default: the CPU recipe's); fewer give a rough, quick fine-tune.
+    device: where they train (None: the CPU); the networks are returned there, and out["device"] says which.
     """
     out, trained, t0 = {}, {}, time.perf_counter()
     # first: the compensation's camera-space loss measures its error through the classical model (the capture's
@@ -46,20 +47,22 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
                 on_progress((i + p) / 2, f"{arch}: {msg}")
 
         model, result = finetune(cs, arch, role, recipe=cpu_recipe(arch, role, iterations), on_progress=progress,
-                                 cancel_event=cancel_event, classical=classical)
+                                 cancel_event=cancel_event, classical=classical, device=device)
         if result.cancelled:
             raise InterruptedError("training cancelled")
         out[arch], trained[arch] = model, (role, result)
     if save:  # both at once: a cancel while PCNet trains leaves the folder as it was
         for arch, (role, result) in trained.items():
             save_setup_model(setup_dir_of(cs), out[arch], role, cs, iterations=result.iterations,
-                             train_seconds=round(result.seconds, 2))
+                             train_seconds=round(result.seconds, 2), device=compute_device.describe(device))
     # the learned and the classical compensation, validated on the held-back pairs: the better one is used
     chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"], out["PCNet"], classical)
     if save:
         compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
     out["choice"], out["classical"] = chosen, classical
     out["seconds"] = time.perf_counter() - t0
+    out["steps_seconds"] = {arch: result.seconds for arch, (_, result) in trained.items()}  # the iterations alone
+    out["device"] = compute_device.describe(device)
     return out
 
 
@@ -115,11 +118,11 @@ def chosen_compensator(learned, chosen, classical):
 
 def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, cancel_event=None,
                    iterations: int | None = None, notes: list | None = None,
-                   saved: SavedModels | None = None) -> SurfaceModels:
+                   saved: SavedModels | None = None, device=None) -> SurfaceModels:
     """The setup's fine-tuned models: `saved` (loaded already), else loaded when saved for this very setup,
     else trained now (with `iterations` as in train_models). A damaged saved model is trained again and
     saved over, and `notes` gets a line that says so. A choice is measured on cs's pairs only for models
-    saved before the choice existed."""
+    saved before the choice existed. device: where they run (None: the CPU), the training too."""
     try:
         saved = saved or _load_saved(setup_dir_of(cs), cs.meta.get("fingerprint"))
         comp, sim = saved.compensation, saved.simulation
@@ -133,22 +136,23 @@ def surface_models(cs: CaptureSet, train_if_missing=True, on_progress=None, canc
             raise
         if notes is not None and not isinstance(exc, checkpoints.NotTrainedYet):
             notes.append(f"the saved models could not be used ({exc}): fine-tuned them again and saved over them")
-        trained = train_models(cs, on_progress, cancel_event, iterations=iterations)
+        trained = train_models(cs, on_progress, cancel_event, iterations=iterations, device=device)
         comp, sim = trained["CompenNeSt"], trained["PCNet"]
         chosen, classical = trained["choice"], trained["classical"]
     surf = SurfaceTensors.from_capture_set(cs)
     models = SurfaceModels(chosen_compensator(comp, chosen, classical), sim, surf.s, surf.i_min, surf.i_max,
-                           on_object=psa_mask(cs))
+                           on_object=psa_mask(cs)).to(device)
     models.choice = chosen  # which compensator, and by how much: the panel and result.json show it
     return models
 
 
-def first_look_models(cs: CaptureSet, classical: ClassicalModel) -> SurfaceModels:
+def first_look_models(cs: CaptureSet, classical: ClassicalModel, device=None) -> SurfaceModels:
     """The first look's models (photometric/first_look): the classical model compensates, and its forward
-    direction is the simulator PSA runs its losses through; no network is involved."""
+    direction is the simulator PSA runs its losses through; no network is involved. device: where they run
+    (None: the CPU)."""
     surf = SurfaceTensors.from_capture_set(cs)
     models = SurfaceModels(ClassicalCompensator(classical), ClassicalSimulator(classical), surf.s, surf.i_min,
-                           surf.i_max, on_object=psa_mask(cs))
+                           surf.i_max, on_object=psa_mask(cs)).to(device)
     models.choice = None
     models.first_look = True
     return models
@@ -163,6 +167,7 @@ class StylizeResult:
     dark_outside: bool = False  # the projector images are black off the object
     backend: LGSTBackend | None = None  # prepared: renders a result's theta at other sizes (native output)
     truth: dict | None = None  # what the surface can show of the look (psa/reach.surface_truth)
+    device: str = ""  # which device ran it (compute_device.describe)
 
     def style_retention(self) -> dict:
         """The PSA look against the un-adapted one: structure (style at any brightness, the new
@@ -212,6 +217,16 @@ def on_object_mask(valid) -> torch.Tensor:
     return torch.as_tensor(valid, dtype=torch.float32)[None, None]
 
 
+def on_the_cpu(result: PSAResult | None) -> PSAResult | None:
+    """A result with its images and its state on the CPU, for numpy and the files (its look stays where it
+    ran: the native output renders it there)."""
+    if result is None:
+        return None
+    return replace(result, target=result.target.cpu(), projector_image=result.projector_image.cpu(),
+                   simulated=result.simulated.cpu(), initial_target=result.initial_target.cpu(),
+                   state=compute_device.moved(result.state, "cpu"))
+
+
 def darkened_outside(result: PSAResult, mask: torch.Tensor, models: SurfaceModels) -> PSAResult:
     """The result with its projector image black where ``mask`` is 0 (no stray light behind the
     object), and the simulated capture of that image."""
@@ -227,10 +242,15 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     """The prompt's look on this surface, and its PSA-adapted version.
 
     dark_outside: black projector pixels where the frame misses the object (where the capture set
-    knows it: setups captured here; public sets have no registration)."""
+    knows it: setups captured here; public sets have no registration).
+    It runs where the models are (SurfaceModels.to): the backend follows the surface's device; the
+    result's images come back on the CPU."""
     settings = settings or PSASettings(seed=seed)
-    surface = SurfaceTensors.from_capture_set(cs).i_max  # LGST sees the white-lit surface (as the paper)
-    lgst, fallback = get_backend(backend, **(backend_options or {})), None
+    device = models.device
+    # LGST sees the white-lit surface (as the paper)
+    surface = SurfaceTensors.from_capture_set(cs).i_max.to(device)
+    backend_options = with_device(backend, backend_options, device)
+    lgst, fallback = get_backend(backend, **backend_options), None
     try:
         lgst.prepare(surface, prompt, seed=seed, mix=mix)
     except LGSTUnavailable as exc:
@@ -247,7 +267,7 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     footprint_note = unreliable_footprint(cs) if dark_outside else None
     dark_outside = dark_outside and cs.projector_valid is not None and footprint_note is None
     if dark_outside:
-        mask = on_object_mask(cs.projector_valid)
+        mask = on_object_mask(cs.projector_valid).to(device)
         plain = darkened_outside(plain, mask, models)
         adapted = darkened_outside(adapted, mask, models) if adapted is not None else None
     describe = lgst.describe()
@@ -256,11 +276,23 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
         describe.setdefault("notes", []).append(fallback)
     if footprint_note:
         describe.setdefault("notes", []).append(footprint_note)
-    truth = surface_truth(plain.target, adapted.target if adapted is not None else None, models.i_min,
-                          models.i_max, object_footprint(cs))  # on the object, where it is known
+    plain, adapted = on_the_cpu(plain), on_the_cpu(adapted)
+    # measured on the CPU, in float64 (which MPS has not)
+    truth = surface_truth(plain.target, adapted.target if adapted is not None else None, models.i_min.cpu(),
+                          models.i_max.cpu(), object_footprint(cs))  # on the object, where it is known
     # the look that renders the chosen state: with the PSA tone field when PSA ran
     look = adapted.look if adapted is not None and adapted.look is not None else lgst
-    return StylizeResult(plain, adapted, describe, settings, dark_outside, look, truth)
+    return StylizeResult(plain, adapted, describe, settings, dark_outside, look, truth,
+                         compute_device.describe(device))
+
+
+def with_device(backend: str, options: dict | None, device) -> dict:
+    """The backend's options with `device` where the backend takes one (InstructPix2Pix picks its own
+    otherwise); the others follow the surface's device."""
+    options = dict(options or {})
+    if getattr(backend_class(backend), "takes_device", False):
+        options.setdefault("device", device)
+    return options
 
 
 def output_at(cs: CaptureSet, models: SurfaceModels, res: StylizeResult, width: int, height: int,

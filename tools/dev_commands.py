@@ -19,7 +19,7 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "transport": "transport", "learned-variants": "learned_variants",
               "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine",
               "train-step": "train_step", "light": "light", "finetune-length": "finetune_length",
-              "classical-fit": "classical_fit", "rig-faults": "rig_faults"}
+              "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device"}
 
 
 def _ensure_registered():
@@ -182,6 +182,9 @@ def add_parsers(sub):
                                                 "480x360, the captures'; its reference takes minutes)")
     bench.add_argument("--reference-samples", type=int, default=1024,
                        help="transport: samples of the converged inter-reflection reference (default 1024)")
+    from .bench.bench_device import add_arguments as device_arguments
+
+    device_arguments(bench)  # device: --device, --paper-iterations, --frames, --write-cpu-figures, ...
     for name, func in (("dataset", cmd_dataset), ("pretrain", cmd_pretrain), ("eval", cmd_eval),
                        ("build", cmd_build), ("bench", cmd_bench)):
         sub.choices[name].set_defaults(func=func)

@@ -1,4 +1,5 @@
-"""Add-on preferences: which dependencies are present, and how to install the missing ones."""
+"""Add-on preferences: where torch runs, which dependencies are present, and how to install the missing ones
+(and PyTorch's CUDA build where an NVIDIA GPU has none to use it)."""
 from __future__ import annotations
 
 import sys
@@ -6,6 +7,7 @@ import sys
 import bpy
 
 from ...lapig_core.common.deps import check_dependencies, install_command
+from ...lapig_core.common.gpu_torch import gpu_advice, installed_torch, nvidia_gpu_present
 from ..services.bundle_status import bundle_lines, read_bundle
 from .operator_boundary import ReportsErrors
 
@@ -26,6 +28,25 @@ class LAPIG_OT_copy_install_command(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
+def _modules_folder() -> str:
+    return bpy.utils.user_resource("SCRIPTS", path="modules", create=False)
+
+
+def _gpu_advice():
+    return gpu_advice(installed_torch(), nvidia_gpu_present(), sys.executable, _modules_folder())
+
+
+class LAPIG_OT_copy_cuda_command(ReportsErrors, bpy.types.Operator):
+    """Copy the pip command that installs PyTorch's CUDA build into Blender's Python"""
+    bl_idname = "lapig.copy_cuda_command"
+    bl_label = "Copy CUDA install command"
+
+    def execute(self, context):
+        context.window_manager.clipboard = _gpu_advice().command
+        self.report({"INFO"}, "CUDA install command copied to the clipboard")
+        return {"FINISHED"}
+
+
 class LAPIG_AP_preferences(bpy.types.AddonPreferences):
     bl_idname = _addon_package()
 
@@ -33,10 +54,24 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
         name="InstructPix2Pix weights", subtype="DIR_PATH",
         description="Folder with the InstructPix2Pix weights for the 'instruct-pix2pix' backend "
                     "(empty: the public checkpoint, if it is in the Hugging Face cache)")
+    device: bpy.props.EnumProperty(
+        name="Device", default="AUTO",
+        items=[("AUTO", "Auto", "A GPU where torch can use one (CUDA, then Apple's MPS), else the CPU"),
+               ("CPU", "CPU", "Always the CPU (e.g. to leave the GPU to Cycles)")],
+        description="Where Train, PSA, the style networks and the native output run")
 
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "ip2p_model")
+        layout.prop(self, "device")
+        advice = _gpu_advice()
+        layout.label(text=advice.line, icon="CHECKMARK" if not advice.command else "INFO")
+        if advice.command:
+            box = layout.box()
+            for line in advice.why:
+                box.label(text=line)
+            box.label(text=advice.command)
+            box.operator(LAPIG_OT_copy_cuda_command.bl_idname, icon="COPYDOWN")
         col = layout.column(align=True)
         for line in bundle_lines(read_bundle()):
             col.label(text=line.text, icon=line.icon)
@@ -57,6 +92,13 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
             box.label(text="README.md, 'Installing the Python dependencies into Blender', explains each step.")
 
 
+def compute_device() -> str:
+    """'auto' or 'cpu' from the preferences ('auto' when the add-on is registered without being enabled, as
+    in the bpy module)."""
+    addon = bpy.context.preferences.addons.get(_addon_package())
+    return addon.preferences.device.lower() if addon and addon.preferences else "auto"
+
+
 def ip2p_model() -> str:
     """The InstructPix2Pix weights folder from the preferences ('' when unset, or when the add-on is
     registered without being enabled, as in the bpy module)."""
@@ -64,6 +106,6 @@ def ip2p_model() -> str:
     return bpy.path.abspath(addon.preferences.ip2p_model) if addon and addon.preferences else ""
 
 
-CLASSES = (LAPIG_OT_copy_install_command, LAPIG_AP_preferences)
+CLASSES = (LAPIG_OT_copy_install_command, LAPIG_OT_copy_cuda_command, LAPIG_AP_preferences)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

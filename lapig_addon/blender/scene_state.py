@@ -229,6 +229,11 @@ def finetune_iterations(scene) -> int | None:
     return scene.lapig.finetune_iterations or None
 
 
+def compute_device() -> str:
+    """Where torch runs, from the add-on's preferences: 'auto' or 'cpu' (lapig_core/common/compute_device)."""
+    return preferences.compute_device()
+
+
 def train_in_background(scene) -> bool:
     """Whether a Capture made in the UI starts Train in the background (the Models panel's option)."""
     return bool(scene.lapig.train_in_background)

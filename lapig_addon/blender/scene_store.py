@@ -30,6 +30,9 @@ class BlenderSceneStore:
     def finetune_iterations(self):
         return scene_state.finetune_iterations(self.scene)
 
+    def compute_device(self) -> str:
+        return scene_state.compute_device()
+
     def projector_model(self):
         return scene_state.projector_model(scene_state.rig_objects(self.scene)[0])
 

@@ -48,12 +48,14 @@ def cmd_demo(args) -> int:
     write_png(os.path.join(out, "contact_sheet.png"), contact_sheet(result["setup_dir"]))
     t = time.perf_counter()
     seams = scene_seams(scene)
-    TrainModelsJob(seams, args.iterations).run_to_completion(on_progress=headless.print_progress)
+    trained = TrainModelsJob(seams, args.iterations, device=args.device).run_to_completion(
+        on_progress=headless.print_progress)
     timings["train_s"] = round(time.perf_counter() - t, 2)
     request = scene_state.generate_request(scene, prompt=args.prompt)
     scene_state.write_stylize_settings(scene, request)  # demo.blend then opens on the prompt of its result
     t = time.perf_counter()
-    generated = GenerateJob(seams, request, args.iterations).run_to_completion(on_progress=headless.print_progress)
+    generated = GenerateJob(seams, request, args.iterations, device=args.device).run_to_completion(
+        on_progress=headless.print_progress)
     timings["stylize_s"] = round(time.perf_counter() - t, 2)
     print_notes(result_notes(generated["summary"]))
     t = time.perf_counter()
@@ -78,7 +80,7 @@ def cmd_demo(args) -> int:
                "native_output": generated["summary"]["native_output"],
                "rendered_psnr_native": round(m.get("rendered_psnr_native", float("nan")), 3),
                "registration_error_px_median": meta["registration"].get("registration_error_px_median"),
-               **timings}
+               "train_device": trained["device"], "device": generated["summary"].get("device"), **timings}
     print(f"Look at {sheet_path} and {summary['contact_sheet']}; open {blend_path} in Blender")
     print_json(summary)
     return 0
@@ -160,10 +162,11 @@ def cmd_train(args) -> int:
     scene = _open_scene(args)
     devices = rig_choice.apply(args, scene)
     capture = _chosen_capture(args, BlenderSceneStore(scene))
-    out = TrainModelsJob(scene_seams(scene, devices=devices), _iterations(args, scene), capture).run_to_completion(
-        on_progress=headless.print_progress)
+    out = TrainModelsJob(scene_seams(scene, devices=devices), _iterations(args, scene), capture,
+                         device=args.device).run_to_completion(on_progress=headless.print_progress)
     _save_if_asked(args)
-    print_json({"capture": out["folder"], "train_s": round(out["seconds"], 2), "compensation": out["choice"]})
+    print_json({"capture": out["folder"], "train_s": round(out["seconds"], 2), "compensation": out["choice"],
+                "device": out["device"]})
     return 0
 
 
@@ -198,7 +201,7 @@ def cmd_stylize(args) -> int:
                                            ip2p_model=args.ip2p_model, style_images=style_images,
                                            style_prompt_weight=args.style_prompt_weight,
                                            output_size=args.output_size, dark_outside=args.dark_outside)
-    job = GenerateJob(seams, request, _iterations(args, scene), capture=capture)
+    job = GenerateJob(seams, request, _iterations(args, scene), capture=capture, device=args.device)
     out = job.run_to_completion(on_progress=headless.print_progress)
     summary = dict(out["summary"]["metrics"])
     if args.refine:  # closed loop on the rig, before the render: the render then captures the refined image
@@ -218,7 +221,8 @@ def cmd_stylize(args) -> int:
     images = {"style_images": [(i["path"], i["weight"]) for i in lgst.get("style_images", [])]}
     images = images if images["style_images"] else {}
     print_json({"result": out["folder"], "styles": lgst.get("styles"), "understood": lgst.get("understood"),
-                "models": (out["summary"].get("models") or {}).get("line"), **images, **summary})
+                "models": (out["summary"].get("models") or {}).get("line"), "device": out["summary"].get("device"),
+                **images, **summary})
     return 0
 
 

@@ -20,6 +20,12 @@ def _parser():
         ranged_option(p, "--iterations", "finetune_iterations",
                       f"fine-tuning iterations per network (default: {default_text}); fewer: rough but quick")
 
+    def device_arg(p):
+        # the names of lapig_core/common/compute_device.CHOICES (not imported: it imports torch)
+        p.add_argument("--device", choices=["auto", "cpu"], default=None,
+                       help="where torch runs: auto (a GPU where torch can use one: CUDA, then Apple's MPS; else "
+                            "the CPU) or cpu (default: the add-on preferences', auto)")
+
     demo = sub.add_parser("demo", help="the whole pipeline on a demo scene: capture, train, stylize, render, export")
     demo.add_argument("--out", default="out/demo", help="output folder (default: out/demo)")
     demo.add_argument("--shape", default="panel", choices=["panel", "box", "statue"])
@@ -29,6 +35,7 @@ def _parser():
     demo.add_argument("--prompt", default="Render it in the style of a Van Gogh oil painting")
     ranged_option(demo, "--seed", "seed", "pattern and style seed", default=0)
     iterations_arg(demo, "the standard recipe")
+    device_arg(demo)
 
     def blend_arg(p):
         p.add_argument("--blend", help=".blend file with a LAPIG rig (default: the open file)")
@@ -82,6 +89,7 @@ def _parser():
     capture_arg(tr)
     rig_args(tr)
     iterations_arg(tr, "the scene's")
+    device_arg(tr)
 
     st = sub.add_parser("stylize", help="turn a prompt into a projector image for the scene's surface")
     blend_arg(st)
@@ -114,6 +122,7 @@ def _parser():
                   "refine the projector image on the rig: project, capture, correct, at most N steps (default 0: "
                   "open loop only)", default=0)
     st.add_argument("--render", action="store_true", help="also render the real capture with Cycles")
+    device_arg(st)
     rig_args(st)
 
     ex = sub.add_parser("export", help="write the scene's projector image for a real projector")

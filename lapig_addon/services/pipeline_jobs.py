@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from ...lapig_core.common import metrics
+from ...lapig_core.common import compute_device, metrics
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
                                            resolve_setup, setup_dir_of)
@@ -112,6 +112,14 @@ def _why_not_measured(cs, verification, devices) -> str:
     return ""
 
 
+def device_choice(store, explicit: str | None) -> str:
+    """'auto' or 'cpu': the command's, else the store's (the preference; read in prepare(), on the main thread)."""
+    choice = explicit or store.compute_device()
+    if choice not in compute_device.CHOICES:
+        raise PipelineError(f"unknown device '{choice}': use {' or '.join(compute_device.CHOICES)}")
+    return choice
+
+
 class TrainModelsJob(WorkerJob):
     """Fine-tune the networks (worker thread), then choose the compensator by measurement: the rig renders
     both compensations of the held-back images, as it rendered the capture (main thread, bpy)."""
@@ -125,15 +133,18 @@ class TrainModelsJob(WorkerJob):
     device_per_render = False
     choice_skipped = ""  # why the rig did not measure the choice, for the models line
 
-    def __init__(self, seams: Seams, iterations: int | None = None, capture: str | None = None):
+    def __init__(self, seams: Seams, iterations: int | None = None, capture: str | None = None,
+                 device: str | None = None):
         """iterations: fine-tuning iterations per network (None: the standard recipe); capture: a capture
-        folder named explicitly (None: the scene's), recorded as the scene's when the models are."""
+        folder named explicitly (None: the scene's), recorded as the scene's when the models are; device:
+        'auto' or 'cpu' (None: the store's, i.e. the add-on's preference)."""
         super().__init__()
-        self.seams, self.iterations, self.capture = seams, iterations, capture
+        self.seams, self.iterations, self.capture, self.device = seams, iterations, capture, device
 
     def prepare(self):
         folder = current_capture(self.seams.store.read(), self.capture)
         self._stamp = _setup_stamp(folder)  # what a pause checks on resume: the same capture
+        self._device_choice = device_choice(self.seams.store, self.device)
         return folder
 
     def hold(self, folder):
@@ -142,13 +153,16 @@ class TrainModelsJob(WorkerJob):
     def work(self, folder, report, cancel_event):
         cs = load_capture_set(folder)
         had_first_look = capture_first_look(folder) is not None
-        trained = train_models(cs, on_progress=report, cancel_event=cancel_event, iterations=self.iterations)
+        device = compute_device.resolve(self._device_choice)
+        trained = train_models(cs, on_progress=report, cancel_event=cancel_event, iterations=self.iterations,
+                               device=device)
         # both compensations of the held-back images, here on the worker: CompenNeSt's forward pass would
         # otherwise hold Blender's main thread, where the rendered choice's steps run with Cycles
         verification = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
         return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder,
                 "choice": trained["choice"].line(), "capture_set": cs, "trained": trained,
-                "verification": verification, "had_first_look": had_first_look}
+                "verification": verification, "had_first_look": had_first_look, "device": trained["device"],
+                "trained_on": compute_device.short_name(device)}
 
     def finish(self, output):
         store = self.seams.store
@@ -168,7 +182,8 @@ class TrainModelsJob(WorkerJob):
     @staticmethod
     def _models_line(out, chosen) -> str:
         """The models step's line: how long, the choice, and what it means for the capture's first look."""
-        line = f"Fine-tuned in {out['seconds']:.0f} s; {out['choice']}"
+        on = f" on {out['trained_on']}" if out.get("trained_on") else ""
+        line = f"Fine-tuned in {out['seconds']:.0f} s{on}; {out['choice']}"
         note = first_look.after_train_note(chosen) if out.get("had_first_look") else ""
         return f"{line}; {note}" if note else line
 
@@ -289,11 +304,11 @@ class GenerateJob(WorkerJob):
     title = "LAPIG generate"
 
     def __init__(self, seams: Seams, request: GenerateRequest, iterations: int | None = None, result_root=None,
-                 capture: str | None = None):
-        """iterations: as TrainModelsJob's, for models trained on the way; capture: as TrainModelsJob's."""
+                 capture: str | None = None, device: str | None = None):
+        """iterations: as TrainModelsJob's, for models trained on the way; capture, device: as TrainModelsJob's."""
         super().__init__()
         self.seams, self.request, self.iterations = seams, request, iterations
-        self.result_root, self.capture = result_root, capture
+        self.result_root, self.capture, self.device = result_root, capture, device
 
     def prepare(self):
         r = self.request
@@ -325,6 +340,7 @@ class GenerateJob(WorkerJob):
                 "settings": psa_settings_from(r),
                 "results": self.result_root or os.path.join(store.data_root(), "results"),
                 "bit_depth": store.export_settings().bit_depth,
+                "device": device_choice(store, self.device),
                 "name": folder_name(prompt or mix or style_name(r.style_images), datetime.datetime.now())}
 
     def hold(self, job):
@@ -348,7 +364,7 @@ class GenerateJob(WorkerJob):
                 self._inputs["notes"].append(f"the saved models could not be used ({problem}): fine-tuned them "
                                              f"again and saved over them")
             share = 0.5
-            self._training = TrainModelsJob(self.seams, self.iterations, self.capture)
+            self._training = TrainModelsJob(self.seams, self.iterations, self.capture, self.device)
             self._training.poll_timeout = self.poll_timeout
             self._training.check()
             inner = self._training.steps()
@@ -377,11 +393,13 @@ class GenerateJob(WorkerJob):
         cs = load_capture_set(job["capture"], pairs=look is None and (saved is None or saved.choice is None))
         report(0.02, "loading the models")
         notes = list(job["notes"])
+        device = compute_device.resolve(job["device"])
         if look is not None:
-            models = first_look_models(cs, look.classical)
+            models = first_look_models(cs, look.classical, device=device)
         else:
             models = surface_models(cs, on_progress=lambda p, m: report(0.05 + 0.45 * p, m),
-                                    cancel_event=cancel_event, iterations=self.iterations, notes=notes, saved=saved)
+                                    cancel_event=cancel_event, iterations=self.iterations, notes=notes, saved=saved,
+                                    device=device)
         if cancel_event.is_set():
             return None
         report(0.5, "stylizing")
@@ -468,6 +486,7 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
                "style_mix_override": job.get("mix"), "lgst": res.describe, "psa": job["psa"],
                "psa_settings": res.settings.to_dict(), "dark_outside": res.dark_outside,
                "native_output": _native_summary(native), "capture": job["capture"],
+               "device": res.device,  # which device ran the look, PSA and the compensation
                # what the surface can show of the look, before and after PSA, and the artist's message
                "surface_reach": res.truth,
                "tone_field": _tone_field_summary(res),

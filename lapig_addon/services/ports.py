@@ -62,6 +62,9 @@ class SceneStore(Protocol):
 
     def finetune_iterations(self) -> int | None: ...
 
+    def compute_device(self) -> str:
+        """Where torch runs: 'auto' (a GPU where torch has one, else the CPU) or 'cpu'; the add-on's preference."""
+
     def projector_model(self) -> ProjectorModel: ...
 
     def rig_metadata(self) -> dict:

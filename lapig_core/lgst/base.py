@@ -16,6 +16,9 @@ class LGSTBackend:
     """Interface every LGST backend implements. Call prepare() once, then forward() as often as needed."""
 
     name: str = "base"
+    # True: the constructor takes `device` (the pipeline passes the models'); the others run where the
+    # surface given to prepare() is
+    takes_device: bool = False
 
     @classmethod
     def availability(cls, **options) -> tuple[bool, str]:

@@ -111,6 +111,7 @@ class InstructPix2PixBackend(ThetaBackend):
     """InstructPix2Pix edits the white-lit surface as the prompt instructs; theta = prompt embedding."""
 
     name = "instruct-pix2pix"
+    takes_device = True
 
     def __init__(self, model: str | None = None, allow_download: bool = False, steps: int = 10,
                  guidance: float = 7.5, image_guidance: float = 1.0, size: int = 256, psa_steps: int = 4,

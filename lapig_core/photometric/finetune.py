@@ -82,11 +82,12 @@ def start_model(arch: str, role: str, from_pretrained: bool = True, seed: int = 
 
 def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, recipe: Recipe | None = None,
              from_pretrained: bool = True, val_count: int | None = None, eval_every: int = 50,
-             on_progress=None, cancel_event=None, weights_dir=None, classical: ClassicalModel | None = None):
+             on_progress=None, cancel_event=None, weights_dir=None, classical: ClassicalModel | None = None,
+             device=None):
     """(model, TrainResult) fitted to one setup on its first `count` training pairs.
 
     classical: the setup's classical model, for a recipe with the camera-space loss (fitted here on the same
-    pairs when not given)."""
+    pairs when not given). device: where it trains (None: the CPU); the model is returned there."""
     if count is None:
         count = len(cs.prj_train)
     train = pairs_from_capture_sets([cs], role, count=count)
@@ -102,7 +103,7 @@ def finetune(cs: CaptureSet, arch: str, role: str, count: int | None = None, rec
             classical = ClassicalModel.fit(cs.prj_train[:count], cs.cam_train[:count])
         camera = camera_space_loss(cs, classical)
     trainer = Trainer(model, train, recipe, val_pairs=val, eval_every=eval_every,
-                      report_every=min(eval_every, 10), cancel_event=cancel_event, camera_loss=camera)
+                      report_every=min(eval_every, 10), cancel_event=cancel_event, camera_loss=camera, device=device)
     result = trainer.run(on_progress)
     return model, result
 

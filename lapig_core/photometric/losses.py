@@ -85,6 +85,9 @@ class CameraSpaceLoss:
     def size(self) -> tuple:
         return tuple(self.m.shape[-2:])
 
+    def to(self, device) -> "CameraSpaceLoss":
+        return CameraSpaceLoss(self.m.to(device), self.gamma_p, self.weight.to(device))
+
     def cropped(self, rows: slice, cols: slice) -> "CameraSpaceLoss":
         """The same loss on a crop of the frame (the training crops)."""
         return CameraSpaceLoss(self.m[..., rows, cols], self.gamma_p, self.weight[..., rows, cols])

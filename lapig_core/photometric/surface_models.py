@@ -28,6 +28,22 @@ class SurfaceModels:
                 p.requires_grad_(False)  # only theta learns
         self.compensator.cache_surface(self.s)
 
+    @property
+    def device(self) -> torch.device:
+        return self.s.device
+
+    def to(self, device) -> "SurfaceModels":
+        """Move the networks and the references to `device` (None: stay), in place, and cache the surface's
+        features there; returns self, so the attributes set after construction (choice, first_look) stay."""
+        if device is None:
+            return self
+        self.compensator.to(device)
+        self.simulator.to(device)
+        self.s, self.i_min, self.i_max = self.s.to(device), self.i_min.to(device), self.i_max.to(device)
+        self.on_object = self.on_object.to(device) if self.on_object is not None else None
+        self.compensator.cache_surface(self.s)
+        return self
+
     def compensate(self, target, return_raw=False):
         return self.compensator(target, self.s, return_raw=return_raw)
 

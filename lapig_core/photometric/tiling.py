@@ -55,12 +55,13 @@ def tiled(net: Callable[..., torch.Tensor], inputs: list[torch.Tensor], tile: in
             wy = _ramp(cy0 - y0, cy1 - cy0, y1 - cy1, blend)
             for x0, x1, cx0, cx1 in _spans(W, tile, context):
                 wx = _ramp(cx0 - x0, cx1 - cx0, x1 - cx1, blend)
-                # channels-last: CPU convolutions of this size run about 1.8x faster in that layout
+                # channels-last: CPU convolutions of this size run about 1.8x faster in that layout (and GPUs'
+                # tensor cores take it too)
                 y = net(*[x[..., y0:y1, x0:x1].contiguous(memory_format=torch.channels_last) for x in inputs])
-                if out is None:
-                    out = torch.zeros(*y.shape[:2], H, W, dtype=y.dtype)
-                    weight = torch.zeros(1, 1, H, W, dtype=y.dtype)
-                tile_weight = (wy[:, None] * wx[None, :]).to(y.dtype)
+                if out is None:  # where the net ran: a GPU's tiles add up on the GPU
+                    out = torch.zeros(*y.shape[:2], H, W, dtype=y.dtype, device=y.device)
+                    weight = torch.zeros(1, 1, H, W, dtype=y.dtype, device=y.device)
+                tile_weight = (wy[:, None] * wx[None, :]).to(device=y.device, dtype=y.dtype)
                 out[..., y0:y1, x0:x1] += y * tile_weight
                 weight[..., y0:y1, x0:x1] += tile_weight
     return (out / weight)[..., :h, :w]

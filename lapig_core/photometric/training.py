@@ -15,6 +15,7 @@ import torch
 from . import losses
 from ..common import metrics
 from ..common.adam import Adam
+from ..common.compute_device import module_device, moved
 from .training_data import PairSet
 
 
@@ -71,13 +72,15 @@ def apply_model(model, x, s, i_min=None, i_max=None):
 
 
 def predict(model, pairs_x, s, i_min=None, i_max=None, batch_size=8) -> torch.Tensor:
-    """Inference in batches (one surface s for all of x)."""
+    """Inference in batches (one surface s for all of x), where the model is; the result where pairs_x is."""
     model.eval()
+    device = module_device(model)
+    s, i_min, i_max = (moved(v, device) for v in (s, i_min, i_max))
     out = []
     with torch.no_grad():
         for start in range(0, len(pairs_x), batch_size):
-            xb = pairs_x[start:start + batch_size]
-            out.append(apply_model(model, xb, s.expand(len(xb), -1, -1, -1), i_min, i_max))
+            xb = pairs_x[start:start + batch_size].to(device)
+            out.append(apply_model(model, xb, s.expand(len(xb), -1, -1, -1), i_min, i_max).to(pairs_x.device))
     return torch.cat(out)
 
 
@@ -111,8 +114,10 @@ class TrainResult:
 class Trainer:
     def __init__(self, model, pairs: PairSet, recipe: Recipe, val_pairs: PairSet | None = None,
                  eval_every: int = 100, report_every: int = 10, cancel_event=None, max_nan_recoveries=3,
-                 camera_loss: losses.CameraSpaceLoss | None = None):
-        """camera_loss: the setup's camera-space loss, needed when the recipe's schedule names CAMERA_LOSS."""
+                 camera_loss: losses.CameraSpaceLoss | None = None, device=None):
+        """camera_loss: the setup's camera-space loss, needed when the recipe's schedule names CAMERA_LOSS.
+        device: where to train (None: where the model and the pairs are, the CPU); the model is moved there
+        and stays, the pairs and the loss are copied there once."""
         if len(pairs) == 0:
             raise TrainingError("no training pairs")
         h, w = pairs.x.shape[-2:]
@@ -124,18 +129,23 @@ class Trainer:
             if camera_loss.size != (h, w):
                 raise TrainingError(f"the camera-space loss is {camera_loss.size[0]}x{camera_loss.size[1]}, "
                                     f"the training images {h}x{w}")
-        self.camera_loss = camera_loss
         crop = recipe.crop
         if crop is not None and (crop > min(h, w) or crop % 4):
             raise TrainingError(f"crop {crop} must be a multiple of 4 and at most the image size {h}x{w}")
         if h % 4 or w % 4:
             raise TrainingError(f"image size {h}x{w} must be a multiple of 4 for these networks")
+        # scalar capture bounds while training (NOTES: PCNet clamps to global min/max then)
+        self._y_min, self._y_max = float(pairs.y.min()), float(pairs.y.max())
+        if device is not None:
+            model.to(device)
+            pairs = pairs.to(device)
+            val_pairs = val_pairs.to(device) if val_pairs is not None else None
+            camera_loss = camera_loss.to(device) if camera_loss is not None else None
+        self.camera_loss = camera_loss
         self.model, self.pairs, self.recipe, self.val_pairs = model, pairs, recipe, val_pairs
         self.eval_every, self.report_every = eval_every, report_every
         self.cancel_event, self.max_nan_recoveries = cancel_event, max_nan_recoveries
         self.result = TrainResult()
-        # scalar capture bounds while training (NOTES: PCNet clamps to global min/max then)
-        self._y_min, self._y_max = float(pairs.y.min()), float(pairs.y.max())
 
     def _sample(self, gen: torch.Generator):
         r = self.recipe

@@ -43,6 +43,9 @@ class SurfaceTensors:
     def from_capture_set(cls, cs: CaptureSet) -> "SurfaceTensors":
         return cls(to_tensor(cs.cam_gray), to_tensor(cs.cam_black), to_tensor(cs.cam_white))
 
+    def to(self, device) -> "SurfaceTensors":
+        return SurfaceTensors(self.s.to(device), self.i_min.to(device), self.i_max.to(device))
+
 
 @dataclass
 class PairSet:
@@ -64,8 +67,14 @@ class PairSet:
         """(x, s, y) of the samples idx. s is (1,3,H,W) where every pair is one setup's: the networks broadcast
         it, so the surface path runs once per batch instead of once per sample (the same gradient: the
         broadcast sums what the copies would each have received)."""
+        idx = idx.to(self.x.device)  # sampled on the CPU (its generator), indexing where the pairs are
         s = self.surfaces[0].s if len(self.surfaces) == 1 else self.s_for(idx)
         return self.x[idx], s, self.y[idx]
+
+    def to(self, device) -> "PairSet":
+        """The pairs on `device` (a training's batches are then sampled there, with no copy per step)."""
+        return PairSet(self.x.to(device), self.y.to(device), self.setup_index.to(device),
+                       [surface.to(device) for surface in self.surfaces], self.role)
 
     def subset(self, count: int) -> "PairSet":
         """The first `count` pairs (the paper's 8 / 48 / 125 image budgets)."""

@@ -130,11 +130,13 @@ def psa_losses(target, models: SurfaceModels) -> dict:
 
 
 def loss_maps(target, models: SurfaceModels) -> dict:
-    """Per-pixel L_cs and L_ps (H, W): where the surface cannot show this target."""
+    """Per-pixel L_cs and L_ps (H, W) on the CPU: where the surface cannot show this target (computed where
+    the models are)."""
     with torch.no_grad():
+        target = target.to(models.device)
         _, raw = models.compensate(target, return_raw=True)
-        return {"cs": losses.compensation_saturation_map(raw)[0, 0],
-                "ps": losses.physical_saturation_map(target, models.i_min, models.i_max)[0, 0]}
+        return {"cs": losses.compensation_saturation_map(raw)[0, 0].cpu(),
+                "ps": losses.physical_saturation_map(target, models.i_min, models.i_max)[0, 0].cpu()}
 
 
 def psa_loss(parts, settings) -> torch.Tensor:
@@ -145,7 +147,7 @@ def psa_loss(parts, settings) -> torch.Tensor:
 def _style_loss(target, anchor, backend, settings) -> torch.Tensor:
     """L_style / w(a): what PSA pays for moving away from the un-adapted look (module docstring)."""
     w_ssim, w_structure, _ = settings.style_mix()
-    value = torch.zeros((), dtype=target.dtype)
+    value = torch.zeros((), dtype=target.dtype, device=target.device)
     if w_ssim > 0:
         value = value + w_ssim * losses.ssim_loss(target, anchor)
     if w_structure > 0:

@@ -36,10 +36,11 @@ class ToneField(torch.nn.Module):
         # one gain and one offset for all three channels: the field moves tone, not hue, so the
         # look's colour relations stay (a per-channel offset crushed whole channels on a dark
         # surface: a yellow look went green). Colour follows only the surface's own range (beta).
-        self.gain = torch.nn.Parameter(torch.zeros(1, 1, grid, grid))
-        self.offset = torch.nn.Parameter(torch.zeros(1, 1, grid, grid))
-        self.beta = torch.nn.Parameter(torch.zeros(1, 3, 1, 1))
-        self.gamma = torch.nn.Parameter(torch.zeros(1, 3, 1, 1))
+        device = i_min.device  # where the surface guide is, PSA runs
+        self.gain = torch.nn.Parameter(torch.zeros(1, 1, grid, grid, device=device))
+        self.offset = torch.nn.Parameter(torch.zeros(1, 1, grid, grid, device=device))
+        self.beta = torch.nn.Parameter(torch.zeros(1, 3, 1, 1, device=device))
+        self.gamma = torch.nn.Parameter(torch.zeros(1, 3, 1, 1, device=device))
         self.i_min, self.i_max = i_min.detach(), i_max.detach()
         # the range's mean over the frame fixes the guide's scale, so the same beta means the same
         # look at any resolution

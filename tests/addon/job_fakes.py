@@ -100,6 +100,9 @@ class FakeStore:
     def finetune_iterations(self):
         return self.iterations
 
+    def compute_device(self):
+        return "auto"  # the preference's default: the CPU on a machine without a GPU
+
     def projector_model(self):
         return ProjectorModel(width=PROJECTOR_SIZE[0], height=PROJECTOR_SIZE[1])
 

@@ -1,0 +1,58 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The prepared device check (issue 37, tools/device_check.sh): its shipped capture, the CPU figures stored
+beside it, and its parity arithmetic. The check itself takes minutes; here only what it stands on."""
+import json
+import subprocess
+import sys
+import pathlib
+
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from lapig.lapig_core.capture.dataset import load_capture_set  # noqa: E402
+from lapig.tools.bench import bench_device  # noqa: E402
+from lapig.tools.bench.device_fixture import FIXTURE, TEST, TRAIN  # noqa: E402
+
+pytestmark = pytest.mark.torch
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+ISSUE_KEYS = ("device", "gpu_train_seconds", "gpu_train_seconds_paper_recipe", "gpu_psa_seconds",
+              "gpu_compensate_fps_4k", "gpu_parity_db")
+
+
+def test_the_shipped_capture_loads_as_the_app_loads_one():
+    cs = load_capture_set(FIXTURE)
+    assert cs.frame_size == (128, 96) and len(cs.prj_train) == TRAIN and len(cs.prj_test) == len(cs.cam_test) == TEST
+    assert cs.projector_valid is not None and cs.projector_valid.mean() > 0.9
+    square = bench_device.resized_capture(cs, 256)  # the paper's recipe trains on 256 px squares
+    assert square.prj_train.shape == (TRAIN, 256, 256, 3) and square.cam_gray.shape == (256, 256, 3)
+    assert square.projector_valid.shape == (256, 256)
+
+
+def test_the_cpu_figures_beside_the_fixture_have_the_issues_keys_and_the_machines_speed():
+    cpu = json.loads(bench_device.CPU_FIGURES.read_text())
+    assert all(key in cpu for key in ISSUE_KEYS) and cpu["device"].startswith("CPU: ")
+    assert cpu["torch_step_s"] and cpu["note"] and not cpu["quick_run"]
+    assert set(cpu["prompts"]) == set(bench_device.MIXES)
+    assert all(row["simulated_psnr"] > 10 for row in cpu["prompts"].values())
+    assert cpu["train_choice"]["learned_psnr"] is not None
+
+
+def test_parity_is_the_devices_psnr_less_the_cpus():
+    cpu = {"prompts": {"a": {"simulated_psnr": 30.0, "simulated_psnr_nopsa": 25.0}},
+           "train_choice": {"learned_psnr": 28.0}}
+    rows = {"a": {"simulated_psnr": 30.05, "simulated_psnr_nopsa": 24.9}}
+    same = bench_device.parity(rows, {"learned_psnr": 28.02}, cpu)
+    assert same["gpu_parity_db"] == pytest.approx(0.05) and same["parity_ok"]
+    assert same["parity_db"] == pytest.approx({"psa": 0.05, "nopsa": -0.1, "train": 0.02})
+    rows["a"]["simulated_psnr"] = 29.8  # 0.2 dB off: not within the tenth of a dB
+    assert not bench_device.parity(rows, {"learned_psnr": 28.02}, cpu)["parity_ok"]
+    assert bench_device.parity(rows, {}, None)["gpu_parity_db"] is None  # no CPU figures: said, not guessed
+
+
+def test_the_launcher_needs_no_blender():
+    code = ("import runpy, sys\nsys.modules['bpy'] = None\nsys.argv = ['tools/device_check.py', '--help']\n"
+            "runpy.run_path('tools/device_check.py', run_name='__main__')\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert run.returncode == 0, run.stderr
+    assert "--paper-iterations" in run.stdout and "--write-cpu-figures" in run.stdout

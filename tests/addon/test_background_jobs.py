@@ -431,7 +431,8 @@ def _long_step_then_a_report(folder, go_on):
     return train
 
 
-def test_a_foreground_job_waits_for_a_background_train_that_takes_long_to_pause(tmp_path, monkeypatch):
+def _slots_with_a_train_in_a_long_step(tmp_path, monkeypatch):
+    """(background_jobs, the slots' clock, the slots, the Event that ends the Train's long step, the Train)."""
     background_jobs = _module("background_jobs")
     clock = _Clock()
     monkeypatch.setattr(background_jobs, "time", clock)
@@ -439,6 +440,11 @@ def test_a_foreground_job_waits_for_a_background_train_that_takes_long_to_pause(
     train = _long_step_then_a_report(tmp_path, go_on)
     slots.start_background(train)
     slots.step_background()
+    return background_jobs, clock, slots, go_on, train
+
+
+def test_a_foreground_job_waits_for_a_background_train_that_takes_long_to_pause(tmp_path, monkeypatch):
+    background_jobs, clock, slots, go_on, train = _slots_with_a_train_in_a_long_step(tmp_path, monkeypatch)
     generate = _counting_job(tmp_path, iterations=5)  # the same folder: it needs the lock the Train holds
     slots.start_foreground(generate)
     clock.now += 120  # four times the old 30 s cap, well short of a stuck job: the artist's job still waits
@@ -455,13 +461,7 @@ def test_a_foreground_job_waits_for_a_background_train_that_takes_long_to_pause(
 
 
 def test_a_background_job_that_never_pauses_fails_the_foreground_job_saying_so(tmp_path, monkeypatch):
-    background_jobs = _module("background_jobs")
-    clock = _Clock()
-    monkeypatch.setattr(background_jobs, "time", clock)
-    slots, go_on = background_jobs.JobSlots(), threading.Event()
-    train = _long_step_then_a_report(tmp_path, go_on)
-    slots.start_background(train)
-    slots.step_background()
+    background_jobs, clock, slots, go_on, train = _slots_with_a_train_in_a_long_step(tmp_path, monkeypatch)
     generate = _running_job()
     slots.start_foreground(generate)
     clock.now += slots.STUCK_S + 1

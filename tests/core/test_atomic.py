@@ -7,20 +7,25 @@ import pytest
 from lapig.lapig_core.common import atomic
 
 
+def _rename_fails(monkeypatch, nth: int) -> None:
+    """The commit's rename number ``nth`` fails as a full disk would."""
+    renames, replace = [], os.replace
+
+    def failing(src, dst):
+        renames.append(dst)
+        if len(renames) == nth:
+            raise OSError(28, "No space left on device")
+        replace(src, dst)
+
+    monkeypatch.setattr(atomic.os, "replace", failing)
+
+
 def test_a_failed_third_rename_of_five_leaves_the_five_files_as_they_were(tmp_path, monkeypatch):
     targets = [tmp_path / f"file_{i}.bin" for i in range(5)]
     for i, path in enumerate(targets):
         path.write_bytes(f"previous {i}".encode() * (i + 1))
     before = {path.name: path.read_bytes() for path in targets}
-    renames, replace = [], os.replace
-
-    def third_fails(src, dst):
-        renames.append(dst)
-        if len(renames) == 3:
-            raise OSError(28, "No space left on device")
-        replace(src, dst)
-
-    monkeypatch.setattr(atomic.os, "replace", third_fails)
+    _rename_fails(monkeypatch, 3)
     with pytest.raises(OSError, match="No space left"):
         atomic.commit([(path, f"new {i}".encode()) for i, path in enumerate(targets)])
     monkeypatch.undo()
@@ -31,15 +36,7 @@ def test_a_failed_third_rename_of_five_leaves_the_five_files_as_they_were(tmp_pa
 def test_a_failed_commit_removes_the_files_it_created(tmp_path, monkeypatch):
     old, new = tmp_path / "old.bin", tmp_path / "new.bin"
     old.write_bytes(b"previous")
-    renames, replace = [], os.replace
-
-    def second_fails(src, dst):
-        renames.append(dst)
-        if len(renames) == 2:
-            raise OSError(28, "No space left on device")
-        replace(src, dst)
-
-    monkeypatch.setattr(atomic.os, "replace", second_fails)
+    _rename_fails(monkeypatch, 2)
     with pytest.raises(OSError):
         atomic.commit([(new, b"created"), (old, b"replaced")])
     monkeypatch.undo()

@@ -37,6 +37,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
         layout.operator("lapig.add_rig", icon="OUTLINER_OB_LIGHT")
         layout.prop(s, "projector")
         layout.prop(s, "camera")
+        _projectors(layout, context.scene, real)
         if s.projector:
             p = s.projector.lapig_projector
             col = layout.column(align=True)
@@ -92,6 +93,35 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             on = is_previewing(s.target)
             layout.operator("lapig.preview_toggle", icon="HIDE_OFF" if on else "HIDE_ON",
                             text="Hide Projection Preview" if on else "Preview Projection in Viewport")
+
+
+def _projectors(layout, scene, real: bool):
+    """The rig's projectors (name, resolution and, once captured, each one's share of the object) and Add
+    Projector; a rig of one projector shows the button alone, as it read before."""
+    s = scene.lapig
+    if s.projector is None:
+        return
+    if not s.extra_projectors:
+        layout.operator("lapig.add_projector", icon="ADD")
+        return
+    state = scene_state.read(scene)
+    captured = panel_state.capture_status(state).state == "DONE"
+    shares = dict(state.capture_coverage) if captured else {}
+    box = layout.box()
+    box.label(text=f"Projectors ({state.rig.projector_count})", icon="LIGHT_SPOT")
+    displays = {item.projector.name: item for item in s.extra_projectors if item.projector is not None}
+    for k, (name, (w, h)) in enumerate(zip(state.rig.projectors, state.rig.projector_sizes)):
+        row = box.row(align=True)
+        share = f", {shares[name]:.0%} of the object" if name in shares else ""
+        row.label(text=f"{k + 1}. {name}: {w}x{h}{share}")
+        if k and name in displays:
+            if real:
+                row.prop(displays[name], "display", text="")
+            row.operator("lapig.remove_projector", text="", icon="X").name = name
+    if shares and state.capture_reach is not None:
+        box.label(text=f"All together: {state.capture_reach:.0%} of the object")
+    _blocked(box, panel_state.projectors_blocker(state.rig))
+    box.operator("lapig.add_projector", icon="ADD")
 
 
 def _lines(layout, lines, wrap=60):

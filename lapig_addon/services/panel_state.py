@@ -31,8 +31,28 @@ def rig_blocker(rig: Rig) -> str:
 
 def device_blocker(rig: Rig) -> str:
     """Why the rig's devices cannot be opened (a capture, a check): rig_blocker, or what a real rig's
-    installer must still choose ('' when they can)."""
-    return rig_blocker(rig) or rig.devices_problem
+    installer must still choose, or why its projectors cannot be captured together ('' when they can)."""
+    return rig_blocker(rig) or rig.devices_problem or projectors_blocker(rig)
+
+
+def projectors_blocker(rig: Rig) -> str:
+    """Why a rig of several projectors cannot be captured ('' when it can, and for one projector)."""
+    if rig.projector_count < 2 or rig.kind != "REAL":
+        return ""
+    seen = {}
+    for name, display in zip(rig.projectors, rig.displays):
+        if display and display in seen:
+            return f"Projectors '{seen[display]}' and '{name}' are both on display '{display}': give each its own display"
+        seen[display] = name
+    return ("A real rig captures one projector for now: remove the other projectors, or capture them with the "
+            "virtual rig")
+
+
+def one_projector_blocker(rig: Rig) -> str:
+    """Why a step made for one projector cannot run on this rig ('' for one projector)."""
+    if rig.projector_count < 2:
+        return ""
+    return f"Works with one projector for now; the rig has {rig.projector_count}"
 
 
 def _other_rig(state: SceneState) -> bool:
@@ -90,6 +110,19 @@ def models_blocker(state: SceneState) -> str:
     return capture_blocker(state)
 
 
+def train_blocker(state: SceneState) -> str:
+    """Why Train cannot run: models_blocker, or several projectors (their first look, the joint classical model,
+    is fitted at the capture; there are no networks for them)."""
+    if state.rig.projector_count > 1 and not models_blocker(state):
+        return "Several projectors use the joint model fitted at the capture: there is nothing to train"
+    return models_blocker(state)
+
+
+def single_result_blocker(state: SceneState) -> str:
+    """Why the result cannot be rendered or refined on the rig, projected live or crossfaded ('' when it can)."""
+    return result_blocker(state) or one_projector_blocker(state.rig)
+
+
 def models_status(state: SceneState) -> StepStatus:
     if not state.models_fingerprint:
         if state.models_status.startswith("First look"):  # Capture fitted the classical model: Generate works now
@@ -143,4 +176,4 @@ def result_blocker(state: SceneState) -> str:
 
 def preview_blocker(state: SceneState, mode: str) -> str:
     """Why the object cannot show preview `mode` yet ('' when it can)."""
-    return rig_blocker(state.rig) if mode in NEEDS_NO_RESULT else result_blocker(state)
+    return rig_blocker(state.rig) if mode in NEEDS_NO_RESULT else single_result_blocker(state)

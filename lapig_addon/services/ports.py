@@ -75,6 +75,9 @@ class SceneStore(Protocol):
 
     def record_capture(self, folder: str, fingerprint: str, transport: str = "") -> None: ...
 
+    def record_coverage(self, names, shares, reached: float) -> None:
+        """Several projectors: each one's share of the object at the capture just recorded, and together."""
+
     def record_models(self, fingerprint: str, status: str | None = None) -> None: ...
 
     def record_result(self, folder: str, summary_line: str, reach_message: str = "") -> None: ...

@@ -18,7 +18,8 @@ from .black_level import BlackUplift, model_black_uplift
 from .blend import blend_weights
 from .capture_set import FIRST_LOOK, MODELS, MultiCaptureSet, joint_model_path
 from .coverage import Coverage, coverage
-from .joint_model import JointModel
+from .additivity import additive_gamma
+from .joint_model import JointModel, _search  # the per-projector gamma search
 
 DEFAULT_CONTRAST = 2000.0  # a projector's contrast ratio where the capture does not record its black level
 
@@ -69,11 +70,23 @@ def contrasts_of(meta: dict, count: int) -> list[float]:
     return out
 
 
+def joint_gammas(cs: MultiCaptureSet):
+    """(gamma_c, [gamma_p per projector]): the camera's from the overlap's additivity, each projector's
+    searched ratio to it kept; None (JointModel's own search) where the projectors do not overlap."""
+    whites = [c[0] for c in cs.captures]  # each projector's first frame alone is full white (capture.training_frames)
+    gamma_c = additive_gamma(cs.together, whites, cs.black, np.stack([m.valid for m in cs.maps]))
+    if gamma_c is None:
+        return None
+    searched_c, searched_p = _search(cs.maps, cs.frames, cs.captures, cs.black[None], 0.998, 2000, 0)
+    return gamma_c, [gp * gamma_c / searched_c for gp in searched_p]
+
+
 def fit_joint_first_look(cs: MultiCaptureSet) -> JointFirstLook:
     """Fit the joint model on the capture's alone and black captures (checked on the all-together one),
     save it and its summary in the capture's models folder."""
     t0 = time.perf_counter()
-    model = JointModel.fit(cs.maps, cs.frames, cs.captures, cs.black, together=(cs.together_frames(), cs.together))
+    model = JointModel.fit(cs.maps, cs.frames, cs.captures, cs.black, together=(cs.together_frames(), cs.together),
+                           gammas=joint_gammas(cs))
     cover = coverage(cs.maps, cs.object_mask)
     uplift = model_black_uplift(model, contrasts_of(cs.meta, cs.count), blend_weights(cs.maps))
     look = JointFirstLook(model, cover, uplift, cs.names, time.perf_counter() - t0)

@@ -61,7 +61,7 @@ def test_the_capture_registers_each_projector_and_the_first_look_fits_them_joint
     assert "black is" in look.uplift.sentence() and "contrast falls" in look.status_line()
     # the light of separately captured projectors adds up (the RMS counts the frames' edges, which decoded maps
     # place within a pixel)
-    assert look.model.together_rms < 0.06
+    assert look.model.together_rms < 0.06, look.model.together_rms
     predicted = look.model.predict(cs.together_frames())
     reached = look.model.reached.any(axis=0)
     assert np.median(np.abs(predicted - cs.together / 255.0)[reached]) < 0.02
@@ -105,3 +105,19 @@ def test_too_few_training_frames_are_refused_before_anything_is_shown(tmp_path):
     with pytest.raises(CaptureError, match="at least 3 training images"):
         _run(device, tmp_path, train_count=2)
     assert device.captured == 0
+
+
+def test_the_camera_gamma_comes_from_the_overlaps_additivity(tmp_path):
+    from lapig.lapig_core.multi.additivity import additive_gamma
+    from lapig.lapig_core.multi.first_look import joint_gammas
+
+    rig = _rig()
+    result, _ = _run(fake_rig.FakeRigDevice(rig), tmp_path)
+    cs = load_multi_capture(result["setup_dir"])
+    reached = np.stack([m.valid for m in cs.maps])
+    assert abs(additive_gamma(cs.together, [c[0] for c in cs.captures], cs.black, reached) - rig.camera_gamma) < 0.1
+    gamma_c, gamma_p = joint_gammas(cs)
+    for gp, proj in zip(gamma_p, rig.projectors):
+        assert abs(gp - proj.gamma) < 0.25
+    # projectors that do not overlap say nothing of it: the joint model's own search stands
+    assert additive_gamma(cs.together, [c[0] for c in cs.captures], cs.black, reached & [[[True]], [[False]]]) is None

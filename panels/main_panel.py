@@ -283,7 +283,7 @@ class LAPIG_PT_models(LapigPanel, bpy.types.Panel):
         status = panel_state.models_status(state)
         layout.label(text=status.text, icon=STATE_ICONS[status.state])
         layout.prop(context.scene.lapig, "finetune_iterations")
-        blocked = panel_state.models_blocker(state)
+        blocked = panel_state.train_blocker(state)
         _blocked(layout, blocked)
         row = layout.row()
         row.enabled = not blocked and not _job_running()
@@ -364,12 +364,13 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)
+        single = not panel_state.one_projector_blocker(state.rig)  # render, refine and crossfade: one projector
         row = layout.row()
         # rendering also needs torch and the capture the result was made on
-        row.enabled = has_result and not panel_state.models_blocker(state) and not _job_running()
+        row.enabled = has_result and single and not panel_state.models_blocker(state) and not _job_running()
         row.operator("lapig.render_result", icon="RENDER_RESULT")
         row = layout.row(align=True)  # closed loop: the rig's captures correct the image (progress; Esc cancels)
-        row.enabled = has_result and not panel_state.models_blocker(state) and not _job_running()
+        row.enabled = has_result and single and not panel_state.models_blocker(state) and not _job_running()
         row.operator("lapig.refine_result", icon="FILE_REFRESH")
         row.prop(s, "refine_steps", text="Steps")
         _progress(layout, "LAPIG refine on the rig")
@@ -381,9 +382,14 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col.enabled = has_result
         col.prop(s, "export_bit_depth", expand=True)
         col.prop(s, "export_path")
-        col.operator("lapig.export_image", icon="EXPORT")
-        col.prop(s, "crossfade_frames")
-        col.operator("lapig.export_crossfade", icon="SEQUENCE")
+        if single:
+            col.operator("lapig.export_image", icon="EXPORT")
+            col.prop(s, "crossfade_frames")
+            col.operator("lapig.export_crossfade", icon="SEQUENCE")
+        else:  # one image per projector (<name>_1.png, ...), and the rig's warps and blends for a media server
+            col.operator("lapig.export_image", icon="EXPORT", text="Export Projector Images")
+            col.operator("lapig.export_mpcdi", icon="PACKAGE")
+            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no render, refine or crossfade yet")
 
 
 CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,

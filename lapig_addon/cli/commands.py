@@ -331,6 +331,8 @@ def cmd_show(args) -> int:
     folder = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     if not folder:
         raise ValueError("the scene has no result yet: run stylize first, or pass --result")
+    if "multi" in export_result.read_summary(folder):
+        raise ValueError("show plays one projector's look for now: this result has one image per projector")
     settings = scene_state.export_settings(scene, crossfade_frames=args.frames)
     frame = export_result.result_frame(store, folder, settings.bit_depth)
     sink = live_output.open_live(display)

@@ -170,8 +170,13 @@ def _cli(*args, timeout=600):
 @pytest.mark.blender
 @pytest.mark.torch
 def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp_path):
+    """Projectors of different resolutions too: each keeps its own frame through the joint path."""
+    from lapig.lapig_addon.blender import scene_state
+
     blend = str(tmp_path / "statue.blend")
     assert bpy.ops.lapig.add_projector() == {"FINISHED"}
+    second = scene_state.rig_projectors(statue[0])[1].lapig_projector
+    second.resolution_x, second.resolution_y = 48, 36
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     proc = _cli("capture", "--blend", blend, "--save")
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -188,6 +193,11 @@ def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert sorted(p.name for p in out.iterdir()) == ["look_1.json", "look_1.png", "look_2.json", "look_2.png",
                                                       "rig.mpcdi"]
+    from lapig.lapig_core.common.imageio import read_image
+    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+
+    assert read_image(out / "look_1.png").shape == (48, 64, 3) and read_image(out / "look_2.png").shape == (36, 48, 3)
+    assert [b.resolution for b in read_mpcdi(out / "rig.mpcdi").buffers] == [(64, 48), (48, 36)]
     proc = _cli("export", "--blend", blend, "--out", str(out / "again.png"), "--mpcdi", str(out / "look_1.png" / "x.mpcdi"))
     assert proc.returncode == 1 and proc.stderr.strip().startswith("error: cannot write the MPCDI package")
     assert "Traceback" not in proc.stderr and not (out / "again_1.png").exists()

@@ -4,7 +4,8 @@ As GenerateJob for one projector: prepare() checks the request and the capture o
 runs on a worker thread under the capture's lock, finish() records the result in the scene. The capture must
 be one of several projectors made with the rig as it is now; its joint model (fitted at the capture) is
 used, or fitted here where the capture has none. The result folder holds one image per projector
-(lapig_core/multi/result_files). No PSA yet, and no sinks: the projector lights keep their images.
+(lapig_core/multi/result_files), and each image goes to the sinks that take several projectors (Blender's
+lights). No PSA yet.
 """
 from __future__ import annotations
 
@@ -136,7 +137,24 @@ class MultiGenerateJob(WorkerJob):
             shutil.rmtree(output["folder"], ignore_errors=True)
             raise MultiPipelineError(f"{blocker}: the result was not kept")
         store.record_result(output["folder"], output["summary_line"])
+        self._show(output)
         return output
+
+    def _show(self, output):
+        """Each projector's image to the sinks that take several projectors (Blender's lights): the pixels
+        Export writes at the scene's bit depth."""
+        from ...lapig_core.multi.result_files import projector_images
+        from .ports import ProjectorFrame
+
+        sinks = [sink for sink in self.seams.sinks if getattr(sink, "several_projectors", False)]
+        if not sinks:
+            return
+        bit_depth = self.seams.store.export_settings().bit_depth
+        for k, (entry, image) in enumerate(projector_images(output["folder"])):
+            frame = ProjectorFrame(image, *entry["size"], bit_depth, folder=output["folder"],
+                                   summary=output["summary"], projector_index=k)
+            for sink in sinks:
+                sink.show(frame)
 
 
 def _first_look_record(setup_dir) -> dict:

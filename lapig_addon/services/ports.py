@@ -111,6 +111,7 @@ class ProjectorFrame:
     bit_depth: int
     folder: str = ""  # the result folder it belongs to
     summary: dict = field(default_factory=dict, compare=False)
+    projector_index: int = 0  # which of the rig's projectors shows it (0: the first, the only one of most rigs)
 
     @cached_property
     def pixels(self) -> np.ndarray:
@@ -118,7 +119,9 @@ class ProjectorFrame:
 
 
 class ResultSink(Protocol):
-    """Where a generated projector frame goes: Blender's projector light, a file, a live window."""
+    """Where a generated projector frame goes: Blender's projector light, a file, a live window. A sink whose
+    `several_projectors` is True takes frames for any of the rig's projectors (ProjectorFrame.projector_index);
+    the others are shown the frames of one-projector results only."""
 
     def show(self, frame: ProjectorFrame) -> None: ...
 

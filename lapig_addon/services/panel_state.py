@@ -66,6 +66,11 @@ def _projector_resized(state: SceneState) -> bool:
                 and tuple(state.capture_projector_size) != tuple(state.rig.projector_size))
 
 
+def _projectors_counted(state: SceneState) -> int:
+    """How many projectors the capture was of (a capture of several records each one's coverage)."""
+    return len(state.capture_coverage) or 1
+
+
 def capture_status(state: SceneState) -> StepStatus:
     if not state.capture_dir:
         return StepStatus("MISSING", "No capture yet")
@@ -74,6 +79,9 @@ def capture_status(state: SceneState) -> StepStatus:
             return StepStatus("STALE", f"Captured with {state.capture_rig}; the scene now uses {state.rig.label}")
         if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
             return StepStatus("STALE", f"Captured in {state.capture_transport}; the rig is now {state.rig.transport}")
+        if _projectors_counted(state) != state.rig.projector_count:
+            return StepStatus("STALE", f"Captured with {_projectors_counted(state)} projector(s); the rig now has "
+                                       f"{state.rig.projector_count}")
         if _projector_resized(state):
             (w0, h0), (w1, h1) = state.capture_projector_size, state.rig.projector_size
             return StepStatus("STALE", f"Captured for a {w0}x{h0} projector; it is now {w1}x{h1}")
@@ -96,6 +104,8 @@ def capture_blocker(state: SceneState) -> str:
             return "Captured with another rig: capture again"
         if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
             return "The light transport changed: capture again"
+        if _projectors_counted(state) != state.rig.projector_count:
+            return "The rig's projectors changed: capture again"
         if _projector_resized(state):
             return "The projector's resolution changed: capture again"
         if state.rig.kind == "REAL":

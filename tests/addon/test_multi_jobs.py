@@ -121,6 +121,12 @@ def test_the_panel_decides_on_a_rig_of_several(tmp_path):
                                                "its own display"
     apart = MultiStore(state, tmp_path, kind="REAL", displays=("1", "2")).read().rig
     assert panel_state.device_blocker(apart).startswith("A real rig captures one projector for now")
+    # a projector added after a capture of one: the capture is stale, and the panel says why
+    folder = tmp_path / "capture"
+    folder.mkdir()
+    added = state.SceneState(rig=two, capture_dir=str(folder), capture_fingerprint="rig1")
+    assert panel_state.capture_status(added).text == "Captured with 1 projector(s); the rig now has 2"
+    assert panel_state.capture_blocker(added) == "The rig's projectors changed: capture again"
 
 
 def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_write(multi, tmp_path):

@@ -25,8 +25,9 @@ class CyclesMultiDevice(MultiProjectorDevice):
     def __init__(self, scene, projectors, camera, target, samples=1, ambient=0.03, seed=0):
         self.scene, self.camera, self.target = scene, camera, target
         # the room light once: in the first projector's renders (each studio adds its own to every render)
-        self.devices = [CyclesCaptureDevice(scene, p, camera, target, samples=samples, ambient=ambient if k == 0 else 0.0,
-                                            seed=seed) for k, p in enumerate(projectors)]
+        self.devices = [CyclesCaptureDevice(scene, p, camera, target, samples=samples,
+                                            ambient=ambient if k == 0 else 0.0, seed=seed)
+                        for k, p in enumerate(projectors)]
         first = self.devices[0]
         self.response, self.rng = first.response, first.rng  # one camera: its response and its noise
         self._black = [None] * len(self.devices)  # each projector's linear light showing black, rendered once

@@ -334,7 +334,8 @@ def record_coverage(scene, names, shares, reached: float):
     """Each projector's share of the object at the capture just recorded, and all together's."""
     import json
 
-    scene.lapig.last_capture_coverage = json.dumps({"names": list(names), "shares": [round(float(v), 4) for v in shares],
+    scene.lapig.last_capture_coverage = json.dumps({"names": list(names),
+                                                    "shares": [round(float(v), 4) for v in shares],
                                                     "reached": round(float(reached), 4)})
 
 

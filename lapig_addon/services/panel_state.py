@@ -42,7 +42,8 @@ def projectors_blocker(rig: Rig) -> str:
     seen = {}
     for name, display in zip(rig.projectors, rig.displays):
         if display and display in seen:
-            return f"Projectors '{seen[display]}' and '{name}' are both on display '{display}': give each its own display"
+            return (f"Projectors '{seen[display]}' and '{name}' are both on display '{display}': give each its own "
+                    f"display")
         seen[display] = name
     return ("A real rig captures one projector for now: remove the other projectors, or capture them with the "
             "virtual rig")

@@ -132,7 +132,8 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
                 done = (k + len(caps) / len(patterns)) / count
                 yield 0.02 + 0.5 * done, f"{names[k]}: structured light {len(caps)}/{len(patterns)}"
             camera_map = CameraMap.from_decoded(decode_graycode(caps, w, h), (w, h))
-            problem = reach_problem(names[k], camera_map, mask if mask is not None else np.ones(camera_map.camera_shape, bool))
+            seen = mask if mask is not None else np.ones(camera_map.camera_shape, bool)
+            problem = reach_problem(names[k], camera_map, seen)
             if problem:
                 raise CaptureError(problem)
             maps.append(camera_map)

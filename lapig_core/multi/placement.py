@@ -33,7 +33,8 @@ class AddedProjector:
     def sentence(self, name: str, target: str) -> str:
         way = "mirroring the first across the camera's view" if self.how == "mirrored" else \
             f"swinging the first {SWING_DEG:.0f} degrees around it"
-        return f"'{name}' placed {self.distance:.2f} m from '{target}', on its {self.side} as the camera sees it ({way})"
+        return (f"'{name}' placed {self.distance:.2f} m from '{target}', on its {self.side} as the camera sees it "
+                f"({way})")
 
 
 def _unit(v) -> np.ndarray:
@@ -73,4 +74,5 @@ def added_projector(existing, centre, camera_position, up=(0.0, 0.0, 1.0)) -> Ad
         swings = [_rotate_about(first, centre, up, sign * SWING_DEG) for sign in (1, -1)]
         position, how = max(swings, key=clearance), "swung"
     side = "right" if (position - centre) @ right >= 0 else "left"
-    return AddedProjector(position, look_at(position, centre, up).rotation, float(np.linalg.norm(position - centre)), side, how)
+    distance = float(np.linalg.norm(position - centre))
+    return AddedProjector(position, look_at(position, centre, up).rotation, distance, side, how)

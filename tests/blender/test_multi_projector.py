@@ -202,6 +202,7 @@ def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp
 
     assert read_image(out / "look_1.png").shape == (48, 64, 3) and read_image(out / "look_2.png").shape == (36, 48, 3)
     assert [b.resolution for b in read_mpcdi(out / "rig.mpcdi").buffers] == [(64, 48), (48, 36)]
-    proc = _cli("export", "--blend", blend, "--out", str(out / "again.png"), "--mpcdi", str(out / "look_1.png" / "x.mpcdi"))
+    proc = _cli("export", "--blend", blend, "--out", str(out / "again.png"),
+                "--mpcdi", str(out / "look_1.png" / "x.mpcdi"))
     assert proc.returncode == 1 and proc.stderr.strip().startswith("error: cannot write the MPCDI package")
     assert "Traceback" not in proc.stderr and not (out / "again_1.png").exists()

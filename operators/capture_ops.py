@@ -6,6 +6,7 @@ from ..lapig_addon.blender.operator_boundary import AsksForFolder
 from ..lapig_addon.blender.scene_store import scene_seams
 from ..lapig_addon.services.background_jobs import train_after_capture
 from ..lapig_addon.services.capture_job import CaptureJob, check_rig
+from ..lapig_addon.services.multi_capture_job import MultiCaptureJob
 from ..lapig_core.capture.dataset import load_capture_set, setup_dir_of, summarize
 from ..lapig_core.optics.working_frame import check_aspect
 from ..lapig_core.common.deps import require
@@ -24,9 +25,14 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
         _, temporary = storage.data_root()
         if temporary:
             self.report({"WARNING"}, storage.location_message())
+        if seams.store.read().rig.projector_count > 1:  # several projectors: their own sequence and first look
+            return MultiCaptureJob(seams, seams.store.capture_settings())
         return CaptureJob(seams, seams.store.capture_settings())  # it records the capture in the scene
 
     def on_done(self, context, job):
+        if isinstance(job, MultiCaptureJob):  # no networks to train in the background for several projectors
+            self.report({"INFO"}, job.line())
+            return
         folder = str(job.result["setup_dir"])
         err = job.result["meta"]["registration"].get("registration_error_px_median")
         extra = f", registration error {err:.2f} px" if err is not None else ""

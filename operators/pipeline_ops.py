@@ -29,7 +29,7 @@ class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
     def make_job(self, context):
         scene = context.scene
         job = _pipeline_jobs().TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
-        job.check()  # fail now, with the reason, not on the thread
+        job.check()  # fail now, with the reason, not on the thread (several projectors: nothing to train)
         return job
 
     def on_done(self, context, job):
@@ -44,7 +44,7 @@ class LAPIG_OT_train_background(BackgroundJobRunner, bpy.types.Operator):
 
     def make_job(self, context):
         scene = context.scene
-        if panel_state.models_blocker(scene_state.read(scene)):  # no torch, no capture: the first look stays
+        if panel_state.train_blocker(scene_state.read(scene)):  # no torch, no capture: the first look stays
             return None
         job = _pipeline_jobs().TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
         job.check()
@@ -81,13 +81,23 @@ class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         scene = context.scene
-        job = _pipeline_jobs().GenerateJob(scene_seams(scene), scene_state.generate_request(scene),
-                                           scene_state.finetune_iterations(scene))
+        seams = scene_seams(scene)
+        if seams.store.read().rig.projector_count > 1:  # several projectors: the joint look and compensation
+            require("torch")
+            from ..lapig_addon.services.multi_generate_job import MultiGenerateJob
+
+            job = MultiGenerateJob(seams, scene_state.generate_request(scene))
+        else:
+            job = _pipeline_jobs().GenerateJob(seams, scene_state.generate_request(scene),
+                                               scene_state.finetune_iterations(scene))
         job.check()  # validates prompt and capture on the main thread, with a clear message
         return job
 
     def on_done(self, context, job):
-        if job.result:
+        if job.result and "multi" in job.result["summary"]:
+            report_notes(self, job.result["summary"].get("notes", []))
+            self.report({"INFO"}, "Generated: " + job.result["summary_line"])
+        elif job.result:
             report_notes(self, _pipeline_jobs().result_notes(job.result["summary"]))
             self.report({"INFO"}, "Generated: " + job.result["summary_line"])
 
@@ -175,7 +185,34 @@ class LAPIG_OT_export_image(ReportsErrors, bpy.types.Operator):
 
         settings = scene_state.export_settings(context.scene, path=self.filepath or None)
         written = export_result.export_current(BlenderSceneStore(context.scene), settings)
-        self.report({"INFO"}, f"Exported {written['image']}")
+        if "images" in written:  # several projectors: one image each
+            self.report({"INFO"}, f"Exported {len(written['images'])} projector images: {', '.join(written['images'])}")
+        else:
+            self.report({"INFO"}, f"Exported {written['image']}")
+        return {"FINISHED"}
+
+
+class LAPIG_OT_export_mpcdi(ReportsErrors, bpy.types.Operator):
+    """Write the rig's calibration (each projector's warp and blend from the capture) as an MPCDI 2.0 package
+    for a media server (Watchout, BrightSign: the '2d' profile)"""
+    bl_idname = "lapig.export_mpcdi"
+    bl_label = "Export MPCDI Package"
+
+    filepath: bpy.props.StringProperty(subtype="FILE_PATH")
+
+    def invoke(self, context, event):
+        path = scene_state.export_settings(context.scene).path
+        self.filepath = os.path.splitext(path)[0] + ".mpcdi"
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def execute(self, context):
+        from ..lapig_addon.services.multi_export import export_multi
+
+        store = BlenderSceneStore(context.scene)
+        written = export_multi(store, scene_state.export_settings(context.scene), mpcdi=bpy.path.abspath(self.filepath),
+                               images=False)
+        self.report({"INFO"}, f"Exported {written['mpcdi']}")
         return {"FINISHED"}
 
 
@@ -196,6 +233,6 @@ class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
 CLASSES = (LAPIG_OT_train_models, LAPIG_OT_train_background, LAPIG_OT_cancel_background_train,
            LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_refine_result,
            LAPIG_OT_preview_mode,
-           LAPIG_OT_show_comparison, LAPIG_OT_export_image, LAPIG_OT_export_crossfade)
+           LAPIG_OT_show_comparison, LAPIG_OT_export_image, LAPIG_OT_export_mpcdi, LAPIG_OT_export_crossfade)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -1,6 +1,6 @@
 import bpy
 
-from ..lapig_addon.blender import rig, scene_state
+from ..lapig_addon.blender import multi_rig, rig, scene_state
 from ..lapig_addon.blender.operator_boundary import ReportsErrors
 
 
@@ -39,6 +39,35 @@ class LAPIG_OT_focus_on_object(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (LAPIG_OT_add_rig, LAPIG_OT_focus_on_object)
+class LAPIG_OT_add_projector(ReportsErrors, bpy.types.Operator):
+    """Add another projector like the first, placed to light what the others miss (the first mirrored across
+    the camera's view), aimed at the object"""
+    bl_idname = "lapig.add_projector"
+    bl_label = "Add Projector"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        _, sentence = multi_rig.add_projector(context)
+        self.report({"INFO"}, sentence)
+        return {"FINISHED"}
+
+
+class LAPIG_OT_remove_projector(ReportsErrors, bpy.types.Operator):
+    """Take this projector off the rig (the light stays in the scene)"""
+    bl_idname = "lapig.remove_projector"
+    bl_label = "Remove Projector from the Rig"
+    bl_options = {"REGISTER", "UNDO"}
+
+    name: bpy.props.StringProperty(name="Projector")
+
+    def execute(self, context):
+        if not scene_state.remove_extra_projector(context.scene, self.name):
+            self.report({"ERROR"}, f"'{self.name}' is not one of the rig's added projectors")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"'{self.name}' is off the rig")
+        return {"FINISHED"}
+
+
+CLASSES = (LAPIG_OT_add_rig, LAPIG_OT_focus_on_object, LAPIG_OT_add_projector, LAPIG_OT_remove_projector)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -37,6 +37,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
         layout.operator("lapig.add_rig", icon="OUTLINER_OB_LIGHT")
         layout.prop(s, "projector")
         layout.prop(s, "camera")
+        _projectors(layout, context.scene, real)
         if s.projector:
             p = s.projector.lapig_projector
             col = layout.column(align=True)
@@ -92,6 +93,35 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             on = is_previewing(s.target)
             layout.operator("lapig.preview_toggle", icon="HIDE_OFF" if on else "HIDE_ON",
                             text="Hide Projection Preview" if on else "Preview Projection in Viewport")
+
+
+def _projectors(layout, scene, real: bool):
+    """The rig's projectors (name, resolution and, once captured, each one's share of the object) and Add
+    Projector; a rig of one projector shows the button alone, as it read before."""
+    s = scene.lapig
+    if s.projector is None:
+        return
+    if not s.extra_projectors:
+        layout.operator("lapig.add_projector", icon="ADD")
+        return
+    state = scene_state.read(scene)
+    captured = panel_state.capture_status(state).state == "DONE"
+    shares = dict(state.capture_coverage) if captured else {}
+    box = layout.box()
+    box.label(text=f"Projectors ({state.rig.projector_count})", icon="LIGHT_SPOT")
+    displays = {item.projector.name: item for item in s.extra_projectors if item.projector is not None}
+    for k, (name, (w, h)) in enumerate(zip(state.rig.projectors, state.rig.projector_sizes)):
+        row = box.row(align=True)
+        share = f", {shares[name]:.0%} of the object" if name in shares else ""
+        row.label(text=f"{k + 1}. {name}: {w}x{h}{share}")
+        if k and name in displays:
+            if real:
+                row.prop(displays[name], "display", text="")
+            row.operator("lapig.remove_projector", text="", icon="X").name = name
+    if shares and state.capture_reach is not None:
+        box.label(text=f"All together: {state.capture_reach:.0%} of the object")
+    _blocked(box, panel_state.projectors_blocker(state.rig))
+    box.operator("lapig.add_projector", icon="ADD")
 
 
 def _lines(layout, lines, wrap=60):
@@ -253,7 +283,7 @@ class LAPIG_PT_models(LapigPanel, bpy.types.Panel):
         status = panel_state.models_status(state)
         layout.label(text=status.text, icon=STATE_ICONS[status.state])
         layout.prop(context.scene.lapig, "finetune_iterations")
-        blocked = panel_state.models_blocker(state)
+        blocked = panel_state.train_blocker(state)
         _blocked(layout, blocked)
         row = layout.row()
         row.enabled = not blocked and not _job_running()
@@ -334,12 +364,13 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)
+        single = not panel_state.one_projector_blocker(state.rig)  # render, refine and crossfade: one projector
         row = layout.row()
         # rendering also needs torch and the capture the result was made on
-        row.enabled = has_result and not panel_state.models_blocker(state) and not _job_running()
+        row.enabled = has_result and single and not panel_state.models_blocker(state) and not _job_running()
         row.operator("lapig.render_result", icon="RENDER_RESULT")
         row = layout.row(align=True)  # closed loop: the rig's captures correct the image (progress; Esc cancels)
-        row.enabled = has_result and not panel_state.models_blocker(state) and not _job_running()
+        row.enabled = has_result and single and not panel_state.models_blocker(state) and not _job_running()
         row.operator("lapig.refine_result", icon="FILE_REFRESH")
         row.prop(s, "refine_steps", text="Steps")
         _progress(layout, "LAPIG refine on the rig")
@@ -351,9 +382,14 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col.enabled = has_result
         col.prop(s, "export_bit_depth", expand=True)
         col.prop(s, "export_path")
-        col.operator("lapig.export_image", icon="EXPORT")
-        col.prop(s, "crossfade_frames")
-        col.operator("lapig.export_crossfade", icon="SEQUENCE")
+        if single:
+            col.operator("lapig.export_image", icon="EXPORT")
+            col.prop(s, "crossfade_frames")
+            col.operator("lapig.export_crossfade", icon="SEQUENCE")
+        else:  # one image per projector (<name>_1.png, ...), and the rig's warps and blends for a media server
+            col.operator("lapig.export_image", icon="EXPORT", text="Export Projector Images")
+            col.operator("lapig.export_mpcdi", icon="PACKAGE")
+            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no render, refine or crossfade yet")
 
 
 CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,

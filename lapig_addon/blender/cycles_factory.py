@@ -56,6 +56,19 @@ class CyclesDeviceFactory:
     def capture_device(self, settings: CaptureSettings):
         return self._studio(samples=settings.samples, ambient=settings.ambient, seed=settings.seed)
 
+    @contextlib.contextmanager
+    def multi_capture_device(self, settings: CaptureSettings):
+        """The studio of every projector of the scene's rig (lapig_core/multi/capture's device)."""
+        from .cycles_multi_device import CyclesMultiDevice
+
+        self.check()
+        projectors = scene_state.rig_projectors(self.scene)
+        _, camera, target = self.objects()
+        with preview.real_surface(target, projectors[0]), \
+                CyclesMultiDevice(self.scene, projectors, camera, target, samples=settings.samples,
+                                  ambient=settings.ambient, seed=settings.seed) as device:
+            yield device
+
     def setup_device(self, setup_meta: dict, seed: int = 0):
         # a capture on the simulated rig was rendered by this studio: its optics' record reopens it
         setup_meta = optics_meta(setup_meta)

@@ -181,3 +181,35 @@ class RigGeometry:
 
     def exact_projector_to_camera(self, pixel_xy) -> np.ndarray:
         return exact_projector_to_camera(self._bvhs()[0], self.projector, self.model, self.camera_proj, pixel_xy)
+
+
+def camera_object_mask(scene, camera_obj, target_obj, render_scene, width, height, max_rays=60000) -> np.ndarray:
+    """(height, width) bool: the camera pixels whose view ray meets the target object first (not hidden by
+    another object). Cast at every pixel centre up to `max_rays`, on a coarser grid above, spread by nearest."""
+    import cv2
+
+    step = max(1, int(np.ceil(np.sqrt(width * height / max_rays))))
+    w, h = -(-width // step), -(-height // step)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    bvh = scene_bvh(renderable_objects(scene), depsgraph)
+    target_bvh = scene_bvh([target_obj], depsgraph)
+    frame = camera_obj.data.view_frame(scene=render_scene)  # top-right, bottom-right, bottom-left, top-left
+    tr, _, bl, _ = frame
+    m = np.array(camera_obj.matrix_world)
+    rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    origin = Vector(m[:3, 3])
+    xs = ((np.arange(w) * step + 0.5 * step) / width).clip(0, 1)
+    ys = ((np.arange(h) * step + 0.5 * step) / height).clip(0, 1)
+    mask = np.zeros((h, w), bool)
+    for j, ny in enumerate(ys):
+        for i, nx in enumerate(xs):
+            local = np.array([bl.x + nx * (tr.x - bl.x), tr.y - ny * (tr.y - bl.y), tr.z])
+            d = Vector(rot @ (local / np.linalg.norm(local)))
+            hit, _, _, dist = bvh.ray_cast(origin, d)
+            if hit is None:
+                continue
+            own, _, _, own_dist = target_bvh.ray_cast(origin, d)
+            mask[j, i] = own is not None and abs(own_dist - dist) <= 1e-4 * max(dist, 1.0)
+    if step > 1:
+        mask = cv2.resize(mask.astype(np.uint8), (width, height), interpolation=cv2.INTER_NEAREST).astype(bool)
+    return mask

@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, IntVectorProperty,
-                       PointerProperty, StringProperty)
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
+                       IntVectorProperty, PointerProperty, StringProperty)
 
 from ..services.limits import LIMITS
 from .compat import RELATIVE_PATH_OPTIONS
@@ -139,6 +139,18 @@ class LapigRealRigSettings(bpy.types.PropertyGroup):
                                             "with what to change")
 
 
+def _is_projector(self, obj) -> bool:
+    return obj.type == "LIGHT" and obj.lapig_projector.is_projector
+
+
+class LapigExtraProjector(bpy.types.PropertyGroup):
+    """A projector of the rig beyond the first (scene.lapig.projector): the object, with its own
+    lapig_projector settings, and the display it is on with a real rig."""
+    projector: PointerProperty(name="Projector", type=bpy.types.Object, poll=_is_projector)
+    display: StringProperty(name="Display", description="This projector's display with a real rig: an index or "
+                                                        "a part of its name (each projector needs its own)")
+
+
 PREVIEW_MODES = [
     ("ORIGINAL", "Original", "The object's own material"),
     ("PROJECTION", "Projection", "The projector image cast on the object (its light times the surface)"),
@@ -183,8 +195,9 @@ def _export_bit_depth_changed(self, context):
 
 
 class LapigSceneSettings(bpy.types.PropertyGroup):
-    projector: PointerProperty(name="Projector", type=bpy.types.Object,
-                               poll=lambda self, obj: obj.type == "LIGHT" and obj.lapig_projector.is_projector)
+    projector: PointerProperty(name="Projector", type=bpy.types.Object, poll=_is_projector)
+    # the rig's other projectors, in order (projector 2, 3, ...); read and written by blender/scene_state only
+    extra_projectors: CollectionProperty(type=LapigExtraProjector, name="More projectors")
     camera: PointerProperty(name="Camera", type=bpy.types.Object, poll=lambda self, obj: obj.type == "CAMERA")
     target: PointerProperty(name="Surface object", type=bpy.types.Object,
                             poll=lambda self, obj: obj.type == "MESH")
@@ -218,6 +231,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                                      description="The virtual rig, or which real rig; '' when unknown")
     last_capture_projector_size: IntVectorProperty(name="Projector resolution of the last capture", size=2,
                                                    default=(0, 0))
+    last_capture_coverage: StringProperty(name="Coverage of the last capture",
+                                          description="JSON: each projector's share of the object (several projectors)")
     # models
     finetune_iterations: IntProperty(name="Iterations", default=0, **LIMITS["finetune_iterations"].bounds(),
                                      description="Fine-tuning iterations per network; 0 for the standard "
@@ -280,7 +295,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     job_message: StringProperty(name="Status")
 
 
-CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigRealRigSettings, LapigSceneSettings)
+CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigRealRigSettings, LapigExtraProjector, LapigSceneSettings)
 
 
 def register():

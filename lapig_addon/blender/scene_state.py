@@ -79,6 +79,53 @@ def rig_objects(scene) -> tuple:
     return s.projector, s.camera, s.target
 
 
+def _is_projector(obj) -> bool:
+    return obj is not None and obj.type == "LIGHT" and obj.lapig_projector.is_projector
+
+
+def rig_projectors(scene) -> list:
+    """The rig's projector objects: projector 1 (scene.lapig.projector) then the extra ones in their order,
+    each once; entries that lost their object or are no LAPIG projector are left out."""
+    s = scene.lapig
+    out = [s.projector] if _is_projector(s.projector) else []
+    for item in s.extra_projectors:
+        if _is_projector(item.projector) and item.projector not in out:
+            out.append(item.projector)
+    return out
+
+
+def projector_displays(scene) -> list[str]:
+    """Each projector's display with a real rig, in rig_projectors' order ('' where not chosen)."""
+    s = scene.lapig
+    first = [s.real.display.strip()] if _is_projector(s.projector) else []
+    seen = set(first and [s.projector.name])
+    rest = []
+    for item in s.extra_projectors:
+        if _is_projector(item.projector) and item.projector.name not in seen:
+            seen.add(item.projector.name)
+            rest.append(item.display.strip())
+    return first + rest
+
+
+def add_extra_projector(scene, obj) -> None:
+    """The rig gets `obj` as its next projector (projector 1 when it has none)."""
+    s = scene.lapig
+    if s.projector is None:
+        s.projector = obj
+        return
+    s.extra_projectors.add().projector = obj
+
+
+def remove_extra_projector(scene, name: str) -> bool:
+    """Take the extra projector of that object name off the rig (the object stays); False where none is."""
+    items = scene.lapig.extra_projectors
+    for i, item in enumerate(items):
+        if item.projector is not None and item.projector.name == name:
+            items.remove(i)
+            return True
+    return False
+
+
 CAMERA_CONTROLS = ("exposure", "gain", "focus", "white_balance")  # each with its use_ toggle in scene.lapig.real
 
 
@@ -164,22 +211,38 @@ def read_rig(scene, projector=None, camera=None, target=None) -> Rig:
         target = None
     objects = [ob for ob in (projector, camera, target) if ob is not None]
     spec = real_rig_spec(scene)
+    # the scene's other projectors belong to its own rig only (a script capturing other objects names one)
+    extras = rig_projectors(scene)[1:] if projector is not None and projector == own[0] else []
+    objects += extras
+    every = [projector] + extras if projector is not None else []
     return Rig(projector=projector.name if projector else None, camera=camera.name if camera else None,
                target=target.name if target else None, scene=scene.name,
                outside_scene=tuple(ob.name for ob in objects if ob.name not in scene.objects),
-               fingerprint=_fingerprint(scene, projector, camera, target, len(objects) == 3),
+               fingerprint=_fingerprint(scene, projector, camera, target, len(objects) == 3 + len(extras), extras),
                transport=light_transport(projector, camera).label() if projector and camera else "",
                projector_size=projector_size(projector) if projector else None,
                kind="REAL" if spec else "VIRTUAL",
                label=f"the real rig '{spec.name}'" if spec else "the virtual rig",
-               devices_problem=spec.problem() if spec else "")
+               devices_problem=spec.problem() if spec else "",
+               projectors=tuple(p.name for p in every),
+               projector_sizes=tuple((p.lapig_projector.resolution_x, p.lapig_projector.resolution_y) for p in every),
+               displays=tuple(projector_displays(scene)) if extras else ())
 
 
-def _fingerprint(scene, projector, camera, target, complete: bool) -> str:
+def _fingerprint(scene, projector, camera, target, complete: bool, extras=()) -> str:
+    """One projector: its rig's fingerprint as ever; several: that and each other projector's, hashed."""
     real = _real_rig_key(scene)
     if real is not None:
         return real
-    return rig_fingerprint(projector, camera, target) if complete else ""
+    if not complete:
+        return ""
+    first = rig_fingerprint(projector, camera, target)
+    if not extras:
+        return first
+    import hashlib
+
+    parts = [first] + [rig_fingerprint(p, camera, target) for p in extras]
+    return hashlib.sha1("+".join(parts).encode()).hexdigest()[:16]
 
 
 def read(scene) -> SceneState:
@@ -191,7 +254,22 @@ def read(scene) -> SceneState:
                       if all(s.last_capture_projector_size) else None,
                       models_fingerprint=s.models_fingerprint,
                       models_status=s.models_status, result_dir=storage.resolve_result_dir(s.result_dir),
-                      result_fingerprint=s.result_fingerprint, preview_mode=s.preview_mode)
+                      result_fingerprint=s.result_fingerprint, preview_mode=s.preview_mode,
+                      **_capture_coverage(s.last_capture_coverage))
+
+
+def _capture_coverage(text: str) -> dict:
+    """SceneState's capture_coverage and capture_reach from what record_coverage wrote ('' for none)."""
+    if not text:
+        return {}
+    import json
+
+    try:
+        data = json.loads(text)
+        return {"capture_coverage": tuple((str(n), float(v)) for n, v in zip(data["names"], data["shares"])),
+                "capture_reach": float(data["reached"])}
+    except (ValueError, KeyError, TypeError):
+        return {}
 
 
 def capture_settings(scene, **overrides) -> CaptureSettings:
@@ -271,6 +349,16 @@ def record_capture(scene, folder, fingerprint: str, transport: str = ""):
     s.last_capture_projector_size = (rig.projector_size if rig else None) or (0, 0)
     # which rig: the scene's, where it is the one captured with (a capture from elsewhere: unknown)
     s.last_capture_rig = rig.label if rig is not None and rig.fingerprint == fingerprint else ""
+    s.last_capture_coverage = ""  # a capture of several projectors records its own next (record_coverage)
+
+
+def record_coverage(scene, names, shares, reached: float):
+    """Each projector's share of the object at the capture just recorded, and all together's."""
+    import json
+
+    scene.lapig.last_capture_coverage = json.dumps({"names": list(names),
+                                                    "shares": [round(float(v), 4) for v in shares],
+                                                    "reached": round(float(reached), 4)})
 
 
 def record_models(scene, fingerprint: str, status: str | None = None):

@@ -48,6 +48,9 @@ class BlenderSceneStore:
     def record_capture(self, folder, fingerprint: str, transport: str = ""):
         scene_state.record_capture(self.scene, folder, fingerprint, transport)
 
+    def record_coverage(self, names, shares, reached: float):
+        scene_state.record_coverage(self.scene, names, shares, reached)
+
     def record_models(self, fingerprint: str, status: str | None = None):
         scene_state.record_models(self.scene, fingerprint, status)
 

@@ -143,6 +143,13 @@ def cmd_capture(args) -> int:
         print_notes([f"this capture is not saved into the .blend (no --save): train it with "
                      f"'train --capture {result['setup_dir']}'"])
     meta = result["meta"]
+    if "multi" in meta:  # several projectors: their coverage and the first look's figures
+        print_json({"setup_dir": str(result["setup_dir"]), "projectors": meta["multi"]["projectors"],
+                    "coverage": meta["coverage"], "first_look": result.get("first_look"),
+                    "first_look_seconds": result.get("first_look_seconds"),
+                    **({"first_look_error": result["first_look_error"]} if "first_look_error" in result else {}),
+                    "rig": meta["rig"]["name"], "timings": meta["timings"]})
+        return 0
     print_json({"setup_dir": str(result["setup_dir"]), **meta["registration"],
                 "valid_fraction": meta["valid_fraction"], "rig": meta["rig"]["name"],
                 **({"sync": meta["sync"]} if "sync" in meta else {})})
@@ -201,6 +208,8 @@ def cmd_stylize(args) -> int:
                                            ip2p_model=args.ip2p_model, style_images=style_images,
                                            style_prompt_weight=args.style_prompt_weight,
                                            output_size=args.output_size, dark_outside=args.dark_outside)
+    if seams.store.read().rig.projector_count > 1:
+        return _stylize_multi(args, seams, request, capture)
     job = GenerateJob(seams, request, _iterations(args, scene), capture=capture, device=args.device)
     out = job.run_to_completion(on_progress=headless.print_progress)
     summary = dict(out["summary"]["metrics"])
@@ -226,6 +235,27 @@ def cmd_stylize(args) -> int:
     return 0
 
 
+def _stylize_multi(args, seams, request, capture) -> int:
+    """stylize on a rig of several projectors: the joint look and compensation (no refine or render yet)."""
+    from ..services.multi_generate_job import MultiGenerateJob
+
+    if args.refine or args.render:  # before any work
+        raise ValueError(f"--refine and --render work with one projector for now; this rig has "
+                         f"{seams.store.read().rig.projector_count}")
+    out = MultiGenerateJob(seams, request, capture=capture).run_to_completion(on_progress=headless.print_progress)
+    _save_if_asked(args)
+    print_notes(out["summary"].get("notes", []))
+    if not args.save:
+        print_notes([f"this result is not saved into the .blend (no --save): export it with "
+                     f"'export --result {out['folder']}'"])
+    print(f"Look at {os.path.join(out['folder'], 'comparison.png')}")
+    summary = out["summary"]
+    print_json({"result": out["folder"], "projectors": summary["projectors"], "styles": summary["lgst"].get("styles"),
+                "understood": summary["lgst"].get("understood"), "models": summary["models"]["line"],
+                "multi": summary["multi"], **summary["metrics"]})
+    return 0
+
+
 def cmd_export(args) -> int:
     from ..services import export_result
 
@@ -236,6 +266,14 @@ def cmd_export(args) -> int:
     result = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     settings = scene_state.export_settings(scene, path=os.path.abspath(args.out), bit_depth=args.bit_depth,
                                            crossfade_frames=args.frames)
+    if args.mpcdi or store.read().rig.projector_count > 1:  # several projectors: an image each, and the package
+        from ..services.multi_export import export_multi
+
+        if args.crossfade:
+            raise ValueError("--crossfade is made of one projector's images for now: this rig has several")
+        written = export_multi(store, settings, result, mpcdi=os.path.abspath(args.mpcdi) if args.mpcdi else None)
+        print_json({"result": result or scene_state.read(scene).result_dir, **written})
+        return 0
     written = export_result.export_current(store, settings, result)
     summary = {"result": result, **{k: str(v) for k, v in written.items()}}
     if args.crossfade:
@@ -297,6 +335,8 @@ def cmd_show(args) -> int:
     folder = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     if not folder:
         raise ValueError("the scene has no result yet: run stylize first, or pass --result")
+    if "multi" in export_result.read_summary(folder):
+        raise ValueError("show plays one projector's look for now: this result has one image per projector")
     settings = scene_state.export_settings(scene, crossfade_frames=args.frames)
     frame = export_result.result_frame(store, folder, settings.bit_depth)
     sink = live_output.open_live(display)

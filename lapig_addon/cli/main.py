@@ -132,6 +132,9 @@ def _parser():
                                      "(default: the scene's result)")
     ex.add_argument("--bit-depth", type=int, choices=[8, 16], help="8 or 16 (default: the scene's)")
     ex.add_argument("--crossfade", help="also write a crossfade sequence (without -> with PSA) into this folder")
+    ex.add_argument("--mpcdi", help="also write the rig's MPCDI 2.0 package ('2d' profile: each projector's warp "
+                                    "and blend) to this .mpcdi file; a rig of several projectors writes one image "
+                                    "per projector, <out>_1.png, <out>_2.png, ...")
     ranged_option(ex, "--frames", "crossfade_frames", "crossfade frames (default: the scene's)")
 
     sh = sub.add_parser("show", help="play the scene's look live on the projector (Esc in the window stops)")

@@ -86,6 +86,10 @@ def export_current(store, settings: ExportSettings, result: str | None = None) -
     """Write the projector image of `result` (None: the scene's result)."""
     _check(settings)
     folder = result_folder(store, result)
+    if "multi" in read_summary(folder):  # one image per projector: services/multi_export writes them
+        from .multi_export import export_multi
+
+        return export_multi(store, settings, folder)
     frame = result_frame(store, folder, settings.bit_depth)
     sink = ProjectorImageFile(settings.path, metadata(store, folder, frame.summary), addon_version())
     sink.show(frame)
@@ -98,6 +102,8 @@ def export_crossfade(store, directory: str, settings: ExportSettings, result: st
     """Write the crossfade frames of `result` (None: the scene's result) into `directory` (absolute)."""
     _check(settings)
     folder = result_folder(store, result)
+    if "multi" in read_summary(folder):
+        raise ValueError("a crossfade is made of one projector's images for now: this result has several")
     if not directory:
         raise ValueError("Choose a folder for the crossfade frames")
     summary = read_summary(folder)

@@ -31,8 +31,29 @@ def rig_blocker(rig: Rig) -> str:
 
 def device_blocker(rig: Rig) -> str:
     """Why the rig's devices cannot be opened (a capture, a check): rig_blocker, or what a real rig's
-    installer must still choose ('' when they can)."""
-    return rig_blocker(rig) or rig.devices_problem
+    installer must still choose, or why its projectors cannot be captured together ('' when they can)."""
+    return rig_blocker(rig) or rig.devices_problem or projectors_blocker(rig)
+
+
+def projectors_blocker(rig: Rig) -> str:
+    """Why a rig of several projectors cannot be captured ('' when it can, and for one projector)."""
+    if rig.projector_count < 2 or rig.kind != "REAL":
+        return ""
+    seen = {}
+    for name, display in zip(rig.projectors, rig.displays):
+        if display and display in seen:
+            return (f"Projectors '{seen[display]}' and '{name}' are both on display '{display}': give each its own "
+                    f"display")
+        seen[display] = name
+    return ("A real rig captures one projector for now: remove the other projectors, or capture them with the "
+            "virtual rig")
+
+
+def one_projector_blocker(rig: Rig) -> str:
+    """Why a step made for one projector cannot run on this rig ('' for one projector)."""
+    if rig.projector_count < 2:
+        return ""
+    return f"Works with one projector for now; the rig has {rig.projector_count}"
 
 
 def _other_rig(state: SceneState) -> bool:
@@ -46,6 +67,11 @@ def _projector_resized(state: SceneState) -> bool:
                 and tuple(state.capture_projector_size) != tuple(state.rig.projector_size))
 
 
+def _projectors_counted(state: SceneState) -> int:
+    """How many projectors the capture was of (a capture of several records each one's coverage)."""
+    return len(state.capture_coverage) or 1
+
+
 def capture_status(state: SceneState) -> StepStatus:
     if not state.capture_dir:
         return StepStatus("MISSING", "No capture yet")
@@ -54,6 +80,9 @@ def capture_status(state: SceneState) -> StepStatus:
             return StepStatus("STALE", f"Captured with {state.capture_rig}; the scene now uses {state.rig.label}")
         if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
             return StepStatus("STALE", f"Captured in {state.capture_transport}; the rig is now {state.rig.transport}")
+        if _projectors_counted(state) != state.rig.projector_count:
+            return StepStatus("STALE", f"Captured with {_projectors_counted(state)} projector(s); the rig now has "
+                                       f"{state.rig.projector_count}")
         if _projector_resized(state):
             (w0, h0), (w1, h1) = state.capture_projector_size, state.rig.projector_size
             return StepStatus("STALE", f"Captured for a {w0}x{h0} projector; it is now {w1}x{h1}")
@@ -76,6 +105,8 @@ def capture_blocker(state: SceneState) -> str:
             return "Captured with another rig: capture again"
         if state.capture_transport and state.rig.transport and state.capture_transport != state.rig.transport:
             return "The light transport changed: capture again"
+        if _projectors_counted(state) != state.rig.projector_count:
+            return "The rig's projectors changed: capture again"
         if _projector_resized(state):
             return "The projector's resolution changed: capture again"
         if state.rig.kind == "REAL":
@@ -88,6 +119,19 @@ def models_blocker(state: SceneState) -> str:
     if any(d.package == "torch" for d in missing_required()):
         return "Install torch (see the add-on preferences)"
     return capture_blocker(state)
+
+
+def train_blocker(state: SceneState) -> str:
+    """Why Train cannot run: models_blocker, or several projectors (their first look, the joint classical model,
+    is fitted at the capture; there are no networks for them)."""
+    if state.rig.projector_count > 1 and not models_blocker(state):
+        return "Several projectors use the joint model fitted at the capture: there is nothing to train"
+    return models_blocker(state)
+
+
+def single_result_blocker(state: SceneState) -> str:
+    """Why the result cannot be rendered or refined on the rig, projected live or crossfaded ('' when it can)."""
+    return result_blocker(state) or one_projector_blocker(state.rig)
 
 
 def models_status(state: SceneState) -> StepStatus:
@@ -143,4 +187,4 @@ def result_blocker(state: SceneState) -> str:
 
 def preview_blocker(state: SceneState, mode: str) -> str:
     """Why the object cannot show preview `mode` yet ('' when it can)."""
-    return rig_blocker(state.rig) if mode in NEEDS_NO_RESULT else result_blocker(state)
+    return rig_blocker(state.rig) if mode in NEEDS_NO_RESULT else single_result_blocker(state)

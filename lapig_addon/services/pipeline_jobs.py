@@ -142,7 +142,10 @@ class TrainModelsJob(WorkerJob):
         self.seams, self.iterations, self.capture, self.device = seams, iterations, capture, device
 
     def prepare(self):
-        folder = current_capture(self.seams.store.read(), self.capture)
+        state = self.seams.store.read()
+        if state.rig.projector_count > 1:  # their joint model is fitted at the capture: no networks for them
+            raise PipelineError(panel_state.train_blocker(state))
+        folder = current_capture(state, self.capture)
         self._stamp = _setup_stamp(folder)  # what a pause checks on resume: the same capture
         self._device_choice = device_choice(self.seams.store, self.device)
         return folder
@@ -538,7 +541,7 @@ class RenderResultJob(Job):
     def steps(self):
         store, devices = self.seams.store, self.seams.devices
         state = store.read()
-        blocker = panel_state.result_blocker(state)
+        blocker = panel_state.single_result_blocker(state)
         if blocker:
             raise PipelineError(blocker)
         folder, capture = state.result_dir, current_capture(state)

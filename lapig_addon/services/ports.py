@@ -78,6 +78,9 @@ class SceneStore(Protocol):
 
     def record_capture(self, folder: str, fingerprint: str, transport: str = "") -> None: ...
 
+    def record_coverage(self, names, shares, reached: float) -> None:
+        """Several projectors: each one's share of the object at the capture just recorded, and together."""
+
     def record_models(self, fingerprint: str, status: str | None = None) -> None: ...
 
     def record_result(self, folder: str, summary_line: str, reach_message: str = "") -> None: ...
@@ -111,6 +114,7 @@ class ProjectorFrame:
     bit_depth: int
     folder: str = ""  # the result folder it belongs to
     summary: dict = field(default_factory=dict, compare=False)
+    projector_index: int = 0  # which of the rig's projectors shows it (0: the first, the only one of most rigs)
 
     @cached_property
     def pixels(self) -> np.ndarray:
@@ -118,7 +122,9 @@ class ProjectorFrame:
 
 
 class ResultSink(Protocol):
-    """Where a generated projector frame goes: Blender's projector light, a file, a live window."""
+    """Where a generated projector frame goes: Blender's projector light, a file, a live window. A sink whose
+    `several_projectors` is True takes frames for any of the rig's projectors (ProjectorFrame.projector_index);
+    the others are shown the frames of one-projector results only."""
 
     def show(self, frame: ProjectorFrame) -> None: ...
 

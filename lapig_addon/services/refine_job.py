@@ -76,7 +76,7 @@ class RefineResultJob(Job):
         """The result folder and the capture, from the scene (the main thread: the store reads bpy)."""
         store = self.seams.store
         state = store.read()
-        blocker = panel_state.result_blocker(state)
+        blocker = panel_state.single_result_blocker(state)
         if blocker:
             raise PipelineError(blocker)
         if self.seams.devices is None:

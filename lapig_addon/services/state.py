@@ -51,6 +51,15 @@ class Rig:
     kind: str = "VIRTUAL"  # 'VIRTUAL' (the Cycles studio of the objects) or 'REAL' (a projector and a camera)
     label: str = "the virtual rig"  # which rig, as a sentence names it: "the real rig 'gallery'"
     devices_problem: str = ""  # what a real rig's installer must still choose (its display, its camera)
+    # several projectors (issue 36): every projector's name and (width, height), projector 1 first; with a real
+    # rig, each one's display ('' where not chosen). One projector: its own name and size alone.
+    projectors: tuple[str, ...] = ()
+    projector_sizes: tuple = ()
+    displays: tuple[str, ...] = ()
+
+    @property
+    def projector_count(self) -> int:
+        return len(self.projectors) if self.projectors else int(self.projector is not None)
 
 
 @dataclass(frozen=True)
@@ -67,6 +76,9 @@ class SceneState:
     result_dir: str = ""  # the last generated result, found again like the capture
     result_fingerprint: str = ""  # the rig's fingerprint when the result was made
     preview_mode: str = "ORIGINAL"
+    # several projectors: each one's share of the object at the last capture, ((name, share), ...), and together
+    capture_coverage: tuple = ()
+    capture_reach: float | None = None
 
 
 @dataclass(frozen=True)

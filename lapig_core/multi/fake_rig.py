@@ -24,6 +24,8 @@ import numpy as np
 from ..capture.fake_device import default_albedo
 from ..photometric.classical import _as_float_images
 from .camera_map import CameraMap
+from .capture import MultiDeviceInfo, MultiProjectorDevice
+from .frames import smooth_frames  # noqa: F401 (the tests' frames, and the capture's)
 
 _MIX = np.array([[0.90, 0.08, 0.02], [0.06, 0.88, 0.06], [0.02, 0.10, 0.88]])
 
@@ -186,14 +188,24 @@ def three_projector_rig(camera_size=(64, 48), projector_size=(80, 60), noise=0.0
     return FakeRig(rig.projectors + [below], camera_size, noise=noise, seed=seed, **kw)
 
 
-def smooth_frames(projector_size, n: int, seed: int = 0, cells=(4, 3)) -> np.ndarray:
-    """(n,h,w,3) float32 training frames: smooth random colour fields (a few cells, cubic), the first two
-    black and white. Smooth, so sampling them at a camera pixel hardly depends on where in the pixel."""
-    w, h = projector_size
-    rng = np.random.default_rng(seed)
-    out = np.empty((n, h, w, 3), np.float32)
-    for i in range(n):
-        coarse = rng.random((cells[1], cells[0], 3)).astype(np.float32)
-        out[i] = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_CUBIC).clip(0, 1)
-    out[:min(n, 2)] = np.arange(min(n, 2), dtype=np.float32)[:, None, None, None]
-    return out
+class FakeRigDevice(MultiProjectorDevice):
+    """A FakeRig as the capture's MultiProjectorDevice (lapig_core/multi/capture.py): it shows one frame per
+    projector and grabs the camera's image; the object mask is the rig's own."""
+
+    main_thread = False
+
+    def __init__(self, rig: FakeRig):
+        self.rig = rig
+        self.captured = 0  # frame sets captured, for tests that count renders
+
+    def describe(self) -> MultiDeviceInfo:
+        return MultiDeviceInfo("numpy fake rig", tuple(p.size for p in self.rig.projectors), self.rig.camera_size,
+                               {"projectors": [{"width": p.size[0], "height": p.size[1], "gamma": p.gamma,
+                                                "black_level": 1.0 / p.contrast} for p in self.rig.projectors]})
+
+    def capture(self, frame_sets) -> list[np.ndarray]:
+        self.captured += len(frame_sets)
+        return [self.rig.capture(list(frames)) for frames in frame_sets]
+
+    def object_mask(self) -> np.ndarray:
+        return self.rig.object_mask.copy()

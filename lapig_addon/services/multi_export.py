@@ -1,0 +1,72 @@
+"""Export the result of several projectors: one native-resolution image per projector with its sidecar, and
+the rig's MPCDI 2.0 package (issue 36).
+
+Each projector's file holds the result's image for it at its native size (the ProjectorImageFile sink, as
+one projector's export): '<name>_1.png', '<name>_2.png', ... beside the chosen path, each with its JSON
+sidecar naming the projector. The package (lapig_core/multi/mpcdi_export) is written first: a path it cannot
+be written to stops the export before any image is, and nothing at that path or of the result is lost.
+"""
+from __future__ import annotations
+
+import os
+
+from pathlib import Path
+
+from ...lapig_core.export.result_files import read_summary, stored_bit_depth
+from ...lapig_core.multi.capture_set import joint_model_path
+from .export_result import addon_version, result_folder
+from .ports import ProjectorFrame
+from .sinks import ProjectorImageFile
+from .state import ExportSettings
+
+
+def projector_path(path: str, k: int) -> str:
+    """The file of projector k (0-based) for the export path `path`: its name with _<k+1> before .png."""
+    stem, ext = os.path.splitext(path)
+    return f"{stem}_{k + 1}{ext or '.png'}"
+
+
+def metadata(store, summary: dict) -> dict:
+    """What each projector's sidecar says of the result, the rig and the software (its own projector added)."""
+    return {"prompt": summary.get("prompt"), "backend": summary.get("backend"), "seed": summary.get("seed"),
+            "styles": summary.get("lgst", {}).get("styles"), "psa": summary.get("psa"),
+            "metrics": summary.get("metrics"), "multi": summary.get("multi"), **store.rig_metadata(),
+            **store.software()}
+
+
+def export_multi(store, settings: ExportSettings, result: str | None = None, mpcdi: str | None = None,
+                 images: bool = True) -> dict:
+    """Write every projector's image of `result` (None: the scene's; images=False: none) and, with `mpcdi`, the
+    rig's package; returns {'images': [paths], 'sidecars': [paths], 'mpcdi': path or None}."""
+    from ...lapig_core.multi.joint_model import JointModel
+    from ...lapig_core.multi.mpcdi_export import write_rig_mpcdi
+    from ...lapig_core.multi.result_files import projector_images
+
+    problem = settings.problem()
+    if problem:
+        raise ValueError(problem)
+    folder = result_folder(store, result)
+    shown = projector_images(folder)
+    summary = read_summary(folder)
+    rig = store.read().rig
+    names = tuple(entry["name"] for entry, _ in shown)
+    if rig.projectors and tuple(rig.projectors) != names:
+        raise ValueError(f"the result was made for projectors {', '.join(names)}; the rig now has "
+                         f"{', '.join(rig.projectors)}: generate again")
+    written = {"images": [], "sidecars": [], "mpcdi": None}
+    if mpcdi:
+        model_path = joint_model_path(summary.get("capture") or "")
+        if not model_path.is_file():
+            raise ValueError(f"the result's capture has no joint model ({model_path}): capture again")
+        written["mpcdi"] = str(write_rig_mpcdi(mpcdi, JointModel.load(model_path), names))
+    common = metadata(store, summary)
+    for k, (entry, image) in enumerate(shown if images else []):
+        width, height = entry["size"]
+        meta = {**common, "projector": {"index": k + 1, "count": len(shown), "name": entry["name"],
+                                        "resolution": [width, height]},
+                "result_bit_depth": stored_bit_depth(folder, Path(entry["image"]).stem)}
+        sink = ProjectorImageFile(projector_path(settings.path, k), meta, addon_version())
+        sink.show(ProjectorFrame(image, width, height, settings.bit_depth, folder=folder, summary=summary))
+        written["images"].append(str(sink.written["image"]))
+        written["sidecars"].append(str(sink.written["sidecar"]))
+    return written

@@ -1,0 +1,71 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The result folder of several projectors: one image per projector, listed in result.json.
+
+Written whole or not at all, as one projector's (export/result_files.write_new_result): 16-bit PNGs
+projector_1.png .. projector_K.png (each at its projector's native size, the blend and the compensation in
+it), the look and its predicted capture in camera space (look.png, predicted.png), the surface it was made
+from (surface.png) and a comparison sheet. result.json's "projectors" lists each image with its projector's
+name and size; "multi" holds the joint figures.
+"""
+from __future__ import annotations
+
+import datetime
+from pathlib import Path
+
+import numpy as np
+
+from ..common import metrics
+from ..common.sheets import labelled_grid
+from ..export.result_files import read_result_image, read_summary, write_new_result
+
+MULTI_KEY = "multi"
+
+
+def projector_image_name(k: int) -> str:
+    """Projector k's (0-based) image in the result folder, without its .png."""
+    return f"projector_{k + 1}"
+
+
+def is_multi_result(folder) -> bool:
+    try:
+        return MULTI_KEY in read_summary(folder)
+    except (OSError, ValueError):
+        return False
+
+
+def write_joint_result(root, name: str, look, surface: np.ndarray, names, sizes, summary: dict,
+                       reached: np.ndarray) -> tuple[Path, dict]:
+    """Write the folder of a JointLook (lapig_core/multi/stylize) under `root`; returns (folder, summary).
+    summary: what the caller records (prompt, backend, capture, models, ...), completed here."""
+    frames = look.frames
+    predicted = look.compensation.predicted
+    images = {"look": look.target, "predicted": predicted, "surface": surface}
+    images.update({projector_image_name(k): frame for k, frame in enumerate(frames)})
+    psnr = metrics.masked_psnr(predicted, look.target, reached) if reached.any() else float("nan")
+    tiles = [(surface, "surface (all projectors white)"), (look.target, "look"), (predicted, "predicted capture")]
+    tiles += [(frame, f"{names[k]}") for k, frame in enumerate(frames)]
+    images["comparison"] = labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles], columns=3, cell=256,
+                                         title=summary.get("prompt", ""))
+    understood = (look.describe.get("understood_line") or summary.get("backend", "")).partition(" | ")[0]
+    line = (f"{understood}; {len(frames)} projectors; simulated by the joint model {psnr:.1f} dB; the look within "
+            f"their reach on {look.reach_share:.0%} of the object; no PSA yet")
+    full = {**summary, "lgst": look.describe, "psa": False,
+            "notes": list(summary.get("notes", [])) + list(look.describe.get("notes", [])),
+            "projectors": [{"name": n, "image": f"{projector_image_name(k)}.png", "size": list(size)}
+                           for k, (n, size) in enumerate(zip(names, sizes))],
+            MULTI_KEY: {**summary.get(MULTI_KEY, {}), "count": len(frames), "reach_share": look.reach_share,
+                        "solve_seconds": round(look.compensation.seconds, 3),
+                        "lgst_seconds": round(look.lgst_seconds, 3)},
+            "metrics": {"simulated_psnr": psnr},
+            "summary_line": line,
+            "created": datetime.datetime.now().isoformat(timespec="seconds")}
+    return write_new_result(root, name, images, full), full
+
+
+def projector_images(folder) -> list[tuple[dict, np.ndarray]]:
+    """(result.json's entry, the image) of each projector of a result of several, in order."""
+    summary = read_summary(folder)
+    entries = summary.get("projectors") or []
+    if MULTI_KEY not in summary or not entries:
+        raise ValueError(f"{folder} is a result of one projector, not of several")
+    return [(entry, read_result_image(folder, Path(entry["image"]).stem)) for entry in entries]

@@ -1,0 +1,165 @@
+"""Several projectors (issue 36) with bpy blocked: the capture job, its first look and the export against fakes of
+the seams (the numpy fake rig of lapig_core/multi as the device), and the panel's decisions on a rig of several."""
+import contextlib
+import importlib
+import json
+import os
+
+import numpy as np
+import pytest
+
+from lapig.lapig_core.capture.settings import CaptureSettings
+from lapig.lapig_core.multi import fake_rig
+
+ADDON = "lapig.lapig_addon"
+CAMERA, PROJECTOR = (96, 72), (48, 36)
+
+
+def _module(name):
+    return importlib.import_module(f"{ADDON}.services.{name}")
+
+
+class MultiFactory:
+    """The fake rig of two projectors as a device factory (multi=False: a rig that captures one projector only)."""
+
+    main_thread = False
+
+    def __init__(self, ports, rig, multi=True):
+        self.ports, self.rig = ports, rig
+        if multi:
+            self.multi_capture_device = self._device
+
+    def rig_identity(self):
+        return self.ports.RigIdentity("fake rig of two", {"projectors": 2})
+
+    @contextlib.contextmanager
+    def _device(self, settings):
+        yield fake_rig.FakeRigDevice(self.rig)
+
+
+class MultiStore:
+    """The scene's settings and what the jobs record, for a rig of two projectors."""
+
+    def __init__(self, state, root, kind="VIRTUAL", displays=()):
+        self.s, self.root, self.kind, self.displays = state, str(root), kind, displays
+        self.capture_dir = self.fingerprint = ""
+        self.coverage, self.models, self.result = None, "", ""
+
+    def read(self):
+        s = self.s
+        rig = s.Rig(projector="Left", camera="Camera", target="Bust", scene="Scene", fingerprint="rig2",
+                    projector_size=PROJECTOR, kind=self.kind, projectors=("Left", "Right"),
+                    projector_sizes=(PROJECTOR, PROJECTOR), displays=self.displays)
+        return s.SceneState(rig=rig, capture_dir=self.capture_dir, capture_fingerprint=self.fingerprint,
+                            models_status=self.models, result_dir=self.result, result_fingerprint="rig2")
+
+    def capture_settings(self, **overrides):
+        return CaptureSettings(out_dir=os.path.join(self.root, "Bust"), setup_name="Bust", train_count=6, chunk=8)
+
+    def data_root(self):
+        return self.root
+
+    def rig_metadata(self):
+        return {"camera": None, "surface_object": "Bust"}
+
+    def software(self):
+        return {"software_host": "tests"}
+
+    def record_capture(self, folder, fingerprint, transport=""):
+        self.capture_dir, self.fingerprint = str(folder), fingerprint
+
+    def record_coverage(self, names, shares, reached):
+        self.coverage = (tuple(names), tuple(shares), reached)
+
+    def record_models(self, fingerprint, status=None):
+        self.models = status
+
+    def record_result(self, folder, summary_line, reach_message=""):
+        self.result = str(folder)
+
+
+@pytest.fixture
+def multi(tmp_path):
+    ports, state = _module("ports"), _module("state")
+    store = MultiStore(state, tmp_path / "data")
+    rig = fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)
+    return ports.Seams(store, MultiFactory(ports, rig)), store
+
+
+def test_the_capture_job_records_the_capture_its_coverage_and_the_first_look(multi):
+    seams, store = multi
+    job = _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings())
+    assert job.run() == "DONE", job.error
+    assert os.path.isfile(os.path.join(store.capture_dir, "models", "joint_model.npz"))
+    names, shares, reached = store.coverage
+    assert names == ("Left", "Right") and reached > max(shares) + 0.15
+    assert store.models.startswith("First look (joint classical model of 2 projectors)")
+    assert job.result["first_look_seconds"] < 10
+    assert job.line().startswith(f"Captured into {store.capture_dir}. First look")
+
+
+def test_a_rig_that_captures_one_projector_refuses_several_in_one_line(tmp_path):
+    ports, state = _module("ports"), _module("state")
+    store = MultiStore(state, tmp_path / "data")
+    seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR), multi=False))
+    job = _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings())
+    assert job.run() == "FAILED"
+    assert str(job.error) == ("fake rig of two cannot capture several projectors yet: remove the other projectors, "
+                              "or capture them with the virtual rig")
+    assert store.capture_dir == ""
+
+
+def test_the_panel_decides_on_a_rig_of_several(tmp_path):
+    panel_state, state = _module("panel_state"), _module("state")
+    one = state.Rig(projector="P", camera="C", target="T")
+    assert one.projector_count == 1 and panel_state.one_projector_blocker(one) == ""
+    assert panel_state.projectors_blocker(one) == ""
+    two = MultiStore(state, tmp_path).read().rig
+    assert panel_state.one_projector_blocker(two) == "Works with one projector for now; the rig has 2"
+    real = MultiStore(state, tmp_path, kind="REAL", displays=("1", "1")).read().rig
+    assert panel_state.device_blocker(real) == "Projectors 'Left' and 'Right' are both on display '1': give each " \
+                                               "its own display"
+    apart = MultiStore(state, tmp_path, kind="REAL", displays=("1", "2")).read().rig
+    assert panel_state.device_blocker(apart).startswith("A real rig captures one projector for now")
+    # a projector added after a capture of one: the capture is stale, and the panel says why
+    folder = tmp_path / "capture"
+    folder.mkdir()
+    added = state.SceneState(rig=two, capture_dir=str(folder), capture_fingerprint="rig1")
+    assert panel_state.capture_status(added).text == "Captured with 1 projector(s); the rig now has 2"
+    assert panel_state.capture_blocker(added) == "The rig's projectors changed: capture again"
+
+
+def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_write(multi, tmp_path):
+    from lapig.lapig_core.multi.capture_set import load_multi_capture
+    from lapig.lapig_core.multi.first_look import load_joint_model
+    from lapig.lapig_core.multi.joint_solve import joint_compensate
+    from lapig.lapig_core.multi.result_files import write_joint_result
+    from lapig.lapig_core.multi.stylize import JointLook
+
+    seams, store = multi
+    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    cs = load_multi_capture(store.capture_dir, pairs=False)
+    model = load_joint_model(cs.setup_dir)
+    target = np.full(cs.together.shape, 0.4, np.float32)  # a flat grey look: no torch needed
+    look = JointLook(target, joint_compensate(model, target), {"styles": []}, 1.0, 0.0)
+    folder, _ = write_joint_result(tmp_path / "results", "grey", look, target, cs.names, cs.sizes,
+                                   {"prompt": "grey", "capture": str(cs.setup_dir)}, model.reached.any(axis=0))
+    store.result = str(folder)
+    export = _module("multi_export")
+    state = _module("state")
+    settings = state.ExportSettings(path=str(tmp_path / "out" / "grey.png"), bit_depth=16, crossfade_frames=4)
+    (tmp_path / "out").mkdir()
+    written = export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "rig.mpcdi"))
+    assert [os.path.basename(p) for p in written["images"]] == ["grey_1.png", "grey_2.png"]
+    sidecar = json.loads(open(written["sidecars"][1]).read())
+    assert sidecar["projector"] == {"index": 2, "count": 2, "name": "Right", "resolution": list(PROJECTOR)}
+    assert sidecar["image"]["bit_depth"] == 16 and os.path.isfile(written["mpcdi"])
+    # the one export of the scene's result takes the same path for a result of several
+    assert _module("export_result").export_current(store, settings)["images"] == written["images"]
+    blocked = tmp_path / "out" / "grey_1.png" / "rig.mpcdi"
+    with pytest.raises(OSError, match="cannot write the MPCDI package"):
+        export.export_multi(store, state.ExportSettings(str(tmp_path / "out" / "again.png"), 16, 4),
+                            mpcdi=str(blocked))
+    assert not (tmp_path / "out" / "again_1.png").exists()  # the package first: nothing written on its failure
+    with pytest.raises(ValueError, match="a crossfade is made of one projector's images"):
+        _module("export_result").export_crossfade(store, str(tmp_path / "fade"), settings)

@@ -1,0 +1,208 @@
+"""Several projectors on one object in Blender (issue 36): Add Projector, the Cycles capture of two projectors
+and its first look, Generate, Export with the MPCDI package, the command line, and the bad inputs.
+
+Tiny on purpose: two 64x48 projectors and an 80x60 camera on the demo statue, four training frames each."""
+import json
+import os
+import subprocess
+import sys
+
+import bpy
+import numpy as np
+import pytest
+
+from test_panels import draw_panels
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def _statue_lit_from_the_front_left(folder, swing_deg=40.0):
+    """The demo statue, its projector swung to the camera's left, rigged at the test's tiny sizes."""
+    from mathutils import Matrix
+
+    from lapig.lapig_addon.blender import rig
+    from lapig.lapig_addon.cli import headless
+    from lapig.lapig_core.multi.placement import _rotate_about
+    from lapig.lapig_core.optics.placement import look_at
+
+    scene, projector, camera, target = headless.build_demo_setup("statue", "sakura", folder=str(folder),
+                                                                 camera_resolution=(80, 60))
+    projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y = 64, 48
+    rig.add_rig(bpy.context, target, projector, camera)
+    centre = rig.object_centre(target)
+    position = _rotate_about(np.array(projector.matrix_world.translation), centre, (0, 0, 1), -swing_deg)
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = look_at(position, centre).rotation, position
+    projector.matrix_world = Matrix(m.tolist())
+    bpy.context.view_layer.update()
+    rig.focus_on_object(projector, camera, target)
+    s = scene.lapig
+    s.train_count, s.test_count, s.working_size = 4, 0, 64
+    return scene, projector, camera, target
+
+
+def _side_of_camera(obj, camera) -> float:
+    """> 0: right of the camera's view, < 0: left."""
+    right = np.array(camera.matrix_world)[:3, 0]
+    return float((np.array(obj.matrix_world.translation) - np.array(camera.matrix_world.translation)) @ right)
+
+
+@pytest.fixture
+def statue(lapig_registered, tmp_path):
+    return _statue_lit_from_the_front_left(tmp_path)
+
+
+@pytest.mark.blender
+def test_add_projector_puts_the_second_on_the_other_side_and_the_panel_lists_both(statue, tmp_path):
+    from lapig.lapig_addon.blender import scene_state
+
+    scene, projector, camera, target = statue
+    one = scene_state.read_rig(scene)
+    assert one.projector_count == 1 and one.projectors == (projector.name,)
+    assert ("operator", "lapig.add_projector") in draw_panels(bpy.context, [])  # a rig of one: the button alone
+    assert bpy.ops.lapig.add_projector() == {"FINISHED"}
+    added = scene_state.rig_projectors(scene)[1]
+    assert _side_of_camera(projector, camera) < 0 < _side_of_camera(added, camera)  # front left -> front right
+    assert added.lapig_projector.resolution_x == 64 and added.lapig_projector.gamma == projector.lapig_projector.gamma
+    forward = -np.array(added.matrix_world)[:3, 2]
+    towards = np.array(target.matrix_world.translation) - np.array(added.matrix_world.translation)
+    assert forward @ towards / np.linalg.norm(towards) > 0.98  # aimed at the object
+    two = scene_state.read_rig(scene)
+    assert two.projectors == (projector.name, added.name) and two.projector_sizes == ((64, 48), (64, 48))
+    assert two.fingerprint != one.fingerprint  # moving either projector makes the capture stale
+    texts = [e[1] for e in draw_panels(bpy.context, []) if e[0] == "label"]
+    assert f"1. {projector.name}: 64x48" in texts and f"2. {added.name}: 64x48" in texts
+    # taken off the rig again, the scene reads exactly as a one-projector scene did
+    assert bpy.ops.lapig.remove_projector(name=added.name) == {"FINISHED"}
+    assert scene_state.read_rig(scene) == one
+
+
+@pytest.mark.blender
+@pytest.mark.torch
+def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path):
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+    from lapig.lapig_core.multi.capture_set import load_multi_capture
+
+    scene, projector, camera, target = statue
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "statue.blend"))
+    assert bpy.ops.lapig.add_projector() == {"FINISHED"}
+    names = scene_state.read_rig(scene).projectors
+    assert bpy.ops.lapig.capture() == {"FINISHED"}
+    state = scene_state.read(scene)
+    cs = load_multi_capture(state.capture_dir)
+    assert cs.names == names and cs.sizes == ((64, 48), (64, 48)) and cs.captures[0].shape == (4, 60, 80, 3)
+    record = json.loads((cs.setup_dir / "models" / "first_look.json").read_text())
+    print("coverage single", record["coverage_single"], "joint", record["coverage_joint"])
+    assert record["coverage_joint"] >= 0.95 and record["coverage_joint"] >= record["coverage_single"] + 0.1
+    assert record["together_rms"] < 0.03  # the two projectors' light adds up as the model says
+    assert (cs.setup_dir / "models" / "joint_model.npz").is_file()
+    assert state.models_status.startswith("First look (joint classical model of 2 projectors)")
+    assert "contrast falls" in state.models_status
+    assert dict(state.capture_coverage)[names[0]] == pytest.approx(record["per_projector"][0], abs=1e-3)
+    texts = [e[1] for e in draw_panels(bpy.context, []) if e[0] == "label"]
+    assert any(t.startswith(f"1. {names[0]}: 64x48, ") and t.endswith("% of the object") for t in texts)
+    assert "Several projectors use the joint model fitted at the capture: there is nothing to train" in texts
+
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
+    result = scene_state.read(scene).result_dir
+    summary = json.loads(open(os.path.join(result, "result.json")).read())
+    assert [p["image"] for p in summary["projectors"]] == ["projector_1.png", "projector_2.png"]
+    assert "no PSA yet" in scene.lapig.result_summary
+    from lapig.lapig_addon.blender import projector_nodes
+
+    shown = [projector_nodes.projected_image(p.data) for p in scene_state.rig_projectors(scene)]
+    assert [tuple(i.size) for i in shown] == [(64, 48), (64, 48)] and shown[0] != shown[1]  # each light its own
+
+    out = tmp_path / "export" / "statue.png"
+    out.parent.mkdir()
+    assert bpy.ops.lapig.export_image(filepath=str(out)) == {"FINISHED"}
+    for k in (1, 2):
+        sidecar = json.loads((tmp_path / "export" / f"statue_{k}.json").read_text())
+        assert sidecar["image"]["width"] == 64 and sidecar["projector"]["name"] == names[k - 1]
+    package = tmp_path / "export" / "statue.mpcdi"
+    assert bpy.ops.lapig.export_mpcdi(filepath=str(package)) == {"FINISHED"}
+    assert [b.id for b in read_mpcdi(package).buffers] == list(names)
+    # a path that cannot be written: one line, the package already there and the result untouched
+    before = package.read_bytes()
+    with pytest.raises(RuntimeError, match="cannot write the MPCDI package"):
+        bpy.ops.lapig.export_mpcdi(filepath=str(tmp_path / "export" / "statue_1.png" / "rig.mpcdi"))
+    assert package.read_bytes() == before and scene_state.read(scene).result_dir == result
+
+
+@pytest.mark.blender
+def test_a_projector_aimed_away_stops_the_capture_by_name_and_keeps_the_previous_one(lapig_registered, tmp_path):
+    from lapig.lapig_addon.blender import scene_state
+
+    scene, projector, camera, target = _statue_lit_from_the_front_left(tmp_path, swing_deg=0.0)  # as rigged
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "statue.blend"))
+    assert bpy.ops.lapig.capture() == {"FINISHED"}  # one projector: its capture as ever
+    before = scene_state.read(scene)
+    assert bpy.ops.lapig.add_projector() == {"FINISHED"}
+    astray = scene_state.rig_projectors(scene)[1]
+    astray.rotation_euler.rotate_axis("X", np.radians(150))  # at the ceiling
+    bpy.context.view_layer.update()
+    with pytest.raises(RuntimeError, match=f"projector '{astray.name}' reaches nothing the camera sees"):
+        bpy.ops.lapig.capture()
+    after = scene_state.read(scene)
+    assert after.capture_dir == before.capture_dir and after.capture_fingerprint == before.capture_fingerprint
+    assert os.path.isfile(os.path.join(before.capture_dir, "registration.npz"))  # the single capture is whole
+
+
+@pytest.mark.blender
+def test_two_projectors_on_one_display_of_a_real_rig_are_one_line(statue):
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.services import panel_state
+
+    scene = statue[0]
+    assert bpy.ops.lapig.add_projector() == {"FINISHED"}
+    s = scene.lapig
+    s.rig_kind, s.real.display, s.real.camera = "REAL", "1", "0"
+    s.extra_projectors[0].display = "1"
+    blocker = panel_state.device_blocker(scene_state.read_rig(scene))
+    assert blocker == f"Projectors '{s.projector.name}' and '{s.extra_projectors[0].projector.name}' are both on " \
+                      f"display '1': give each its own display"
+    with pytest.raises(RuntimeError, match="are both on display '1'"):
+        bpy.ops.lapig.capture()
+
+
+def _cli(*args, timeout=600):
+    return subprocess.run([sys.executable, "-m", "lapig_addon", *args], cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+@pytest.mark.blender
+@pytest.mark.torch
+def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp_path):
+    """Projectors of different resolutions too: each keeps its own frame through the joint path."""
+    from lapig.lapig_addon.blender import scene_state
+
+    blend = str(tmp_path / "statue.blend")
+    assert bpy.ops.lapig.add_projector() == {"FINISHED"}
+    second = scene_state.rig_projectors(statue[0])[1].lapig_projector
+    second.resolution_x, second.resolution_y = 48, 36
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    proc = _cli("capture", "--blend", blend, "--save")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    captured = json.loads(proc.stdout[proc.stdout.index("{"):])
+    assert captured["coverage"]["reached"] > max(captured["coverage"]["per_projector"])
+    assert captured["first_look_seconds"] < 10
+    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--render")
+    assert proc.returncode == 1 and "work with one projector for now; this rig has 2" in proc.stderr
+    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = tmp_path / "out"
+    out.mkdir()
+    proc = _cli("export", "--blend", blend, "--out", str(out / "look.png"), "--mpcdi", str(out / "rig.mpcdi"))
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert sorted(p.name for p in out.iterdir()) == ["look_1.json", "look_1.png", "look_2.json", "look_2.png",
+                                                      "rig.mpcdi"]
+    from lapig.lapig_core.common.imageio import read_image
+    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+
+    assert read_image(out / "look_1.png").shape == (48, 64, 3) and read_image(out / "look_2.png").shape == (36, 48, 3)
+    assert [b.resolution for b in read_mpcdi(out / "rig.mpcdi").buffers] == [(64, 48), (48, 36)]
+    proc = _cli("export", "--blend", blend, "--out", str(out / "again.png"),
+                "--mpcdi", str(out / "look_1.png" / "x.mpcdi"))
+    assert proc.returncode == 1 and proc.stderr.strip().startswith("error: cannot write the MPCDI package")
+    assert "Traceback" not in proc.stderr and not (out / "again_1.png").exists()

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ...lapig_core.export.result_files import read_summary, stored_bit_depth
 from ...lapig_core.multi.capture_set import joint_model_path
-from .export_result import addon_version, result_folder
+from .export_source import addon_version, result_folder
 from .ports import ProjectorFrame
 from .sinks import ProjectorImageFile
 from .state import ExportSettings

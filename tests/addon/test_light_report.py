@@ -144,12 +144,15 @@ def test_a_preset_shapes_the_projector_and_says_what_it_cannot_keep(lr):
 
 
 class _SceneLight:
-    """blender/light_plan_run.SceneLight's fake: flat light maps at the projector's size, and whether the
-    capture's lock was held (by someone) while each was rendered."""
+    """blender/light_plan_run.SceneLight's fake: flat light maps at the projector's size, one render a step, and
+    whether the capture's lock was held (by someone) while each was rendered."""
 
     def __init__(self, model, capture_root):
         self.model, self.capture_root = model, capture_root
-        self.renders, self.reported = [], []
+        self.size, self.scale, self.target_name = (16, 12), 1.0, "Wall"
+        self.row = {"name": "LAPIG Projector", "resolution": [model.width, model.height]}
+        self.renders = []
+        self.decoded = []  # the threads the passes became maps on
 
     def _lock_held(self) -> bool:
         from lapig.lapig_core.common.locking import FolderBusy, FolderLock
@@ -160,23 +163,35 @@ class _SceneLight:
             return True
         return False
 
-    def _maps(self, width, height):
-        white = np.full((height, width), 900.0)
-        region = np.zeros((height, width), bool)
-        region[height // 4: 3 * height // 4] = True
-        return SimpleNamespace(white_lux=white, ambient_lux=np.full((height, width), 5.0),
-                               on_object=np.ones((height, width), bool), region=region)
+    def _passes(self, width, height):
+        import threading
 
-    def room(self):
+        light = self
+
+        class Passes:
+            def maps(self):
+                light.decoded.append(threading.current_thread().name)
+                white = np.full((height, width), 900.0)
+                region = np.zeros((height, width), bool)
+                region[height // 4: 3 * height // 4] = True
+                return SimpleNamespace(white_lux=white, ambient_lux=np.full((height, width), 5.0),
+                                       albedo=np.full((height, width), 0.5), on_object=np.ones((height, width), bool),
+                                       region=region)
+
+            def discard(self):
+                pass
+
+        return Passes()
+
+    def room_steps(self, start=0.0, end=1.0):
+        yield start, "rendering the projector's light"
         self.renders.append(("room", self._lock_held()))
-        return self._maps(16, 12)
+        return self._passes(*self.size)
 
-    def native(self):
+    def native_steps(self, start=0.0, end=1.0):
+        yield start, "rendering the projector's light at its native size"
         self.renders.append(("native", self._lock_held()))
-        return self._maps(self.model.width, self.model.height)
-
-    def report(self, folder):
-        self.reported.append(folder)
+        return self._passes(self.model.width, self.model.height)
 
 
 def test_limit_look_to_the_dose_is_a_job_under_the_captures_lock_and_measures_on_the_factorys_device(seams, tmp_path):
@@ -207,7 +222,10 @@ def test_limit_look_to_the_dose_is_a_job_under_the_captures_lock_and_measures_on
     assert "psnr_cost_db" in out and out["psnr_free_db"] > 0  # both frames projected on the factory's rig
     new = out["folder"]
     assert seams.store.result[:2] == (new, "a look; simulated 30.0 dB | limited to the light dose")
-    assert light.reported == [new]  # its light report written
+    import threading
+
+    assert lr.read_report(new)["result"] == new  # its light report written, on the room maps rendered once
+    assert len(light.decoded) == 2 and threading.main_thread().name not in light.decoded
     capped = read_output_image(new, "projector")
     np.testing.assert_array_equal(seams.sinks[0].frames[-1].image, capped)  # the light and the live window show it
     assert capped.max() < 0.9 and read_summary(new)["dose_cap"]["capped_from"] == str(free)

@@ -167,6 +167,7 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
 
     from lapig.lapig_addon.blender import light_render, scene_state
     from lapig.lapig_addon.blender.modal_runner import SLOTS
+    from lapig.lapig_addon.services import light_report
     from lapig.lapig_addon.services.jobs import WorkerJob
     from lapig.lapig_core.common.locking import LOCK_FILE, FolderLock, holder_of
 
@@ -197,18 +198,21 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
     while not (root / LOCK_FILE).exists():
         time.sleep(0.01)
     seen = []
-    render_maps = light_render.LightStudio.render_maps
+    render = light_render.LightStudio._render
 
-    def render_and_see(studio):  # the room's light, the projector's at its native size, the new look's report
+    def render_and_see(studio, *args, **kwargs):  # each Cycles render
         seen.append((train.paused, holder_of(root / LOCK_FILE)))
-        return render_maps(studio)
+        return render(studio, *args, **kwargs)
 
-    monkeypatch.setattr(light_render.LightStudio, "render_maps", render_and_see)
+    monkeypatch.setattr(light_render.LightStudio, "_render", render_and_see)
     try:
         assert bpy.ops.lapig.light_cap() == {"FINISHED"}
+        # the projector's light and the room's at the report's size, the projector's at its native size; the new
+        # look's report is made on those room maps
         assert len(seen) == 3 and all(paused for paused, _ in seen), "the background Train was not paused"
-        for _, holder in seen[:2]:  # the cap's renders: the cap holds the capture's folder
+        for _, holder in seen:  # the cap's renders: the cap holds the capture's folder
             assert holder.startswith("LAPIG limit to the dose"), holder
+        assert light_report.read_report(scene.lapig.result_dir)["dose"]["limit_lux"] == 50
         assert scene.lapig.result_dir.endswith("_dose_cap") and not train.pause_requested  # Train goes on
     finally:
         SLOTS.cancel_background()
@@ -316,3 +320,50 @@ def test_light_report_is_a_job_that_pauses_the_background_train_and_reports_as_b
     _same_numbers(_comparable(printed), recorded["report"], exact)
     assert sorted(p.name for p in (tmp_path / "maps").iterdir()) == ["light_contrast.png", "light_luminance.png",
                                                                       "light_lux.png"]
+
+
+def test_the_light_panel_shows_the_reports_progress_and_says_why_its_buttons_are_off(lapig_registered, small_setup):
+    """While a foreground job runs, the Light Report's progress line shows (Esc cancels), and its button is off: the
+    job slots hold one foreground job and queue none, which its tooltip says."""
+    from test_panels import RecordingLayout
+
+    from lapig.lapig_addon.blender.modal_runner import SLOTS
+    from lapig.lapig_addon.services.jobs import Job
+    from lapig.lapig_addon.services.light_report_job import LightReportJob
+    from lapig.operators.light_ops import LAPIG_OT_light_report
+    from lapig.panels.light_panel import LAPIG_PT_light
+
+    class Layout(RecordingLayout):
+        def prop_search(self, *args, **kwargs):
+            pass
+
+        def operator(self, idname, **kwargs):
+            self.log.append(("enabled", idname, self.enabled))
+            return super().operator(idname, **kwargs)
+
+        def _child(self, *args, **kwargs):
+            return Layout(self.log)
+
+        row = column = box = split = _child
+
+    def drawn():
+        log = []
+        LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+        return log
+
+    bpy.context.scene.lapig_light.preset = "optoma-ml500"
+    assert ("enabled", "lapig.light_report", True) in drawn()
+    tip = LAPIG_OT_light_report.description(bpy.context, None)
+    assert tip.startswith("Render the look's light in lux") and "queue" not in tip
+    job = Job()
+    job.title, job.state, job.progress, job.message = LightReportJob.title, "RUNNING", 0.4, "rendering the room's light"
+    assert SLOTS.start_foreground(job) is None
+    try:
+        log = drawn()
+        assert ("progress", "rendering the room's light (Esc to cancel)") in log
+        assert ("enabled", "lapig.light_report", False) in log
+        tip = LAPIG_OT_light_report.description(bpy.context, None)
+        assert tip.startswith("Render the look's light in lux")
+        assert "Off while LAPIG light report runs" in tip and "does not queue another" in tip
+    finally:
+        SLOTS.end_foreground(job)

@@ -6,36 +6,33 @@ from ..lapig_addon.blender.operator_boundary import ReportsErrors
 from ..lapig_addon.services.panel_state import rig_blocker
 
 
-class LAPIG_OT_light_report(ReportsErrors, bpy.types.Operator):
+class LAPIG_OT_light_report(JobRunnerMixin, bpy.types.Operator):
     """Render the look's light in lux, its contrast against the room and the light dose on the marked
     region; the object then shows the lux map"""
     bl_idname = "lapig.light_report"
     bl_label = "Light Report"
 
-    def execute(self, context):
+    def make_job(self, context):
         scene = context.scene
-        blocker = rig_blocker(scene_state.read_rig(scene))
-        if blocker:
-            self.report({"ERROR"}, blocker)
-            return {"CANCELLED"}
         plan = scene_state.light_plan(scene)
-        problem = plan.problem()
+        problem = rig_blocker(scene_state.read_rig(scene)) or plan.problem()
         if problem:
-            self.report({"ERROR"}, problem)
-            return {"CANCELLED"}
-        folder = scene_state.read(scene).result_dir or None
-        report = light_plan_run.run_report(scene, plan, folder)
+            raise ValueError(problem)
+        return light_plan_run.report_job(scene, plan, scene_state.read(scene).result_dir or None)
+
+    def on_done(self, context, job):
+        report = job.result
         if report["warning"]:
             self.report({"WARNING"}, report["warning"])
         dose = report.get("dose")
         if dose and not dose["within_limit"]:
             self.report({"WARNING"}, f"{dose['max_lux']} lux on the marked region: over its {dose['limit_lux']:g} "
                                      "lux limit")
-        if folder and result_preview.apply_mode(scene, "LUX", report=self.report):
+        scene = context.scene
+        if report["result"] and result_preview.apply_mode(scene, "LUX", report=self.report):
             scene_state.record_preview_mode(scene, "LUX")
         c = report["contrast_ratio"]["median"]
         self.report({"INFO"}, f"look {report['look_lux']['mean']} lux mean, contrast {c}:1 against the room")
-        return {"FINISHED"}
 
 
 class LAPIG_OT_light_cap(JobRunnerMixin, bpy.types.Operator):

@@ -7,6 +7,7 @@ import bpy
 from ..lapig_addon.blender import scene_state
 from ..lapig_addon.services import light_report
 from ..lapig_addon.services.dose_cap import DoseCapJob
+from ..lapig_addon.services.light_report_job import LightReportJob
 from .main_panel import LapigPanel, _job_running, _progress
 
 
@@ -43,8 +44,10 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
         if problem:
             for i, line in enumerate(textwrap.wrap(problem, 60)):
                 layout.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+        _progress(layout, LightReportJob.title)
         _progress(layout, DoseCapJob.title)
         row = layout.row()
+        # one foreground job at a time (JobSlots queues none): the tooltips say why the buttons are off meanwhile
         row.enabled = not problem and not _job_running()
         row.operator("lapig.light_report", icon="LIGHT_SPOT")
         if s.category != "NONE":

@@ -9,54 +9,28 @@ material, or the faces of a vertex group, rendered as a temporary part of their 
 illuminance, or a Sun of it from the lamp's direction. Each map pixel averages 4 samples over its square
 (a map pixel covers several projector pixels); the room light from every direction takes more.
 Everything is undone on exit, even after an error; the user's scene is never rendered.
+
+A job renders through render_steps(): one Cycles render each time it goes on, on Blender's main thread, into
+LightPasses (EXR files) that lapig_core/photometry/light_passes turns into the maps on any thread.
 """
 from __future__ import annotations
 
 import os
 import tempfile
-from dataclasses import dataclass
 
 import bpy
 import numpy as np
 from mathutils import Vector
 
 from ...lapig_core.common.exr import read_exr_channels
-from ...lapig_core.photometry.light_maps import repair_dropouts
-from ...lapig_core.photometry.units import (LUMA, lux_from_diffuse_direct, sun_strength_for_lux,
-                                           world_strength_for_lux)
+from ...lapig_core.common.steps import run_to_end
+from ...lapig_core.photometry.light_passes import (REGION_INDEX, TARGET_INDEX, LightPasses,  # noqa: F401
+                                                   LightRenderError, ProjectorLightMaps, _rgb)
+from ...lapig_core.photometry.units import lux_from_diffuse_direct, sun_strength_for_lux, world_strength_for_lux
 from . import preview, projector_nodes
 from .geometry_probe import renderable_objects
 
 STUDIO = "LAPIG light studio"
-TARGET_INDEX, REGION_INDEX = 7, 9
-
-
-class LightRenderError(ValueError):
-    """A region that does not exist or lights nothing, a rig without a projector: said in one line."""
-
-
-@dataclass
-class ProjectorLightMaps:
-    white_lux: np.ndarray  # (H, W) lux a white frame gives
-    ambient_lux: np.ndarray  # (H, W) lux of the room alone
-    albedo: np.ndarray  # (H, W) luminance share the surface reflects
-    on_object: np.ndarray  # (H, W) bool: the ray hits the target object
-    region: np.ndarray  # (H, W) bool: the marked region (the object when none is marked)
-    white_radiance: np.ndarray | None = None  # (H, W) the render's luminance share (W/m2/sr) under white
-
-
-def _find(channels: dict, *names) -> np.ndarray | None:
-    for key, value in channels.items():
-        if any(key.endswith(n) for n in names):
-            return value
-    return None
-
-
-def _rgb(channels: dict, *names) -> np.ndarray:
-    planes = [_find(channels, *(f"{n}.{c}" for n in names)) for c in "RGB"]
-    if any(p is None for p in planes):
-        raise LightRenderError(f"the render has no {names[0]} pass")
-    return np.stack(planes, -1)
 
 
 def _white_image(width, height):
@@ -246,51 +220,65 @@ class LightStudio:
         if surface is not None:
             surface.__exit__(None, None, None)
 
-    def _render(self, name, samples, filter_width) -> dict:
+    def _render(self, name, samples, filter_width, folder=None) -> str:
+        """One Cycles render of the studio into `folder` (default: the studio's own); the EXR's path, its rows
+        top-down as the projector frame."""
         scene = self.scene
         scene.cycles.samples = samples
         scene.cycles.filter_width = filter_width
-        path = os.path.join(self._dir, name + ".exr")
+        path = os.path.join(folder or self._dir, name + ".exr")
         scene.render.filepath = path
         with bpy.context.temp_override(scene=scene):
             bpy.ops.render.render(write_still=True, scene=scene.name)
-        channels = read_exr_channels(path)
-        return channels  # rows top-down, as the projector frame
+        return path
+
+    @property
+    def render_count(self) -> int:
+        """How many Cycles renders render_steps() makes: the projector's light, and the room's where it has any."""
+        return 2 if self.ambient_lux > 0 else 1
+
+    def render_steps(self):
+        """The maps' Cycles renders, one each time the steps go on (a job's main-thread steps): before each, the
+        name of what it renders is yielded; the value is their LightPasses, which the caller turns into maps
+        (maps(), on any thread) or discards. A cancel (the generator closed) removes the files made so far."""
+        folder = tempfile.mkdtemp(prefix="lapig_light_passes_")
+        passes = LightPasses(folder, os.path.join(folder, "white.exr"),
+                             region="group" if self.region_group else "material" if self.region_material else "")
+        try:
+            yield "the projector's light"
+            self._render_white(folder)
+            if self.ambient_lux > 0:
+                yield "the room's light"
+                passes.room = self._render_room(folder)
+        except BaseException:
+            passes.discard()
+            raise
+        return passes
 
     def render_maps(self) -> ProjectorLightMaps:
+        """The maps, rendered and read here (a command, a test, a benchmark: a job uses render_steps())."""
+        return run_to_end(self.render_steps()).maps()
+
+    def _render_white(self, folder) -> str:
         scene = self.scene
         white = _white_image(8, 8)
         self._made.append(white)
         projector_nodes.set_projected_image(self.projector.data, white)
         scene.collection.objects.link(self.projector)
-        bg = scene.world.node_tree.nodes.get("Background") if scene.world.node_tree else None
+        bg = self._background()
         if bg is not None:
             bg.inputs["Strength"].default_value = 0.0
         scene.world.color = (0, 0, 0)
         # 4 samples over each pixel's square: the light it covers; a ray exactly through a pixel centre can
         # graze the shared edge of two triangles and find it dark
-        lit = self._render("white", 4, 1.0)
-        scene.collection.objects.unlink(self.projector)
-        white_lux = lux_from_diffuse_direct(_rgb(lit, "Diffuse Direct", "DiffDir"))
-        white_lux = repair_dropouts(white_lux)  # lost shadow rays on a mesh's edges
-        albedo = _rgb(lit, "Diffuse Color", "DiffCol") @ LUMA
-        ob_index = _find(lit, "Object Index.X", "IndexOB.X", "IndexOB.V", "Object Index.V")
-        ma_index = _find(lit, "Material Index.X", "IndexMA.X", "IndexMA.V", "Material Index.V")
-        if ob_index is None or ma_index is None:
-            raise LightRenderError("the render has no object or material index pass")
-        in_group = np.abs(ob_index - REGION_INDEX) < 0.5  # the vertex group's part
-        on_object = (np.abs(ob_index - TARGET_INDEX) < 0.5) | in_group
-        if self.region_group:
-            region = in_group
-        elif self.region_material:
-            region = on_object & (np.abs(ma_index - REGION_INDEX) < 0.5)
-        else:
-            region = on_object
-        ambient = np.zeros_like(white_lux)
-        if self.ambient_lux > 0:
-            ambient = self._ambient_lux(bg)
-        radiance = _rgb(lit, "Combined", "Image") @ LUMA
-        return ProjectorLightMaps(white_lux, ambient, albedo, on_object, region, radiance)
+        try:
+            return self._render("white", 4, 1.0, folder)
+        finally:
+            scene.collection.objects.unlink(self.projector)
+
+    def _background(self):
+        scene = self.scene
+        return scene.world.node_tree.nodes.get("Background") if scene.world.node_tree else None
 
     def render_frame_lux(self, emitted: np.ndarray) -> np.ndarray:
         """The illuminance (lux, H x W) the projector alone gives while it emits `emitted` (relative
@@ -306,20 +294,22 @@ class LightStudio:
         image.pixels.foreach_set(np.flipud(rgba).ravel())  # Blender's rows run bottom-up
         projector_nodes.set_projected_image(self.projector.data, image)
         scene = self.scene
-        bg = scene.world.node_tree.nodes.get("Background") if scene.world.node_tree else None
+        bg = self._background()
         if bg is not None:
             bg.inputs["Strength"].default_value = 0.0
         for ob in [o for o in scene.collection.objects if o.type == "LIGHT"]:
             scene.collection.objects.unlink(ob)
         scene.collection.objects.link(self.projector)
         try:
-            lit = self._render("frame", 4, 0.5)
+            lit = read_exr_channels(self._render("frame", 4, 0.5))
         finally:
             scene.collection.objects.unlink(self.projector)
         return lux_from_diffuse_direct(_rgb(lit, "Diffuse Direct", "DiffDir"))
 
-    def _ambient_lux(self, bg) -> np.ndarray:
+    def _render_room(self, folder) -> str:
+        """The room's light alone (the projector unlinked): its EXR's path."""
         scene = self.scene
+        bg = self._background()
         if self.lamp_direction is None:  # light from every direction: E = pi L on an open surface
             if bg is None:
                 raise LightRenderError("the light studio's world has no Background node")
@@ -336,8 +326,7 @@ class LightStudio:
             sun_obj.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
             scene.collection.objects.link(sun_obj)
             samples = 1
-        room = self._render("room", samples, 1.0 if samples > 1 else 0.01)
-        return lux_from_diffuse_direct(_rgb(room, "Diffuse Direct", "DiffDir"))
+        return self._render("room", samples, 1.0 if samples > 1 else 0.01, folder)
 
 
 def projector_light_maps(scene, projector, target, width: int, height: int, ambient_lux: float = 0.0,

@@ -76,6 +76,14 @@ class JobRunnerMixin(ReportsErrors):
     def on_done(self, context, job):
         pass
 
+    @classmethod
+    def description(cls, context, properties):
+        """The tooltip: the operator's own, and while a foreground job runs (the panels turn the job buttons
+        off) why: JobSlots queues no second job."""
+        text = getattr(cls, "bl_description", "") or " ".join((cls.__doc__ or "").split())
+        note = SLOTS.busy_note()
+        return f"{text}.\n{note}" if note else text
+
     def _give_way(self):
         """Before the job starts: the background job is cancelled (it works on what this replaces) or paused."""
         if self.replaces_models:

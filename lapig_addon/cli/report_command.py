@@ -93,7 +93,8 @@ def cmd_report(args) -> int:
 
     scene = _open_scene(args)
     folder = os.path.abspath(args.result) if args.result else BlenderSceneStore(scene).read().result_dir
-    report = light_plan_run.run_report(scene, plan, folder or None, args.map_width, args.maps)
+    # the Light Report button's job, run here to its end
+    report = light_plan_run.report_job(scene, plan, folder or None, args.map_width, args.maps).run_to_completion()
     if args.cap_out:
         report["cap"] = light_plan_run.write_capped(args.cap_out, scene, plan, folder)
     if args.cap_result:

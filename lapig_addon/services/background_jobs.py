@@ -46,6 +46,14 @@ class JobSlots:
             self.background.pause()
         return None
 
+    def busy_note(self) -> str:
+        """Why a job's button is off while a foreground job runs ('' when none runs): the slot holds one job and
+        queues none, so a second would only be refused."""
+        if not self.foreground_running():
+            return ""
+        return (f"Off while {self.foreground.title} runs: LAPIG runs one job at a time and does not queue another "
+                "(wait for it, or press Esc to cancel it)")
+
     def foreground_may_step(self) -> bool:
         """True once no background job holds the cores, a lock or a device; until then the background job
         is stepped here (a job's main-thread part reaches its pause point only when stepped)."""

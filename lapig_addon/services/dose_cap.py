@@ -2,8 +2,10 @@
 is the capped frame, so Export, the preview and the projector show the limited look; the free one stays.
 
 No bpy. DoseCapJob (Limit Look to the Dose, and the `report --cap-result` command) runs it as a foreground job
-like Refine: the light maps are rendered through a LightRenders (Cycles, on Blender's main thread), the cap and
-the files are made on a worker thread, all under the capture's folder lock; its cost in PSNR is measured by
+like Refine: the light maps are rendered through a LightRenders (Cycles, on Blender's main thread, one render a
+step), read, capped and written on a worker thread, all under the capture's folder lock; the limited look's light
+report is written as Light Report writes one (services/light_report_job), on the room maps the cap rendered; its
+cost in PSNR is measured by
 projecting both frames on the rig, the device factory's device driven on the thread it needs (services/projection),
 against the free look's target, as Render Real Capture measures a result."""
 from __future__ import annotations
@@ -27,6 +29,7 @@ from ...lapig_core.common.psnr import masked_psnr
 from . import light_report
 from .export_result import result_frame
 from .jobs import Job
+from .light_report_job import ReportLight, report_steps
 from .ports import Seams
 from .projection import projection_steps
 
@@ -34,20 +37,14 @@ SUFFIX = "_dose_cap"
 LIMITED = " | limited to the light dose"  # after the result's line: the panel shows it on a line of its own
 
 
-class LightRenders(Protocol):
-    """The scene's light from the projector's viewpoint, in lux (blender/light_plan_run.SceneLight: Cycles
-    renders, on Blender's main thread)."""
+class LightRenders(ReportLight, Protocol):
+    """The scene's light from the projector's viewpoint (blender/light_plan_run.SceneLight: Cycles renders as
+    steps, on Blender's main thread): room_steps() the report's maps with the room's light, and"""
 
     model: ProjectorModel  # the plan's projector: its native size, gamma and black level
 
-    def room(self):
-        """The light maps at the report's size (white_lux scaled to the plan's lumens, ambient_lux)."""
-
-    def native(self):
-        """The maps at the projector's native size, scaled as room()'s (white_lux, region, on_object)."""
-
-    def report(self, folder: str) -> dict:
-        """The light report of a result, written into it."""
+    def native_steps(self, start: float, end: float):
+        """Steps whose value is the passes of the projector's light at its native size (no room light)."""
 
 
 class DoseCapJob(Job):
@@ -84,42 +81,52 @@ class DoseCapJob(Job):
         folder, capture = self._inputs()
         # as Generate and Refine: no capture replaces the setup (nor Train writes beside it) meanwhile
         held = hold_root(resolve_setup(capture).root, self.title) if capture else None
+        rendered = []  # the renders' passes: the worker reads them; a cancel before it does removes them here
         try:
-            yield 0.05, "rendering the room's light"
-            room = self.light.room()
-            yield 0.35, "rendering the projector's light at its native size"
-            native = self.light.native()
-            free, capped, info, new = yield from self.drive(
-                lambda: capped_result_steps(self.plan, self.light.model, folder, room, native), False)
+            rendered.append((yield from self.light.room_steps(0.05, 0.35)))
+            rendered.append((yield from self.light.native_steps(0.35, 0.55)))
+            free, capped, info, new, room = yield from self.drive(
+                lambda: capped_result_steps(self.plan, self.light, folder, *rendered), False)
             out = {**info, "folder": str(new)}
             if self.measure_psnr:
                 devices = self.seams.devices
                 out.update((yield from self.drive(
                     lambda: psnr_cost_steps(devices, capture, folder, free, capped), devices.main_thread)))
         finally:
+            for passes in rendered:
+                passes.discard()
             if held is not None:
                 held.release()
         if self.record:
             yield 0.9, "the light report of the limited look"
-            self._record(str(new))
+            yield from self._record(str(new), room)
         self.result = out
 
-    def _record(self, new: str):
-        """The limited look becomes the scene's result, shown on the light (and a live window), with its report."""
+    def _record(self, new: str, room):
+        """The limited look becomes the scene's result, shown on the light (and a live window), with its report
+        (on the room maps the cap rendered: written on a worker)."""
         store = self.seams.store
         summary = read_summary(new)
         store.record_result(new, (summary.get("summary_line") or summary.get("prompt") or "result") + LIMITED)
         self.seams.show(result_frame(store, new, store.export_settings().bit_depth, summary=summary))
-        self.light.report(new)
+        yield from report_steps(self, self.plan, self.light, new, room=room, span=(0.9, 1.0))
 
 
-def capped_result_steps(plan, model: ProjectorModel, folder, room, native):
-    """Steps whose value is (the free frame, the capped frame, what the cap did, the new result's folder)."""
-    yield 0.6, "limiting the look"
-    free = light_report.native_frame(folder, model)
-    capped, info = capped_look(plan, model, free, room, native)
-    yield 0.7, "writing the limited look"
-    return free, capped, info, write_capped_result(folder, capped, info)
+def capped_result_steps(plan, light: LightRenders, folder, room_passes, native_passes):
+    """On a worker: the maps read from the renders' passes, the cap, the new result. Steps whose value is (the free
+    frame, the capped frame, what the cap did, the new result's folder, the room maps)."""
+    try:
+        yield 0.6, "limiting the look"
+        model = light.model
+        room = light_report.plan_maps(room_passes, light.scale, light.target_name, plan)
+        native = light_report.plan_maps(native_passes, light.scale, light.target_name, plan, check=False)
+        free = light_report.native_frame(folder, model)
+        capped, info = capped_look(plan, model, free, room, native)
+        yield 0.7, "writing the limited look"
+        return free, capped, info, write_capped_result(folder, capped, info), room
+    finally:
+        room_passes.discard()
+        native_passes.discard()
 
 
 def capped_look(plan, model: ProjectorModel, frame: np.ndarray, room, native) -> tuple[np.ndarray, dict]:

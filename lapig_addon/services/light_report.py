@@ -2,7 +2,8 @@
 
 No bpy: the maps come from blender/light_render (Cycles from the projector's viewpoint) or a test's
 fakes; this module turns them and the result's projector frame into the report that the `report`
-command prints, the result folder keeps (light_report.json) and Export copies into the sidecar.
+command prints, the result folder keeps (light_report.json, beside its colour maps) and Export copies
+into the sidecar. services/light_report_job runs it as a job: these functions are its worker's part.
 """
 from __future__ import annotations
 
@@ -13,13 +14,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...lapig_core.common.atomic import commit
-from ...lapig_core.common.imageio import to_float
+from ...lapig_core.common.imageio import encode_png, to_float
 from ...lapig_core.common.jsonable import json_default_or_str
+from ...lapig_core.common.resample import resize_image
 from ...lapig_core.export.result_files import read_output_image
 from ...lapig_core.optics.projector_model import quantised_frame
 from ...lapig_core.photometry import dose, light_maps, presets, units
 
 REPORT_FILE = "light_report.json"
+LUX_MAP, CONTRAST_MAP, LUMINANCE_MAP = "light_lux", "light_contrast", "light_luminance"  # PNGs beside it
 
 
 @dataclass(frozen=True)
@@ -113,6 +116,41 @@ def light_report(plan: LightPlan, maps, emitted: np.ndarray | None, model) -> di
     return report
 
 
+def plan_maps(passes, scale: float, target_name: str, plan: LightPlan, check: bool = True):
+    """The maps of a light studio's passes (passes.maps(): read and computed here, on the caller's thread) with
+    the white frame's light scaled from the light's power to the plan's lumens (`scale`, light adds linearly);
+    check: refused where the projector misses the object or lights none of the marked region."""
+    maps = passes.maps()
+    maps.white_lux = maps.white_lux * scale
+    if not check:
+        return maps
+    if not maps.on_object.any():
+        raise ValueError(f"the projector does not reach '{target_name}': aim it at the object")
+    marked = (f"the material '{plan.region_material}'" if plan.region_material else
+              f"the vertex group '{plan.region_group}'" if plan.region_group else "")
+    if marked and not (maps.region & maps.on_object).any():
+        raise ValueError(f"{marked} has no faces the projector lights: mark faces it reaches, or the whole object")
+    return maps
+
+
+def look_emitted(folder, model, width: int, height: int) -> np.ndarray:
+    """The result's relative emitted light (luminance share of white) at the maps' width x height."""
+    small = resize_image(model.emitted(native_frame(folder, model)).astype(np.float32), width, height)
+    return small @ units.LUMA
+
+
+def report_images(plan: LightPlan, maps, emitted: np.ndarray | None) -> dict:
+    """The report's colour maps (name -> RGB image): the lux on the object, the contrast against the room, the
+    luminance."""
+    total = maps.white_lux * (emitted if emitted is not None else 1.0) + maps.ambient_lux
+    contrast = light_maps.finite_contrast(units.contrast_ratio(maps.white_lux, maps.ambient_lux,
+                                                               plan.resolved_contrast))
+    return {LUX_MAP: light_maps.lux_colour_map(total, maps.on_object),
+            CONTRAST_MAP: light_maps.contrast_colour_map(contrast, maps.on_object),
+            LUMINANCE_MAP: light_maps.lux_colour_map(units.luminance_cd_m2(maps.albedo, total), maps.on_object,
+                                                     0.3, 3000)}
+
+
 def native_frame(folder, model) -> np.ndarray:
     """A result's projector frame as the projector receives it (native, 8-bit steps, float)."""
     return to_float(quantised_frame(read_output_image(folder, "projector"), model.width, model.height, 8))
@@ -141,11 +179,24 @@ def capped_frame(plan: LightPlan, frame: np.ndarray, white_lux: np.ndarray, ambi
                                        "changed_pixel_share": round(changed, 4), "notes": notes}
 
 
-def write_report(folder, report: dict) -> str:
+def write_report(folder, report: dict, images: dict | None = None) -> str:
+    """light_report.json in the result folder, with its colour maps (name -> image, as PNGs): each file written
+    whole, all of them or none (common/atomic.commit), the report last. Its path."""
     path = os.path.join(os.fspath(folder), REPORT_FILE)
     data = json.dumps(report, indent=2, default=json_default_or_str, allow_nan=False).encode("utf-8")
-    commit([(path, data)])
+    commit(_pngs(folder, images or {}) + [(path, data)])
     return path
+
+
+def write_maps(folder, images: dict) -> None:
+    """The colour maps as PNGs in a folder of their own (the `report` command's --maps), all or none."""
+    os.makedirs(os.fspath(folder), exist_ok=True)
+    commit(_pngs(folder, images))
+
+
+def _pngs(folder, images: dict) -> list:
+    return [(os.path.join(os.fspath(folder), name + ".png"), encode_png(image, 8, name)) for name, image in
+            images.items()]
 
 
 def read_report(folder) -> dict | None:

@@ -144,12 +144,15 @@ def test_a_preset_shapes_the_projector_and_says_what_it_cannot_keep(lr):
 
 
 class _SceneLight:
-    """blender/light_plan_run.SceneLight's fake: flat light maps at the projector's size, and whether the
-    capture's lock was held (by someone) while each was rendered."""
+    """blender/light_plan_run.SceneLight's fake: flat light maps at the projector's size, one render a step, and
+    whether the capture's lock was held (by someone) while each was rendered."""
 
     def __init__(self, model, capture_root):
         self.model, self.capture_root = model, capture_root
-        self.renders, self.reported = [], []
+        self.size, self.scale, self.target_name = (16, 12), 1.0, "Wall"
+        self.row = {"name": "LAPIG Projector", "resolution": [model.width, model.height]}
+        self.renders = []
+        self.decoded = []  # the threads the passes became maps on
 
     def _lock_held(self) -> bool:
         from lapig.lapig_core.common.locking import FolderBusy, FolderLock
@@ -160,23 +163,35 @@ class _SceneLight:
             return True
         return False
 
-    def _maps(self, width, height):
-        white = np.full((height, width), 900.0)
-        region = np.zeros((height, width), bool)
-        region[height // 4: 3 * height // 4] = True
-        return SimpleNamespace(white_lux=white, ambient_lux=np.full((height, width), 5.0),
-                               on_object=np.ones((height, width), bool), region=region)
+    def _passes(self, width, height):
+        import threading
 
-    def room(self):
+        light = self
+
+        class Passes:
+            def maps(self):
+                light.decoded.append(threading.current_thread().name)
+                white = np.full((height, width), 900.0)
+                region = np.zeros((height, width), bool)
+                region[height // 4: 3 * height // 4] = True
+                return SimpleNamespace(white_lux=white, ambient_lux=np.full((height, width), 5.0),
+                                       albedo=np.full((height, width), 0.5), on_object=np.ones((height, width), bool),
+                                       region=region)
+
+            def discard(self):
+                pass
+
+        return Passes()
+
+    def room_steps(self, start=0.0, end=1.0):
+        yield start, "rendering the projector's light"
         self.renders.append(("room", self._lock_held()))
-        return self._maps(16, 12)
+        return self._passes(*self.size)
 
-    def native(self):
+    def native_steps(self, start=0.0, end=1.0):
+        yield start, "rendering the projector's light at its native size"
         self.renders.append(("native", self._lock_held()))
-        return self._maps(self.model.width, self.model.height)
-
-    def report(self, folder):
-        self.reported.append(folder)
+        return self._passes(self.model.width, self.model.height)
 
 
 def test_limit_look_to_the_dose_is_a_job_under_the_captures_lock_and_measures_on_the_factorys_device(seams, tmp_path):
@@ -207,7 +222,156 @@ def test_limit_look_to_the_dose_is_a_job_under_the_captures_lock_and_measures_on
     assert "psnr_cost_db" in out and out["psnr_free_db"] > 0  # both frames projected on the factory's rig
     new = out["folder"]
     assert seams.store.result[:2] == (new, "a look; simulated 30.0 dB | limited to the light dose")
-    assert light.reported == [new]  # its light report written
+    import threading
+
+    assert lr.read_report(new)["result"] == new  # its light report written, on the room maps rendered once
+    assert len(light.decoded) == 2 and threading.main_thread().name not in light.decoded
     capped = read_output_image(new, "projector")
     np.testing.assert_array_equal(seams.sinks[0].frames[-1].image, capped)  # the light and the live window show it
     assert capped.max() < 0.9 and read_summary(new)["dose_cap"]["capped_from"] == str(free)
+
+
+class _Passes:
+    """blender/light_render's LightPasses' fake: the renders' files, turned into flat maps where maps() runs."""
+
+    def __init__(self, light, width, height):
+        self.light, self.width, self.height = light, width, height
+        self.discarded = False
+
+    def maps(self):
+        import threading
+
+        self.light.decoded.append(threading.current_thread().name)
+        w, h = self.width, self.height
+        white = np.full((h, w), 450.0)  # at the light's power: scale makes it the plan's
+        white[:, w // 2:] = 360.0
+        region = np.zeros((h, w), bool)
+        region[h // 4: 3 * h // 4] = True
+        return SimpleNamespace(white_lux=white, ambient_lux=np.full((h, w), 5.0), albedo=np.full((h, w), 0.5),
+                               on_object=np.ones((h, w), bool), region=region)
+
+    def discard(self):
+        self.discarded = True
+
+
+class _ReportLight:
+    """blender/light_plan_run.SceneLight's fake for the report: read from the scene when made; each Cycles
+    render a step of its own (the thread that ran each one recorded); the passes' arithmetic where maps() runs."""
+
+    def __init__(self, model, size=(16, 12)):
+        self.model, self.size, self.scale, self.target_name = model, size, 2.0, "Wall"
+        self.row = {"name": "LAPIG Projector", "maker": "", "model": "", "resolution": [model.width, model.height],
+                    "lumens": 2000.0, "throw_ratio": 1.5, "shift_x": 0.0, "shift_y": 0.0,
+                    "position_m": (0.0, -3.0, 1.0), "rotation_deg": (90.0, 0.0, 0.0), "target_distance_m": 3.0}
+        self.renders = []  # (which, the thread it ran on)
+        self.decoded = []  # the threads the passes became maps on
+        self.passes = []
+
+    def room_steps(self, start=0.0, end=1.0):
+        import threading
+
+        yield start, "rendering the projector's light"
+        self.renders.append(("white", threading.current_thread().name))
+        yield (start + end) / 2, "rendering the room's light"
+        self.renders.append(("room", threading.current_thread().name))
+        self.passes.append(_Passes(self, *self.size))
+        return self.passes[-1]
+
+
+def _report_folder(tmp_path, model):
+    from lapig.lapig_core.export.result_files import write_new_result
+
+    look = np.full((model.height, model.width, 3), 0.6, np.float32)
+    look[:, : model.width // 2] = 0.9
+    return write_new_result(tmp_path / "results", "look", {"projector": look, "target": look}, {"prompt": "a look"})
+
+
+REPORT_FILES = ["light_contrast.png", "light_luminance.png", "light_lux.png", "light_report.json"]
+
+
+def test_light_report_is_a_job_whose_arithmetic_and_files_are_off_the_main_thread(tmp_path, monkeypatch):
+    """Issue 35: the renders are the job's main-thread steps, one a step; the maps' arithmetic, the report and
+    its files are a worker's, each file written whole (a temporary file renamed into place)."""
+    import os
+    import threading
+
+    from lapig.lapig_core.photometry import light_maps
+
+    job_module = importlib.import_module("lapig.lapig_addon.services.light_report_job")
+    lr = importlib.import_module("lapig.lapig_addon.services.light_report")
+    model = ProjectorModel(64, 48)
+    folder = _report_folder(tmp_path, model)
+    light = _ReportLight(model)
+    plan = lr.LightPlan(lumens=2000, ambient_lux=5, limit=dose.ConservationLimit("high"))
+    main = threading.main_thread().name
+    threads = {"arithmetic": set(), "renamed": {}}
+
+    def seen(function):
+        def wrapper(*args, **kwargs):
+            threads["arithmetic"].add(threading.current_thread().name)
+            return function(*args, **kwargs)
+        return wrapper
+
+    for name in ("light_summary", "lux_colour_map", "contrast_colour_map"):
+        monkeypatch.setattr(light_maps, name, seen(getattr(light_maps, name)))
+    replace = os.replace
+
+    def replace_and_see(src, dst, *args, **kwargs):
+        threads["renamed"][os.fspath(dst)] = (threading.current_thread().name, os.path.basename(os.fspath(src)))
+        return replace(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", replace_and_see)
+    job = job_module.LightReportJob(plan, light, str(folder), maps_dir=str(tmp_path / "maps"))
+    steps = 0
+    while job.step():  # one render a step, so the UI redraws (and Esc cancels) between them
+        rendered = len(light.renders)
+        steps += 1
+        assert rendered <= steps
+        if rendered < 2:
+            assert len(light.renders) == rendered
+    assert job.state == "DONE", job.message
+    report = job.result
+
+    assert [(which, thread) for which, thread in light.renders] == [("white", main), ("room", main)]
+    assert light.decoded and main not in light.decoded and light.passes[0].discarded
+    assert threads["arithmetic"] and main not in threads["arithmetic"], threads["arithmetic"]
+    written = {os.path.relpath(dst, tmp_path): info for dst, info in threads["renamed"].items()}
+    names = [os.path.join(os.path.relpath(folder, tmp_path), f) for f in REPORT_FILES]
+    names += [os.path.join("maps", f) for f in REPORT_FILES[:3]]
+    assert sorted(written) == sorted(names)
+    for path, (thread, temporary) in written.items():
+        assert thread != main and temporary.endswith(".tmp"), (path, thread, temporary)
+    assert sorted(p.name for p in folder.iterdir() if p.name.startswith("light_")) == REPORT_FILES
+    assert not [p for p in folder.iterdir() if p.name.startswith(".")]  # no temporary file left
+
+    # the figures: the passes scaled to the plan's lumens, the look's light on them
+    assert report["report_file"] == os.path.join(str(folder), "light_report.json")
+    assert report["result"] == str(folder) and report["maps"] == str(tmp_path / "maps")
+    saved = lr.read_report(folder)
+    assert saved == json.loads(json.dumps({k: v for k, v in report.items() if k != "report_file"}))
+    assert report["white_lux"]["max"] == pytest.approx(900.0) and report["dose"]["limit_lux"] == 50
+    assert report["projector_table_row"]["target_lux"] == pytest.approx(810.0)
+    brightest = lr.emitted_luma(model, lr.native_frame(folder, model)).max()  # the look's frame, not a white one
+    assert report["look_lux"]["max"] == pytest.approx(900.0 * brightest, abs=0.01) and brightest < 0.9
+
+
+def test_a_cancelled_light_report_leaves_the_previous_report_as_it_was(tmp_path):
+    """Esc between two renders: the job ends there, nothing is computed or written, the report files of the last
+    run stay byte for byte."""
+    job_module = importlib.import_module("lapig.lapig_addon.services.light_report_job")
+    lr = importlib.import_module("lapig.lapig_addon.services.light_report")
+    model = ProjectorModel(64, 48)
+    folder = _report_folder(tmp_path, model)
+    for i, name in enumerate(REPORT_FILES):
+        (folder / name).write_bytes(f"the previous {name} {i}".encode())
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    light = _ReportLight(model)
+    plan = lr.LightPlan(lumens=2000, ambient_lux=5)
+    job = job_module.LightReportJob(plan, light, str(folder), maps_dir=str(tmp_path / "maps"))
+    while len(light.renders) < 1:
+        assert job.step()
+    job.cancel()
+    job.stop()  # no work of the job runs any more
+    assert job.state == "CANCELLED" and len(light.renders) == 1 and not light.decoded
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    assert not (tmp_path / "maps").exists()

@@ -1,6 +1,8 @@
 """The lumens -> watts conversion checked by a Cycles render: a white panel's illuminance at the nine
 ANSI points is lumens / image area; a region that is not there is refused in one line."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -165,6 +167,7 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
 
     from lapig.lapig_addon.blender import light_render, scene_state
     from lapig.lapig_addon.blender.modal_runner import SLOTS
+    from lapig.lapig_addon.services import light_report
     from lapig.lapig_addon.services.jobs import WorkerJob
     from lapig.lapig_core.common.locking import LOCK_FILE, FolderLock, holder_of
 
@@ -195,19 +198,172 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
     while not (root / LOCK_FILE).exists():
         time.sleep(0.01)
     seen = []
-    render_maps = light_render.LightStudio.render_maps
+    render = light_render.LightStudio._render
 
-    def render_and_see(studio):  # the room's light, the projector's at its native size, the new look's report
+    def render_and_see(studio, *args, **kwargs):  # each Cycles render
         seen.append((train.paused, holder_of(root / LOCK_FILE)))
-        return render_maps(studio)
+        return render(studio, *args, **kwargs)
 
-    monkeypatch.setattr(light_render.LightStudio, "render_maps", render_and_see)
+    monkeypatch.setattr(light_render.LightStudio, "_render", render_and_see)
     try:
         assert bpy.ops.lapig.light_cap() == {"FINISHED"}
+        # the projector's light and the room's at the report's size, the projector's at its native size; the new
+        # look's report is made on those room maps
         assert len(seen) == 3 and all(paused for paused, _ in seen), "the background Train was not paused"
-        for _, holder in seen[:2]:  # the cap's renders: the cap holds the capture's folder
+        for _, holder in seen:  # the cap's renders: the cap holds the capture's folder
             assert holder.startswith("LAPIG limit to the dose"), holder
+        assert light_report.read_report(scene.lapig.result_dir)["dose"]["limit_lux"] == 50
         assert scene.lapig.result_dir.endswith("_dose_cap") and not train.pause_requested  # Train goes on
     finally:
         SLOTS.cancel_background()
         SLOTS.end_background(train, None)
+
+
+RECORDED_REPORT = Path(__file__).with_name("light_report_before_job.json")  # the synchronous path's report
+
+
+def _report_scene(small_setup, tmp_path):
+    """The small rig with a look at the projector's native size, a Panasonic in a 10 lux room and the object
+    marked 'high': the light report renders the projector's light and the room's (two Cycles renders)."""
+    from test_existing_result import write_fake_result
+
+    scene, projector = small_setup[:2]
+    p = projector.lapig_projector
+    scene.lapig.result_dir = write_fake_result(tmp_path / "result", p.resolution_x, p.resolution_y)
+    s = scene.lapig_light
+    s.preset, s.ambient_lux, s.category = "panasonic-pt-lb90", 10.0, "HIGH"
+    return scene, scene.lapig.result_dir
+
+
+def _comparable(report: dict) -> dict:
+    """The report without the paths of this run's folders."""
+    return {k: v for k, v in report.items() if k not in ("result", "report_file", "maps")}
+
+
+def _same_numbers(got, want, exact: bool, where="report"):
+    """Equal where the recording's Blender renders (Cycles is deterministic there); within 2% elsewhere."""
+    if isinstance(want, dict):
+        assert isinstance(got, dict) and sorted(got) == sorted(want), where
+        for key in want:
+            _same_numbers(got[key], want[key], exact, f"{where}.{key}")
+    elif isinstance(want, list):
+        assert isinstance(got, (list, tuple)) and len(got) == len(want), where
+        for i, (g, w) in enumerate(zip(got, want)):
+            _same_numbers(g, w, exact, f"{where}[{i}]")
+    elif isinstance(want, (int, float)) and not isinstance(want, bool):
+        assert got == (want if exact else pytest.approx(want, rel=0.02, abs=0.02)), where
+    elif exact or not isinstance(want, str):
+        assert got == want, where
+
+
+def test_light_report_is_a_job_that_pauses_the_background_train_and_reports_as_before(small_setup, tmp_path,
+                                                                                      monkeypatch, capsys):
+    """Issue 35: Light Report runs as a foreground job: the background Train pauses before its first render and
+    goes on afterwards, the Cycles renders run on the main thread (one a step), and the report is the one the
+    synchronous path wrote on the same scene (recorded in light_report_before_job.json), as is the `report`
+    command's, which runs the same job."""
+    import json
+    import threading
+    import time
+    from argparse import Namespace
+
+    from lapig.lapig_addon.blender import light_render
+    from lapig.lapig_addon.blender.modal_runner import SLOTS
+    from lapig.lapig_addon.cli import report_command
+    from lapig.lapig_addon.services import light_report
+    from lapig.lapig_addon.services.jobs import WorkerJob
+
+    scene, folder = _report_scene(small_setup, tmp_path)
+
+    class Training(WorkerJob):
+        title = "LAPIG training"
+
+        def work(self, inputs, report, cancel_event):
+            while not cancel_event.is_set():
+                report(0.5, "training")
+                time.sleep(0.01)
+
+    train = Training()
+    train.poll_timeout = 0
+    assert SLOTS.start_background(train)
+    SLOTS.step_background()
+    seen = []  # at each Cycles render: whether Train was paused, and the thread
+    render = light_render.LightStudio._render
+
+    def render_and_see(studio, *args, **kwargs):
+        seen.append((train.paused, threading.current_thread() is threading.main_thread()))
+        return render(studio, *args, **kwargs)
+
+    monkeypatch.setattr(light_render.LightStudio, "_render", render_and_see)
+    try:
+        assert bpy.ops.lapig.light_report() == {"FINISHED"}
+        assert seen == [(True, True), (True, True)], seen  # the projector's light and the room's, Train paused
+        assert not train.pause_requested and not train.finished  # Train goes on
+    finally:
+        SLOTS.cancel_background()
+        SLOTS.end_background(train, None)
+    assert scene.lapig.preview_mode == "LUX"
+    recorded = json.loads(RECORDED_REPORT.read_text())
+    exact = bpy.app.version_string == recorded["blender"]
+    report = light_report.read_report(folder)
+    _same_numbers(_comparable(report), recorded["report"], exact)
+
+    # the `report` command runs the same job: the same figures, printed
+    args = Namespace(blend=None, save=False, result=folder, preset="panasonic-pt-lb90", list_presets=False,
+                     lumens=0.0, contrast=0.0, ambient_lux=10.0, lamp_direction=None, category="high",
+                     limit_lux=50.0, hours_per_day=8.0, days_per_year=300.0, region_material="", region_group="",
+                     map_width=160, maps=str(tmp_path / "maps"), cap_out=None, cap_result=False, psnr=False,
+                     apply=False)
+    capsys.readouterr()
+    assert report_command.cmd_report(args) == 0
+    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    _same_numbers(_comparable(printed), recorded["report"], exact)
+    assert sorted(p.name for p in (tmp_path / "maps").iterdir()) == ["light_contrast.png", "light_luminance.png",
+                                                                      "light_lux.png"]
+
+
+def test_the_light_panel_shows_the_reports_progress_and_says_why_its_buttons_are_off(lapig_registered, small_setup):
+    """While a foreground job runs, the Light Report's progress line shows (Esc cancels), and its button is off: the
+    job slots hold one foreground job and queue none, which its tooltip says."""
+    from test_panels import RecordingLayout
+
+    from lapig.lapig_addon.blender.modal_runner import SLOTS
+    from lapig.lapig_addon.services.jobs import Job
+    from lapig.lapig_addon.services.light_report_job import LightReportJob
+    from lapig.operators.light_ops import LAPIG_OT_light_report
+    from lapig.panels.light_panel import LAPIG_PT_light
+
+    class Layout(RecordingLayout):
+        def prop_search(self, *args, **kwargs):
+            pass
+
+        def operator(self, idname, **kwargs):
+            self.log.append(("enabled", idname, self.enabled))
+            return super().operator(idname, **kwargs)
+
+        def _child(self, *args, **kwargs):
+            return Layout(self.log)
+
+        row = column = box = split = _child
+
+    def drawn():
+        log = []
+        LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+        return log
+
+    bpy.context.scene.lapig_light.preset = "optoma-ml500"
+    assert ("enabled", "lapig.light_report", True) in drawn()
+    tip = LAPIG_OT_light_report.description(bpy.context, None)
+    assert tip.startswith("Render the look's light in lux") and "queue" not in tip
+    job = Job()
+    job.title, job.state, job.progress, job.message = LightReportJob.title, "RUNNING", 0.4, "rendering the room's light"
+    assert SLOTS.start_foreground(job) is None
+    try:
+        log = drawn()
+        assert ("progress", "rendering the room's light (Esc to cancel)") in log
+        assert ("enabled", "lapig.light_report", False) in log
+        tip = LAPIG_OT_light_report.description(bpy.context, None)
+        assert tip.startswith("Render the look's light in lux")
+        assert "Off while LAPIG light report runs" in tip and "does not queue another" in tip
+    finally:
+        SLOTS.end_foreground(job)

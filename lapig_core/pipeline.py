@@ -21,7 +21,7 @@ from .photometric.classical import ClassicalModel
 from .photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator
 from .photometric.first_look import load_first_look
 from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
-from .lgst import DEFAULT_BACKEND, LGSTBackend, LGSTUnavailable, backend_class, get_backend
+from .lgst import DEFAULT_BACKEND, LGSTBackend, backend_class, prepared_backend
 from .native_output import NativeResult, native_output
 from .photometric.surface_models import SurfaceModels
 from .psa.adaptation import PSAResult, PSASettings, run_psa, without_psa
@@ -250,16 +250,7 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     # LGST sees the white-lit surface (as the paper)
     surface = SurfaceTensors.from_capture_set(cs).i_max.to(device)
     backend_options = with_device(backend, backend_options, device)
-    lgst, fallback = get_backend(backend, **backend_options), None
-    try:
-        lgst.prepare(surface, prompt, seed=seed, mix=mix)
-    except LGSTUnavailable as exc:
-        if backend == DEFAULT_BACKEND:
-            raise
-        # e.g. InstructPix2Pix without its weights: say why, and use the offline default
-        fallback = f"'{backend}' is not available ({exc}); used '{DEFAULT_BACKEND}' instead"
-        lgst = get_backend(DEFAULT_BACKEND)
-        lgst.prepare(surface, prompt, seed=seed, mix=mix)
+    lgst, fallback = prepared_backend(backend, surface, prompt, seed=seed, mix=mix, options=backend_options)
     plain = without_psa(lgst, models)
     adapted = None
     if psa:

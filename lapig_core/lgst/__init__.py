@@ -18,5 +18,24 @@ register_backend(DEFAULT_BACKEND, StyleTransferBackend)
 register_backend("arbitrary", ArbitraryStyleBackend)  # reference-image styles (style_images=[...])
 register_backend("instruct-pix2pix", InstructPix2PixBackend)  # optional: diffusers + weights, loaded lazily
 
+
+
+def prepared_backend(backend: str, surface, prompt: str, seed: int = 0, mix=None, options=None):
+    """(the backend prepared for ``surface`` and ``prompt``, why it fell back or None): a backend that cannot
+    run here (e.g. InstructPix2Pix without its weights) falls back to the offline default, and says why."""
+    lgst = get_backend(backend, **(options or {}))
+    try:
+        lgst.prepare(surface, prompt, seed=seed, mix=mix)
+        return lgst, None
+    except LGSTUnavailable as exc:
+        if backend == DEFAULT_BACKEND:
+            raise
+        fallback = f"'{backend}' is not available ({exc}); used '{DEFAULT_BACKEND}' instead"
+    lgst = get_backend(DEFAULT_BACKEND)
+    lgst.prepare(surface, prompt, seed=seed, mix=mix)
+    return lgst, fallback
+
+
 __all__ = ["ArbitraryStyleBackend", "BACKENDS", "DEFAULT_BACKEND", "InstructPix2PixBackend", "LGSTBackend", "LGSTUnavailable",
-           "StyleTransferBackend", "available_backends", "backend_class", "get_backend", "register_backend"]
+           "StyleTransferBackend", "available_backends", "backend_class", "get_backend", "prepared_backend",
+           "register_backend"]

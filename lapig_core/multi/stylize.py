@@ -62,18 +62,10 @@ def make_look(surface: np.ndarray, prompt: str, backend: str, seed: int = 0, mix
               working_size: int = 256) -> tuple[np.ndarray, dict]:
     """(the look at the surface's size (H,W,3) float32, the backend's describe()). A backend that cannot run
     here falls back to the offline default, as one projector's stylize does, and says so."""
-    from ..lgst import DEFAULT_BACKEND, LGSTUnavailable, get_backend
+    from ..lgst import prepared_backend
 
     small = _tensor(working_surface(surface, working_size))
-    lgst, fallback = get_backend(backend, **(backend_options or {})), None
-    try:
-        lgst.prepare(small, prompt, seed=seed, mix=mix)
-    except LGSTUnavailable as exc:
-        if backend == DEFAULT_BACKEND:
-            raise
-        fallback = f"'{backend}' is not available ({exc}); used '{DEFAULT_BACKEND}' instead"
-        lgst = get_backend(DEFAULT_BACKEND)
-        lgst.prepare(small, prompt, seed=seed, mix=mix)
+    lgst, fallback = prepared_backend(backend, small, prompt, seed=seed, mix=mix, options=backend_options)
     look = _image(lgst.render_at(_tensor(surface)))
     describe = lgst.describe()
     if fallback:

@@ -32,6 +32,31 @@ def _panel_and_projector(albedo=0.8):
 
 
 @pytest.mark.parametrize("frame,size", [((800, 600), (48, 36)), ((1280, 800), (48, 30))])
+
+def _train_in_the_background(slots, hold=None):
+    """A stand-in for Train, started in the background job slot: it reports (a pause point) until cancelled;
+    hold(job): the lock it takes (None: none)."""
+    import time
+
+    from lapig.lapig_addon.services.jobs import WorkerJob
+
+    class Training(WorkerJob):
+        title = "LAPIG training"
+
+        def hold(self, inputs):
+            return hold(self) if hold is not None else super().hold(inputs)
+
+        def work(self, inputs, report, cancel_event):
+            while not cancel_event.is_set():
+                report(0.5, "training")
+                time.sleep(0.01)
+
+    train = Training()
+    train.poll_timeout = 0
+    assert slots.start_background(train)
+    slots.step_background()
+    return train
+
 def test_rendered_lux_on_a_white_panel_is_lumens_per_area(lapig_registered, frame, size):
     from lapig.lapig_addon.blender import light_render, scene_state
     from lapig.lapig_core.photometry import units
@@ -168,7 +193,6 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
     from lapig.lapig_addon.blender import light_render, scene_state
     from lapig.lapig_addon.blender.modal_runner import SLOTS
     from lapig.lapig_addon.services import light_report
-    from lapig.lapig_addon.services.jobs import WorkerJob
     from lapig.lapig_core.common.locking import LOCK_FILE, FolderLock, holder_of
 
     scene, projector = small_setup[:2]
@@ -180,21 +204,7 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
     s = scene.lapig_light
     s.preset, s.ambient_lux, s.category = "panasonic-pt-lb90", 10.0, "HIGH"
 
-    class TrainHoldingTheCapture(WorkerJob):
-        title = "LAPIG training"
-
-        def hold(self, inputs):
-            return FolderLock(root, self.title).acquire()
-
-        def work(self, inputs, report, cancel_event):
-            while not cancel_event.is_set():
-                report(0.5, "training")
-                time.sleep(0.01)
-
-    train = TrainHoldingTheCapture()
-    train.poll_timeout = 0
-    assert SLOTS.start_background(train)
-    SLOTS.step_background()
+    train = _train_in_the_background(SLOTS, lambda job: FolderLock(root, job.title).acquire())
     while not (root / LOCK_FILE).exists():
         time.sleep(0.01)
     seen = []
@@ -271,22 +281,10 @@ def test_light_report_is_a_job_that_pauses_the_background_train_and_reports_as_b
     from lapig.lapig_addon.blender.modal_runner import SLOTS
     from lapig.lapig_addon.cli import report_command
     from lapig.lapig_addon.services import light_report
-    from lapig.lapig_addon.services.jobs import WorkerJob
 
     scene, folder = _report_scene(small_setup, tmp_path)
 
-    class Training(WorkerJob):
-        title = "LAPIG training"
-
-        def work(self, inputs, report, cancel_event):
-            while not cancel_event.is_set():
-                report(0.5, "training")
-                time.sleep(0.01)
-
-    train = Training()
-    train.poll_timeout = 0
-    assert SLOTS.start_background(train)
-    SLOTS.step_background()
+    train = _train_in_the_background(SLOTS)
     seen = []  # at each Cycles render: whether Train was paused, and the thread
     render = light_render.LightStudio._render
 

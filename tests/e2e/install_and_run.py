@@ -68,7 +68,9 @@ def run_the_real_rig_on_simulated_hardware():
     # Find Cameras lists the machine's own (none on CI): it must run, not fail to import
     assert bpy.ops.lapig.find_devices() == {"FINISHED"}
     listed = device_list.found()
-    assert listed is not None and not [p for p in listed.problems if "No module named" in p], listed.problems
+    # (the displays may be missing for a reason of their own: no screen here)
+    assert listed is not None and not [p for p in listed.problems if p.startswith("the cameras could not be listed")
+                                       or "No module named 'lapig" in p], listed.problems
     real_rig._projector_window, real_rig._camera, real_rig._clock = window, camera, lambda: clock
     s = bpy.context.scene.lapig
     s.rig_kind = "REAL"

@@ -31,8 +31,6 @@ def _panel_and_projector(albedo=0.8):
     return panel, projector
 
 
-@pytest.mark.parametrize("frame,size", [((800, 600), (48, 36)), ((1280, 800), (48, 30))])
-
 def _train_in_the_background(slots, hold=None):
     """A stand-in for Train, started in the background job slot: it reports (a pause point) until cancelled;
     hold(job): the lock it takes (None: none)."""
@@ -57,6 +55,8 @@ def _train_in_the_background(slots, hold=None):
     slots.step_background()
     return train
 
+
+@pytest.mark.parametrize("frame,size", [((800, 600), (48, 36)), ((1280, 800), (48, 30))])
 def test_rendered_lux_on_a_white_panel_is_lumens_per_area(lapig_registered, frame, size):
     from lapig.lapig_addon.blender import light_render, scene_state
     from lapig.lapig_core.photometry import units

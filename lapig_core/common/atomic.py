@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import glob
+import io
 import os
 import shutil
 import tempfile
@@ -117,6 +118,15 @@ def atomic_write_bytes(path, data: bytes) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     commit([(path, data)])
     return path
+
+
+def atomic_write_npz(path, arrays: dict, compressed: bool = False) -> Path:
+    """An .npz of `arrays` at exactly `path` (numpy would append .npz to other names), whole or not at all."""
+    import numpy as np
+
+    buf = io.BytesIO()
+    (np.savez_compressed if compressed else np.savez)(buf, **arrays)
+    return atomic_write_bytes(path, buf.getvalue())
 
 
 def remove_partial_writes(path) -> None:

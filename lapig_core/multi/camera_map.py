@@ -139,6 +139,18 @@ class CameraMap:
         return np.where(on if filled.ndim == 2 else on[..., None], filled, np.float32(outside)).astype(np.float32)
 
 
+def maps_to_arrays(maps) -> dict:
+    """The arrays an .npz keeps of several projectors' maps (maps_from_arrays reads them back)."""
+    return {"map_xy": np.stack([np.stack([m.map_x, m.map_y]) for m in maps]),
+            "valid": np.stack([m.valid for m in maps]),
+            "projector_sizes": np.array([m.projector_size for m in maps])}
+
+
+def maps_from_arrays(z) -> list:
+    return [CameraMap(xy[0], xy[1], v, tuple(int(s) for s in size))
+            for xy, v, size in zip(z["map_xy"], z["valid"], z["projector_sizes"])]
+
+
 def _derivative(m: np.ndarray, ok: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
     """d m / d(axis) from the valid neighbours only: the mean of the forward and backward differences
     that exist (the central difference inside, one-sided at an edge); and where one existed."""

@@ -16,16 +16,15 @@ One projector's data set (capture/dataset.py) is another layout; `is_multi` tell
 """
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..capture import dataset as ds
-from ..common.atomic import atomic_write_bytes
+from ..common.atomic import atomic_write_npz
 from ..common.imageio import read_image
-from .camera_map import CameraMap
+from .camera_map import CameraMap, maps_from_arrays, maps_to_arrays
 
 MULTI_KEY = "multi"
 CAMERA_MAPS = "camera_maps.npz"
@@ -55,17 +54,12 @@ def is_multi(folder) -> bool:
 
 
 def save_camera_maps(path, maps) -> None:
-    buf = io.BytesIO()
-    np.savez_compressed(buf, map_xy=np.stack([np.stack([m.map_x, m.map_y]) for m in maps]),
-                        valid=np.stack([m.valid for m in maps]),
-                        projector_sizes=np.array([m.projector_size for m in maps]))
-    atomic_write_bytes(path, buf.getvalue())
+    atomic_write_npz(path, maps_to_arrays(maps), compressed=True)
 
 
 def load_camera_maps(path) -> list[CameraMap]:
     with np.load(path, allow_pickle=False) as z:
-        return [CameraMap(xy[0], xy[1], v, tuple(int(s) for s in size))
-                for xy, v, size in zip(z["map_xy"], z["valid"], z["projector_sizes"])]
+        return maps_from_arrays(z)
 
 
 @dataclass(eq=False)

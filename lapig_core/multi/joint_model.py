@@ -15,18 +15,17 @@ over all those captures (the black ones tie o down for every projector at once).
 """
 from __future__ import annotations
 
-import io
 import time
 from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
-from ..common.atomic import atomic_write_bytes
+from ..common.atomic import atomic_write_npz
 from ..common.small_spd import spd_solve
 from ..photometric.classical import (ClassicalModel, _as_float_images, _design, _normal_matrix, _to_unit,
                                      search_gammas)
-from .camera_map import CameraMap
+from .camera_map import CameraMap, maps_from_arrays, maps_to_arrays
 
 _SEARCH_PIXELS = 2000
 _CHUNK = 16384  # camera pixels per block of the least squares: bounds memory at (chunk, N_k, 4) float64
@@ -167,21 +166,14 @@ class JointModel:
     # ------------------------------------------------------------------ storage
     def save(self, path) -> None:
         """An .npz at exactly `path`, whole or not at all."""
-        buf = io.BytesIO()
-        np.savez(buf, gamma_c=np.float64(self.gamma_c), gamma_p=np.array(self.gamma_p), M=self.M, o=self.o,
-                 map_xy=np.stack([np.stack([m.map_x, m.map_y]) for m in self.maps]),
-                 valid=np.stack([m.valid for m in self.maps]),
-                 projector_sizes=np.array([m.projector_size for m in self.maps]),
-                 residual=np.float64(self.residual), together_rms=np.float64(self.together_rms),
-                 format_version=np.int64(1))
-        atomic_write_bytes(path, buf.getvalue())
+        atomic_write_npz(path, dict(gamma_c=np.float64(self.gamma_c), gamma_p=np.array(self.gamma_p), M=self.M,
+                                    o=self.o, **maps_to_arrays(self.maps), residual=np.float64(self.residual),
+                                    together_rms=np.float64(self.together_rms), format_version=np.int64(1)))
 
     @classmethod
     def load(cls, path) -> "JointModel":
         with np.load(path, allow_pickle=False) as z:
-            maps = [CameraMap(xy[0], xy[1], v, tuple(s)) for xy, v, s in
-                    zip(z["map_xy"], z["valid"], z["projector_sizes"])]
-            model = cls(float(z["gamma_c"]), tuple(z["gamma_p"]), z["M"], z["o"], maps)
+            model = cls(float(z["gamma_c"]), tuple(z["gamma_p"]), z["M"], z["o"], maps_from_arrays(z))
             model.residual, model.together_rms = float(z["residual"]), float(z["together_rms"])
         return model
 

@@ -16,13 +16,12 @@ fitted camera response, then fit M and o by least squares, all pixels at once.
 """
 from __future__ import annotations
 
-import io
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..common.atomic import atomic_write_bytes
+from ..common.atomic import atomic_write_npz
 from ..common.small_spd import spd_inverse, spd_solve
 
 GAMMA_RANGE = (1.0, 3.0)
@@ -351,12 +350,10 @@ class ClassicalModel:
 
     # ------------------------------------------------------------------ storage
     def save(self, path) -> None:
-        """Write an .npz at exactly `path` (numpy would append .npz to other names), whole or not at all."""
-        buf = io.BytesIO()
-        np.savez(buf, gamma_c=np.float64(self.gamma_c), gamma_p=np.float64(self.gamma_p),
-                 M=self.M, o=self.o, residual=np.float64(self.residual),
-                 fit_seconds=np.float64(self.fit_seconds), format_version=np.int64(1))
-        atomic_write_bytes(path, buf.getvalue())
+        """Write an .npz at exactly `path`, whole or not at all."""
+        atomic_write_npz(path, dict(gamma_c=np.float64(self.gamma_c), gamma_p=np.float64(self.gamma_p),
+                                    M=self.M, o=self.o, residual=np.float64(self.residual),
+                                    fit_seconds=np.float64(self.fit_seconds), format_version=np.int64(1)))
 
     @classmethod
     def load(cls, path) -> "ClassicalModel":

@@ -324,6 +324,7 @@ def _iterations(args, scene) -> int | None:
 
 def cmd_show(args) -> int:
     """The scene's look on the projector window, live, until Esc in the window (or --seconds)."""
+    from ...lapig_core.multi.result_files import is_multi_result
     from ..rigs import live_output
     from ..services import export_result
 
@@ -335,7 +336,7 @@ def cmd_show(args) -> int:
     folder = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     if not folder:
         raise ValueError("the scene has no result yet: run stylize first, or pass --result")
-    if "multi" in export_result.read_summary(folder):
+    if is_multi_result(folder):
         raise ValueError("show plays one projector's look for now: this result has one image per projector")
     settings = scene_state.export_settings(scene, crossfade_frames=args.frames)
     frame = export_result.result_frame(store, folder, settings.bit_depth)

@@ -11,6 +11,7 @@ import os
 from ...lapig_core.export import projector_image as export
 from ...lapig_core.export.result_files import (output_name, read_output_image, read_result_image, read_summary,
                                                stored_bit_depth)
+from ...lapig_core.multi.result_files import is_multi_result
 from . import light_sidecar
 from .export_source import addon_version, result_folder
 from .ports import ProjectorFrame
@@ -58,7 +59,7 @@ def export_current(store, settings: ExportSettings, result: str | None = None) -
     """Write the projector image of `result` (None: the scene's result)."""
     _check(settings)
     folder = result_folder(store, result)
-    if "multi" in read_summary(folder):  # one image per projector: services/multi_export writes them
+    if is_multi_result(folder):  # one image per projector: services/multi_export writes them
         from .multi_export import export_multi
 
         return export_multi(store, settings, folder)
@@ -74,7 +75,7 @@ def export_crossfade(store, directory: str, settings: ExportSettings, result: st
     """Write the crossfade frames of `result` (None: the scene's result) into `directory` (absolute)."""
     _check(settings)
     folder = result_folder(store, result)
-    if "multi" in read_summary(folder):
+    if is_multi_result(folder):
         raise ValueError("a crossfade is made of one projector's images for now: this result has several")
     if not directory:
         raise ValueError("Choose a folder for the crossfade frames")

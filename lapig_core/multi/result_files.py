@@ -41,7 +41,7 @@ def write_joint_result(root, name: str, look, surface: np.ndarray, names, sizes,
     predicted = look.compensation.predicted
     images = {"look": look.target, "predicted": predicted, "surface": surface}
     images.update({projector_image_name(k): frame for k, frame in enumerate(frames)})
-    psnr = masked_psnr(predicted, look.target, reached) if reached.any() else float("nan")
+    psnr = masked_psnr(predicted, look.target, reached)  # nan where nothing is reached
     tiles = [(surface, "surface (all projectors white)"), (look.target, "look"), (predicted, "predicted capture")]
     tiles += [(frame, f"{names[k]}") for k, frame in enumerate(frames)]
     images["comparison"] = labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles], columns=3, cell=256,

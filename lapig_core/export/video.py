@@ -71,14 +71,17 @@ def _open_stream(container, codec: codec_table.VideoCodec, pix_fmt: str, size, r
     options = dict(codec.options)
     ctx = stream.codec_context
     ctx.time_base = 1 / rate
-    if intra_only or codec.intra:
-        ctx.gop_size = 1
-        if codec.encoder == "libx264":
+    # a keyframe a second (seeking and looping stay quick), or every frame one
+    keyint = 1 if intra_only or codec.intra else max(1, round(float(rate)))
+    if codec.encoder == "libx265":
+        # through x265's own parameters: with the codec context's gop_size, an .mp4 or .mov at 1080p failed
+        # with 'Not yet implemented in FFmpeg' (av 18.0.0)
+        options["x265-params"] = options.get("x265-params", "") + f":keyint={keyint}:open-gop=0" + \
+            (":min-keyint=1:scenecut=0" if keyint == 1 else "")
+    else:
+        ctx.gop_size = keyint
+        if keyint == 1 and codec.encoder == "libx264":
             options["x264-params"] = "keyint=1:min-keyint=1:scenecut=0"
-        elif codec.encoder == "libx265":
-            options["x265-params"] = options.get("x265-params", "") + ":keyint=1:min-keyint=1:scenecut=0"
-    elif codec.encoder in ("libx264", "libx265"):
-        ctx.gop_size = max(1, round(float(rate)))  # a keyframe a second: seeking and looping stay quick
     if codec.encoder == "libx265":
         ctx.codec_tag = "hvc1"  # Apple's players need it
     if codec.yuv:
@@ -98,27 +101,12 @@ def _video_frame(av, pixels, pix_fmt: str, codec: codec_table.VideoCodec):
     return frame.reformat(format=pix_fmt)
 
 
-@contextlib.contextmanager
-def _ffmpeg_logging(av):
-    """FFmpeg's errors to Python's logging while encoding. With PyAV's default (its logging off), libx265 in an
-    .mp4 or .mov at 1080p failed every time with 'Not yet implemented in FFmpeg' (av 18.0.0); with a level set it
-    encodes. The level the process had is put back."""
-    previous = av.logging.get_level()
-    if previous is None:
-        av.logging.set_level(av.logging.ERROR)
-    try:
-        yield
-    finally:
-        if previous is None:
-            av.logging.set_level(None)
-
-
 def _encode(av, tmp: Path, fmt: str, frames, codec, pix_fmt, size, rate, bit_depth, intra_only, count,
             cancel_event, on_progress) -> int:
     """Every frame into the file at tmp; returns how many were written."""
     written = 0
     step = max(1, (count or 100) // 100)
-    with _ffmpeg_logging(av), av.open(str(tmp), mode="w", format=fmt) as container:
+    with av.open(str(tmp), mode="w", format=fmt) as container:
         stream = _open_stream(container, codec, pix_fmt, size, rate, intra_only)
         last_source, last_frame = None, None
         for index, frame in enumerate(frames):
@@ -171,7 +159,6 @@ def write_video(frames, path, fps, size, codec, bit_depth: int = 8, cancel_event
         raise ExportError(f"show must be a dict, got {type(show).__name__}")
 
     import av
-    import av.logging
 
     atomic.remove_partial_writes(target)  # what a killed export left
     tmp = atomic.temporary_beside(target, write_error)

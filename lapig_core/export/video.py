@@ -74,9 +74,9 @@ def _open_stream(container, codec: codec_table.VideoCodec, pix_fmt: str, size, r
     # a keyframe a second (seeking and looping stay quick), or every frame one
     keyint = 1 if intra_only or codec.intra else max(1, round(float(rate)))
     if codec.encoder == "libx265":
-        # through x265's own parameters: with the codec context's gop_size, an .mp4 or .mov at 1080p failed
-        # with 'Not yet implemented in FFmpeg' (av 18.0.0)
-        options["x265-params"] = options.get("x265-params", "") + f":keyint={keyint}:open-gop=0" + \
+        # no B-frames: with them, a short show (2 frames at 1080p) in an .mp4 or .mov failed at the end with
+        # 'Not yet implemented in FFmpeg' (av 18.0.0); a media server decodes and scrubs I/P frames more easily
+        options["x265-params"] = options.get("x265-params", "") + f":keyint={keyint}:open-gop=0:bframes=0" + \
             (":min-keyint=1:scenecut=0" if keyint == 1 else "")
     else:
         ctx.gop_size = keyint

@@ -110,3 +110,17 @@ def test_frame_rates_are_exact_fractions(fps, expected):
 
 def test_the_disk_check_passes_where_there_is_room(tmp_path):
     assert show_output.check_disk_space(tmp_path, 10, 1000, "tiny") == 10000
+
+
+def test_no_export_module_imports_av_at_import_time():
+    """The torch-free Blender tier imports the export package without PyAV: `av` only inside functions."""
+    import ast
+    import pathlib
+
+    import lapig.lapig_core.export as export
+
+    for path in sorted(pathlib.Path(export.__file__).parent.glob("*.py")):
+        for node in ast.parse(path.read_text()).body:  # module-level statements only
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            assert not any(n == "av" or n.startswith("av.") for n in names), f"{path.name} imports av at import"

@@ -84,8 +84,9 @@ def av_problem() -> str | None:
     try:
         import av  # noqa: F401
     except Exception as exc:  # ImportError, or a wheel for another platform (OSError)
-        return (f"video export needs PyAV ('pip install {AV_PIN}' into Blender's Python, or the add-on zip "
-                f"that bundles it): {type(exc).__name__}: {exc}; PNG image sequences work without it")
+        why = "" if isinstance(exc, ModuleNotFoundError) else f" (importing it failed: {type(exc).__name__}: {exc})"
+        return (f"video export needs PyAV: install it with 'pip install {AV_PIN}' into Blender's Python, or use "
+                f"the add-on zip that bundles it{why}; PNG image sequences work without it")
     return None
 
 

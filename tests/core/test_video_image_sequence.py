@@ -124,3 +124,20 @@ def test_no_export_module_imports_av_at_import_time():
             names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
                 [node.module or ""] if isinstance(node, ast.ImportFrom) else []
             assert not any(n == "av" or n.startswith("av.") for n in names), f"{path.name} imports av at import"
+
+
+def test_without_pyav_video_says_what_to_install_and_sequences_still_work(tmp_path, monkeypatch):
+    import sys
+
+    from lapig.lapig_core.export import codecs
+    from lapig.lapig_core.export.video import write_video
+
+    monkeypatch.setitem(sys.modules, "av", None)  # import av raises ModuleNotFoundError
+    table = codecs.availability()
+    assert set(table) == set(codecs.NAMES) and len(set(table.values())) == 1
+    line = table["h264"]
+    assert line.startswith("video export needs PyAV: install it with 'pip install av==18.0.0'") and "\n" not in line
+    with pytest.raises(codecs.VideoExportError, match="video export needs PyAV"):
+        write_video(_frames(2), tmp_path / "show.mp4", 30, (W, H), "h264")
+    out = write_image_sequence(_frames(2), tmp_path / "seq", 30)
+    assert out["frames"] == 2 and list(tmp_path.iterdir()) == [tmp_path / "seq"]

@@ -73,7 +73,7 @@ CODECS = {
     # worst case of run-length coding: every pixel a literal, plus a byte per run and the line headers
     "lossless": VideoCodec("lossless", "QuickTime Animation (lossless)", "qtrle", (".mov",), {8: "rgb24"},
                            bytes_per_pixel=3.1),
-    "hap": VideoCodec("hap", "HAP", "hap", (".mov",), {8: "rgb0"}, {"format": "hap"}, bytes_per_pixel=1.0,
+    "hap": VideoCodec("hap", "HAP", "hap", (".mov",), {8: "rgba"}, {"format": "hap"}, bytes_per_pixel=1.0,
                       intra=True, missing="HAP needs an FFmpeg built with snappy"),
 }
 NAMES = tuple(CODECS)

@@ -5,7 +5,7 @@
                          *, size=None, show=None, frame_count=None, lapig_version=None) -> dict
 
 - frames: as video.write_video takes them (float [0, 1], uint8 or uint16 (H, W, 3)); a hold given as the same
-  array object again is encoded once and its PNG bytes written again.
+  array object again is encoded once and its PNG bytes written again (show_output.RepeatedFrame).
 - folder: the sequence's own folder: <folder>/frame_000001.png ... and <folder>/sequence.json (the sidecar:
   size, fps, frame count, duration, bit depth, the caller's metadata and `show`). Its parent must exist. A
   folder that exists must be empty or hold a previous sequence (frame_*.png and sequence.json only): another
@@ -28,8 +28,8 @@ from pathlib import Path
 from ..common.imageio import encode_png
 from ..common.scratch import ScratchFolder
 from .projector_image import ExportError, sidecar_bytes, software_info, utc_now, write_error
-from .show_output import (Cancelled, check_disk_space, check_size, check_writable, frame_pixels, frame_rate,
-                          known_count)
+from .show_output import (Cancelled, RepeatedFrame, check_disk_space, check_size, check_writable, frame_pixels,
+                          frame_rate, known_count)
 
 __all__ = ["write_image_sequence", "frame_name", "SIDECAR_NAME", "Cancelled"]
 
@@ -89,7 +89,7 @@ def write_image_sequence(frames, folder, fps, bit_depth: int = 8, cancel_event=N
     scratch = ScratchFolder(folder.parent, _scratch_prefix(folder))
     files: list[Path] = []
     try:
-        last_source, last_png = None, None
+        repeated, last_png = RepeatedFrame(), None
         step = max(1, (count or 100) // 100)
 
         def all_frames():
@@ -101,9 +101,10 @@ def write_image_sequence(frames, folder, fps, bit_depth: int = 8, cancel_event=N
                 raise Cancelled("image sequence export cancelled")
             if count is not None and index >= count:
                 raise ExportError(f"the show has {count} frames, but more frames came")
-            if frame is not last_source:
+            if not repeated.same(frame):  # a hold is encoded once
                 pixels = frame_pixels(frame, (width, height), bit_depth, index)
-                last_source, last_png = frame, encode_png(pixels, bit_depth, frame_name(index))
+                last_png = encode_png(pixels, bit_depth, frame_name(index))
+                repeated.remember(frame)
             path = scratch.path / frame_name(index)
             try:
                 path.write_bytes(last_png)

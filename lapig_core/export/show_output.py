@@ -10,6 +10,7 @@
     frame_pixels(frame, size, bit_depth, index)
                                a float [0, 1] / uint8 / uint16 (H, W, 3) or (H, W) frame -> uint8 or uint16 RGB
     Cancelled                  raised where the caller's threading.Event is set (checked before every frame)
+    RepeatedFrame              a hold (the same array given again) recognised, so it is converted once
 
 No `av` here: the image sequence uses it without PyAV.
 """
@@ -130,6 +131,25 @@ def frame_pixels(frame, size: tuple[int, int], bit_depth: int, index: int) -> np
         return to_uint8(img) if bit_depth == 8 else to_uint16(img)
     except TypeError as exc:
         raise ExportError(f"frame {index + 1}: {exc}") from None
+
+
+class RepeatedFrame:
+    """Whether a frame is the previous one again: the same array object, and the same values on a 32x32 grid of
+    samples (a producer that fills one buffer with new frames is not taken for a hold)."""
+
+    def __init__(self):
+        self._source, self._sample = None, None
+
+    @staticmethod
+    def _grid(frame) -> np.ndarray:
+        img = np.asarray(frame)
+        return img[::max(1, img.shape[0] // 32), ::max(1, img.shape[1] // 32)] if img.ndim >= 2 else img
+
+    def same(self, frame) -> bool:
+        return frame is self._source and np.array_equal(self._grid(frame), self._sample)
+
+    def remember(self, frame) -> None:
+        self._source, self._sample = frame, np.array(self._grid(frame), copy=True)
 
 
 def known_count(frames, frame_count) -> int | None:

@@ -5,7 +5,8 @@
                 metadata=None, *, show=None, frame_count=None, intra_only=False, lapig_version=None) -> dict
 
 - frames: an iterable of (H, W, 3) frames, float32 in [0, 1] or uint8 / uint16 (a generator is fine: one frame
-  is held at a time; a repeated frame (a hold) can be the same array object again, nothing is recomputed).
+  is held at a time). A hold is best given as the same array object again: it is converted once
+  (show_output.RepeatedFrame; one buffer refilled with new frames is still seen to change).
 - path: the video file; a name without a suffix gets the codec's (.mp4 for H.264 / H.265, .mov for the others).
 - fps: 30, 25, 24, 60, 29.97 (stored as 30000/1001), "30000/1001" or a Fraction (show_output.frame_rate).
 - size: (width, height); every frame must have it. codec: a name of codecs.CODECS ('h264', 'h265',
@@ -39,8 +40,8 @@ from ..common import atomic
 from . import codecs as codec_table
 from .codecs import VideoExportError
 from .projector_image import ExportError, sidecar_bytes, software_info, utc_now, write_error
-from .show_output import (Cancelled, check_disk_space, check_size, check_writable, frame_pixels, frame_rate,
-                          known_count)
+from .show_output import (Cancelled, RepeatedFrame, check_disk_space, check_size, check_writable, frame_pixels,
+                          frame_rate, known_count)
 
 __all__ = ["write_video", "video_path", "VideoExportError", "ExportError", "Cancelled"]
 
@@ -108,18 +109,18 @@ def _encode(av, tmp: Path, fmt: str, frames, codec, pix_fmt, size, rate, bit_dep
     step = max(1, (count or 100) // 100)
     with av.open(str(tmp), mode="w", format=fmt) as container:
         stream = _open_stream(container, codec, pix_fmt, size, rate, intra_only)
-        last_source, last_frame = None, None
+        repeated, last_frame = RepeatedFrame(), None
         for index, frame in enumerate(frames):
             if cancel_event is not None and cancel_event.is_set():
                 raise Cancelled("video export cancelled")
             if count is not None and index >= count:
                 raise ExportError(f"the show has {count} frames, but more frames came")
-            if frame is last_source:  # a hold: the same frame again, converted once
+            if repeated.same(frame):  # a hold: the same frame again, converted once
                 video_frame = last_frame
             else:
                 pixels = frame_pixels(frame, size, 8 if bit_depth == 8 else 16, index)
-                video_frame = _video_frame(av, pixels, pix_fmt, codec)
-                last_source, last_frame = frame, video_frame
+                last_frame = video_frame = _video_frame(av, pixels, pix_fmt, codec)
+                repeated.remember(frame)
             video_frame.pts = index
             for packet in stream.encode(video_frame):
                 container.mux(packet)

@@ -259,3 +259,17 @@ def test_availability_lists_every_codec():
 def test_video_path_suffixes(tmp_path):
     assert video.video_path(tmp_path / "x", codecs.CODECS["prores4444"]).name == "x.mov"
     assert video.video_path(tmp_path / "x.MKV", codecs.CODECS["h265"]).name == "x.MKV"
+
+
+def test_one_buffer_filled_with_new_frames_is_not_taken_for_a_hold(tmp_path):
+    frames = _frames(3)
+    buffer = np.empty_like(frames[0])
+
+    def reused():
+        for f in frames:
+            buffer[:] = f
+            yield buffer
+
+    out = write_video(reused(), tmp_path / "buf.mov", 30, (W, H), "lossless")
+    decoded, _ = _decode_cv2(out["video"])
+    assert all(np.array_equal(d, _u8(f)) for d, f in zip(decoded, frames)) and len(decoded) == 3

@@ -87,7 +87,8 @@ def _per_codec(name: str, frames, pngs, work: str) -> dict:
             "min_psnr_db": min(first, last),
             "frames_ok": bool(ok), "decoded": [len(decoded), list(decoded[0].shape[1::-1]) if decoded else None,
                                                round(fps, 4)],
-            "encode_fps": round(len(frames) / seconds, 2), "mb_per_frame": round(out["bytes"] / len(frames) / 2**20, 3)}
+            "encode_fps": round(len(frames) / seconds, 2), "mb_per_frame": round(out["bytes"] / len(frames) / 2**20, 3),
+            "estimate_mb_per_frame": round(codecs.bytes_per_frame(codecs.CODECS[name], W, H) / 2**20, 3)}
 
 
 def _dissolve_show(look_a, look_b, hold: int, dissolve: int):
@@ -137,6 +138,7 @@ def run(args) -> dict:
         "video_frames_decoded": {n: r["decoded"] for n, r in per_codec.items()},
         "encode_fps_1080p": {n: r["encode_fps"] for n, r in per_codec.items()},
         "mb_per_frame_1080p": {n: r["mb_per_frame"] for n, r in per_codec.items()},
+        "disk_check_estimate_mb_per_frame_1080p": {n: r["estimate_mb_per_frame"] for n, r in per_codec.items()},
         "export_fps_dissolve_1080p": round(dissolve_fps, 2),
         "export_dissolve_show": {"hold_frames": hold, "dissolve_frames": dissolve, "holds": 2, "codec": "h264"},
         "export_fps_dissolve_1080p_goal": 10,

@@ -108,7 +108,7 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     result = scene_state.read(scene).result_dir
     summary = json.loads(open(os.path.join(result, "result.json")).read())
     assert [p["image"] for p in summary["projectors"]] == ["projector_1.png", "projector_2.png"]
-    assert "no PSA yet" in scene.lapig.result_summary
+    assert "PSA on their joint reach" in scene.lapig.result_summary
     from lapig.lapig_addon.blender import projector_nodes
 
     shown = [projector_nodes.projected_image(p.data) for p in scene_state.rig_projectors(scene)]

@@ -150,20 +150,24 @@ class MultiGenerateJob(WorkerJob):
         return output
 
     def _show(self, output):
-        """Each projector's image to the sinks that take several projectors (Blender's lights): the pixels
-        Export writes at the scene's bit depth."""
-        from ...lapig_core.multi.result_files import projector_images
-        from .ports import ProjectorFrame
+        show_projector_images(self.seams, output)
 
-        sinks = [sink for sink in self.seams.sinks if getattr(sink, "several_projectors", False)]
-        if not sinks:
-            return
-        bit_depth = self.seams.store.export_settings().bit_depth
-        for k, (entry, image) in enumerate(projector_images(output["folder"])):
-            frame = ProjectorFrame(image, *entry["size"], bit_depth, folder=output["folder"],
-                                   summary=output["summary"], projector_index=k)
-            for sink in sinks:
-                sink.show(frame)
+
+def show_projector_images(seams, output) -> None:
+    """Each projector's image of a result of several to the sinks that take several projectors (Blender's
+    lights): the pixels Export writes at the scene's bit depth. output: {"folder", "summary"}."""
+    from ...lapig_core.multi.result_files import projector_images
+    from .ports import ProjectorFrame
+
+    sinks = [sink for sink in seams.sinks if getattr(sink, "several_projectors", False)]
+    if not sinks:
+        return
+    bit_depth = seams.store.export_settings().bit_depth
+    for k, (entry, image) in enumerate(projector_images(output["folder"])):
+        frame = ProjectorFrame(image, *entry["size"], bit_depth, folder=output["folder"],
+                               summary=output["summary"], projector_index=k)
+        for sink in sinks:
+            sink.show(frame)
 
 
 def _first_look_record(setup_dir) -> dict:

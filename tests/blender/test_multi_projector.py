@@ -188,7 +188,7 @@ def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp
     assert captured["coverage"]["reached"] > max(captured["coverage"]["per_projector"])
     assert captured["first_look_seconds"] < 10
     proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--render")
-    assert proc.returncode == 1 and "work with one projector for now; this rig has 2" in proc.stderr
+    assert proc.returncode == 1 and "works with one projector for now; this rig has 2" in proc.stderr
     proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save")
     assert proc.returncode == 0, proc.stderr[-2000:]
     out = tmp_path / "out"

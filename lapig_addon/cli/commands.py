@@ -248,7 +248,7 @@ def _stylize_multi(args, seams, request, capture) -> int:
         from ..services.refine_job import RefineResultJob
 
         refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
-        out["summary"] = refined and read_summary_of(out["folder"])
+        out["summary"] = read_summary_of(refined["folder"])
     _save_if_asked(args)
     print_notes(out["summary"].get("notes", []))
     if not args.save:

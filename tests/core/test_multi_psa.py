@@ -92,3 +92,17 @@ def test_a_stack_of_two_shows_more_of_the_look_than_one(dark_stack):
     assert d["psa_gain_db_stacked"] > 3.0 and d["psa_gain_db_single"] > 3.0, d
     # each rig's PSA look is shown about as well as the other's (PSA adapts each to its own reach)
     assert d["stack_psa_gain_db"] > -1.0, d
+
+
+def test_when_the_look_is_kept_the_stack_shows_it_better_than_one():
+    """adaptation 0 (keep my look): PSA leaves each look nearer the prompt's, and the stack's wider reach shows it
+    better; at the default 0.5 each rig's PSA adapts the look to its own reach (about equal PSNRs, above)."""
+    from lapig.lapig_core.multi.joint_psa import stack_psa_gain
+    from lapig.lapig_core.psa.adaptation import PSASettings
+
+    rig = fake_rig.stacked_rig(2, camera_size=(64, 48), projector_size=(160, 120))
+    one = rig.subset([0])
+    figures = stack_psa_gain(rig.true_model(), one.true_model(), _white(rig), PROMPT, working_size=64,
+                             object_mask=rig.object_mask, single_surface=_white(one),
+                             settings=PSASettings(adaptation=0.0))
+    assert figures.stack_psa_gain_db > 1.5, figures.to_dict()

@@ -230,3 +230,25 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     real = MultiStore(state, tmp_path, kind="REAL", displays=("1", "2"))
     real.result = str(folder)
     assert panel_state.refine_blocker(real.read()).startswith("A real rig captures one projector for now")
+
+
+@pytest.mark.torch
+@pytest.mark.parametrize("psa", [True, False])
+def test_generate_adapts_the_look_to_the_joint_reach_when_asked(multi, psa):
+    """MultiGenerateJob passes the request's PSA on: with it the folder keeps the look without PSA beside the
+    adapted one, and result.json says what PSA did; without it, one look and 'no PSA'."""
+    seams, store = multi
+    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    request = _module("state").GenerateRequest("Make it a stained glass artwork", "styletransfer", "", psa, 0.5, 0)
+    job = _module("multi_generate_job").MultiGenerateJob(seams, request, working_size=48)
+    assert job.run() == "DONE", job.error
+    folder = job.result["folder"]
+    saved = json.loads(open(os.path.join(folder, "result.json")).read())
+    nopsa = [os.path.isfile(os.path.join(folder, f"{n}_nopsa.png")) for n in ("look", "projector_1", "projector_2")]
+    if psa:
+        assert all(nopsa) and saved["psa"]["settings"]["adaptation"] == 0.5 and saved["psa"]["warm_start_steps"] > 0
+        assert "PSA on their joint reach" in saved["summary_line"]
+        assert saved["metrics"]["simulated_psnr"] > saved["metrics"]["simulated_psnr_nopsa"]
+    else:
+        assert not any(nopsa) and saved["psa"] is False and saved["summary_line"].endswith("no PSA")
+    assert store.result == folder

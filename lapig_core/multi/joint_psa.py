@@ -138,7 +138,8 @@ class StackFigures:
 
     def to_dict(self) -> dict:
         d = {k: round(v, 3) for k, v in asdict(self).items()}
-        d.update(stack_psa_gain_db=round(self.stack_psa_gain_db, 3), stack_look_gain_db=round(self.stack_look_gain_db, 3),
+        d.update(stack_psa_gain_db=round(self.stack_psa_gain_db, 3),
+                 stack_look_gain_db=round(self.stack_look_gain_db, 3),
                  psa_gain_db_stacked=round(self.psa_gain_db_stacked, 3),
                  psa_gain_db_single=round(self.psa_gain_db_single, 3))
         return d

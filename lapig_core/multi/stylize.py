@@ -139,7 +139,8 @@ def stylize_joint(model: JointModel, surface: np.ndarray, prompt: str, backend: 
     describe = _describe(lgst, fallback)
     summary = {"iterations": result.iterations, "warm_start_steps": result.warm_start_steps,
                "seconds": round(result.seconds, 3), "stopped": result.stopped,
-               "first_psa_loss": result.first_psa_loss, "best_psa_loss": result.history[result.best_iteration]["psa_loss"],
+               "first_psa_loss": result.first_psa_loss,
+               "best_psa_loss": result.history[result.best_iteration]["psa_loss"],
                "settings": settings.to_dict(), "working_size": [w, h], "models": "joint reach (virtual projector)"}
     field = getattr(result.look, "field", None)
     if field is not None:

@@ -24,7 +24,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 def _lapig():
     """The repository root as the package `lapig`, as Blender and the tests load it."""
     if "lapig" not in sys.modules:
-        spec = importlib.util.spec_from_file_location("lapig", ROOT / "__init__.py", submodule_search_locations=[str(ROOT)])
+        spec = importlib.util.spec_from_file_location("lapig", ROOT / "__init__.py",
+                                                      submodule_search_locations=[str(ROOT)])
         package = importlib.util.module_from_spec(spec)
         sys.modules["lapig"] = package
         spec.loader.exec_module(package)
@@ -125,7 +126,8 @@ def run(sheet_path: str | None) -> dict:
                       (np.clip(np.abs(open_cap - refinement.target) * 4, 0, 1), "open error x4"),
                       (np.clip(np.abs(refined_cap - refinement.target) * 4, 0, 1), "refined error x4"),
                       (cv2.resize(refinement.images[0], camera, interpolation=cv2.INTER_AREA), "refined proj. 1")]
-    out["refine_gain_db_multi_mean"] = round(float(np.mean([v["refine_gain_db_multi"] for v in out["refine"].values()])), 3)
+    out["refine_gain_db_multi_mean"] = round(float(np.mean([v["refine_gain_db_multi"]
+                                                            for v in out["refine"].values()])), 3)
     if sheet_path:
         write_png(sheet_path, labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles], columns=6, cell=256,
                                             title="fake rig, dark stack: 2 projectors vs 1, PSA; refined on the rig"))

@@ -11,8 +11,9 @@ damped Gauss-Newton step through the joint model's linearisation, per camera pix
 
 solved by the same joint box QP as the open-loop compensation (joint_solve.joint_drives_linear, box_qp):
 the projectors that reach a pixel share its correction, within each one's range. The change of each
-projector's drive goes back into its own frame (CameraMap.to_projector, 0 off its footprint) and is added
-to its linear light, so each image keeps its own detail; the next round's drives are the new light sampled
+projector's drive goes back into its own frame (CameraMap.to_projector, 0 off its footprint, corrected a few
+times for what the frame's resampling blurs) and is added to its linear light, so each image keeps its own
+detail; the next round's drives are the new light sampled
 into camera space. The rest is Refinement's: the target clamped to the joint reach [I-, I+]; per-pixel
 damping (halved where the error grew, raised back where it fell); the first round captured twice (the noise
 floor and the capture noise) and checked against the model's prediction (refine/check); more captures
@@ -20,7 +21,7 @@ averaged once the error left is about their noise; stop when a round gains less 
 (0.05 dB) or at the cap, keeping the images whose capture came nearest the target.
 
 Entry points (the benchmark `bench multi` and the add-on's Refine call them):
-- MultiRefinement(model, target, valid, start_frames, settings=RefineSettings()): request() -> (frames,
+- MultiRefinement(model, target, valid, start_frames, settings=RefineSettings(), back_projection=3): request() -> (frames,
   repeats), take(captures (repeats,H,W,3)); .images, .record (refine/loop.RefineRecord), .done;
 - run_multi(refinement, capture(frames, repeats) -> (repeats,H,W,3) in [0,1], cancel=None) -> RefineRecord;
 - device_capture(device): such a capture function over a MultiProjectorDevice (fake_rig.FakeRigDevice, Cycles);
@@ -44,6 +45,8 @@ from .blend import blend_weights
 from .joint_model import JointModel
 from .joint_solve import DEFAULT_SPLIT_WEIGHT, joint_compensate, joint_drives_linear, reach
 
+BACK_PROJECTION = 3  # corrections of each step's change as the projector frame resamples it (_into_frame)
+
 
 class MultiRefinement:
     """The loop's state for one target of K projectors, in camera space.
@@ -54,7 +57,7 @@ class MultiRefinement:
 
     def __init__(self, model: JointModel, target, valid, start: Sequence[np.ndarray],
                  settings: RefineSettings = RefineSettings(), weights: np.ndarray | None = None,
-                 split_weight: float = DEFAULT_SPLIT_WEIGHT):
+                 split_weight: float = DEFAULT_SPLIT_WEIGHT, back_projection: int = BACK_PROJECTION):
         problem = settings.problem()
         if problem:
             raise RefineError(problem)
@@ -68,7 +71,7 @@ class MultiRefinement:
         if not valid.any():
             raise RefineError("no projector reaches a pixel of the object in this capture: nothing to refine")
         self.model, self.settings, self.valid = model, settings, valid
-        self.split_weight = split_weight
+        self.split_weight, self.back_projection = split_weight, int(back_projection)
         self.weights = blend_weights(model.maps) if weights is None else np.asarray(weights)
         lo, hi = reach(model)
         self.target = np.clip(target, lo, hi)  # reachable by all of them together
@@ -160,10 +163,21 @@ class MultiRefinement:
         q = joint_drives_linear(model, wanted, self.response, self.weights, self.split_weight)
         for k, m in enumerate(model.maps):
             change = np.where(self.valid[..., None], q[k] - self.q[k], 0.0).astype(np.float32)
-            self.light[k] = np.clip(self.light[k] + m.to_projector(change, outside=0.0), 0.0, 1.0)
+            self.light[k] = np.clip(self.light[k] + self._into_frame(m, change), 0.0, 1.0)
         self.q = self._drives()
         self.record.iterations += 1
         self._choose_repeats(mean)
+
+    def _into_frame(self, camera_map, change: np.ndarray) -> np.ndarray:
+        """A camera-space change of one projector's light -> the change of its frame whose sampling gives it back:
+        to_projector (an average, which the sampling blurs again), then `back_projection` corrections of what
+        the sampling misses (a Landweber iteration of sample . to_projector; a sharp look's edges gain ~1 dB)."""
+        light = camera_map.to_projector(change, outside=0.0)
+        inside = self.valid[..., None]
+        for _ in range(self.back_projection):
+            missed = np.where(inside, change - camera_map.sample(light), 0.0).astype(np.float32)
+            light = light + camera_map.to_projector(missed, outside=0.0)
+        return light
 
     def _choose_repeats(self, mean) -> None:
         """Average more captures once the error left is mostly the captures' own noise (Refinement's rule)."""

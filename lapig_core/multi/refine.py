@@ -21,8 +21,9 @@ averaged once the error left is about their noise; stop when a round gains less 
 (0.05 dB) or at the cap, keeping the images whose capture came nearest the target.
 
 Entry points (the benchmark `bench multi` and the add-on's Refine call them):
-- MultiRefinement(model, target, valid, start_frames, settings=RefineSettings(), back_projection=3): request() -> (frames,
-  repeats), take(captures (repeats,H,W,3)); .images, .record (refine/loop.RefineRecord), .done;
+- MultiRefinement(model, target, valid, start_frames, settings=RefineSettings(), back_projection=3):
+  request() -> (frames, repeats), take(captures (repeats,H,W,3)); .images, .record (refine/loop.RefineRecord),
+  .done;
 - run_multi(refinement, capture(frames, repeats) -> (repeats,H,W,3) in [0,1], cancel=None) -> RefineRecord;
 - device_capture(device): such a capture function over a MultiProjectorDevice (fake_rig.FakeRigDevice, Cycles);
 - refine_gain_db_multi(model, device, target, valid=None, settings=None) -> (RefineRecord, MultiRefinement):

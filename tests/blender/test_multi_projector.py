@@ -113,6 +113,16 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
 
     shown = [projector_nodes.projected_image(p.data) for p in scene_state.rig_projectors(scene)]
     assert [tuple(i.size) for i in shown] == [(64, 48), (64, 48)] and shown[0] != shown[1]  # each light its own
+    assert summary["psa"]["warm_start_steps"] > 0 and os.path.isfile(os.path.join(result, "projector_1_nopsa.png"))
+
+    # Refine on the rig: both projectors' images projected together in Cycles, corrected jointly
+    scene.lapig.refine_steps = 2
+    assert bpy.ops.lapig.refine_result() == {"FINISHED"}
+    refined = json.loads(open(os.path.join(result, "result.json")).read())
+    print("refine", refined["refine"])
+    assert [p["image"] for p in refined["projectors"]] == ["projector_1_refined.png", "projector_2_refined.png"]
+    assert refined["refine"]["refined_psnr"] >= refined["refine"]["open_loop_psnr"]
+    assert "; refined " in scene.lapig.result_summary
 
     out = tmp_path / "export" / "statue.png"
     out.parent.mkdir()

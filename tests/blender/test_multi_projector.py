@@ -199,8 +199,10 @@ def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp
     assert captured["first_look_seconds"] < 10
     proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--render")
     assert proc.returncode == 1 and "works with one projector for now; this rig has 2" in proc.stderr
-    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save")
+    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save", "--refine", "1")
     assert proc.returncode == 0, proc.stderr[-2000:]
+    stylized = json.loads(proc.stdout[proc.stdout.index("{"):])
+    assert stylized["refine"]["iterations"] == 1 and stylized["simulated_psnr_nopsa"] is not None
     out = tmp_path / "out"
     out.mkdir()
     proc = _cli("export", "--blend", blend, "--out", str(out / "look.png"), "--mpcdi", str(out / "rig.mpcdi"))

@@ -38,6 +38,15 @@ class JointLook:
     lgst_seconds: float
     without: "JointLook | None" = None  # the look without PSA, compensated the same way (None: PSA not run)
     psa: dict | None = None  # what PSA did (iterations, seconds, stopped, losses), None when not run
+    # (H,W,3) the joint model's capture of the projector images themselves (JointModel.predict(frames)): what
+    # the rig shows, the frames' resampling included; compensation.predicted is the drives' in camera space,
+    # finer than a projector coarser than the camera can show. None: not computed (the drives' stands in)
+    simulated: np.ndarray | None = None
+
+    @property
+    def shown(self) -> np.ndarray:
+        """The predicted capture of the look: `simulated` where computed, else the drives' prediction."""
+        return self.compensation.predicted if self.simulated is None else self.simulated
 
     @property
     def frames(self) -> list:
@@ -115,8 +124,9 @@ def stylize_joint(model: JointModel, surface: np.ndarray, prompt: str, backend: 
         lgst_seconds = time.perf_counter() - t0
         target = np.where(reached[..., None], look, surface).astype(np.float32)
         describe.setdefault("notes", []).append(PSA_NOTE)
-        return JointLook(target, joint_compensate(model, target), describe, _reach_share(model, target, on),
-                         lgst_seconds)
+        compensation = joint_compensate(model, target)
+        return JointLook(target, compensation, describe, _reach_share(model, target, on), lgst_seconds,
+                         simulated=model.predict(compensation.frames))
     from ..psa.adaptation import PSASettings, run_psa
     from .joint_psa import joint_surface_models
 
@@ -148,7 +158,8 @@ def stylize_joint(model: JointModel, surface: np.ndarray, prompt: str, backend: 
     looks = []
     for image in (adapted, plain):
         target = np.where(reached[..., None], image, surface).astype(np.float32)
-        looks.append(JointLook(target, joint_compensate(model, target), describe, _reach_share(model, target, on),
-                               lgst_seconds))
+        compensation = joint_compensate(model, target)
+        looks.append(JointLook(target, compensation, describe, _reach_share(model, target, on), lgst_seconds,
+                               simulated=model.predict(compensation.frames)))
     looks[0].without, looks[0].psa = looks[1], summary
     return looks[0]

@@ -63,6 +63,12 @@ class CyclesMultiDevice(MultiProjectorDevice):
             stops = auto_exposure_stops(linear, mask=linear.max(-1) > 1e-6)
             self.response = first.camera_settings.response(stops)
 
+    def vary_noise(self, draw: int) -> None:
+        """Every studio's Cycles seed moves on by `draw`: refinement's repeated captures of one set of images
+        differ as a camera's grabs do (the kept black renders stay one draw)."""
+        for device in self.devices:
+            device.vary_noise(draw)
+
     def object_mask(self) -> np.ndarray:
         first = self.devices[0]
         return camera_object_mask(self.scene, self.camera, self.target, first.studio.scene, first.width, first.height)

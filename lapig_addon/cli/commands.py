@@ -236,13 +236,19 @@ def cmd_stylize(args) -> int:
 
 
 def _stylize_multi(args, seams, request, capture) -> int:
-    """stylize on a rig of several projectors: the joint look and compensation (no refine or render yet)."""
+    """stylize on a rig of several projectors: the joint look (PSA on their joint reach) and compensation, then
+    --refine N: all the projectors refined together on the rig (no --render yet)."""
     from ..services.multi_generate_job import MultiGenerateJob
 
-    if args.refine or args.render:  # before any work
-        raise ValueError(f"--refine and --render work with one projector for now; this rig has "
+    if args.render:  # before any work
+        raise ValueError(f"--render works with one projector for now; this rig has "
                          f"{seams.store.read().rig.projector_count}")
     out = MultiGenerateJob(seams, request, capture=capture).run_to_completion(on_progress=headless.print_progress)
+    if args.refine:  # the scene's result is the one just made: every projector's image refined together
+        from ..services.refine_job import RefineResultJob
+
+        refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
+        out["summary"] = read_summary_of(refined["folder"])
     _save_if_asked(args)
     print_notes(out["summary"].get("notes", []))
     if not args.save:
@@ -250,10 +256,17 @@ def _stylize_multi(args, seams, request, capture) -> int:
                      f"'export --result {out['folder']}'"])
     print(f"Look at {os.path.join(out['folder'], 'comparison.png')}")
     summary = out["summary"]
+    refine = {"refine": summary["refine"]} if summary.get("refine") else {}
     print_json({"result": out["folder"], "projectors": summary["projectors"], "styles": summary["lgst"].get("styles"),
                 "understood": summary["lgst"].get("understood"), "models": summary["models"]["line"],
-                "multi": summary["multi"], **summary["metrics"]})
+                "multi": summary["multi"], **summary["metrics"], **refine})
     return 0
+
+
+def read_summary_of(folder) -> dict:
+    from ...lapig_core.export.result_files import read_summary
+
+    return read_summary(folder)
 
 
 def cmd_export(args) -> int:

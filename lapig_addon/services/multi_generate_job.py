@@ -5,7 +5,8 @@ runs on a worker thread under the capture's lock, finish() records the result in
 be one of several projectors made with the rig as it is now; its joint model (fitted at the capture) is
 used, or fitted here where the capture has none. The result folder holds one image per projector
 (lapig_core/multi/result_files), and each image goes to the sinks that take several projectors (Blender's
-lights). No PSA yet.
+lights). With the request's PSA on (the default) the look adapts to the projectors' joint reach first
+(lapig_core/multi/joint_psa) and the folder keeps the look without PSA beside it.
 """
 from __future__ import annotations
 
@@ -87,6 +88,7 @@ class MultiGenerateJob(WorkerJob):
             self.working_size = store.capture_settings().working_size
         return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend,
                 "backend_options": r.backend_options(), "mix": mix or None, "seed": r.seed,
+                "psa": bool(r.psa), "adaptation": r.adaptation,
                 "results": self.result_root or os.path.join(store.data_root(), "results"),
                 "name": folder_name(prompt or mix or "style", datetime.datetime.now())}
 
@@ -109,8 +111,15 @@ class MultiGenerateJob(WorkerJob):
             return None
         report(0.2, "stylizing on the object as the camera sees it")
         surface = cs.together.astype(np.float32) / 255
+        settings = None
+        if job["psa"]:
+            from ...lapig_core.psa.adaptation import PSASettings
+
+            settings = PSASettings(adaptation=job["adaptation"], seed=job["seed"])
+        progress = lambda f, text: report(0.25 + 0.6 * f, text)  # noqa: E731
         look = stylize_joint(model, surface, job["prompt"], job["backend"], job["seed"], job["mix"],
-                             job["backend_options"], self.working_size, cs.object_mask)
+                             job["backend_options"], self.working_size, cs.object_mask, psa=job["psa"],
+                             psa_settings=settings, on_progress=progress, cancel_event=cancel_event)
         if cancel_event.is_set():  # cancelled: nothing written, the scene keeps its result
             return None
         report(0.9, "writing each projector's image")
@@ -141,20 +150,24 @@ class MultiGenerateJob(WorkerJob):
         return output
 
     def _show(self, output):
-        """Each projector's image to the sinks that take several projectors (Blender's lights): the pixels
-        Export writes at the scene's bit depth."""
-        from ...lapig_core.multi.result_files import projector_images
-        from .ports import ProjectorFrame
+        show_projector_images(self.seams, output)
 
-        sinks = [sink for sink in self.seams.sinks if getattr(sink, "several_projectors", False)]
-        if not sinks:
-            return
-        bit_depth = self.seams.store.export_settings().bit_depth
-        for k, (entry, image) in enumerate(projector_images(output["folder"])):
-            frame = ProjectorFrame(image, *entry["size"], bit_depth, folder=output["folder"],
-                                   summary=output["summary"], projector_index=k)
-            for sink in sinks:
-                sink.show(frame)
+
+def show_projector_images(seams, output) -> None:
+    """Each projector's image of a result of several to the sinks that take several projectors (Blender's
+    lights): the pixels Export writes at the scene's bit depth. output: {"folder", "summary"}."""
+    from ...lapig_core.multi.result_files import projector_images
+    from .ports import ProjectorFrame
+
+    sinks = [sink for sink in seams.sinks if getattr(sink, "several_projectors", False)]
+    if not sinks:
+        return
+    bit_depth = seams.store.export_settings().bit_depth
+    for k, (entry, image) in enumerate(projector_images(output["folder"])):
+        frame = ProjectorFrame(image, *entry["size"], bit_depth, folder=output["folder"],
+                               summary=output["summary"], projector_index=k)
+        for sink in sinks:
+            sink.show(frame)
 
 
 def _first_look_record(setup_dir) -> dict:

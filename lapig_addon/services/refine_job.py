@@ -1,6 +1,7 @@
 """Refine on the rig: the scene's result projected, captured and corrected until the captures stop
 improving (lapig_core.refine), through the device factory every job uses (Cycles, a real or a simulated
-rig alike).
+rig alike). A rig of several projectors takes services/multi_refine_job's steps (one capture of all of them
+per round, every image corrected together).
 
 Nothing is written until the loop has finished: the refined projector images (working frame and native)
 go into the result folder under names of their own, then result.json, written last and whole, names them
@@ -84,6 +85,11 @@ class RefineResultJob(Job):
         return state.result_dir, current_capture(state)
 
     def steps(self):
+        if self.seams.store.read().rig.projector_count > 1:  # several projectors: all refined together
+            from .multi_refine_job import multi_refine_steps
+
+            self.result = yield from multi_refine_steps(self)
+            return
         folder, capture = self._inputs()
         # reading the images and fitting the classical model take seconds: a worker step, since with Cycles
         # this generator runs on Blender's main thread

@@ -61,6 +61,9 @@ class MultiProjectorDevice:
     def lock_exposure(self, white_frames: Sequence[np.ndarray]) -> None:
         """Fix the camera's exposure for every projector showing white together (the brightest set)."""
 
+    def vary_noise(self, draw: int) -> None:
+        """Make the next captures a new noise draw (refinement's repeats; CaptureDevice.vary_noise's rule)."""
+
     def object_mask(self) -> np.ndarray | None:
         """(H,W) bool: where the camera sees the surface object, where the device knows it (None: it does
         not; the union of the projectors' reach stands in)."""

@@ -117,6 +117,20 @@ class FakeRig:
         """(H,W,3) linear capture when every projector shows black: ambient plus their blacks."""
         return (self.albedo * self.ambient + sum(self.true_black(k) for k in range(self.count))).astype(np.float32)
 
+    def true_model(self):
+        """The JointModel of the rig's ground truth (exact maps, M_k, offset and gammas)."""
+        from .joint_model import JointModel
+
+        return JointModel(self.camera_gamma, tuple(p.gamma for p in self.projectors),
+                          np.stack([self.true_m(k) for k in range(self.count)]), self.true_offset(),
+                          [self.camera_map(k) for k in range(self.count)])
+
+    def subset(self, indices: Sequence[int]) -> "FakeRig":
+        """The same camera, object and albedo with only the projectors `indices` (the others taken away)."""
+        rig = FakeRig([self.projectors[k] for k in indices], self.camera_size, self.camera_gamma, self.albedo,
+                      self.ambient, self.object_mask, self.noise)
+        return rig
+
     # --------------------------------------------------------------- helpers
     def _scale(self, k: int) -> np.ndarray:
         proj = self.projectors[k]
@@ -186,6 +200,24 @@ def three_projector_rig(camera_size=(64, 48), projector_size=(80, 60), noise=0.0
                           incidence=incidence_from_angles(camera_size, 70, 20, axis=0),
                           mix=[[0.92, 0.06, 0.02], [0.08, 0.84, 0.08], [0.02, 0.08, 0.90]])
     return FakeRig(rig.projectors + [below], camera_size, noise=noise, seed=seed, **kw)
+
+
+def stacked_rig(count: int = 2, camera_size=(64, 48), projector_size=(80, 60), albedo_scale: float = 0.3,
+                noise=0.002, seed=0, **kw) -> FakeRig:
+    """`count` projectors stacked: each frame overscans the whole object from a slightly different place, so
+    every object pixel is lit by all of them. albedo_scale darkens the default texture (0.3: a dark textured
+    surface, albedo about 0.1..0.29), where one projector's reach is narrow and a stack's is wider."""
+    quads = [[(-0.04, -0.05), (1.03, -0.03), (1.05, 1.04), (-0.03, 1.06)],
+             [(-0.05, -0.03), (1.04, -0.06), (1.03, 1.05), (-0.05, 1.03)],
+             [(-0.03, -0.06), (1.05, -0.04), (1.04, 1.03), (-0.04, 1.05)],
+             [(-0.06, -0.04), (1.03, -0.05), (1.06, 1.05), (-0.03, 1.04)]]
+    gammas, gains = (2.2, 1.9, 2.0, 2.4), (0.6, 0.5, 0.55, 0.5)
+    if not 1 <= count <= len(quads):
+        raise ValueError(f"stacked_rig makes 1 to {len(quads)} projectors, got {count}")
+    projectors = [FakeProjector(projector_size, homography_onto(projector_size, camera_size, quads[k]),
+                                gamma=gammas[k], gain=gains[k], contrast=1000.0) for k in range(count)]
+    albedo = default_albedo(camera_size, seed) * np.float32(albedo_scale)
+    return FakeRig(projectors, camera_size, noise=noise, seed=seed, albedo=albedo, **kw)
 
 
 class FakeRigDevice(MultiProjectorDevice):

@@ -62,11 +62,20 @@ def joint_drives(model: JointModel, target: np.ndarray, weights: np.ndarray | No
     t = np.asarray(target, np.float64)
     if t.shape != model.shape + (3,):
         raise ValueError(f"target must be {model.shape + (3,)}, got {t.shape}")
+    y = np.power(np.clip(t, 0.0, 1.0), model.gamma_c)
+    wt = response_weights(y, model.gamma_c) if weighted else np.ones_like(y)
+    return joint_drives_linear(model, y, wt, weights, split_weight)
+
+
+def joint_drives_linear(model: JointModel, wanted: np.ndarray, response: np.ndarray,
+                        weights: np.ndarray | None = None, split_weight: float = DEFAULT_SPLIT_WEIGHT) -> np.ndarray:
+    """The joint solve in linear units: wanted (H,W,3) linear capture (not clipped: a refinement step may ask
+    beyond [0, 1]), response (H,W,3) each channel's error weight -> (K,H,W,3) float32 drives in [0,1]."""
     k_count, (h, w) = model.count, model.shape
     if weights is None:
         weights = blend_weights(model.maps)
-    y = np.power(np.clip(t, 0.0, 1.0), model.gamma_c).reshape(-1, 3)
-    wt = response_weights(y, model.gamma_c) if weighted else np.ones_like(y)
+    y = np.asarray(wanted, np.float64).reshape(-1, 3)
+    wt = np.asarray(response, np.float64).reshape(-1, 3)
     r = y - model.o.reshape(-1, 3)
     m = model.M.reshape(k_count, -1, 3, 3)
     reached = model.reached.reshape(k_count, -1)

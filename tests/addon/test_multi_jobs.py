@@ -163,3 +163,92 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     assert not (tmp_path / "out" / "again_1.png").exists()  # the package first: nothing written on its failure
     with pytest.raises(ValueError, match="a crossfade is made of one projector's images"):
         _module("export_result").export_crossfade(store, str(tmp_path / "fade"), settings)
+
+
+@pytest.mark.torch  # refine_job reads the capture through pipeline_jobs, which loads torch
+def test_refine_corrects_every_projectors_image_together_and_the_result_points_at_them(tmp_path):
+    """Refine on a rig of several: a weak open-loop result (each image's light at 80 %: a model's error) projected
+    by all the projectors at once, captured, corrected jointly; result.json then names the refined images."""
+    import cv2
+
+    from lapig.lapig_core.multi.capture_set import load_multi_capture
+    from lapig.lapig_core.multi.first_look import load_joint_model
+    from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
+    from lapig.lapig_core.multi.result_files import projector_images, write_joint_result
+    from lapig.lapig_core.multi.stylize import JointLook
+
+    ports, state = _module("ports"), _module("state")
+
+    class Store(MultiStore):
+        def export_settings(self):
+            return state.ExportSettings(path="", bit_depth=16, crossfade_frames=4)
+
+    class Sink:
+        several_projectors = True
+
+        def __init__(self):
+            self.frames = []
+
+        def show(self, frame):
+            self.frames.append(frame)
+
+    store, sink = Store(state, tmp_path / "data"), Sink()
+    seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)), (sink,))
+    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    cs = load_multi_capture(store.capture_dir, pairs=False)
+    model = load_joint_model(cs.setup_dir)
+    lo, hi = reach(model)
+    pattern = cv2.resize(np.random.default_rng(4).random((3, 4, 3)).astype(np.float32), CAMERA,
+                         interpolation=cv2.INTER_CUBIC).clip(0, 1)
+    target = lo + (hi - lo) * (0.15 + 0.7 * pattern)
+    comp = joint_compensate(model, target)
+    comp.frames = [f * 0.8 ** (1 / g) for f, g in zip(comp.frames, model.gamma_p)]  # 80 % of the light
+    look = JointLook(target, comp, {"styles": []}, 1.0, 0.0)
+    folder, _ = write_joint_result(tmp_path / "results", "look", look, target, cs.names, cs.sizes,
+                                   {"prompt": "look", "capture": str(cs.setup_dir), "summary_line": "look"},
+                                   model.reached.any(axis=0))
+    store.result = str(folder)
+    scene = store.read()
+    panel_state = _module("panel_state")
+    assert panel_state.refine_blocker(scene) == ""  # Refine lets a rig of several through now
+    assert panel_state.single_result_blocker(scene) == "Works with one projector for now; the rig has 2"  # render
+    job = _module("refine_job").RefineResultJob(seams, 4)
+    assert job.run() == "DONE", job.error
+    record = job.result["refine"]
+    assert record["refined_psnr"] > record["open_loop_psnr"] + 3.0, record
+    saved = json.loads((folder / "result.json").read_text())
+    assert [p["image"] for p in saved["projectors"]] == ["projector_1_refined.png", "projector_2_refined.png"]
+    assert [p["image_open_loop"] for p in saved["projectors"]] == ["projector_1.png", "projector_2.png"]
+    assert saved["refine"]["images"] == {"projector_1": "projector_1_refined.png",
+                                         "projector_2": "projector_2_refined.png"}
+    assert "; refined " in saved["summary_line"] and store.result == str(folder)
+    # Export and the lights read the refined images, and each light was shown its own
+    refined = [image for _, image in projector_images(folder)]
+    assert not np.allclose(refined[0], comp.frames[0], atol=2 / 255)
+    assert [f.projector_index for f in sink.frames] == [0, 1]
+    # a real rig of several cannot show them all at once yet: refused in the panel's words
+    real = MultiStore(state, tmp_path, kind="REAL", displays=("1", "2"))
+    real.result = str(folder)
+    assert panel_state.refine_blocker(real.read()).startswith("A real rig captures one projector for now")
+
+
+@pytest.mark.torch
+@pytest.mark.parametrize("psa", [True, False])
+def test_generate_adapts_the_look_to_the_joint_reach_when_asked(multi, psa):
+    """MultiGenerateJob passes the request's PSA on: with it the folder keeps the look without PSA beside the
+    adapted one, and result.json says what PSA did; without it, one look and 'no PSA'."""
+    seams, store = multi
+    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    request = _module("state").GenerateRequest("Make it a stained glass artwork", "styletransfer", "", psa, 0.5, 0)
+    job = _module("multi_generate_job").MultiGenerateJob(seams, request, working_size=48)
+    assert job.run() == "DONE", job.error
+    folder = job.result["folder"]
+    saved = json.loads(open(os.path.join(folder, "result.json")).read())
+    nopsa = [os.path.isfile(os.path.join(folder, f"{n}_nopsa.png")) for n in ("look", "projector_1", "projector_2")]
+    if psa:
+        assert all(nopsa) and saved["psa"]["settings"]["adaptation"] == 0.5 and saved["psa"]["warm_start_steps"] > 0
+        assert "PSA on their joint reach" in saved["summary_line"]
+        assert saved["metrics"]["simulated_psnr"] > saved["metrics"]["simulated_psnr_nopsa"]
+    else:
+        assert not any(nopsa) and saved["psa"] is False and saved["summary_line"].endswith("no PSA")
+    assert store.result == folder

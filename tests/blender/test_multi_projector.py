@@ -108,11 +108,21 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     result = scene_state.read(scene).result_dir
     summary = json.loads(open(os.path.join(result, "result.json")).read())
     assert [p["image"] for p in summary["projectors"]] == ["projector_1.png", "projector_2.png"]
-    assert "no PSA yet" in scene.lapig.result_summary
+    assert "PSA on their joint reach" in scene.lapig.result_summary
     from lapig.lapig_addon.blender import projector_nodes
 
     shown = [projector_nodes.projected_image(p.data) for p in scene_state.rig_projectors(scene)]
     assert [tuple(i.size) for i in shown] == [(64, 48), (64, 48)] and shown[0] != shown[1]  # each light its own
+    assert summary["psa"]["warm_start_steps"] > 0 and os.path.isfile(os.path.join(result, "projector_1_nopsa.png"))
+
+    # Refine on the rig: both projectors' images projected together in Cycles, corrected jointly
+    scene.lapig.refine_steps = 2
+    assert bpy.ops.lapig.refine_result() == {"FINISHED"}
+    refined = json.loads(open(os.path.join(result, "result.json")).read())
+    print("refine", refined["refine"])
+    assert [p["image"] for p in refined["projectors"]] == ["projector_1_refined.png", "projector_2_refined.png"]
+    assert refined["refine"]["refined_psnr"] >= refined["refine"]["open_loop_psnr"]
+    assert "; refined " in scene.lapig.result_summary
 
     out = tmp_path / "export" / "statue.png"
     out.parent.mkdir()
@@ -188,9 +198,11 @@ def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp
     assert captured["coverage"]["reached"] > max(captured["coverage"]["per_projector"])
     assert captured["first_look_seconds"] < 10
     proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--render")
-    assert proc.returncode == 1 and "work with one projector for now; this rig has 2" in proc.stderr
-    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save")
+    assert proc.returncode == 1 and "works with one projector for now; this rig has 2" in proc.stderr
+    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save", "--refine", "1")
     assert proc.returncode == 0, proc.stderr[-2000:]
+    stylized = json.loads(proc.stdout[proc.stdout.index("{"):])
+    assert stylized["refine"]["iterations"] == 1 and stylized["simulated_psnr_nopsa"] is not None
     out = tmp_path / "out"
     out.mkdir()
     proc = _cli("export", "--blend", blend, "--out", str(out / "look.png"), "--mpcdi", str(out / "rig.mpcdi"))

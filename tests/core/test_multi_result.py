@@ -103,9 +103,13 @@ def test_the_look_is_jointly_compensated_and_each_projectors_frame_written(captu
     assert masked_psnr(shown, joint.target, reached) > masked_psnr(surface, joint.target, reached) + 3
     folder, summary = write_joint_result(tmp_path / "results", "glass", joint, surface, cs.names, cs.sizes,
                                          {"prompt": "glass", "backend": "styletransfer"}, reached)
-    assert is_multi_result(folder) and PSA_NOTE in summary["notes"]
+    assert is_multi_result(folder) and PSA_NOTE not in summary["notes"]
     saved = json.loads((folder / "result.json").read_text())
     assert [p["image"] for p in saved["projectors"]] == ["projector_1.png", "projector_2.png"]
-    assert (folder / "comparison.png").is_file() and "no PSA yet" in saved["summary_line"]
+    assert (folder / "comparison.png").is_file() and "PSA on their joint reach" in saved["summary_line"]
+    # PSA ran on the joint reach, and the look without it is kept beside it, as one projector's result keeps it
+    assert saved["psa"]["warm_start_steps"] > 0 and saved["metrics"]["simulated_psnr_nopsa"] is not None
+    assert all((folder / f"{n}.png").is_file() for n in ("look_nopsa", "predicted_nopsa", "projector_1_nopsa",
+                                                         "projector_2_nopsa"))
     images = projector_images(folder)
     assert [e["name"] for e, _ in images] == ["left", "right"] and images[1][1].shape == (36, 48, 3)

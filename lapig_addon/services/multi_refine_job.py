@@ -1,0 +1,150 @@
+"""Refine on the rig for a result of several projectors (issue 36): every projector's image projected at once,
+one camera capture per round, all images corrected together (lapig_core/multi/refine).
+
+RefineResultJob takes this path when the scene's rig has more than one projector (the Refine button, `stylize
+--refine N`): the steps below run inside that job. As for one projector, nothing is written until the loop has
+finished: the refined images go in as projector_1_refined.png .., then result.json (written last) points each
+projector's entry at its refined image (`image`, the open-loop one kept as `image_open_loop`), which Export, the
+lights and MPCDI read through multi/result_files.projector_images.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...lapig_core.capture.settings import CaptureError
+from ...lapig_core.export.result_files import read_result_image, read_summary, write_result
+from ...lapig_core.refine.check import RegistrationCheckError
+from ...lapig_core.refine.loop import RefineError, RefineSettings
+from . import panel_state
+from .multi_generate_job import MultiPipelineError, multi_capture
+from .pipeline_jobs import PipelineError, hold_capture
+
+REFINED_SUFFIX = "_refined"
+
+
+def multi_refine_inputs(seams) -> tuple[str, str]:
+    """(the result folder, the capture) from the scene (the main thread), or PipelineError saying why not."""
+    from ...lapig_core.multi.result_files import is_multi_result
+
+    state = seams.store.read()
+    blocker = panel_state.result_blocker(state) or panel_state.device_blocker(state.rig)
+    if blocker:
+        raise PipelineError(blocker)
+    if seams.devices is None or getattr(seams.devices, "multi_capture_device", None) is None:
+        raise PipelineError("refinement of several projectors needs a rig that shows them all at once (the virtual "
+                            "rig)")
+    try:
+        capture = multi_capture(state)
+    except MultiPipelineError as exc:
+        raise PipelineError(str(exc)) from None
+    if not is_multi_result(state.result_dir):
+        raise PipelineError("the scene's result is of one projector; the rig has several: generate again first")
+    return state.result_dir, capture
+
+
+def prepared_multi_refinement(folder: str, capture: str, settings: RefineSettings):
+    """Steps whose value is (the result's summary, the MultiRefinement of its projector images against its look
+    on the capture's joint model)."""
+    from ...lapig_core.multi.capture_set import load_multi_capture
+    from ...lapig_core.multi.first_look import fit_joint_first_look, load_joint_model
+    from ...lapig_core.multi.refine import MultiRefinement
+    from ...lapig_core.multi.result_files import projector_images
+
+    yield 0.02, "reading the result and the joint model"
+    summary = read_summary(folder)
+    if summary.get("capture") and summary["capture"] != capture:
+        raise PipelineError("the result was made on another capture than the scene's: generate again first")
+    cs = load_multi_capture(capture, pairs=False)
+    model = load_joint_model(cs.setup_dir)
+    if model is None or model.count != cs.count:
+        yield 0.04, "fitting the joint model"
+        model = fit_joint_first_look(load_multi_capture(capture)).model
+    target = read_result_image(folder, "look")
+    start = [image for _, image in projector_images(folder)]
+    try:
+        return summary, MultiRefinement(model, target, model.reached.any(axis=0) & cs.object_mask, start, settings)
+    except RefineError as exc:
+        raise PipelineError(str(exc)) from None
+
+
+def multi_refine_rounds(device, refinement):
+    """A generator of (progress, message) that runs `refinement` on an open MultiProjectorDevice."""
+    from ...lapig_core.multi.refine import device_capture
+
+    capture = device_capture(device)
+    # the camera's exposure as the capture fixed it: every projector white together
+    device.lock_exposure([np.ones((m.projector_size[1], m.projector_size[0], 3), np.uint8) * 255
+                          for m in refinement.model.maps])
+    vary = getattr(device, "vary_noise", None)
+    cap, draws = refinement.settings.iterations, 0
+    while not refinement.done:
+        images, repeats = refinement.request()
+        shots = []
+        for _ in range(repeats):  # each grab a new noise draw, as a real camera's are
+            if vary is not None:
+                vary(draws)
+            draws += 1
+            shots.append(capture(images, 1)[0])
+        refinement.take(np.stack(shots))
+        rec = refinement.record
+        yield 0.05 + 0.9 * min(rec.iterations, cap) / (cap + 1), \
+            f"refining {len(images)} projectors on the rig: step {rec.iterations}/{cap}, last capture " \
+            f"{rec.history[-1]:.1f} dB (noise floor {rec.noise_floor_psnr:.1f})"
+
+
+def write_multi_refined(folder: str, summary: dict, refinement):
+    """Steps that write each projector's refined image, then result.json pointing at them; their value is (the
+    summary written, the record)."""
+    from ...lapig_core.multi.result_files import projector_image_name
+    from .refine_job import _with_refine, refine_line
+
+    yield 0.96, "writing the refined result"
+    record = refinement.record.to_dict()
+    record["frame"] = "projectors"
+    names = [projector_image_name(k) + REFINED_SUFFIX for k in range(len(refinement.images))]
+    images = dict(zip(names, refinement.images))
+    entries = summary.get("projectors") or []
+    for entry, name in zip(entries, names):
+        entry.setdefault("image_open_loop", entry["image"])
+        entry["image"] = f"{name}.png"
+    record["images"] = {f"projector_{k + 1}": f"{n}.png" for k, n in enumerate(names)}
+    summary["refine"] = record
+    summary["summary_line"] = _with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
+                                           refine_line(record))
+    summary.setdefault("metrics", {}).update(
+        {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
+         "refine_noise_floor_psnr": record["noise_floor_psnr"], "refine_iterations": record["iterations"],
+         "refine_seconds": record["seconds"]})
+    write_result(folder, images, summary)  # the images first, result.json last: it names them
+    return summary, record
+
+
+def multi_refine_steps(job):
+    """The steps of RefineResultJob for a rig of several projectors; their value is the job's result."""
+    folder, capture = multi_refine_inputs(job.seams)
+    settings = job.settings
+    summary, refinement = yield from job.drive(lambda: prepared_multi_refinement(folder, capture, settings), False)
+    devices = job.seams.devices
+    capture_settings = job.seams.store.capture_settings()
+    held = hold_capture(capture, job.title)
+
+    def loop():
+        with devices.multi_capture_device(capture_settings) as device:
+            return (yield from multi_refine_rounds(device, refinement))
+
+    try:
+        yield from job.drive(loop, devices.main_thread, holding=held)
+    except (CaptureError, RegistrationCheckError, RefineError) as exc:
+        raise PipelineError(str(exc)) from None
+    summary, record = yield from job.drive(lambda: write_multi_refined(folder, summary, refinement), False)
+    return record_multi_refined(job.seams, folder, summary, record)
+
+
+def record_multi_refined(seams, folder: str, summary: dict, record: dict) -> dict:
+    """The refined result into the scene (the main thread): its line, and each image to the sinks of several."""
+    from .multi_generate_job import show_projector_images
+    from .refine_job import refine_line
+
+    seams.store.record_result(folder, summary["summary_line"])
+    show_projector_images(seams, {"folder": folder, "summary": summary})
+    return {"folder": folder, "refine": record, "line": refine_line(record).lstrip("; ")}

@@ -9,6 +9,7 @@ from lapig.lapig_core.lgst.base import ThetaBackend
 from lapig.lapig_core.photometric.classical import ClassicalModel
 from lapig.lapig_core.photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator
 from lapig.lapig_core.photometric.surface_models import SurfaceModels
+from lapig.lapig_core.psa.adaptation import PSASettings, warm_start_field
 from lapig.lapig_core.psa.tone_field import AdaptedLook
 from lapig.lapig_core.show.look_state import KeyedLook
 
@@ -61,12 +62,14 @@ class StripesBackend(ThetaBackend):
 
 
 def keyed_look(look, models) -> KeyedLook:
-    """A keyed look without PSA: the backend prepared from the look's prompt and seed, the identity field."""
+    """A keyed look as PSA's fast path leaves it: the backend prepared from the look's prompt and seed, its
+    tone field moved by PSA's warm start (no network steps)."""
     backend = StripesBackend()
     backend.prepare(models.i_max, look.prompt, seed=look.seed)
     adapted = AdaptedLook(backend, models.i_min, models.i_max)
     with torch.no_grad():
         base = backend.forward().detach()
+    warm_start_field(adapted, base, models, PSASettings(warm_start_steps=60))
     return KeyedLook(backend, adapted.state(), base, backend.name)
 
 

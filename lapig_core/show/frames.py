@@ -105,11 +105,8 @@ def _psa_settings(recorded: dict, seed: int) -> PSASettings:
 def look_from_result(look, models) -> KeyedLook:
     """A keyed look from its result folder (look_state docstring): the backend prepared from result.json's
     prompt, backend, seed and mix on the white-lit surface; theta and the tone field from look_state.npz,
-    else from PSA run again with the recorded settings. A folder without result.json uses the Look's own
-    prompt, backend and seed."""
-    from ..lgst import prepared_backend
-    from ..pipeline import with_device
-
+    else from PSA run again with the recorded settings. A Look whose folder does not exist is made from its
+    own prompt, backend and seed."""
     folder = Path(look.result)
     if (folder / "result.json").is_file():
         record = read_result_record(folder)
@@ -118,21 +115,31 @@ def look_from_result(look, models) -> KeyedLook:
     else:
         record = {"prompt": look.prompt, "backend": look.backend, "seed": look.seed, "mix": None, "psa": True,
                   "psa_settings": {}}
-    surface = models.i_max
-    options = with_device(record["backend"], None, models.device)
-    backend, _ = prepared_backend(record["backend"], surface, record["prompt"], seed=record["seed"],
-                                  mix=record["mix"], options=options)
-    adapted = AdaptedLook(backend, models.i_min, models.i_max)
     state = load_look_state(folder) if folder.exists() else None
+    return keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
+                                  psa=record["psa"], psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
+                                  state=state)
+
+
+def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix=None, psa: bool = True,
+                           psa_settings: PSASettings | None = None, state: dict | None = None,
+                           cancel_event=None) -> KeyedLook:
+    """The look of a prompt on this surface as Generate makes it: the backend prepared on the white-lit
+    surface, then `state` loaded (theta and the tone field) or PSA run with `psa_settings`."""
+    from ..lgst import prepared_backend
+    from ..pipeline import with_device
+
+    options = with_device(backend, None, models.device)
+    lgst, _ = prepared_backend(backend, models.i_max, prompt, seed=seed, mix=mix, options=options)
+    adapted = AdaptedLook(lgst, models.i_min, models.i_max)
     if state is None:
-        if record["psa"]:
-            state = run_psa(adapted, models, _psa_settings(record["psa_settings"], record["seed"])).state
-        else:
-            state = adapted.state()
-    adapted.load_state({**backend.state(), **{k: [t.to(models.device) for t in v] for k, v in state.items()}})
+        settings = psa_settings or PSASettings(seed=seed)
+        state = run_psa(adapted, models, settings, cancel_event=cancel_event).state if psa else adapted.state()
+    adapted.load_state({**lgst.state(), **{k: [t.to(models.device) for t in v] for k, v in state.items()
+                                           if k in ("theta", "tone_field")}})
     with torch.no_grad():
-        base = backend.forward().detach()
-    return KeyedLook(backend, adapted.state(), base, getattr(backend, "name", ""))
+        base = lgst.forward().detach()
+    return KeyedLook(lgst, adapted.state(), base, getattr(lgst, "name", ""))
 
 
 def _as_frame(t: torch.Tensor) -> np.ndarray:

@@ -58,14 +58,26 @@ class ShowSetup:
 
     models: SurfaceModels (pipeline.surface_models or first_look_models). load_look(look, models) ->
     KeyedLook; default: look_from_result (the result folder). setup_dir: the capture, for another output
-    size (its registered references). dark_outside: projector pixels off the object black."""
+    size (its registered references). dark_outside: projector pixels off the object black.
+    references(width, height) -> capture.native_references.References: the surface at another output size
+    (default: the capture's references registered there)."""
 
-    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False):
+    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False, references=None):
         self.models = models
         self.load_look = load_look or look_from_result
         self.setup_dir = Path(setup_dir) if setup_dir is not None else None
         self.dark_outside = dark_outside
+        self._references = references
         self._looks = {}
+
+    def references(self, width: int, height: int):
+        if self._references is not None:
+            return self._references(width, height)
+        from ..capture.native_references import registered_references
+
+        if self.setup_dir is None:
+            raise ShowError("an output size other than the working frame needs the capture's folder")
+        return registered_references(self.setup_dir, width, height)
 
     @classmethod
     def from_capture(cls, setup_dir, device=None, dark_outside: bool = True) -> "ShowSetup":
@@ -177,13 +189,10 @@ class FrameMaker:
         self.s, self.white = self.models.s, None
         height, width = working
         if self.native:
-            from ..capture.native_references import registered_references
             from ..photometric.training_data import to_tensor
 
-            if self.setup.setup_dir is None:
-                raise ShowError("an output size other than the working frame needs the capture's folder")
             width, height = int(size[0]), int(size[1])
-            refs = registered_references(self.setup.setup_dir, width, height)
+            refs = self.setup.references(width, height)
             device = self.models.device
             self.s, self.white = to_tensor(refs.gray).to(device), to_tensor(refs.white).to(device)
             self.valid = (torch.from_numpy(refs.valid)[None, None].to(device=device, dtype=torch.float32)

@@ -50,7 +50,7 @@ class FrameSettings:
     psa: PSASettings | None = None  # the style and keep-light terms' settings (None: PSA's defaults)
     adapt: bool = True  # False: moved / morphed looks through the interpolated field, not adapted
     cache_frames: int = 16  # the newest frames kept besides the holds (a periodic motion's repeats)
-    gamma: float | None = None  # dissolves' projector transfer; None: the compensator's, else 2.2
+    gamma: float = 2.2  # dissolves' projector transfer (ProjectorModel.gamma; crossfade_sequence's default)
 
 
 class ShowSetup:
@@ -175,7 +175,9 @@ class FrameMaker:
         self.optimiser = Adam(list(self.field.parameters()), lr=self.settings.field_lr)
         self.carry = None  # the previous adapted frame's correction of its field (warm start)
         self.psa_settings = self.settings.psa or PSASettings()
-        self.gamma = self.settings.gamma or float(getattr(models.compensator, "gamma_p", 2.2))
+        # the projector's own transfer, not the classical fit's gamma_p: that one trades off against M and
+        # the camera's gamma (the device check's fake rig is 2.2 / 2.2; its fit says 1.37 / 1.61)
+        self.gamma = float(self.settings.gamma)
         self._kept, self._recent = {}, OrderedDict()
         self.computed = 0  # frames made (not from the cache)
         self._params = {}  # the field's parameters each adapted key was made with (target_of reads them)

@@ -38,7 +38,7 @@ from ...lapig_core.photometric.classical import ClassicalModel
 from ...lapig_core.pipeline import first_look_models, object_footprint
 from ...lapig_core.psa.adaptation import PSASettings
 from ...lapig_core.export.projector_image import _blend
-from ...lapig_core.show.frames import FrameMaker, ShowSetup, keyed_look_from_prompt
+from ...lapig_core.show.frames import FrameMaker, FrameSettings, ShowSetup, keyed_look_from_prompt
 from ...lapig_core.show.model import Look, Motion, Show, Transition
 from ...lapig_core.show.morph import mix_linear
 from .device_fixture import CAMERA, FIXTURE, PROJECTOR
@@ -140,6 +140,23 @@ def run(args=None) -> dict:
         return num / den if den > 0 else math.nan
 
     flicker_morph, flicker_moving = flicker(morph_idx), flicker(moving_idx[:12])
+    # the same frames unadapted (the keyed fields): what the per-frame adaptation adds or removes
+    plain = FrameMaker(show, setup, size=native, settings=FrameSettings(field_steps=0))
+    measured_plain = {i: _measure(capture, plain, key) for i, key in rows[:max(moving_idx[:12]) + 1]}
+    measured, kept = measured_plain, measured
+    flicker_plain = max(flicker(morph_idx), flicker(moving_idx[:12]))
+    measured = kept
+    # and through the first look's own model at the working frame: no 8-bit steps, no resampling
+    model_maker = FrameMaker(show, setup)
+    measured_model = {}
+    for i, key in rows[:max(moving_idx[:12]) + 1]:
+        frame = model_maker.frame(key)
+        with torch.no_grad():
+            sim = models.simulate(torch.from_numpy(frame).permute(2, 0, 1)[None])
+        measured_model[i] = (_image(sim), _image(model_maker.target_of(key)), np.ones(frame.shape[:2], bool))
+    measured, kept = measured_model, measured
+    flicker_model = max(flicker(morph_idx), flicker(moving_idx[:12]))
+    measured = kept
 
     # a dissolve's midpoint: the crossfade of the compensated looks against the midpoint compensated itself
     sa, sb = _looks(None)
@@ -189,6 +206,7 @@ def run(args=None) -> dict:
             "keyed_psnr_db": r(keyed_psnr, 2), "inbetween_psnr_db": [r(p, 2) for p in inbetween_psnr],
             "inbetween_frames": {"morph": len(morph_idx[:0]) + 4, "moving": 4},
             "temporal_flicker_morph": r(flicker_morph, 4), "temporal_flicker_moving": r(flicker_moving, 4),
+            "temporal_flicker_unadapted": r(flicker_plain, 4), "temporal_flicker_model": r(flicker_model, 4),
             "dissolve_psnr_crossfade_db": r(psnr_crossfade, 2), "dissolve_psnr_own_db": r(psnr_own, 2),
             "show_frames_seconds": r(keyed_setup_s, 2), "psa_iterations_keyed": psa_iterations,
             "frame": list(native), "fps": FPS, "cpu_threads": torch.get_num_threads(),

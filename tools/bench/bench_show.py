@@ -101,7 +101,7 @@ def _measure(capture, maker, key):
     return captured, target, valid
 
 
-def run(args=None) -> dict:
+def run(args) -> dict:
     t_start = time.perf_counter()
     psa_iterations = int(getattr(args, "psa_iterations", None) or 10)
     cs = load_capture_set(FIXTURE)
@@ -214,5 +214,5 @@ def run(args=None) -> dict:
 
 
 def main() -> int:
-    print(json.dumps(run()))
+    print(json.dumps(run(None)))
     return 0

@@ -11,7 +11,11 @@ here, the keys say so).
     inbetween_psnr_drop_db     8 in-between frames (4 of a morph, 4 of a moving look), captured against their
                                own targets, below the keyed looks' captured PSNR (goal <= 0.5 dB)
     temporal_flicker           over consecutive frames of the morph and the moving look: mean |change of the
-                               captured frame - change of the target| / mean |change of the target| (<= 0.1)
+                               captured frame - change of the target| / mean |change of the target| (<= 0.1);
+                               beside it the same figure of the targets themselves through the rig's resampling
+                               alone (temporal_flicker_optics_floor: a white surface, no compensation: the part
+                               no show can remove), of the unadapted frames, and through the model (no
+                               resampling, no 8-bit steps)
     dissolve_check_db          at a dissolve's midpoint: captured PSNR of the linear-light crossfade of the
                                compensated looks minus that of the midpoint compensated as its own target
     export_fps_moving_800x600  moving frames made per second at 800x600 (adapted and compensated; the look
@@ -60,6 +64,16 @@ class FakeRigCapture:
         self.device.show(np.round(np.clip(frame, 0, 1) * 255).astype(np.uint8))
         captured, valid = self.registration.warp(self.device.grab(), return_valid=True)
         return np.asarray(captured, np.float32), np.asarray(valid, bool)
+
+
+class OpticsOnly(FakeRigCapture):
+    """The same rig with a white surface, no ambient light and unit gain: an image through the rig's
+    resampling alone (projector pixels -> camera -> registered back), for the flicker figure's floor."""
+
+    def __init__(self, setup_dir):
+        super().__init__(setup_dir)
+        self.device.albedo = np.ones_like(self.device.albedo)
+        self.device.ambient, self.device.gain = 0.0, 1.0
 
 
 def _image(t: torch.Tensor) -> np.ndarray:
@@ -146,6 +160,13 @@ def run(args) -> dict:
     measured, kept = measured_plain, measured
     flicker_plain = max(flicker(morph_idx), flicker(moving_idx[:12]))
     measured = kept
+    # the floor: the targets themselves through the rig's resampling alone (a perfect surface)
+    optics = OpticsOnly(setup_dir_of(cs))
+    measured_floor = {i: (*optics(m[1]), ) for i, m in measured.items()}
+    measured_floor = {i: (c, measured[i][1], v & measured[i][2]) for i, (c, v) in measured_floor.items()}
+    measured, kept = measured_floor, measured
+    flicker_floor = max(flicker(morph_idx), flicker(moving_idx[:12]))
+    measured = kept
     # and through the first look's own model at the working frame: no 8-bit steps, no resampling
     model_maker = FrameMaker(show, setup)
     measured_model = {}
@@ -207,6 +228,7 @@ def run(args) -> dict:
             "inbetween_frames": {"morph": 4, "moving": 4},
             "temporal_flicker_morph": r(flicker_morph, 4), "temporal_flicker_moving": r(flicker_moving, 4),
             "temporal_flicker_unadapted": r(flicker_plain, 4), "temporal_flicker_model": r(flicker_model, 4),
+            "temporal_flicker_optics_floor": r(flicker_floor, 4),
             "dissolve_psnr_crossfade_db": r(psnr_crossfade, 2), "dissolve_psnr_own_db": r(psnr_own, 2),
             "show_frames_seconds": r(keyed_setup_s, 2), "psa_iterations_keyed": psa_iterations,
             "frame": list(native), "fps": FPS, "cpu_threads": torch.get_num_threads(),

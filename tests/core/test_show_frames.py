@@ -188,3 +188,28 @@ def test_another_output_size_renders_and_compensates_there():
         # the same look at twice the size: close to the working frame's, upsampled
         down = torch.nn.functional.avg_pool2d(torch.from_numpy(frame).permute(2, 0, 1)[None], 2)[0].permute(1, 2, 0)
         assert np.abs(down.numpy() - small[index]).mean() < 0.05
+
+
+def test_a_morph_out_of_a_moving_look_starts_where_the_look_stands():
+    setup = ShowSetup(fake_models(), load_look=keyed_look)
+    show = Show([Look("/r/a", "a", seed=1, hold_s=0.7, motion=Motion("drift", 1.0, 2.0)), Look("/r/b", "b", seed=7)],
+                [Transition("morph", 1.0)], fps=10)
+    frames = dict(show_frames(show, setup, stop=9))
+    last_moving, first_morph = frames[6], frames[7]
+    still = FrameMaker(show, setup).frame(("hold", 0, 0.0))
+    # the first in-between frame is near the look as it last stood, not the look at rest
+    assert np.abs(first_morph - last_moving).mean() < 0.5 * np.abs(first_morph - still).mean()
+
+
+def test_a_cancel_while_a_look_is_made_keeps_no_half_made_look():
+    cancel = threading.Event()
+
+    def load(look, models):
+        cancel.set()  # as a cancel arriving during the look's PSA
+        return keyed_look(look, models)
+
+    setup = ShowSetup(fake_models(), load_look=load)
+    messages = []
+    with pytest.raises(InterruptedError):
+        next(show_frames(_two_looks(), setup, cancel_event=cancel, on_progress=lambda p, m: messages.append(m)))
+    assert setup._looks == {} and messages == ["preparing look 1 (1 of 2)"]

@@ -34,7 +34,7 @@ from ..export.projector_image import _blend
 from ..native_output import compensate_frame, device_tile
 from ..psa.adaptation import PSASettings, _style_loss, keep_light_loss, proxy_psa_loss, run_psa
 from ..psa.tone_field import AdaptedLook, ToneField
-from .look_state import KeyedLook, load_look_state, read_result_record
+from .look_state import KeyedLook, load_look_state, read_result_record, refine_offset
 from .model import Show, ShowError
 from .morph import lerp_list, morph_base
 from .motion import apply_motion
@@ -135,9 +135,13 @@ def look_from_result(look, models, cancel_event=None) -> KeyedLook:
         record = {"prompt": look.prompt, "backend": look.backend, "seed": look.seed, "mix": None, "psa": True,
                   "psa_settings": {}}
     state = load_look_state(folder) if folder.exists() else None
-    return keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
-                                  psa=record["psa"], psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
-                                  state=state, cancel_event=cancel_event)
+    keyed = keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
+                                   psa=record["psa"], psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
+                                   state=state, cancel_event=cancel_event)
+    keyed.offset = refine_offset(folder) if folder.exists() else None
+    if keyed.offset is not None and tuple(keyed.offset.shape[-2:]) != tuple(models.s.shape[-2:]):
+        keyed.offset = None  # refined at another working frame: not this capture's correction
+    return keyed
 
 
 def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix=None, psa: bool = True,
@@ -294,11 +298,36 @@ class FrameMaker:
         return [t.to(self.models.device) for t in self.keyed(i).state["tone_field"]]
 
     # ------------------------------------------------------------------ frames
-    def _compensate(self, base: torch.Tensor, params: list) -> np.ndarray:
+    def _offset(self, i: int):
+        """Look i's refinement offset at the output size, or None."""
+        offset = self.keyed(i).offset
+        if offset is None:
+            return None
+        size = tuple(self.s.shape[-2:])
+        offset = offset.to(self.s.device)
+        if tuple(offset.shape[-2:]) != size:
+            offset = torch.nn.functional.interpolate(offset, size=size, mode="bilinear", align_corners=False)
+        return offset
+
+    def offset_of(self, key: tuple):
+        """The refinement offset a frame carries: its look's; a morph's the two looks' mixed by w."""
+        if key[0] in ("hold", "moving"):
+            return self._offset(key[1])
+        if key[0] == "morph":
+            a, b, w = self._offset(key[1]), self._offset(key[2]), key[3]
+            if a is None and b is None:
+                return None
+            zero = torch.zeros_like(a if a is not None else b)
+            return (1.0 - w) * (a if a is not None else zero) + w * (b if b is not None else zero)
+        return None
+
+    def _compensate(self, base: torch.Tensor, params: list, offset=None) -> np.ndarray:
         self._load_field(params)
         with torch.no_grad():
             target = self.field.apply(base)
             projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
+            if offset is not None:
+                projector = (projector + offset).clamp(0, 1)
             if self.valid is not None:
                 projector = projector * self.valid
         self.computed += 1
@@ -363,7 +392,7 @@ class FrameMaker:
         else:
             base, params = self._recipe(key)
             self._params[key] = params
-            out = self._compensate(base, params)
+            out = self._compensate(base, params, self.offset_of(key))
         if key[0] == "hold" or key in (self.end_key(key[1]),) or (key[0] == "moving" and key[2] == 0.0):
             self._kept[key] = out  # holds and the transitions' ends: for the whole run
         else:

@@ -213,3 +213,35 @@ def test_a_cancel_while_a_look_is_made_keeps_no_half_made_look():
     with pytest.raises(InterruptedError):
         next(show_frames(_two_looks(), setup, cancel_event=cancel, on_progress=lambda p, m: messages.append(m)))
     assert setup._looks == {} and messages == ["preparing look 1 (1 of 2)"]
+
+
+def test_a_refined_look_carries_its_correction_onto_its_frames(tmp_path, stripes_registered):
+    from lapig.lapig_core.common.imageio import write_png
+    from lapig.lapig_core.show.look_state import refine_offset
+
+    models = fake_models()
+    plain = ShowSetup(models, load_look=keyed_look)
+    show = _two_looks("morph", fps=10, hold=0.2, seconds=0.1)  # frames: a, a, morph w=0.5, b, b
+
+    def with_offset(look, m):
+        keyed = keyed_look(look, m)
+        keyed.offset = torch.full((1, 3, 48, 64), 0.05) if look.prompt == "warm stripes" else None
+        return keyed
+
+    base = dict(show_frames(show, plain))
+    corrected = dict(show_frames(show, ShowSetup(models, load_look=with_offset)))
+    assert np.allclose(corrected[0], np.clip(base[0] + 0.05, 0, 1), atol=1e-6)
+    assert np.allclose(corrected[2], np.clip(base[2] + 0.025, 0, 1), atol=1e-5)  # the morph: half of it
+    assert np.array_equal(corrected[4], base[4])
+
+    # on disk: the refined working image minus the open-loop one, as result.json names them
+    folder = tmp_path / "refined"
+    folder.mkdir()
+    open_loop = np.full((48, 64, 3), 0.4, np.float32)
+    write_png(folder / "projector.png", open_loop, 16)
+    write_png(folder / "projector_refined.png", open_loop + 0.1, 16)
+    (folder / "result.json").write_text(json.dumps({"refine": {"images": {"projector_working": "projector_refined",
+                                                                          "projector": "projector_refined"}}}))
+    offset = refine_offset(folder)
+    assert offset.shape == (1, 3, 48, 64) and torch.allclose(offset, torch.full_like(offset, 0.1), atol=1e-4)
+    assert refine_offset(tmp_path) is None

@@ -278,9 +278,9 @@ class FrameMaker:
             # PSA's warm-start objective on this frame's image (the keyed look's field is its optimum)...
             loss = proxy_psa_loss(adapted, self.models, ps) + style_weight * scale * (
                 _style_loss(adapted, base, None, ps) + ps.keep_light_weight * keep_light_loss(adapted, base, self.models))
-            # ...and the pull towards the warm start, so consecutive frames' fields stay close
-            # and towards the keyed look's field (init), so the look does not drift off what PSA chose; both
-            # relative to the frame's proxy loss, as PSA's style term is
+            # ...the pull towards the warm start (consecutive frames' fields stay close), and towards the keyed
+            # look's field (the look does not drift off what PSA chose); relative to the frame's proxy loss,
+            # as PSA's style term is
             pull = sum(((p - w) ** 2).sum() for p, w in zip(self.field.parameters(), warm))
             keep = sum(((p - v) ** 2).sum() for p, v in zip(self.field.parameters(), init))
             loss = loss + scale * (s.temporal_weight * pull + s.keyed_weight * keep)

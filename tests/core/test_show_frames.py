@@ -245,3 +245,32 @@ def test_a_refined_look_carries_its_correction_onto_its_frames(tmp_path, stripes
     offset = refine_offset(folder)
     assert offset.shape == (1, 3, 48, 64) and torch.allclose(offset, torch.full_like(offset, 0.1), atol=1e-4)
     assert refine_offset(tmp_path) is None
+
+
+def test_a_captured_setup_plays_at_the_projector_frame(tmp_path, stripes_registered):
+    """The device check's capture (shipped), its first look fitted: from_capture, the registered references
+    at the projector's 160x120, a look made from its result.json (no look_state.npz: PSA once)."""
+    import shutil
+
+    from lapig.lapig_core.capture.dataset import load_capture_set, setup_dir_of
+    from lapig.lapig_core.photometric.first_look import fit_first_look
+    from lapig.tools.bench.device_fixture import FIXTURE
+
+    root = tmp_path / "fixture"
+    shutil.copytree(FIXTURE, root)
+    cs = load_capture_set(root)
+    with pytest.raises(ShowError, match="neither trained models nor a first look"):
+        ShowSetup.from_capture(setup_dir_of(cs))
+    fit_first_look(cs, setup_dir_of(cs))
+    setup = ShowSetup.from_capture(setup_dir_of(cs))
+    result = tmp_path / "result"
+    result.mkdir()
+    (result / "result.json").write_text(json.dumps({
+        "prompt": "warm stripes", "backend": StripesBackend.name, "seed": 2, "psa": True,
+        "psa_settings": {"max_iterations": 1, "warm_start_steps": 0}}))
+    show = Show([Look(str(result), hold_s=0.3, motion=Motion("pulse", 0.8, 0.3))], [], fps=10)
+    frames = dict(show_frames(show, setup, size=(160, 120)))
+    assert sorted(frames) == [0, 1, 2]
+    for frame in frames.values():
+        assert frame.shape == (120, 160, 3) and frame.mean() > 0.05
+    assert np.abs(frames[1] - frames[0]).mean() > 1e-3  # it pulses

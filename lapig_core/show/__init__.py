@@ -23,10 +23,11 @@ The API the add-on (branch `showaddon`) and the video export (branch `video`) ca
 
     setup = ShowSetup.from_capture(setup_dir)   # the capture's SurfaceModels: Train's saved models, else its
                                                 # first look (the classical model); ShowError when neither
-    # or ShowSetup(models, load_look=None, setup_dir=None, dark_outside=False, references=None):
+    # or ShowSetup(models, load_look=None, setup_dir=None, dark_outside=False, references=None, fingerprint=None):
     #   load_look(look, models) -> KeyedLook (default look_from_result: the result folder's result.json,
     #   its look_state.npz or PSA once); references(w, h) -> References at another output size
-    #   (default: the capture's, registered there)
+    #   (default: the capture's, registered there); fingerprint: the capture's, so a look whose result was
+    #   made on another capture (stale) is refused with a ShowError
     for index, frame in show_frames(show, setup, size=None, cancel_event=None, on_progress=None):
         ...   # frame: float32 (H, W, 3) in [0, 1], the projector image; size=None: the working frame,
               # size=(width, height): that size as native_output makes it (e.g. the projector's native frame)

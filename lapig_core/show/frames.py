@@ -62,8 +62,10 @@ class ShowSetup:
     references(width, height) -> capture.native_references.References: the surface at another output size
     (default: the capture's references registered there)."""
 
-    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False, references=None):
+    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False, references=None,
+                 fingerprint: str | None = None):
         self.models = models
+        self.fingerprint = fingerprint  # the capture's (setup.json): a look made on another one is refused
         self.load_look = load_look or look_from_result
         self.setup_dir = Path(setup_dir) if setup_dir is not None else None
         self.dark_outside = dark_outside
@@ -96,14 +98,14 @@ class ShowSetup:
                 raise ShowError(f"{setup_dir} has neither trained models nor a first look ({problem}): capture it again")
             models = pipeline.first_look_models(cs, look.classical, device=device)
         dark = dark_outside and pipeline.object_footprint(cs) is not None
-        return cls(models, setup_dir=setup_dir, dark_outside=dark)
+        return cls(models, setup_dir=setup_dir, dark_outside=dark, fingerprint=cs.meta.get("fingerprint"))
 
     def keyed(self, index: int, look, cancel_event=None) -> KeyedLook:
         """Look `index` of the show as PSA left it, made once for this setup. A look whose making was
         cancelled (PSA stops at the cancel with its best iterate so far) is not kept: InterruptedError."""
         if index not in self._looks:
             if self.load_look is look_from_result:
-                keyed = look_from_result(look, self.models, cancel_event=cancel_event)
+                keyed = look_from_result(look, self.models, cancel_event=cancel_event, fingerprint=self.fingerprint)
             else:
                 keyed = self.load_look(look, self.models)
             if cancel_event is not None and cancel_event.is_set():
@@ -121,14 +123,18 @@ def _psa_settings(recorded: dict, seed: int) -> PSASettings:
     return PSASettings(**values)
 
 
-def look_from_result(look, models, cancel_event=None) -> KeyedLook:
+def look_from_result(look, models, cancel_event=None, fingerprint: str | None = None) -> KeyedLook:
     """A keyed look from its result folder (look_state docstring): the backend prepared from result.json's
     prompt, backend, seed and mix on the white-lit surface; theta and the tone field from look_state.npz,
     else from PSA run again with the recorded settings. A Look whose folder does not exist is made from its
-    own prompt, backend and seed."""
+    own prompt, backend and seed. fingerprint: the capture's; a result made on another capture (a stale look)
+    is refused with one line."""
     folder = Path(look.result)
     if (folder / "result.json").is_file():
         record = read_result_record(folder)
+        if fingerprint and record.get("fingerprint") and record["fingerprint"] != fingerprint:
+            raise ShowError(f"the look '{record['prompt'] or folder.name}' was made on another capture of the rig "
+                            f"({folder.name}): generate it again on this capture")
     elif folder.exists() or not look.prompt:
         raise ShowError(f"the look's result {folder} has no result.json: choose a result Generate wrote")
     else:

@@ -156,6 +156,12 @@ def test_a_result_folder_gives_its_look_with_or_without_a_saved_state(tmp_path, 
     with pytest.raises(ShowError, match="no result.json"):
         look_from_result(Look(str(tmp_path)), models)
 
+    stale = json.loads((folder / "result.json").read_text())
+    (folder / "result.json").write_text(json.dumps({**stale, "fingerprint": "an older capture"}))
+    with pytest.raises(ShowError, match="made on another capture of the rig"):
+        ShowSetup(models, fingerprint="this capture").keyed(0, look)
+    assert look_from_result(look, models, fingerprint="an older capture").name == StripesBackend.name
+
 
 def test_look_at_a_strip_of_frames():
     """Not a check: a strip of frames for a person to look at (/tmp/show/frames_strip.png)."""

@@ -37,8 +37,10 @@ The API the add-on (branch `showaddon`) and the video export (branch `video`) ca
         setup: a ShowSetup or a capture's folder. Frames in order from `start` to `stop` (exclusive; None:
         the end). cancel_event: a threading.Event; once set, InterruptedError before the next frame (it only
         yields, it writes nothing: the caller drops what it has). on_progress(p, message) after each frame,
-        p in (0, 1] over the frames asked for. ShowError for a bad show. settings: FrameSettings (the
-        per-frame adaptation's steps and pulls, the dissolve's gamma: pass the projector's, default 2.2).
+        p in (0, 1] over the frames asked for (p = 0 with "preparing look n" while the keyed looks are made).
+        ShowError for a bad show. settings: FrameSettings (the per-frame adaptation's steps and pulls; the
+        dissolve's gamma: pass the projector's, default 2.2; dissolve="crossfade" (default, the fast path) or
+        "compensated": each dissolve frame's linear-light mix of the targets compensated).
         Frames repeat as the schedule's keys do (holds are compensated once; keep one generator per run).
 
     FrameMaker(show, setup, size=None, settings=None, cancel_event=None)   the producer show_frames drives:

@@ -4,7 +4,8 @@
     hold       the keyed look (its theta and PSA's tone field), compensated once and kept
     moving     the keyed look's image moved (motion.py), adapted, compensated
     morph      the in-between image (morph.py), adapted, compensated
-    dissolve   the linear-light crossfade of the two looks' compensated frames (export/projector_image's blend)
+    dissolve   the linear-light crossfade of the two looks' compensated frames (export/projector_image's blend);
+               or, with FrameSettings(dissolve="compensated"), the two targets' linear-light mix compensated
 
 Adapting a new frame is PSA's fast path only: the tone field (psa/tone_field), warm-started from the
 previous frame's correction, a few Adam steps on PSA's warm-start objective (psa/adaptation: the classical
@@ -36,9 +37,12 @@ from ..psa.adaptation import PSASettings, _style_loss, keep_light_loss, proxy_ps
 from ..psa.tone_field import AdaptedLook, ToneField
 from .look_state import KeyedLook, load_look_state, read_result_record, refine_offset
 from .model import Show, ShowError
-from .morph import lerp_list, morph_base
+from .morph import lerp_list, mix_linear, morph_base
 from .motion import apply_motion
 from .schedule import Schedule, schedule_of
+
+
+DISSOLVES = ("crossfade", "compensated")
 
 
 @dataclass
@@ -51,6 +55,9 @@ class FrameSettings:
     adapt: bool = True  # False: moved / morphed looks through the interpolated field, not adapted
     cache_frames: int = 16  # the newest frames kept besides the holds (a periodic motion's repeats)
     gamma: float = 2.2  # dissolves' projector transfer (ProjectorModel.gamma; crossfade_sequence's default)
+    # 'crossfade': the linear-light blend of the two compensated frames (the fast path: no compensation per
+    # frame); 'compensated': each frame's mixed target compensated (better where a look is out of reach)
+    dissolve: str = "crossfade"
 
 
 class ShowSetup:
@@ -183,6 +190,8 @@ class FrameMaker:
         self.show, self.setup = show, setup
         self.schedule: Schedule = schedule_of(show)
         self.settings = settings or FrameSettings()
+        if self.settings.dissolve not in DISSOLVES:
+            raise ShowError(f"a dissolve is made as one of {', '.join(DISSOLVES)}, not '{self.settings.dissolve}'")
         self.cancel_event = cancel_event
         models = setup.models
         self.models = models
@@ -382,6 +391,27 @@ class FrameMaker:
         return morph_base(self.keyed(i), self.keyed(j), w, surface, base_a=self.base(i) if native else None,
                           base_b=self.base(j) if native else None, move_a=move_a, move_b=move_b)
 
+    def _compensated_dissolve(self, key: tuple) -> np.ndarray:
+        """The dissolve's frame compensated as a target of its own: the two ends' targets mixed in linear
+        light (what an ideal dissolve shows), compensated, with the ends' offsets mixed. Where a look lies
+        outside the surface's reach, the mix often lies inside it, which the crossfade of the clipped
+        compensated frames cannot use (bench show: dissolve_check_db)."""
+        i, j, w = key[1], key[2], key[3]
+        ka, kb = self.end_key(i), self.start_key(j)
+        self.frame(ka), self.frame(kb)  # the ends first: a moving end's field is adapted in its order
+        with torch.no_grad():
+            target = mix_linear(self.target_of(ka), self.target_of(kb), float(w))
+            projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
+            oa, ob = self.offset_of(ka), self.offset_of(kb)
+            if oa is not None or ob is not None:
+                zero = torch.zeros_like(projector)
+                offset = (1.0 - w) * (oa if oa is not None else zero) + w * (ob if ob is not None else zero)
+                projector = (projector + offset).clamp(0, 1)
+            if self.valid is not None:
+                projector = projector * self.valid
+        self.computed += 1
+        return _as_frame(projector)
+
     def frame(self, key: tuple) -> np.ndarray:
         """The projector frame (H, W, 3) float32 of a key, from the cache where it was made before."""
         if key in self._kept:
@@ -389,7 +419,9 @@ class FrameMaker:
         if key in self._recent:
             self._recent.move_to_end(key)
             return self._recent[key]
-        if key[0] == "dissolve":
+        if key[0] == "dissolve" and self.settings.dissolve == "compensated":
+            out = self._compensated_dissolve(key)
+        elif key[0] == "dissolve":
             i, j, w = key[1], key[2], key[3]
             a, b = self.frame(self.end_key(i)), self.frame(self.start_key(j))
             g = np.float32(self.gamma)

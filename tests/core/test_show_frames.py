@@ -280,3 +280,22 @@ def test_a_captured_setup_plays_at_the_projector_frame(tmp_path, stripes_registe
     for frame in frames.values():
         assert frame.shape == (120, 160, 3) and frame.mean() > 0.05
     assert np.abs(frames[1] - frames[0]).mean() > 1e-3  # it pulses
+
+
+def test_a_compensated_dissolve_compensates_the_mixed_targets():
+    from lapig.lapig_core.native_output import compensate_frame
+    from lapig.lapig_core.show.morph import mix_linear
+
+    setup = ShowSetup(fake_models(), load_look=keyed_look)
+    show = _two_looks("dissolve", fps=10, hold=0.2, seconds=0.1)  # frames: a, a, dissolve w=0.5, b, b
+    crossfade = dict(show_frames(show, setup))
+    maker = FrameMaker(show, setup, settings=FrameSettings(dissolve="compensated"))
+    mid = maker.frame(maker.schedule.at(2))
+    target = mix_linear(maker.target_of(("hold", 0, 0.0)), maker.target_of(("hold", 1, 0.0)), 0.5)
+    with torch.no_grad():
+        expected = compensate_frame(setup.models.compensator, target, setup.models.s, maker.tile)
+    assert np.allclose(mid, expected[0].permute(1, 2, 0).numpy(), atol=1e-6)
+    assert np.abs(mid - crossfade[2]).mean() > 1e-4  # not the crossfade
+    assert np.array_equal(maker.frame(("hold", 0, 0.0)), crossfade[0])
+    with pytest.raises(ShowError, match="crossfade, compensated"):
+        FrameMaker(show, setup, settings=FrameSettings(dissolve="wipe"))

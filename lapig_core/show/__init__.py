@@ -67,7 +67,8 @@ from .schedule import Schedule, schedule_of
 
 _LAZY = {"show_frames": "frames", "ShowSetup": "frames", "FrameSettings": "frames", "FrameMaker": "frames",
          "look_from_result": "frames", "keyed_look_from_prompt": "frames", "KeyedLook": "look_state",
-         "save_look_state": "look_state", "load_look_state": "look_state", "refine_offset": "look_state", "apply_motion": "motion"}
+         "save_look_state": "look_state", "load_look_state": "look_state", "refine_offset": "look_state",
+         "apply_motion": "motion"}
 
 
 def __getattr__(name):

@@ -9,11 +9,13 @@
 
 Adapting a new frame is PSA's fast path only: the tone field (psa/tone_field), warm-started from the
 previous frame's correction, a few Adam steps on PSA's warm-start objective (psa/adaptation: the classical
-proxy loss, no network, milliseconds; the style and keep-light terms against the frame's own image), and a
-temporal term that pulls the field towards its warm start, so consecutive frames do not flicker. One optimiser is carried
-from frame to frame, its moments too: a fresh Adam's first step moves every parameter by its whole step
-whatever the gradient, which would shake the field every frame. theta is not optimised per frame: a
-style network's backward costs about a second a frame on 2 cores; the keyed looks had full PSA.
+proxy loss, no network, milliseconds; the style and keep-light terms against the frame's own image), with
+two pulls: towards the warm start (consecutive frames' fields stay close: no flicker) and towards the keyed
+look's own field (no slow drift off what PSA chose). One optimiser is carried from frame to frame, its
+moments too, and the best iterate is kept, the warm start included: Adam's normalised step moves every
+parameter by about its whole step even at the optimum, which would shake the field every frame. theta is not
+optimised per frame: a style network's backward costs about a second a frame on 2 cores; the keyed looks
+had full PSA.
 
 Compensation is the setup's chosen compensator (the per-pixel classical solve where Train chose it, or the
 first look's; CompenNeSt's inference otherwise) through native_output.compensate_frame, tiled for memory.
@@ -102,7 +104,8 @@ class ShowSetup:
         else:
             look = load_first_look(setup_dir, cs.meta.get("fingerprint"))
             if look is None:
-                raise ShowError(f"{setup_dir} has neither trained models nor a first look ({problem}): capture it again")
+                raise ShowError(f"{setup_dir} has neither trained models nor a first look ({problem}): "
+                                "capture it again")
             models = pipeline.first_look_models(cs, look.classical, device=device)
         dark = dark_outside and pipeline.object_footprint(cs) is not None
         return cls(models, setup_dir=setup_dir, dark_outside=dark, fingerprint=cs.meta.get("fingerprint"))
@@ -149,7 +152,8 @@ def look_from_result(look, models, cancel_event=None, fingerprint: str | None = 
                   "psa_settings": {}}
     state = load_look_state(folder) if folder.exists() else None
     keyed = keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
-                                   psa=record["psa"], psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
+                                   psa=record["psa"],
+                                   psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
                                    state=state, cancel_event=cancel_event)
     keyed.offset = refine_offset(folder) if folder.exists() else None
     if keyed.offset is not None and tuple(keyed.offset.shape[-2:]) != tuple(models.s.shape[-2:]):
@@ -292,7 +296,8 @@ class FrameMaker:
             adapted = self.field.apply(base)
             # PSA's warm-start objective on this frame's image (the keyed look's field is its optimum)...
             loss = proxy_psa_loss(adapted, self.models, ps) + style_weight * scale * (
-                _style_loss(adapted, base, None, ps) + ps.keep_light_weight * keep_light_loss(adapted, base, self.models))
+                _style_loss(adapted, base, None, ps)
+                + ps.keep_light_weight * keep_light_loss(adapted, base, self.models))
             # ...the pull towards the warm start (consecutive frames' fields stay close), and towards the keyed
             # look's field (the look does not drift off what PSA chose); relative to the frame's proxy loss,
             # as PSA's style term is

@@ -12,7 +12,6 @@ from show_fakes import CountingCompensator, StripesBackend, fake_models, keyed_l
 
 from lapig.lapig_core.export.projector_image import _blend
 from lapig.lapig_core.lgst.base import BACKENDS, register_backend
-from lapig.lapig_core.show import frames as show_frames_module
 from lapig.lapig_core.show.frames import FrameMaker, FrameSettings, ShowSetup, look_from_result, show_frames
 from lapig.lapig_core.show.look_state import LOOK_STATE_FILE, load_look_state, save_look_state
 from lapig.lapig_core.show.model import Look, Motion, Show, ShowError, Transition
@@ -180,9 +179,13 @@ def test_another_output_size_renders_and_compensates_there():
     from lapig.lapig_core.capture.native_references import References
 
     models = fake_models()
-    image = lambda t, w, h: torch.nn.functional.interpolate(t, size=(h, w), mode="bilinear")[0].permute(1, 2, 0).numpy()  # noqa: E731
-    refs = lambda w, h: References(image(models.i_min, w, h), image(models.i_max, w, h), image(models.s, w, h),  # noqa: E731
-                                   np.ones((h, w), bool))
+    def image(t, w, h):
+        return torch.nn.functional.interpolate(t, size=(h, w), mode="bilinear")[0].permute(1, 2, 0).numpy()
+
+    def refs(w, h):
+        return References(image(models.i_min, w, h), image(models.i_max, w, h), image(models.s, w, h),
+                          np.ones((h, w), bool))
+
     setup = ShowSetup(models, load_look=keyed_look, references=refs)
     show = Show([Look("/r/a", "a", seed=1, hold_s=0.2), Look("/r/b", "b", seed=3, hold_s=0.2, motion=Motion("rise"))],
                 [Transition("morph", 0.2)], fps=10)

@@ -9,10 +9,11 @@
 Each acts on the look's image, before its tone field, by differentiable image ops; not on theta.
 Why the image: theta means something different in every backend (a style network's normalisation, a
 mix of style vectors, a diffusion latent), and no backend's theta has a "translate" or a "hue"
-direction; and a style network's forward at 800x600 costs about a second on 2 cores, where
-these ops cost milliseconds, so the look is rendered once per keyed look and moved per frame. Acting
-before the tone field keeps PSA's adaptation fixed to the object: the texture moves, the
-surface's compensation does not (frames.py adapts each moved image through the field, warm-started).
+direction, so a preset on theta would be one per backend and still not move the texture; an image op
+moves any look the same way, costs milliseconds, and leaves the keyed look's rendering (once per look) as
+it was approved. Acting before the tone field keeps PSA's adaptation fixed to the object: the texture
+moves, the surface's compensation does not (frames.py adapts each moved image through the field,
+warm-started).
 
 Every preset is the look itself at t = 0 (so a hold that starts moving starts where the transition
 left it) and has period `period_s`. `amount` in [0, 1] scales its largest move.

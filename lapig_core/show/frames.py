@@ -111,17 +111,20 @@ class ShowSetup:
         return cls(models, setup_dir=setup_dir, dark_outside=dark, fingerprint=cs.meta.get("fingerprint"))
 
     def keyed(self, index: int, look, cancel_event=None) -> KeyedLook:
-        """Look `index` of the show as PSA left it, made once for this setup. A look whose making was
-        cancelled (PSA stops at the cancel with its best iterate so far) is not kept: InterruptedError."""
-        if index not in self._looks:
+        """Look `index` of the show as PSA left it, made once for this setup (kept by what makes it: the
+        result folder, prompt, backend and seed, so an edited show reuses the looks it still has). A look
+        whose making was cancelled (PSA stops at the cancel with its best iterate so far) is not kept:
+        InterruptedError."""
+        key = (str(look.result), look.prompt, look.backend, int(look.seed))
+        if key not in self._looks:
             if self.load_look is look_from_result:
                 keyed = look_from_result(look, self.models, cancel_event=cancel_event, fingerprint=self.fingerprint)
             else:
                 keyed = self.load_look(look, self.models)
             if cancel_event is not None and cancel_event.is_set():
                 raise InterruptedError("the show was cancelled")
-            self._looks[index] = keyed
-        return self._looks[index]
+            self._looks[key] = keyed
+        return self._looks[key]
 
 
 def _psa_settings(recorded: dict, seed: int) -> PSASettings:

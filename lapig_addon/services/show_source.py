@@ -1,0 +1,277 @@
+"""The one adapter between the add-on's show (services/show_plan) and lapig_core's show producer and video writer
+(issue 38): everything the add-on needs of them goes through the functions here, so their APIs change in this
+module only.
+
+- frames(source): the show's projector frames, in order, as the pixels each projector receives (the quantised
+  native frame Export writes: uint8 or uint16, (H, W, 3)), one list per frame with one array per projector.
+  With lapig_core/show (the per-frame producer: morphs and motions stylized, adapted and compensated, holds
+  made once) the frames are its `show_frames`; without it (a checkout before that merge) holds and dissolves
+  of the stored projector images are made here (a dissolve mixes in the projector's linear light, as Export
+  Crossfade does), a morph plays as a dissolve and motions stand still: `fallback_notes` says so.
+- writer(...): the encoder of an export (lapig_core/export/video where it exists; PNG sequences always).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...lapig_core.common.imageio import to_bit_depth
+from ...lapig_core.optics.projector_model import ProjectorModel, quantised_frame
+from .jobs import JobCancelled
+from .show_plan import ShowPlan
+
+try:  # the per-frame producer (branch `show`)
+    from ...lapig_core import show as core_show
+except ImportError:  # pragma: no cover - a checkout before the merge
+    core_show = None
+
+CODECS = ("h264", "h265", "prores4444", "lossless", "hap", "png")
+
+
+@dataclass(frozen=True)
+class ShowSource:
+    """What the frames are made from: the plan, each projector's model (projector 1 first), the bit depth the
+    projectors receive, and the scene's capture (the producer's surface models)."""
+    plan: ShowPlan
+    projectors: tuple = ()  # ProjectorModel per projector
+    bit_depth: int = 8
+    capture_dir: str = ""
+    summaries: dict = field(default_factory=dict, compare=False)  # result folder -> result.json, read once
+
+    @property
+    def frame_count(self) -> int:
+        return self.plan.frame_count()
+
+
+def has_producer() -> bool:
+    """Whether lapig_core's per-frame producer is here (morphs and motions made per frame)."""
+    return core_show is not None
+
+
+def fallback_notes(plan: ShowPlan) -> list:
+    """What the frames lack without lapig_core's producer ([] with it)."""
+    if has_producer():
+        return []
+    notes = []
+    if any(s.kind == "morph" for s in plan.segments()):
+        notes.append("morphs play as dissolves: this build has no per-frame show producer")
+    if any(look.motion != "none" for look in plan.looks):
+        notes.append("motions stand still: this build has no per-frame show producer")
+    return notes
+
+
+def read_summaries(plan: ShowPlan) -> dict:
+    from ...lapig_core.export.result_files import read_summary
+
+    return {look.result_dir: read_summary(look.result_dir) for look in plan.looks}
+
+
+def core_show_of(plan: ShowPlan, summaries: dict):
+    """The lapig_core.show.Show of the plan (its looks' prompt, backend and seed from their result.json)."""
+    looks = []
+    for look in plan.looks:
+        summary = summaries.get(look.result_dir) or {}
+        motion = None if look.motion == "none" else core_show.Motion(look.motion, amount=look.motion_amount,
+                                                                      period_s=look.motion_period_s)
+        looks.append(core_show.Look(result=look.result_dir, prompt=summary.get("prompt") or "",
+                                    backend=summary.get("backend") or "", seed=int(summary.get("seed") or 0),
+                                    hold_s=look.hold_s, motion=motion))
+    transitions = [core_show.Transition(look.transition, seconds=look.transition_s) for look in plan.looks[:-1]]
+    return core_show.Show(looks=looks, transitions=transitions, fps=plan.fps)
+
+
+def frames(source: ShowSource, cancel_event=None, on_progress=None, start: int = 0, stop: int | None = None):
+    """(index, [pixels per projector]) for the show's frames start..stop-1 (see the module's text)."""
+    plan = source.plan
+    problem = plan.problem()
+    if problem:
+        raise ValueError(problem)
+    if not source.projectors:
+        raise ValueError("the show needs the rig's projector")
+    stop = plan.frame_count() if stop is None else min(stop, plan.frame_count())
+    if core_show is not None and len(source.projectors) == 1:
+        yield from _produced(source, cancel_event, on_progress, start, stop)
+        return
+    yield from _stored(source, cancel_event, on_progress, start, stop)
+
+
+def _produced(source: ShowSource, cancel_event, on_progress, start: int, stop: int):
+    model = source.projectors[0]
+    show = core_show_of(source.plan, source.summaries or read_summaries(source.plan))
+    setup = core_show.ShowSetup.from_capture(source.capture_dir)
+    for index, image in core_show.show_frames(show, setup, size=(model.width, model.height),
+                                              cancel_event=cancel_event, on_progress=on_progress,
+                                              start=start, stop=stop):
+        yield index, [quantised_frame(image, model.width, model.height, source.bit_depth)]
+
+
+def look_images(result_dir: str, count: int) -> list:
+    """The stored projector image of a result for each of `count` projectors (a result of one projector: its
+    image for the first)."""
+    from ...lapig_core.export.result_files import read_output_image
+    from ...lapig_core.multi.result_files import is_multi_result, projector_images
+
+    if is_multi_result(result_dir):
+        images = [image for _, image in projector_images(result_dir)]
+        if len(images) != count:
+            raise ValueError(f"{result_dir} was made for {len(images)} projectors; the rig has {count}")
+        return images
+    if count != 1:
+        raise ValueError(f"{result_dir} is a look of one projector; the rig has {count}")
+    return [read_output_image(result_dir, "projector")]
+
+
+def _stored(source: ShowSource, cancel_event, on_progress, start: int, stop: int):
+    """Holds and dissolves of the stored projector images (the build without lapig_core's producer, and rigs
+    of several projectors)."""
+    plan, models = source.plan, source.projectors
+    native, linear = {}, {}
+
+    def look(i):  # each look's frames read once (holds are made once)
+        if i not in native:
+            images = look_images(plan.looks[i].result_dir, len(models))
+            native[i] = [quantised_frame(img, m.width, m.height, 16).astype(np.float32) / 65535.0
+                         for img, m in zip(images, models)]
+            linear[i] = [np.power(f, np.float32(m.gamma)) for f, m in zip(native[i], models)]
+        return i
+
+    held = {}
+    total = max(stop - start, 1)
+    for index in range(start, stop):
+        if cancel_event is not None and cancel_event.is_set():
+            return
+        segment = plan.segment_at(index)
+        w = segment.weight(index)
+        if segment.kind == "hold" or w == 0.0:
+            a = look(segment.a)
+            if a not in held:
+                held = {a: [to_bit_depth(f, source.bit_depth) for f in native[a]]}  # the last hold only
+            pixels = held[a]
+        else:
+            a, b = look(segment.a), look(segment.b)
+            pixels = [to_bit_depth(np.power(la * np.float32(1 - w) + lb * np.float32(w), np.float32(1 / m.gamma)),
+                                   source.bit_depth)
+                      for la, lb, m in zip(linear[a], linear[b], models)]
+        if on_progress is not None:
+            on_progress((index - start + 1) / total, f"frame {index + 1} of {plan.frame_count()}")
+        yield index, pixels
+
+
+# ------------------------------------------------------------------ the encoder
+
+def _video_module():
+    try:
+        from ...lapig_core.export import video
+    except ImportError:
+        return None
+    return video
+
+
+def codec_problem(codec: str) -> str:
+    """Why `codec` cannot be written here ('' when it can): one line naming what can."""
+    codec = codec.lower()
+    if codec not in CODECS:
+        return f"unknown codec '{codec}': use one of {', '.join(CODECS)}"
+    if codec == "png":
+        return ""
+    video = _video_module()
+    if video is None:
+        return f"{codec} needs the video export (lapig_core/export/video), which this build lacks: use --codec png"
+    check = getattr(video, "codec_problem", None)
+    return check(codec) if check else ""
+
+
+def output_path(out_dir: str, codec: str, projector: int, count: int, name: str = "show") -> str:
+    """Where projector `projector` (0-based) of `count` goes in `out_dir`: a folder of PNGs, or a video file."""
+    suffix = f"_{projector + 1}" if count > 1 else ""
+    if codec == "png":
+        return os.path.join(out_dir, f"{name}{suffix}")
+    video = _video_module()
+    extension = getattr(video, "EXTENSIONS", {}).get(codec) if video else None
+    return os.path.join(out_dir, f"{name}{suffix}{extension or ('.mov' if codec in ('prores4444', 'hap') else '.mkv' if codec == 'lossless' else '.mp4')}")
+
+
+def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height: int, count: int,
+          bit_depth: int = 8, sidecar: dict | None = None, cancel_event=None) -> dict:
+    """Encode `frames_iter` (pixels, in order) to `path` whole or not at all: a PNG sequence folder, or a video
+    through lapig_core/export/video. Returns what was written."""
+    if codec == "png":
+        return write_png_sequence(path, frames_iter, count=count, bit_depth=bit_depth, sidecar=sidecar,
+                                  cancel_event=cancel_event)
+    video = _video_module()
+    if video is None:
+        raise ValueError(codec_problem(codec))
+    return video.write_video(path, frames_iter, codec=codec, fps=fps, width=width, height=height,
+                             frame_count=count, bit_depth=bit_depth, sidecar=sidecar, cancel_event=cancel_event)
+
+
+FRAME_NAME = "frame_{:04d}.png"  # frame 1 is frame_0001.png: Blender's image sequences count from the file's number
+
+
+def write_png_sequence(folder: str, frames_iter, *, count: int, bit_depth: int = 8, sidecar: dict | None = None,
+                       cancel_event=None, first_number: int = 1) -> dict:
+    """Write the frames as frame_0001.png, ... into `folder` whole or not at all: into a scratch folder beside
+    it, renamed to `folder` at the end (a folder already there is replaced only then). A cancel or an error
+    leaves `folder` as it was."""
+    import json
+    import shutil
+
+    from ...lapig_core.common.imageio import encode_png
+    from ...lapig_core.common.scratch import ScratchFolder
+
+    folder = os.path.abspath(folder)
+    parent = os.path.dirname(folder)
+    scratch = ScratchFolder(parent, ".show_frames_")
+    written = 0
+    try:
+        for pixels in frames_iter:
+            if cancel_event is not None and cancel_event.is_set():
+                raise JobCancelled()
+            with open(scratch.path / FRAME_NAME.format(written + first_number), "wb") as f:
+                f.write(encode_png(to_bit_depth(pixels, bit_depth)))
+            written += 1
+        if written != count:
+            raise ValueError(f"the show made {written} frames of {count}")
+        if sidecar is not None:
+            (scratch.path / "show.json").write_text(json.dumps(sidecar, indent=2, default=str), encoding="utf-8")
+        old = None
+        if os.path.exists(folder):
+            old = folder + ".replaced"
+            shutil.rmtree(old, ignore_errors=True)
+            os.rename(folder, old)
+        try:
+            moved = scratch.move_to_new_folder(os.path.basename(folder))
+        except BaseException:
+            if old:
+                os.rename(old, folder)
+            raise
+        if old:
+            shutil.rmtree(old, ignore_errors=True)
+        return {"path": str(moved), "frames": written}
+    except BaseException:
+        scratch.remove()
+        raise
+
+
+def disk_problem(folder: str, frame_bytes_estimate: int, count: int) -> str:
+    """Why `count` frames of about `frame_bytes_estimate` bytes do not fit in `folder`'s disk ('' when they do)."""
+    try:
+        free = shutil_disk_free(folder)
+    except OSError:
+        return ""
+    need = int(frame_bytes_estimate) * int(count)
+    if need > free:
+        return (f"the show needs about {need / 1e9:.2f} GB and {folder} has {free / 1e9:.2f} GB free: "
+                f"free some space or choose another folder")
+    return ""
+
+
+def shutil_disk_free(folder: str) -> int:
+    import shutil
+
+    probe = folder
+    while probe and not os.path.exists(probe):
+        probe = os.path.dirname(probe)
+    return shutil.disk_usage(probe or ".").free

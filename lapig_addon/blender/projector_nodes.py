@@ -73,15 +73,68 @@ def build_light_tree(light: bpy.types.SpotLight, model, image=None):
     links.new(texture.outputs["Color"], emission.inputs["Color"])
     if image is not None:
         texture.image = image
+    if texture.image is not None and texture.image.source == "SEQUENCE":  # a baked show keeps its conversion
+        _input_to_light(tree, texture, model)
     _layout(nodes)
     return texture
 
 
-def set_projected_image(light, image):
+def _texture(light):
     texture = light.node_tree.nodes.get(TEXTURE_NODE) if light.node_tree else None
     if texture is None:
         raise RuntimeError(f"'{light.name}' is not a LAPIG projector light (no projection nodes)")
+    return texture
+
+
+def set_projected_image(light, image):
+    """The light emits `image` as it is (a float image of emitted light: blender/result_sinks)."""
+    texture = _texture(light)
     texture.image = image
+    nodes = light.node_tree.nodes
+    for name in (GAMMA_NODE, BLACK_NODE):  # a show's sequence is no longer shown
+        if nodes.get(name) is not None:
+            nodes.remove(nodes[name])
+    emission = next((n for n in nodes if n.bl_idname == "ShaderNodeEmission"), None)
+    if emission is not None:
+        light.node_tree.links.new(texture.outputs["Color"], emission.inputs["Color"])
+    return texture
+
+
+GAMMA_NODE = NODE_PREFIX + "input gamma"
+BLACK_NODE = NODE_PREFIX + "black level"
+
+
+def _input_to_light(tree, texture, model) -> None:
+    """texture -> input^gamma -> black + (1 - black) * that -> emission: the light of projector input values
+    (ProjectorModel.emitted), as plain nodes, so a file holding the projector's pixels renders without the
+    add-on."""
+    nodes, links = tree.nodes, tree.links
+    gamma = nodes.get(GAMMA_NODE) or nodes.new("ShaderNodeGamma")
+    gamma.name = gamma.label = GAMMA_NODE
+    gamma.inputs["Gamma"].default_value = float(model.gamma)
+    black = nodes.get(BLACK_NODE) or nodes.new("ShaderNodeVectorMath")
+    black.name = black.label = BLACK_NODE
+    black.operation = "MULTIPLY_ADD"
+    b = float(model.black_level)
+    black.inputs[1].default_value = (1.0 - b,) * 3
+    black.inputs[2].default_value = (b,) * 3
+    emission = next(n for n in nodes if n.bl_idname == "ShaderNodeEmission")
+    links.new(texture.outputs["Color"], gamma.inputs["Color"])
+    links.new(gamma.outputs["Color"], black.inputs[0])
+    links.new(black.outputs["Vector"], emission.inputs["Color"])
+    gamma.location, black.location = (texture.location.x + 250, 0), (texture.location.x + 420, 0)
+
+
+def set_projected_sequence(light, image, frame_count: int, frame_start: int, model):
+    """The light projects a baked show: `image` a sequence of the projector's input pixels (PNG, Non-Color)
+    whose first file is the show's frame `frame_start`, `frame_count` files long; the nodes turn input into light
+    as the projector does (model's gamma and black level). Blender advances it with the scene's frame."""
+    texture = _texture(light)
+    texture.image = image
+    user = texture.image_user
+    user.frame_duration, user.frame_start, user.frame_offset = int(frame_count), int(frame_start), 0
+    user.use_auto_refresh, user.use_cyclic = True, False
+    _input_to_light(light.node_tree, texture, model)
     return texture
 
 

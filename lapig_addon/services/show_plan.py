@@ -150,6 +150,15 @@ class ShowPlan:
         """The scene's last frame of the show."""
         return self.frame_start + max(self.frame_count(), 1) - 1
 
+    def key(self) -> str:
+        """A short hash of what the frames are made of (looks, times, transitions, motions, frame rate): a
+        baked show of another key is out of date."""
+        import hashlib
+        import json
+
+        data = {k: v for k, v in self.to_dict().items() if k != "frame_start"}
+        return hashlib.sha1(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
     def to_dict(self) -> dict:
         """What a sidecar says of the show: its looks, times, transitions, motions and frame rate."""
         return {"fps": self.fps, "frames": self.frame_count(), "seconds": round(self.seconds(), 4),

@@ -1,0 +1,83 @@
+"""The show on Blender's timeline (issue 38): its markers, its range, and its baked projector frames wired into each
+projector light as an image sequence, so scrubbing and rendering the animation show it with no add-on code.
+
+The markers are one per look's start, named after the look, and one per transition's start ("dissolve 1s to B");
+the show rewrites exactly the markers it wrote last (scene_state.show_markers), so the artist's own stay.
+The baked frames are PNGs of the projector's input pixels (what Export writes) referenced relative to the .blend
+('//<name>_lapig/shows/show/projector_1/frame_0001.png'): a render farm (Flamenco) that gets the .blend and its
+data folder together renders them; the light's nodes turn input into light (projector_nodes.set_projected_sequence).
+"""
+from __future__ import annotations
+
+import os
+
+import bpy
+
+from ..services.show_source import FRAME_NAME
+from . import projector_nodes, scene_state, storage
+
+SEQUENCE_PREFIX = "LAPIG show: "
+
+
+def rewrite_markers(scene) -> list:
+    """Write the show's markers anew (the ones it wrote before go) and set the scene's last frame to the show's
+    end; returns the markers [(frame, name)]."""
+    plan = scene_state.read_show(scene)
+    old = set(scene_state.show_markers(scene))
+    for marker in list(scene.timeline_markers):
+        if (marker.frame, marker.name) in old:
+            scene.timeline_markers.remove(marker)
+    markers = plan.markers() if plan.looks and plan.fps > 0 else []
+    for frame, name in markers:
+        scene.timeline_markers.new(name, frame=frame)
+    scene_state.record_show_markers(scene, markers)
+    if markers and plan.frame_count() > 0:
+        scene.frame_end = plan.frame_end()
+    return markers
+
+
+def shows_root() -> str:
+    return os.path.join(storage.data_root()[0], "shows")
+
+
+def baked_folder(name: str = "show") -> str:
+    """Where Bake Show writes: <the .blend's data folder>/shows/<name>, one projector_<k> folder each."""
+    return os.path.join(shows_root(), name)
+
+
+def projector_folder(folder: str, k: int) -> str:
+    return os.path.join(folder, f"projector_{k + 1}")
+
+
+def wire_previz(scene, folder: str, frame_count: int) -> list:
+    """Each projector light projects its baked frames in `folder` from the scene's first frame; returns the
+    image datablocks. Their paths are relative to the .blend where it is saved."""
+    images = []
+    for k, projector in enumerate(scene_state.rig_projectors(scene)):
+        first = os.path.join(projector_folder(folder, k), FRAME_NAME.format(1))
+        if not os.path.isfile(first):
+            raise ValueError(f"the baked show has no frames for projector {k + 1} ({first}): bake it again")
+        name = SEQUENCE_PREFIX + projector.name
+        image = bpy.data.images.get(name)
+        path = bpy.path.relpath(first) if bpy.data.filepath else first
+        if image is None:
+            image = bpy.data.images.load(first, check_existing=False)
+            image.name = name
+        image.source = "SEQUENCE"
+        image.filepath = path
+        image.colorspace_settings.name = "Non-Color"  # the projector's input values; the nodes make light
+        image.reload()
+        projector_nodes.set_projected_sequence(projector.data, image, frame_count, scene.frame_start,
+                                               scene_state.projector_model(projector))
+        images.append(image)
+    return images
+
+
+def previz_images(scene) -> list:
+    """The image each projector light projects now (None where none)."""
+    return [projector_nodes.projected_image(p.data) for p in scene_state.rig_projectors(scene)]
+
+
+def is_wired(scene) -> bool:
+    images = previz_images(scene)
+    return bool(images) and all(image is not None and image.source == "SEQUENCE" for image in images)

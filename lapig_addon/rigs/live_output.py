@@ -239,6 +239,53 @@ class CrossfadeJob(WorkerJob):
             return None
 
 
+def late_share(played: dict) -> dict:
+    """play()'s figures with the late frames as a share of those shown (late_frame_pct, in percent)."""
+    frames = played.get("frames") or 0
+    return {**played, "late_frame_pct": round(100.0 * played.get("late_frames", 0) / frames, 3) if frames else 0.0}
+
+
+class ShowPlayJob(WorkerJob):
+    """Play the show (services/show_source.ShowSource, projector 1's frames) on the open projector window at the
+    show's frame rate, the frames made ahead on a worker thread (play's _ahead); late frames are counted
+    ({'frames', 'seconds', 'late_frames', 'late_frame_pct'}). Esc in Blender stops it; the window keeps its frame."""
+
+    title = "LAPIG play show"
+
+    def __init__(self, sink: ProjectorWindowSink, source, fps: float | None = None, clock=time):
+        super().__init__()
+        self.sink, self.source, self.clock = sink, source, clock
+        self.fps = source.plan.fps if fps is None else fps
+
+    def prepare(self):
+        problem = self.source.plan.problem()
+        if problem:
+            raise ValueError(problem)
+        if not self.source.projectors:
+            raise ValueError("the show needs the rig's projector")
+        model = self.source.projectors[0]
+        problem = size_problem(model.width, model.height, self.sink.window.size)
+        if problem:
+            raise ValueError(problem)
+        return self.source
+
+    def work(self, source, report, cancel_event):
+        from ..services import show_source
+
+        count = source.frame_count
+
+        def on_frame(i, on_screen):
+            if cancel_event.is_set():
+                raise _Stopped
+            report((i + 1) / count, f"frame {i + 1} of {count}")
+
+        pixels = (frame[0] for _, frame in show_source.frames(source, cancel_event=cancel_event))
+        try:
+            return late_share(play(self.sink.window, pixels, self.fps, clock=self.clock, on_frame=on_frame))
+        except _Stopped:
+            return None
+
+
 @dataclass(frozen=True)
 class StoredLook:
     """The result the window shows first, named on Blender's main thread and read on the worker: its folder ('':

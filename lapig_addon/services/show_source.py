@@ -22,10 +22,15 @@ from ...lapig_core.optics.projector_model import ProjectorModel, quantised_frame
 from .jobs import JobCancelled
 from .show_plan import ShowPlan
 
-try:  # the per-frame producer (branch `show`)
-    from ...lapig_core import show as core_show
-except ImportError:  # pragma: no cover - a checkout before the merge
-    core_show = None
+
+def _core_show():
+    """lapig_core.show (the per-frame producer), imported when first needed; None where this build lacks it or
+    its dependencies (torch)."""
+    try:
+        from ...lapig_core import show
+    except ImportError:
+        return None
+    return show
 
 CODECS = ("h264", "h265", "prores4444", "lossless", "hap", "png")
 
@@ -39,6 +44,7 @@ class ShowSource:
     bit_depth: int = 8
     capture_dir: str = ""
     summaries: dict = field(default_factory=dict, compare=False)  # result folder -> result.json, read once
+    use_producer: bool = True  # False: holds and dissolves of the stored images even where the producer is here
 
     @property
     def frame_count(self) -> int:
@@ -47,12 +53,18 @@ class ShowSource:
 
 def has_producer() -> bool:
     """Whether lapig_core's per-frame producer is here (morphs and motions made per frame)."""
-    return core_show is not None
+    return _core_show() is not None
 
 
-def fallback_notes(plan: ShowPlan) -> list:
+def uses_producer(source: "ShowSource") -> bool:
+    """Whether the frames of `source` come from lapig_core's producer (one projector, the producer here)."""
+    return has_producer() and source.use_producer and len(source.projectors) == 1
+
+
+def fallback_notes(source: "ShowSource") -> list:
     """What the frames lack without lapig_core's producer ([] with it)."""
-    if has_producer():
+    plan = source.plan
+    if uses_producer(source):
         return []
     notes = []
     if any(s.kind == "morph" for s in plan.segments()):
@@ -70,6 +82,7 @@ def read_summaries(plan: ShowPlan) -> dict:
 
 def core_show_of(plan: ShowPlan, summaries: dict):
     """The lapig_core.show.Show of the plan (its looks' prompt, backend and seed from their result.json)."""
+    core_show = _core_show()
     looks = []
     for look in plan.looks:
         summary = summaries.get(look.result_dir) or {}
@@ -91,7 +104,7 @@ def frames(source: ShowSource, cancel_event=None, on_progress=None, start: int =
     if not source.projectors:
         raise ValueError("the show needs the rig's projector")
     stop = plan.frame_count() if stop is None else min(stop, plan.frame_count())
-    if core_show is not None and len(source.projectors) == 1:
+    if uses_producer(source):
         yield from _produced(source, cancel_event, on_progress, start, stop)
         return
     yield from _stored(source, cancel_event, on_progress, start, stop)
@@ -99,6 +112,7 @@ def frames(source: ShowSource, cancel_event=None, on_progress=None, start: int =
 
 def _produced(source: ShowSource, cancel_event, on_progress, start: int, stop: int):
     model = source.projectors[0]
+    core_show = _core_show()
     show = core_show_of(source.plan, source.summaries or read_summaries(source.plan))
     setup = core_show.ShowSetup.from_capture(source.capture_dir)
     for index, image in core_show.show_frames(show, setup, size=(model.width, model.height),
@@ -211,67 +225,110 @@ FRAME_NAME = "frame_{:04d}.png"  # frame 1 is frame_0001.png: Blender's image se
 
 
 def write_png_sequence(folder: str, frames_iter, *, count: int, bit_depth: int = 8, sidecar: dict | None = None,
-                       cancel_event=None, first_number: int = 1) -> dict:
-    """Write the frames as frame_0001.png, ... into `folder` whole or not at all: into a scratch folder beside
-    it, renamed to `folder` at the end (a folder already there is replaced only then). A cancel or an error
-    leaves `folder` as it was."""
+                       cancel_event=None) -> dict:
+    """Write the frames as frame_0001.png, ... into the new folder `folder` (a Staged one: the caller commits
+    it whole); a cancel raises JobCancelled."""
     import json
-    import shutil
 
     from ...lapig_core.common.imageio import encode_png
-    from ...lapig_core.common.scratch import ScratchFolder
 
-    folder = os.path.abspath(folder)
-    parent = os.path.dirname(folder)
-    scratch = ScratchFolder(parent, ".show_frames_")
+    os.makedirs(folder, exist_ok=True)
     written = 0
-    try:
-        for pixels in frames_iter:
-            if cancel_event is not None and cancel_event.is_set():
-                raise JobCancelled()
-            with open(scratch.path / FRAME_NAME.format(written + first_number), "wb") as f:
-                f.write(encode_png(to_bit_depth(pixels, bit_depth)))
-            written += 1
-        if written != count:
-            raise ValueError(f"the show made {written} frames of {count}")
-        if sidecar is not None:
-            (scratch.path / "show.json").write_text(json.dumps(sidecar, indent=2, default=str), encoding="utf-8")
-        old = None
-        if os.path.exists(folder):
-            old = folder + ".replaced"
-            shutil.rmtree(old, ignore_errors=True)
-            os.rename(folder, old)
+    for pixels in frames_iter:
+        if cancel_event is not None and cancel_event.is_set():
+            raise JobCancelled()
+        with open(os.path.join(folder, FRAME_NAME.format(written + 1)), "wb") as f:
+            f.write(encode_png(pixels, bit_depth))
+        written += 1
+    if written != count:
+        raise ValueError(f"the show made {written} frames of {count}")
+    if sidecar is not None:
+        with open(os.path.join(folder, "show.json"), "w", encoding="utf-8") as f:
+            json.dump(sidecar, f, indent=2, default=str)
+    return {"path": folder, "frames": written}
+
+
+class Staged:
+    """Outputs written into a scratch folder inside `parent` and moved to their final paths only by commit(): a
+    cancel or an error (discard()) leaves the final paths as they were, and no half-written file under them."""
+
+    REPLACED = ".replaced~"
+
+    def __init__(self, parent: str, prefix: str = ".lapig_show_"):
+        from ...lapig_core.common.scratch import ScratchFolder
+
+        self.scratch = ScratchFolder(parent, prefix)
+
+    def path(self, name: str) -> str:
+        return str(self.scratch.path / name)
+
+    def commit(self, moves: list) -> list:
+        """moves: (staged path, final path); each final path replaced whole; returns the final paths."""
+        import shutil
+
+        done = []
         try:
-            moved = scratch.move_to_new_folder(os.path.basename(folder))
+            for staged, final in moves:
+                old = final + self.REPLACED if os.path.exists(final) else None
+                if old:
+                    _remove(old)
+                    os.rename(final, old)
+                try:
+                    os.rename(staged, final)
+                except BaseException:
+                    if old:
+                        os.rename(old, final)
+                    raise
+                done.append((final, old))
         except BaseException:
-            if old:
-                os.rename(old, folder)
+            for final, old in reversed(done):  # put the previous outputs back
+                _remove(final)
+                if old:
+                    os.rename(old, final)
             raise
-        if old:
-            shutil.rmtree(old, ignore_errors=True)
-        return {"path": str(moved), "frames": written}
-    except BaseException:
-        scratch.remove()
-        raise
+        finally:
+            self.discard()
+        for _, old in done:
+            if old:
+                _remove(old)
+        return [final for final, _ in done]
+
+    def discard(self) -> None:
+        self.scratch.remove()
 
 
-def disk_problem(folder: str, frame_bytes_estimate: int, count: int) -> str:
-    """Why `count` frames of about `frame_bytes_estimate` bytes do not fit in `folder`'s disk ('' when they do)."""
+def _remove(path: str) -> None:
+    import shutil
+
+    if os.path.isdir(path) and not os.path.islink(path):
+        shutil.rmtree(path, ignore_errors=True)
+    elif os.path.exists(path):
+        os.remove(path)
+
+
+def frame_bytes_estimate(width: int, height: int, bit_depth: int, codec: str) -> int:
+    """About how many bytes one frame takes on disk (PNG and lossless: half the raw pixels; video: less)."""
+    raw = width * height * 3 * (2 if bit_depth == 16 else 1)
+    return raw // 2 if codec in ("png", "lossless") else raw // 4 if codec in ("prores4444", "hap") else raw // 50
+
+
+def disk_problem(folder: str, frame_bytes: int, count: int) -> str:
+    """Why `count` frames of about `frame_bytes` bytes do not fit on `folder`'s disk ('' when they do)."""
     try:
-        free = shutil_disk_free(folder)
+        free = disk_free(folder)
     except OSError:
         return ""
-    need = int(frame_bytes_estimate) * int(count)
+    need = int(frame_bytes) * int(count)
     if need > free:
         return (f"the show needs about {need / 1e9:.2f} GB and {folder} has {free / 1e9:.2f} GB free: "
                 f"free some space or choose another folder")
     return ""
 
 
-def shutil_disk_free(folder: str) -> int:
+def disk_free(folder: str) -> int:
     import shutil
 
-    probe = folder
-    while probe and not os.path.exists(probe):
+    probe = os.path.abspath(folder)
+    while not os.path.exists(probe) and os.path.dirname(probe) != probe:
         probe = os.path.dirname(probe)
-    return shutil.disk_usage(probe or ".").free
+    return shutil.disk_usage(probe).free

@@ -64,9 +64,9 @@ class Segment:
     frames: int
 
     def weight(self, frame: int) -> float:
-        """How far into a transition `frame` (counted from the show's first frame) is: 0 at its first frame,
-        approaching 1 at its end (the next look's first frame is 1)."""
-        return (frame - self.first) / self.frames if self.kind != "hold" and self.frames else 0.0
+        """How far into a transition `frame` (counted from the show's first frame) is: (n + 1) / (N + 1) for its
+        n-th of N frames, never 0 or 1, which are the looks themselves (lapig_core/show/schedule's weights)."""
+        return (frame - self.first + 1) / (self.frames + 1) if self.kind != "hold" else 0.0
 
 
 @dataclass(frozen=True)

@@ -66,7 +66,7 @@ def test_the_segments_tile_the_show_and_the_markers_name_looks_and_transitions()
     assert plan.markers() == [(101, "Glass"), (111, "dissolve 0.5s to Ink"), (116, "Ink"),
                               (136, "morph 1s to c"), (146, "c")]
     mid = plan.segment_at(12)
-    assert mid.kind == "dissolve" and mid.weight(12) == pytest.approx(0.4)
+    assert mid.kind == "dissolve" and mid.weight(12) == pytest.approx(0.5) and mid.weight(10) == pytest.approx(1 / 6)
     assert plan.segment_at(999).kind == "hold"  # past the end: the last look
     # the sidecar's show: looks, times, transitions, motions, the frame rate
     d = plan.to_dict()
@@ -143,8 +143,8 @@ def test_holds_are_the_looks_exported_pixels_and_a_dissolve_mixes_in_linear_ligh
     b = quantised_frame(read_output_image(folders[1], "projector"), *SIZE, 16)
     np.testing.assert_array_equal(frames[0][1][0], a)  # what Export writes of look 1
     np.testing.assert_array_equal(frames[9][1][0], b)
-    mid = frames[5][1][0].astype(np.float64) / 65535  # w = 0.5 (frames 3..6 are the dissolve)
-    expected = ((a / 65535.0) ** 2.2 * 0.5 + (b / 65535.0) ** 2.2 * 0.5) ** (1 / 2.2)
+    mid = frames[5][1][0].astype(np.float64) / 65535  # w = 3/5 (frames 3..6 are the dissolve: 1/5 .. 4/5)
+    expected = ((a / 65535.0) ** 2.2 * 0.4 + (b / 65535.0) ** 2.2 * 0.6) ** (1 / 2.2)
     np.testing.assert_allclose(mid, expected, atol=2e-4)
     red = [float(f[0][..., 0].mean()) for _, f in frames]
     assert red[2] > red[4] > red[6] and red[7] == red[9]

@@ -1,0 +1,337 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The per-frame producer: every frame of a show, compensated, as the projector shows it.
+
+    hold       the keyed look (its theta and PSA's tone field), compensated once and kept
+    moving     the keyed look's image moved (motion.py), adapted, compensated
+    morph      the in-between image (morph.py), adapted, compensated
+    dissolve   the linear-light crossfade of the two looks' compensated frames (export/projector_image's blend)
+
+Adapting a new frame is PSA's fast path only: the tone field (psa/tone_field), warm-started from the
+previous frame's correction, a few Adam steps on PSA's classical proxy loss (psa/adaptation.proxy_psa_loss:
+no network, milliseconds), the light the look would lose (keep_light_loss), and a temporal term that
+pulls the field towards its warm start, so consecutive frames do not flicker. One optimiser is carried
+from frame to frame, its moments too: a fresh Adam's first step moves every parameter by its whole step
+whatever the gradient, which would shake the field every frame. theta is not optimised per frame: a
+style network's backward costs about a second a frame on 2 cores; the keyed looks had full PSA.
+
+Compensation is the setup's chosen compensator (the per-pixel classical solve where Train chose it, or the
+first look's; CompenNeSt's inference otherwise) through native_output.compensate_frame, tiled for memory.
+At another size (size=(w, h)) the look is rendered there as the native output does (registered
+references, render_at, the field with the working frame's guide) and compensated there.
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections import OrderedDict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..common.adam import Adam
+from ..export.projector_image import _blend
+from ..native_output import compensate_frame, device_tile
+from ..psa.adaptation import PSASettings, keep_light_loss, proxy_psa_loss, run_psa
+from ..psa.tone_field import AdaptedLook, ToneField
+from .look_state import KeyedLook, load_look_state, read_result_record
+from .model import Show, ShowError
+from .morph import lerp_list, morph_base
+from .motion import apply_motion
+from .schedule import Schedule, schedule_of
+
+
+@dataclass
+class FrameSettings:
+    field_steps: int = 3  # Adam steps of the tone field per adapted frame
+    field_lr: float = 0.02
+    temporal_weight: float = 1.0  # the pull towards the warm start, relative to the frame's proxy loss
+    keep_light_weight: float = 2.0  # as PSA's style scale at the default adaptation
+    adapt: bool = True  # False: moved / morphed looks through the interpolated field, not adapted
+    cache_frames: int = 16  # the newest frames kept besides the holds (a periodic motion's repeats)
+    gamma: float | None = None  # dissolves' projector transfer; None: the compensator's, else 2.2
+
+
+class ShowSetup:
+    """What a show is made on: one setup's SurfaceModels and the way to its keyed looks.
+
+    models: SurfaceModels (pipeline.surface_models or first_look_models). load_look(look, models) ->
+    KeyedLook; default: look_from_result (the result folder). setup_dir: the capture, for another output
+    size (its registered references). dark_outside: projector pixels off the object black."""
+
+    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False):
+        self.models = models
+        self.load_look = load_look or look_from_result
+        self.setup_dir = Path(setup_dir) if setup_dir is not None else None
+        self.dark_outside = dark_outside
+        self._looks = {}
+
+    @classmethod
+    def from_capture(cls, setup_dir, device=None, dark_outside: bool = True) -> "ShowSetup":
+        """The capture's saved models (Train's), else its first look (the classical model)."""
+        from ..capture.dataset import load_capture_set
+        from ..photometric.first_look import load_first_look
+        from .. import pipeline
+
+        cs = load_capture_set(setup_dir)
+        problem, saved = pipeline.saved_models_problem(setup_dir)
+        if saved is not None:
+            models = pipeline.surface_models(cs, train_if_missing=False, saved=saved, device=device)
+        else:
+            look = load_first_look(setup_dir, cs.meta.get("fingerprint"))
+            if look is None:
+                raise ShowError(f"{setup_dir} has neither trained models nor a first look ({problem}): capture it again")
+            models = pipeline.first_look_models(cs, look.classical, device=device)
+        dark = dark_outside and pipeline.object_footprint(cs) is not None
+        return cls(models, setup_dir=setup_dir, dark_outside=dark)
+
+    def keyed(self, index: int, look) -> KeyedLook:
+        """Look `index` of the show as PSA left it, made once for this setup."""
+        if index not in self._looks:
+            self._looks[index] = self.load_look(look, self.models)
+        return self._looks[index]
+
+
+def _psa_settings(recorded: dict, seed: int) -> PSASettings:
+    known = {f.name for f in dataclasses.fields(PSASettings)}
+    values = {k: v for k, v in (recorded or {}).items() if k in known}
+    if "terms" in values:
+        values["terms"] = tuple(values["terms"])
+    values.setdefault("seed", seed)
+    return PSASettings(**values)
+
+
+def look_from_result(look, models) -> KeyedLook:
+    """A keyed look from its result folder (look_state docstring): the backend prepared from result.json's
+    prompt, backend, seed and mix on the white-lit surface; theta and the tone field from look_state.npz,
+    else from PSA run again with the recorded settings. A folder without result.json uses the Look's own
+    prompt, backend and seed."""
+    from ..lgst import prepared_backend
+    from ..pipeline import with_device
+
+    folder = Path(look.result)
+    if (folder / "result.json").is_file():
+        record = read_result_record(folder)
+    elif folder.exists() or not look.prompt:
+        raise ShowError(f"the look's result {folder} has no result.json: choose a result Generate wrote")
+    else:
+        record = {"prompt": look.prompt, "backend": look.backend, "seed": look.seed, "mix": None, "psa": True,
+                  "psa_settings": {}}
+    surface = models.i_max
+    options = with_device(record["backend"], None, models.device)
+    backend, _ = prepared_backend(record["backend"], surface, record["prompt"], seed=record["seed"],
+                                  mix=record["mix"], options=options)
+    adapted = AdaptedLook(backend, models.i_min, models.i_max)
+    state = load_look_state(folder) if folder.exists() else None
+    if state is None:
+        if record["psa"]:
+            state = run_psa(adapted, models, _psa_settings(record["psa_settings"], record["seed"])).state
+        else:
+            state = adapted.state()
+    adapted.load_state({**backend.state(), **{k: [t.to(models.device) for t in v] for k, v in state.items()}})
+    with torch.no_grad():
+        base = backend.forward().detach()
+    return KeyedLook(backend, adapted.state(), base, getattr(backend, "name", ""))
+
+
+def _as_frame(t: torch.Tensor) -> np.ndarray:
+    return t.detach()[0].permute(1, 2, 0).clamp(0, 1).cpu().numpy().astype(np.float32)
+
+
+class FrameMaker:
+    """Frames by key (schedule.py), cached: holds for the whole run, the newest others in a small LRU."""
+
+    def __init__(self, show: Show, setup: ShowSetup, size=None, settings: FrameSettings | None = None,
+                 cancel_event=None):
+        self.show, self.setup = show, setup
+        self.schedule: Schedule = schedule_of(show)
+        self.settings = settings or FrameSettings()
+        self.cancel_event = cancel_event
+        models = setup.models
+        self.models = models
+        self.field = ToneField(models.i_min, models.i_max)
+        for p in self.field.parameters():
+            p.requires_grad_(True)
+        self.optimiser = Adam(list(self.field.parameters()), lr=self.settings.field_lr)
+        self.carry = None  # the previous adapted frame's correction of its field (warm start)
+        self.psa_settings = PSASettings()
+        self.gamma = self.settings.gamma or float(getattr(models.compensator, "gamma_p", 2.2))
+        self._kept, self._recent = {}, OrderedDict()
+        self.computed = 0  # frames made (not from the cache)
+        self._params = {}  # the field's parameters each adapted key was made with (target_of reads them)
+        self._size_refs(size)
+
+    def _size_refs(self, size):
+        """The references at the output size (None: the working frame's)."""
+        working = tuple(self.models.s.shape[-2:])  # (H, W)
+        self.native = size is not None and (int(size[1]), int(size[0])) != working
+        self.valid = self.models.on_object if self.setup.dark_outside else None
+        self.s, self.white = self.models.s, None
+        height, width = working
+        if self.native:
+            from ..capture.native_references import registered_references
+            from ..photometric.training_data import to_tensor
+
+            if self.setup.setup_dir is None:
+                raise ShowError("an output size other than the working frame needs the capture's folder")
+            width, height = int(size[0]), int(size[1])
+            refs = registered_references(self.setup.setup_dir, width, height)
+            device = self.models.device
+            self.s, self.white = to_tensor(refs.gray).to(device), to_tensor(refs.white).to(device)
+            self.valid = (torch.from_numpy(refs.valid)[None, None].to(device=device, dtype=torch.float32)
+                          if self.setup.dark_outside else None)
+            self._native_bases = {}
+        self.tile = device_tile(width, height, self.models.device)
+
+    # ------------------------------------------------------------------ looks
+    def keyed(self, i: int) -> KeyedLook:
+        return self.setup.keyed(i, self.show.looks[i])
+
+    def base(self, i: int) -> torch.Tensor:
+        """Look i's image before its field, at the output size."""
+        look = self.keyed(i)
+        if not self.native:
+            return look.base
+        if i not in self._native_bases:
+            with torch.no_grad():
+                self._native_bases[i] = look.backend.render_at(self.white).detach()
+        return self._native_bases[i]
+
+    def end_key(self, i: int) -> tuple:
+        """The key a transition out of look i stands on."""
+        if self.show.looks[i].motion is None:
+            return ("hold", i, 0.0)
+        return ("moving", i, self.schedule.hold_end_t(i))
+
+    def start_key(self, j: int) -> tuple:
+        return ("hold", j, 0.0) if self.show.looks[j].motion is None else ("moving", j, 0.0)
+
+    # ------------------------------------------------------------------ adaptation
+    def _load_field(self, params):
+        with torch.no_grad():
+            for p, v in zip(self.field.parameters(), params):
+                p.copy_(v.to(p.device))
+
+    def adapt(self, working_base: torch.Tensor, init: list) -> list:
+        """The field's parameters for this frame's image (working frame): warm-started, a few steps."""
+        s = self.settings
+        warm = [v + c for v, c in zip(init, self.carry)] if self.carry is not None else [v.clone() for v in init]
+        self._load_field(warm)
+        if s.adapt and s.field_steps > 0:
+            base = working_base.detach()
+            with torch.no_grad():
+                scale = max(float(proxy_psa_loss(self.field.apply(base), self.models, self.psa_settings)), 1e-6)
+            for _ in range(s.field_steps):
+                if self.cancel_event is not None and self.cancel_event.is_set():
+                    break
+                adapted = self.field.apply(base)
+                loss = proxy_psa_loss(adapted, self.models, self.psa_settings)
+                loss = loss + s.keep_light_weight * scale * keep_light_loss(adapted, base, self.models)
+                pull = sum(((p - w) ** 2).sum() for p, w in zip(self.field.parameters(), warm))
+                loss = loss + s.temporal_weight * scale * pull
+                self.optimiser.zero_grad(set_to_none=True)
+                loss.backward()
+                self.optimiser.step()
+        params = [p.detach().clone() for p in self.field.parameters()]
+        self.carry = [p - v for p, v in zip(params, init)]
+        return params
+
+    def _field_of(self, i: int) -> list:
+        return [t.to(self.models.device) for t in self.keyed(i).state["tone_field"]]
+
+    # ------------------------------------------------------------------ frames
+    def _compensate(self, base: torch.Tensor, params: list) -> np.ndarray:
+        self._load_field(params)
+        with torch.no_grad():
+            target = self.field.apply(base)
+            projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
+            if self.valid is not None:
+                projector = projector * self.valid
+        self.computed += 1
+        return _as_frame(projector)
+
+    def target_of(self, key: tuple) -> torch.Tensor:
+        """The frame's target at the output size, as its frame was made (for measures)."""
+        base, params = self._recipe(key, adapt=False)
+        self._load_field(params)
+        with torch.no_grad():
+            return self.field.apply(base)
+
+    def _recipe(self, key: tuple, adapt: bool = True):
+        """(the image before the field at the output size, the field's parameters) of a key."""
+        kind = key[0]
+        if kind == "hold":
+            return self.base(key[1]), self._field_of(key[1])
+        if kind == "moving":
+            i, t = key[1], key[2]
+            motion = self.show.looks[i].motion
+            params = self._params.get(key) if not adapt else None
+            if params is None:
+                working = apply_motion(self.keyed(i).base, motion, t)
+                params = self.adapt(working, self._field_of(i)) if adapt else self._field_of(i)
+            return apply_motion(self.base(i), motion, t), params
+        if kind == "morph":
+            i, j, w = key[1], key[2], key[3]
+            a, b = self.keyed(i), self.keyed(j)
+            params = self._params.get(key) if not adapt else None
+            if params is None:
+                init = lerp_list(self._field_of(i), self._field_of(j), w)
+                params = self.adapt(self._morph_image(a, b, i, j, w, None), init) if adapt else init
+            return self._morph_image(a, b, i, j, w, self.white if self.native else None), params
+        raise ShowError(f"no recipe for a {kind} frame")
+
+    def _morph_image(self, a, b, i, j, w, surface):
+        image = morph_base(a, b, w, surface, base_a=self.base(i) if surface is not None else None,
+                           base_b=self.base(j) if surface is not None else None)
+        return image
+
+    def frame(self, key: tuple) -> np.ndarray:
+        """The projector frame (H, W, 3) float32 of a key, from the cache where it was made before."""
+        if key in self._kept:
+            return self._kept[key]
+        if key in self._recent:
+            self._recent.move_to_end(key)
+            return self._recent[key]
+        if key[0] == "dissolve":
+            i, j, w = key[1], key[2], key[3]
+            a, b = self.frame(self.end_key(i)), self.frame(self.start_key(j))
+            g = np.float32(self.gamma)
+            out = _blend(a, b, np.power(a, g), np.power(b, g), float(w), float(g)).astype(np.float32)
+            self.computed += 1
+        else:
+            base, params = self._recipe(key)
+            self._params[key] = params
+            out = self._compensate(base, params)
+        if key[0] == "hold" or key in (self.end_key(key[1]),) or (key[0] == "moving" and key[2] == 0.0):
+            self._kept[key] = out  # holds and the transitions' ends: for the whole run
+        else:
+            self._recent[key] = out
+            while len(self._recent) > self.settings.cache_frames:
+                self._recent.popitem(last=False)
+        return out
+
+
+def show_frames(show: Show, setup, *, size=None, cancel_event=None, on_progress=None, start: int = 0,
+                stop: int | None = None, settings: FrameSettings | None = None):
+    """Yield (frame index, projector frame float32 (H, W, 3) in [0, 1]) from `start` to `stop` (exclusive).
+
+    setup: a ShowSetup, or a capture's folder (ShowSetup.from_capture). size: None for the working frame,
+    or (width, height). A set cancel_event raises InterruptedError before the next frame (nothing is written:
+    the caller discards what it has). on_progress(p, message) after every frame."""
+    if not isinstance(setup, ShowSetup):
+        setup = ShowSetup.from_capture(setup)
+    maker = FrameMaker(show, setup, size, settings, cancel_event)
+    total = maker.schedule.total_frames
+    stop = total if stop is None else min(int(stop), total)
+    if not 0 <= start <= stop:
+        raise ShowError(f"frames {start} to {stop} are outside the show's {total} frames")
+    for index in range(start, stop):
+        if cancel_event is not None and cancel_event.is_set():
+            raise InterruptedError("the show was cancelled")
+        key = maker.schedule.at(index)
+        frame = maker.frame(key)
+        if cancel_event is not None and cancel_event.is_set():
+            raise InterruptedError("the show was cancelled")
+        if on_progress:
+            on_progress((index - start + 1) / max(stop - start, 1), f"frame {index + 1} of {total} ({key[0]})")
+        yield index, frame

@@ -1,0 +1,75 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""A keyed look's state: its backend prepared, theta and PSA's tone field as PSA left them.
+
+Results on disk hold images and result.json, not theta. A moving or morphing look needs theta (the morph
+interpolates it; a moved look's tone field starts from the keyed one), so a look is made again from what
+result.json records (prompt, backend, seed, the style mix and PSA's settings) and adapted once, cached
+for the show's run: the chosen way, because it reads every result ever written, needs nothing new from
+Generate, and the backends are deterministic for a seed (PSA is seeded too), so the look is the one the
+result holds, within PSA's floating-point noise.
+
+PSA once per keyed look costs seconds; a result folder that holds `look_state.npz` (save_look_state: the
+tensors as numpy arrays, read with allow_pickle=False so a data file never runs code) skips it. Generate
+may write it beside result.json; old results without it stay readable (the re-adaptation above).
+"""
+from __future__ import annotations
+
+import io
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+LOOK_STATE_FILE = "look_state.npz"
+FORMAT = 1
+
+
+@dataclass
+class KeyedLook:
+    """A look of the show as PSA left it, at the working frame."""
+
+    backend: object  # the prepared LGST backend (bare: no tone field), theta loaded
+    state: dict  # {"theta": [tensors], "tone_field": [tensors]}
+    base: torch.Tensor  # (1,3,H,W) the backend's look of theta, before the tone field
+    name: str = ""  # the backend's name (a morph interpolates theta only within one backend)
+
+
+def save_look_state(folder, state: dict) -> Path:
+    """Write `state` (theta and the tone field: lists of tensors) as folder/look_state.npz, whole or not at all."""
+    arrays = {"format": np.array(FORMAT)}
+    for group in ("theta", "tone_field"):
+        tensors = state.get(group) or []
+        arrays[f"{group}_count"] = np.array(len(tensors))
+        for n, t in enumerate(tensors):
+            arrays[f"{group}_{n}"] = t.detach().cpu().numpy()
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    path = Path(folder) / LOOK_STATE_FILE
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(buffer.getvalue())
+    tmp.replace(path)  # the file appears whole
+    return path
+
+
+def load_look_state(folder) -> dict | None:
+    """The state saved in `folder`, or None where there is none (an older result)."""
+    path = Path(folder) / LOOK_STATE_FILE
+    if not path.is_file():
+        return None
+    with np.load(path, allow_pickle=False) as data:
+        if int(data["format"]) != FORMAT:
+            return None
+        return {group: [torch.from_numpy(np.array(data[f"{group}_{n}"]))
+                        for n in range(int(data[f"{group}_count"]))]
+                for group in ("theta", "tone_field")}
+
+
+def read_result_record(folder) -> dict:
+    """What result.json says made the look (prompt, backend, seed, style mix, PSA settings)."""
+    summary = json.loads((Path(folder) / "result.json").read_text(encoding="utf-8"))
+    return {"prompt": summary.get("prompt", ""), "backend": summary.get("backend") or "styletransfer",
+            "seed": int(summary.get("seed") or 0), "mix": summary.get("style_mix_override"),
+            "psa": bool(summary.get("psa", True)), "psa_settings": summary.get("psa_settings") or {},
+            "dark_outside": bool(summary.get("dark_outside", False))}

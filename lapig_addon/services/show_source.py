@@ -23,14 +23,21 @@ from .jobs import JobCancelled
 from .show_plan import ShowPlan
 
 
-def _core_show():
-    """lapig_core.show (the per-frame producer), imported when first needed; None where this build lacks it or
-    its dependencies (torch)."""
+def _core_model():
+    """lapig_core/show/model (Show, Look, Motion, Transition; torch-free), or None where this build lacks it."""
     try:
-        from ...lapig_core import show
+        from ...lapig_core.show import model
     except ImportError:
         return None
-    return show
+    return model
+
+
+def _core_frames():
+    """lapig_core/show/frames (the per-frame producer: show_frames, ShowSetup; it needs torch), imported when
+    first needed."""
+    from ...lapig_core.show import frames as core_frames
+
+    return core_frames
 
 CODECS = ("h264", "h265", "prores4444", "lossless", "hap", "png")
 
@@ -53,7 +60,9 @@ class ShowSource:
 
 def has_producer() -> bool:
     """Whether lapig_core's per-frame producer is here (morphs and motions made per frame)."""
-    return _core_show() is not None
+    import importlib.util
+
+    return _core_model() is not None and importlib.util.find_spec("torch") is not None
 
 
 def uses_producer(source: "ShowSource") -> bool:
@@ -82,7 +91,7 @@ def read_summaries(plan: ShowPlan) -> dict:
 
 def core_show_of(plan: ShowPlan, summaries: dict):
     """The lapig_core.show.Show of the plan (its looks' prompt, backend and seed from their result.json)."""
-    core_show = _core_show()
+    core_show = _core_model()
     looks = []
     for look in plan.looks:
         summary = summaries.get(look.result_dir) or {}
@@ -112,10 +121,10 @@ def frames(source: ShowSource, cancel_event=None, on_progress=None, start: int =
 
 def _produced(source: ShowSource, cancel_event, on_progress, start: int, stop: int):
     model = source.projectors[0]
-    core_show = _core_show()
+    core_frames = _core_frames()
     show = core_show_of(source.plan, source.summaries or read_summaries(source.plan))
-    setup = core_show.ShowSetup.from_capture(source.capture_dir)
-    for index, image in core_show.show_frames(show, setup, size=(model.width, model.height),
+    setup = core_frames.ShowSetup.from_capture(source.capture_dir)
+    for index, image in core_frames.show_frames(show, setup, size=(model.width, model.height),
                                               cancel_event=cancel_event, on_progress=on_progress,
                                               start=start, stop=stop):
         yield index, [quantised_frame(image, model.width, model.height, source.bit_depth)]

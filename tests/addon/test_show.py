@@ -161,7 +161,7 @@ def test_the_adapter_hands_the_plan_to_the_show_producer_where_it_is_here(result
                   dict(result_dir=folders[1], hold_s=1.0, motion="pulse", motion_amount=0.3, motion_period_s=2.0)])
     show = show_source.core_show_of(plan, show_source.read_summaries(plan))
     show.validate()
-    from lapig.lapig_core.show import schedule_of
+    from lapig.lapig_core.show.schedule import schedule_of
 
     assert schedule_of(show).total_frames == plan.frame_count()
 

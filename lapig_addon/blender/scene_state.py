@@ -462,6 +462,7 @@ def remove_show_look(scene, index: int) -> bool:
         return False
     s.show_looks.remove(index)
     s.show_index = index_after_removal(len(s.show_looks), index)
+    _show_list_changed(scene)
     return True
 
 
@@ -474,7 +475,15 @@ def move_show_look(scene, index: int, direction: int) -> int:
     if target != index:
         s.show_looks.move(index, target)
         s.show_index = target
+        _show_list_changed(scene)
     return target
+
+
+def _show_list_changed(scene) -> None:
+    """A look added, removed or moved (no property's update runs): the timeline's markers follow."""
+    from . import show_timeline
+
+    show_timeline.rewrite_markers(scene)
 
 
 def set_show_look(scene, index: int, **settings) -> None:

@@ -81,3 +81,84 @@ def previz_images(scene) -> list:
 def is_wired(scene) -> bool:
     images = previz_images(scene)
     return bool(images) and all(image is not None and image.source == "SEQUENCE" for image in images)
+
+
+# ------------------------------------------------------------------ the show's jobs, read on the main thread
+
+def show_source(scene, bit_depth: int | None = None, use_producer: bool = True):
+    """The show of the scene as the jobs take it (services/show_source.ShowSource): the plan, every projector's
+    model, the export's bit depth (or `bit_depth`), the scene's capture."""
+    from ..services.show_source import ShowSource
+
+    state = scene_state.read(scene)
+    models = tuple(scene_state.projector_model(p) for p in scene_state.rig_projectors(scene))
+    depth = scene_state.export_settings(scene).bit_depth if bit_depth is None else int(bit_depth)
+    return ShowSource(scene_state.read_show(scene), projectors=models, bit_depth=depth,
+                      capture_dir=state.capture_dir, use_producer=use_producer)
+
+
+def blocker(scene) -> str:
+    """Why the scene's show cannot be baked, exported or played ('' when it can): services/show_plan.show_blocker."""
+    from ..services.panel_state import rig_blocker
+    from ..services.show_plan import show_blocker
+
+    state = scene_state.read(scene)
+    return rig_blocker(state.rig) or show_blocker(scene_state.read_show(scene), state)
+
+
+def _checked(scene) -> None:
+    problem = blocker(scene)
+    if problem:
+        raise ValueError(problem)
+
+
+def bake_job(scene, use_producer: bool = True):
+    """Bake Show's job (services/show_jobs.BakeShowJob), checked: its frames go to baked_folder()."""
+    from ..services.show_jobs import BakeShowJob
+
+    _checked(scene)
+    job = BakeShowJob(show_source(scene, use_producer=use_producer), baked_folder())
+    job.check()
+    return job
+
+
+def baked(scene, output: dict) -> list:
+    """After Bake Show: the scene records the frames and each projector light projects them."""
+    scene_state.record_show_baked(scene, output["folder"], output["key"])
+    return wire_previz(scene, output["folder"], output["frames"])
+
+
+def previz_status(scene) -> tuple[str, bool | None]:
+    """The panel's line about the baked previz: (text, ok) (ok None: nothing baked yet)."""
+    plan = scene_state.read_show(scene)
+    folder, key = scene_state.show_baked(scene)
+    if not folder:
+        return "No previz baked yet: Bake Show puts the show on the timeline", None
+    if key != plan.key():
+        return "The show changed since it was baked: Bake Show again", False
+    wired = "on the projector light" if is_wired(scene) else "baked (not on the light: Bake Show again)"
+    return f"Previz {wired}: {plan.frame_count()} frames at {plan.fps:g} fps", is_wired(scene)
+
+
+def export_job(scene, out_dir: str, codec: str, bit_depth: int | None = None, use_producer: bool = True):
+    """Export Show's job (services/show_jobs.ShowExportJob), checked before any file is written."""
+    from ..services.export_source import addon_version
+    from ..services.show_jobs import ShowExportJob
+    from . import scene_store
+
+    _checked(scene)
+    store = scene_store.BlenderSceneStore(scene)
+    metadata = {**store.rig_metadata(), **store.software(), "lapig_version": addon_version()}
+    job = ShowExportJob(show_source(scene, bit_depth, use_producer=use_producer), out_dir, codec, metadata)
+    job.check()
+    return job
+
+
+def play_job(scene, sink, use_producer: bool = True):
+    """Play Show's job (rigs/live_output.ShowPlayJob) on the live window's sink, checked."""
+    from ..rigs.live_output import ShowPlayJob
+
+    _checked(scene)
+    job = ShowPlayJob(sink, show_source(scene, bit_depth=8, use_producer=use_producer))
+    job.check()
+    return job

@@ -1,0 +1,173 @@
+"""The show on Blender's timeline (issue 38): the list's markers and range, the baked frames wired into the
+projector light as an image sequence relative to the .blend, and a render of the animation in a fresh bpy
+process with no add-on (what a render farm does), also after the .blend and its data folder moved together."""
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+COLOURS = [(0.95, 0.1, 0.1), (0.1, 0.9, 0.15), (0.1, 0.2, 0.95)]
+RENDER = (64, 48)
+
+# run by a fresh interpreter: bpy only, no add-on, the repository nowhere on sys.path
+RENDER_SCRIPT = textwrap.dedent("""
+    import sys
+    import bpy
+    blend, out = sys.argv[1], sys.argv[2]
+    bpy.ops.wm.open_mainfile(filepath=blend)
+    scene = bpy.context.scene
+    for frame in (1, 3):
+        scene.frame_set(frame)
+        scene.render.filepath = f"{out}/frame_{frame}.png"
+        bpy.ops.render.render(write_still=True)
+    loaded = [name for name in sys.modules if name == "lapig" or name.startswith(("lapig.", "lapig_"))]
+    print("ADDON-FREE", not loaded and not hasattr(bpy.types.Scene, "lapig"))
+""")
+
+
+def _results(scene_data_root):
+    """Three results of the scene's projector, each one flat colour (plain numpy), in the .blend's data folder."""
+    from lapig.lapig_core.export.result_files import write_result
+
+    folders = []
+    for i, colour in enumerate(COLOURS):
+        image = np.broadcast_to(np.float32(colour), (48, 64, 3)).copy()
+        folders.append(str(write_result(os.path.join(scene_data_root, "results", f"look{i}"), {"projector": image},
+                                        {"prompt": f"look {i}", "backend": "styletransfer", "seed": i})))
+    return folders
+
+
+@pytest.fixture
+def show_scene(small_setup, tmp_path):
+    """The small rig saved as wall.blend with a show of three one-frame-long looks (no transitions) at 10 fps."""
+    from lapig.lapig_addon.blender import scene_state, storage
+
+    scene, projector, camera, target = small_setup
+    projector.lapig_projector.resolution_x, projector.lapig_projector.resolution_y = 64, 48
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 10, 1.0
+    scene.frame_start = 1
+    for i, folder in enumerate(_results(storage.data_root()[0])):
+        scene_state.add_show_look(scene, folder, name=f"Look {'ABC'[i]}", hold_s=0.1, transition_s=0.0)
+    return scene
+
+
+def test_the_show_is_on_the_timeline_as_markers_rewritten_when_the_list_changes(show_scene):
+    from lapig.lapig_addon.blender import scene_state
+
+    scene = show_scene
+    scene.timeline_markers.new("artist's cue", frame=2)
+    marks = lambda: sorted((m.frame, m.name) for m in scene.timeline_markers)  # noqa: E731
+    assert marks() == [(1, "Look A"), (2, "Look B"), (2, "artist's cue"), (3, "Look C")]
+    assert scene.frame_end == 3
+    scene_state.set_show_look(scene, 0, hold_s=0.5, transition="dissolve", transition_s=0.3)
+    assert marks() == [(1, "Look A"), (2, "artist's cue"), (6, "dissolve 0.3s to Look B"), (9, "Look B"),
+                       (10, "Look C")]
+    assert scene.frame_end == 10
+    assert scene_state.move_show_look(scene, 2, -1) == 1
+    assert [n for _, n in marks() if n.startswith("Look")] == ["Look A", "Look C", "Look B"]
+    assert scene_state.remove_show_look(scene, 0) and scene.lapig.show_index == 0
+    assert marks() == [(1, "Look C"), (2, "Look B"), (2, "artist's cue")]  # the artist's marker stays
+    plan = scene_state.read_show(scene)
+    assert plan.fps == 10 and [look.label for look in plan.looks] == ["Look C", "Look B"]
+    assert scene.lapig.show_looks[0].result_dir.startswith("//")  # relative to the .blend
+
+
+def _render_here(scene, out_dir, frames=(1, 3)):
+    paths = []
+    for frame in frames:
+        scene.frame_set(frame)
+        scene.render.filepath = os.path.join(out_dir, f"frame_{frame}.png")
+        bpy.ops.render.render(write_still=True)
+        paths.append(scene.render.filepath)
+    return paths
+
+
+def _render_fresh(blend, out_dir):
+    """Render frames 1 and 3 of `blend` in a new interpreter that imports bpy only."""
+    os.makedirs(out_dir, exist_ok=True)
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONSTARTUP")}
+    done = subprocess.run([sys.executable, "-c", RENDER_SCRIPT, str(blend), str(out_dir)], cwd=str(out_dir),
+                          env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "ADDON-FREE True" in done.stdout, done.stdout[-2000:]
+    return [os.path.join(out_dir, f"frame_{f}.png") for f in (1, 3)]
+
+
+def _pixels(path):
+    from lapig.lapig_core.common.imageio import read_image
+
+    return read_image(path).astype(np.float64) * 255  # 8-bit levels
+
+
+def test_the_baked_show_renders_without_the_addon_and_after_a_move(show_scene, tmp_path):
+    from lapig.lapig_addon.blender import projector_nodes, scene_state, show_timeline
+    from lapig.lapig_addon.services.show_jobs import BakeShowJob
+
+    scene = show_scene
+    source = show_timeline.show_source(scene, use_producer=False)  # the looks' stored images: plain numpy
+    out = BakeShowJob(source, show_timeline.baked_folder()).run_to_completion()
+    assert out["frames"] == 3
+    show_timeline.baked(scene, out)
+    projector = scene_state.rig_objects(scene)[0]
+    image = projector_nodes.projected_image(projector.data)
+    texture = projector.data.node_tree.nodes[projector_nodes.TEXTURE_NODE]
+    assert image.source == "SEQUENCE" and image.filepath.startswith("//wall_lapig/shows/show/projector_1/")
+    assert image.colorspace_settings.name == "Non-Color"
+    user = texture.image_user
+    assert (user.frame_duration, user.frame_start, user.frame_offset, user.use_auto_refresh) == (3, 1, 0, True)
+    assert show_timeline.previz_status(scene) == ("Previz on the projector light: 3 frames at 10 fps", True)
+    # a projector setting rebuilds the light's nodes: the sequence and its conversion to light stay
+    projector.lapig_projector.throw_ratio = projector.lapig_projector.throw_ratio
+    assert projector.data.node_tree.nodes.get(projector_nodes.GAMMA_NODE) is not None
+    scene.camera = scene_state.rig_objects(scene)[1]
+    scene.render.engine = "CYCLES"
+    scene.cycles.device, scene.cycles.samples = "CPU", 4
+    scene.render.resolution_x, scene.render.resolution_y = RENDER
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    bpy.ops.wm.save_mainfile()
+    blend = bpy.data.filepath
+    here = [_pixels(p) for p in _render_here(scene, str(tmp_path / "with_addon"))]
+    fresh = [_pixels(p) for p in _render_fresh(blend, tmp_path / "fresh")]
+    means = [img.reshape(-1, 3).mean(0) for img in fresh]
+    assert np.argmax(means[0]) == 0 and np.argmax(means[1]) == 2  # look A red, look C blue on the object
+    assert np.abs(fresh[0] - fresh[1]).mean() > 20
+    for a, b in zip(here, fresh):
+        assert np.abs(a - b).mean() < 1.0  # the render the artist sees is the farm's
+    # the .blend and its data folder moved together (a farm's shared storage): still the show
+    moved = tmp_path / "farm" / "job"
+    moved.mkdir(parents=True)
+    bpy.ops.wm.read_homefile(use_empty=True)  # let go of the files before moving them
+    shutil.move(blend, moved / "wall.blend")
+    shutil.move(str(tmp_path / "wall_lapig"), moved / "wall_lapig")
+    for texture in tmp_path.glob("surface_*.png"):  # the object's own texture, relative to the .blend too
+        shutil.move(str(texture), moved / texture.name)
+    after = [_pixels(p) for p in _render_fresh(moved / "wall.blend", tmp_path / "after_move")]
+    for a, b in zip(fresh, after):
+        assert np.abs(a - b).mean() < 1.0
+
+
+def test_a_still_result_after_a_show_takes_the_light_back(show_scene):
+    """Showing a result again (Generate, the export's bit depth) replaces the sequence and its conversion."""
+    from lapig.lapig_addon.blender import projector_nodes, scene_state, show_timeline
+    from lapig.lapig_addon.blender.result_sinks import ProjectorLightSink
+    from lapig.lapig_addon.services.ports import ProjectorFrame
+    from lapig.lapig_addon.services.show_jobs import BakeShowJob
+
+    scene = show_scene
+    out = BakeShowJob(show_timeline.show_source(scene, use_producer=False), show_timeline.baked_folder()).run_to_completion()
+    show_timeline.baked(scene, out)
+    projector = scene_state.rig_objects(scene)[0]
+    ProjectorLightSink(scene).show(ProjectorFrame(np.full((48, 64, 3), 0.5, np.float32), 64, 48, 8))
+    assert projector_nodes.projected_image(projector.data).source != "SEQUENCE"
+    assert projector.data.node_tree.nodes.get(projector_nodes.GAMMA_NODE) is None
+    text, ok = show_timeline.previz_status(scene)
+    assert ok is False and "Bake Show again" in text

@@ -171,3 +171,42 @@ def test_a_still_result_after_a_show_takes_the_light_back(show_scene):
     assert projector.data.node_tree.nodes.get(projector_nodes.GAMMA_NODE) is None
     text, ok = show_timeline.previz_status(scene)
     assert ok is False and "Bake Show again" in text
+
+
+def test_show_export_refuses_in_one_line_and_writes_nothing(show_scene, tmp_path, capsys):
+    """The command's bad input: a codec the installed FFmpeg lacks (before the .blend opens), no capture, a look
+    older than the scene's capture, an empty show; each one line, status 1, no file."""
+    from lapig.lapig_addon.blender import scene_state, storage
+    from lapig.lapig_addon.cli.main import main
+
+    scene = show_scene
+    out = tmp_path / "export"
+
+    def refused(*args):
+        assert main(["show-export", "--out", str(out), *args]) == 1
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("error: ") and "\n" not in err and "Traceback" not in err
+        assert not out.exists()
+        return err
+
+    assert "hap" in refused("--blend", str(tmp_path / "nowhere.blend"), "--codec", "hap").lower()
+    assert refused("--codec", "mpeg2").startswith("error: unknown codec 'mpeg2'")
+    bpy.ops.wm.save_mainfile()
+    blend = bpy.data.filepath
+    assert refused("--blend", blend, "--codec", "png") == \
+        "error: The show's looks need the scene's capture: capture the surface first"
+    scene = bpy.context.scene
+    capture = os.path.join(storage.data_root()[0], "panel", "setups", "panel")
+    os.makedirs(capture)
+    with open(os.path.join(capture, "setup.json"), "w") as f:
+        f.write("{}")
+    scene_state.record_capture(scene, capture, scene_state.read_rig(scene).fingerprint)
+    bpy.ops.wm.save_mainfile()
+    assert refused("--blend", blend, "--codec", "png") == \
+        "error: Look 1 'Look A' is older than the scene's capture (captured again since): generate it again"
+    scene = bpy.context.scene
+    while scene.lapig.show_looks:
+        scene_state.remove_show_look(scene, 0)
+    assert not [m for m in scene.timeline_markers if m.name.startswith("Look")]
+    bpy.ops.wm.save_mainfile()
+    assert refused("--blend", blend, "--codec", "png") == "error: The show has no looks: add a result to it (Add Look)"

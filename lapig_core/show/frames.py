@@ -7,9 +7,9 @@
     dissolve   the linear-light crossfade of the two looks' compensated frames (export/projector_image's blend)
 
 Adapting a new frame is PSA's fast path only: the tone field (psa/tone_field), warm-started from the
-previous frame's correction, a few Adam steps on PSA's classical proxy loss (psa/adaptation.proxy_psa_loss:
-no network, milliseconds), the light the look would lose (keep_light_loss), and a temporal term that
-pulls the field towards its warm start, so consecutive frames do not flicker. One optimiser is carried
+previous frame's correction, a few Adam steps on PSA's warm-start objective (psa/adaptation: the classical
+proxy loss, no network, milliseconds; the style and keep-light terms against the frame's own image), and a
+temporal term that pulls the field towards its warm start, so consecutive frames do not flicker. One optimiser is carried
 from frame to frame, its moments too: a fresh Adam's first step moves every parameter by its whole step
 whatever the gradient, which would shake the field every frame. theta is not optimised per frame: a
 style network's backward costs about a second a frame on 2 cores; the keyed looks had full PSA.
@@ -32,7 +32,7 @@ import torch
 from ..common.adam import Adam
 from ..export.projector_image import _blend
 from ..native_output import compensate_frame, device_tile
-from ..psa.adaptation import PSASettings, keep_light_loss, proxy_psa_loss, run_psa
+from ..psa.adaptation import PSASettings, _style_loss, keep_light_loss, proxy_psa_loss, run_psa
 from ..psa.tone_field import AdaptedLook, ToneField
 from .look_state import KeyedLook, load_look_state, read_result_record
 from .model import Show, ShowError
@@ -44,9 +44,10 @@ from .schedule import Schedule, schedule_of
 @dataclass
 class FrameSettings:
     field_steps: int = 3  # Adam steps of the tone field per adapted frame
-    field_lr: float = 0.02
-    temporal_weight: float = 1.0  # the pull towards the warm start, relative to the frame's proxy loss
-    keep_light_weight: float = 2.0  # as PSA's style scale at the default adaptation
+    field_lr: float = 0.01
+    temporal_weight: float = 10.0  # the pull towards the warm start (the previous frame's correction)
+    keyed_weight: float = 2.0  # the pull towards the keyed look's own field (no slow drift away from it)
+    psa: PSASettings | None = None  # the style and keep-light terms' settings (None: PSA's defaults)
     adapt: bool = True  # False: moved / morphed looks through the interpolated field, not adapted
     cache_frames: int = 16  # the newest frames kept besides the holds (a periodic motion's repeats)
     gamma: float | None = None  # dissolves' projector transfer; None: the compensator's, else 2.2
@@ -104,11 +105,8 @@ def _psa_settings(recorded: dict, seed: int) -> PSASettings:
 def look_from_result(look, models) -> KeyedLook:
     """A keyed look from its result folder (look_state docstring): the backend prepared from result.json's
     prompt, backend, seed and mix on the white-lit surface; theta and the tone field from look_state.npz,
-    else from PSA run again with the recorded settings. A folder without result.json uses the Look's own
-    prompt, backend and seed."""
-    from ..lgst import prepared_backend
-    from ..pipeline import with_device
-
+    else from PSA run again with the recorded settings. A Look whose folder does not exist is made from its
+    own prompt, backend and seed."""
     folder = Path(look.result)
     if (folder / "result.json").is_file():
         record = read_result_record(folder)
@@ -117,21 +115,31 @@ def look_from_result(look, models) -> KeyedLook:
     else:
         record = {"prompt": look.prompt, "backend": look.backend, "seed": look.seed, "mix": None, "psa": True,
                   "psa_settings": {}}
-    surface = models.i_max
-    options = with_device(record["backend"], None, models.device)
-    backend, _ = prepared_backend(record["backend"], surface, record["prompt"], seed=record["seed"],
-                                  mix=record["mix"], options=options)
-    adapted = AdaptedLook(backend, models.i_min, models.i_max)
     state = load_look_state(folder) if folder.exists() else None
+    return keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
+                                  psa=record["psa"], psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
+                                  state=state)
+
+
+def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix=None, psa: bool = True,
+                           psa_settings: PSASettings | None = None, state: dict | None = None,
+                           cancel_event=None) -> KeyedLook:
+    """The look of a prompt on this surface as Generate makes it: the backend prepared on the white-lit
+    surface, then `state` loaded (theta and the tone field) or PSA run with `psa_settings`."""
+    from ..lgst import prepared_backend
+    from ..pipeline import with_device
+
+    options = with_device(backend, None, models.device)
+    lgst, _ = prepared_backend(backend, models.i_max, prompt, seed=seed, mix=mix, options=options)
+    adapted = AdaptedLook(lgst, models.i_min, models.i_max)
     if state is None:
-        if record["psa"]:
-            state = run_psa(adapted, models, _psa_settings(record["psa_settings"], record["seed"])).state
-        else:
-            state = adapted.state()
-    adapted.load_state({**backend.state(), **{k: [t.to(models.device) for t in v] for k, v in state.items()}})
+        settings = psa_settings or PSASettings(seed=seed)
+        state = run_psa(adapted, models, settings, cancel_event=cancel_event).state if psa else adapted.state()
+    adapted.load_state({**lgst.state(), **{k: [t.to(models.device) for t in v] for k, v in state.items()
+                                           if k in ("theta", "tone_field")}})
     with torch.no_grad():
-        base = backend.forward().detach()
-    return KeyedLook(backend, adapted.state(), base, getattr(backend, "name", ""))
+        base = lgst.forward().detach()
+    return KeyedLook(lgst, adapted.state(), base, getattr(lgst, "name", ""))
 
 
 def _as_frame(t: torch.Tensor) -> np.ndarray:
@@ -154,7 +162,7 @@ class FrameMaker:
             p.requires_grad_(True)
         self.optimiser = Adam(list(self.field.parameters()), lr=self.settings.field_lr)
         self.carry = None  # the previous adapted frame's correction of its field (warm start)
-        self.psa_settings = PSASettings()
+        self.psa_settings = self.settings.psa or PSASettings()
         self.gamma = self.settings.gamma or float(getattr(models.compensator, "gamma_p", 2.2))
         self._kept, self._recent = {}, OrderedDict()
         self.computed = 0  # frames made (not from the cache)
@@ -213,28 +221,48 @@ class FrameMaker:
                 p.copy_(v.to(p.device))
 
     def adapt(self, working_base: torch.Tensor, init: list) -> list:
-        """The field's parameters for this frame's image (working frame): warm-started, a few steps."""
+        """The field's parameters for this frame's image (working frame): warm-started, a few steps, the
+        best iterate kept (the warm start included): Adam's normalised step moves a parameter by about its
+        whole step even at the optimum, so only a step that lowers the loss is taken, and a frame whose
+        warm start is already best keeps it (no shake)."""
         s = self.settings
         warm = [v + c for v, c in zip(init, self.carry)] if self.carry is not None else [v.clone() for v in init]
         self._load_field(warm)
+        params = [v.clone() for v in warm]
         if s.adapt and s.field_steps > 0:
-            base = working_base.detach()
-            with torch.no_grad():
-                scale = max(float(proxy_psa_loss(self.field.apply(base), self.models, self.psa_settings)), 1e-6)
-            for _ in range(s.field_steps):
-                if self.cancel_event is not None and self.cancel_event.is_set():
-                    break
-                adapted = self.field.apply(base)
-                loss = proxy_psa_loss(adapted, self.models, self.psa_settings)
-                loss = loss + s.keep_light_weight * scale * keep_light_loss(adapted, base, self.models)
-                pull = sum(((p - w) ** 2).sum() for p, w in zip(self.field.parameters(), warm))
-                loss = loss + s.temporal_weight * scale * pull
-                self.optimiser.zero_grad(set_to_none=True)
-                loss.backward()
-                self.optimiser.step()
-        params = [p.detach().clone() for p in self.field.parameters()]
+            params = self._descend(working_base.detach(), warm, init)
+        self._load_field(params)
         self.carry = [p - v for p, v in zip(params, init)]
         return params
+
+    def _descend(self, base: torch.Tensor, warm: list, init: list) -> list:
+        s, ps = self.settings, self.psa_settings
+        _, _, style_weight = ps.style_mix()
+        with torch.no_grad():  # the frame's own scale, as PSA's warm start takes it (psa/adaptation)
+            scale = max(float(proxy_psa_loss(base, self.models, ps)), 1e-6)
+        best = None
+        for step in range(s.field_steps + 1):
+            if self.cancel_event is not None and self.cancel_event.is_set():
+                break
+            adapted = self.field.apply(base)
+            # PSA's warm-start objective on this frame's image (the keyed look's field is its optimum)...
+            loss = proxy_psa_loss(adapted, self.models, ps) + style_weight * scale * (
+                _style_loss(adapted, base, None, ps) + ps.keep_light_weight * keep_light_loss(adapted, base, self.models))
+            # ...and the pull towards the warm start, so consecutive frames' fields stay close
+            # and towards the keyed look's field (init), so the look does not drift off what PSA chose; both
+            # relative to the frame's proxy loss, as PSA's style term is
+            pull = sum(((p - w) ** 2).sum() for p, w in zip(self.field.parameters(), warm))
+            keep = sum(((p - v) ** 2).sum() for p, v in zip(self.field.parameters(), init))
+            loss = loss + scale * (s.temporal_weight * pull + s.keyed_weight * keep)
+            value = float(loss.detach())
+            if best is None or value < best[0]:
+                best = (value, [p.detach().clone() for p in self.field.parameters()])
+            if step == s.field_steps:
+                break
+            self.optimiser.zero_grad(set_to_none=True)
+            loss.backward()
+            self.optimiser.step()
+        return best[1] if best is not None else [v.clone() for v in warm]
 
     def _field_of(self, i: int) -> list:
         return [t.to(self.models.device) for t in self.keyed(i).state["tone_field"]]

@@ -1,0 +1,170 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The frame producer on a small fake surface: holds once, morphs, moving looks without flicker, dissolves,
+cancel, and a look's state on disk."""
+import json
+import threading
+
+import numpy as np
+import pytest
+import torch
+
+from show_fakes import CountingCompensator, StripesBackend, fake_models, keyed_look
+
+from lapig.lapig_core.export.projector_image import _blend
+from lapig.lapig_core.lgst.base import BACKENDS, register_backend
+from lapig.lapig_core.show import frames as show_frames_module
+from lapig.lapig_core.show.frames import FrameMaker, FrameSettings, ShowSetup, look_from_result, show_frames
+from lapig.lapig_core.show.look_state import LOOK_STATE_FILE, load_look_state, save_look_state
+from lapig.lapig_core.show.model import Look, Motion, Show, ShowError, Transition
+from lapig.lapig_core.show.morph import morph_base
+
+
+def _setup():
+    models = fake_models()
+    models.compensator = CountingCompensator(models.compensator)
+    return ShowSetup(models, load_look=keyed_look)
+
+
+def _two_looks(kind="morph", fps=10, hold=0.5, seconds=0.8, motion=None):
+    return Show([Look("/r/a", "warm stripes", seed=1, hold_s=hold),
+                 Look("/r/b", "cool stripes", seed=7, hold_s=hold, motion=motion)],
+                [Transition(kind, seconds)], fps=fps)
+
+
+def _simulate(models, frame):
+    with torch.no_grad():
+        return models.simulate(torch.from_numpy(frame).permute(2, 0, 1)[None])
+
+
+def test_holds_are_compensated_once_and_frames_are_sane():
+    setup = _setup()
+    show = _two_looks("dissolve", fps=10, hold=1.0, seconds=0.5)
+    out = list(show_frames(show, setup))
+    assert [i for i, _ in out] == list(range(25))
+    assert setup.models.compensator.calls == 2  # two holds; the dissolve's frames are blends
+    for _, frame in out:
+        assert frame.dtype == np.float32 and frame.shape == (48, 64, 3)
+        assert 0.0 <= frame.min() and frame.max() <= 1.0 and frame.mean() > 0.05
+    first, last = out[0][1], out[-1][1]
+    assert all(np.array_equal(f, first) for _, f in out[:10])
+    # a dissolve frame is the linear-light blend of the compensated ends (export/projector_image)
+    mid = out[10 + 2][1]  # w = 3/6
+    g = np.float32(2.2)
+    assert np.allclose(mid, _blend(first, last, first ** g, last ** g, 0.5, 2.2), atol=1e-6)
+
+
+def test_morph_midpoint_is_a_new_look_and_its_ends_are_the_keyed_looks():
+    models = fake_models()
+    a, b = (keyed_look(Look("/r/x", p, seed=s), models) for p, s in (("a", 1), ("b", 7)))
+    assert torch.equal(morph_base(a, b, 0.0), a.base) and torch.equal(morph_base(a, b, 1.0), b.base)
+    near_a, mid, near_b = (morph_base(a, b, w) for w in (1e-4, 0.5, 1 - 1e-4))
+    assert torch.allclose(near_a, a.base, atol=1e-3) and torch.allclose(near_b, b.base, atol=1e-3)
+    assert (mid - a.base).abs().mean() > 0.02 and (mid - b.base).abs().mean() > 0.02
+    # theta interpolated: the stripes' frequency in between, not a double exposure of the two
+    linear_mix = ((a.base ** 2.2 + b.base ** 2.2) / 2) ** (1 / 2.2)
+    assert (mid - linear_mix).abs().mean() > 0.01
+
+    setup = ShowSetup(models, load_look=keyed_look)
+    show = _two_looks("morph", fps=10, hold=0.3, seconds=0.9)
+    frames = dict(show_frames(show, setup))
+    hold_a, hold_b, middle = frames[0], frames[len(frames) - 1], frames[3 + 4]  # w = 5/10
+    assert np.abs(middle - hold_a).mean() > 0.02 and np.abs(middle - hold_b).mean() > 0.02
+    # the morph's first and last frames are near the looks they leave and reach
+    assert np.abs(frames[3] - hold_a).mean() < np.abs(middle - hold_a).mean()
+    assert np.abs(frames[11] - hold_b).mean() < np.abs(middle - hold_b).mean()
+
+
+@pytest.mark.parametrize("preset", ["drift", "pulse"])
+def test_a_moving_look_does_not_flicker(preset):
+    setup = ShowSetup(fake_models(), load_look=keyed_look)
+    show = Show([Look("/r/a", "moving stripes", seed=2, hold_s=1.0, motion=Motion(preset, 0.8, 2.0))], [], fps=12)
+    maker = FrameMaker(show, setup)
+    still = FrameMaker(show, setup, settings=FrameSettings(field_steps=0))  # the keyed field, not adapted
+    captured, targets, unadapted = [], [], []
+    for index in range(10):
+        key = maker.schedule.at(index)
+        frame = maker.frame(key)
+        still.frame(key)
+        captured.append(_simulate(setup.models, frame))
+        targets.append(maker.target_of(key))
+        unadapted.append(still.target_of(key))
+    change = lambda xs: torch.stack([xs[k + 1] - xs[k] for k in range(len(xs) - 1)])  # noqa: E731
+    d_cap, d_tgt, d_still = change(captured), change(targets), change(unadapted)
+    assert d_tgt.abs().mean() > 1e-3  # it moves
+    flicker = float((d_cap - d_tgt).abs().mean() / d_tgt.abs().mean())
+    assert flicker < 0.1, flicker
+    # the per-frame adaptation moves the field a little and smoothly: its own change of the target is a
+    # small share of the motion's
+    shake = float((d_tgt - d_still).abs().mean() / d_still.abs().mean())
+    assert shake < 0.3, shake
+
+
+def test_cancel_stops_before_the_next_frame_and_yields_nothing_more():
+    setup = _setup()
+    cancel = threading.Event()
+    seen, progress = [], []
+    show = _two_looks("morph", fps=10)
+    with pytest.raises(InterruptedError):
+        for index, _ in show_frames(show, setup, cancel_event=cancel, on_progress=lambda p, m: progress.append(p)):
+            seen.append(index)
+            if index == 2:
+                cancel.set()
+    assert seen == [0, 1, 2]
+    assert progress[-1] == pytest.approx(3 / 18)
+    cancel.set()
+    with pytest.raises(InterruptedError):
+        next(show_frames(show, setup, cancel_event=cancel))
+
+
+def test_start_and_stop_and_a_bad_range():
+    setup = _setup()
+    show = _two_looks("dissolve", fps=10)
+    assert [i for i, _ in show_frames(show, setup, start=4, stop=7)] == [4, 5, 6]
+    with pytest.raises(ShowError):
+        list(show_frames(show, setup, start=50))
+    with pytest.raises(ShowError, match="frame rate"):
+        list(show_frames(Show(show.looks, show.transitions, fps=0), setup))
+
+
+@pytest.fixture
+def stripes_registered():
+    register_backend(StripesBackend.name, StripesBackend)
+    yield
+    BACKENDS.pop(StripesBackend.name, None)
+
+
+def test_a_result_folder_gives_its_look_with_or_without_a_saved_state(tmp_path, stripes_registered):
+    models = fake_models()
+    folder = tmp_path / "result_a"
+    folder.mkdir()
+    (folder / "result.json").write_text(json.dumps({
+        "prompt": "warm stripes", "backend": StripesBackend.name, "seed": 4, "psa": True,
+        "psa_settings": {"max_iterations": 2, "warm_start_steps": 3, "terms": ["pc", "cs", "ps"]}}))
+    look = Look(str(folder))
+    adapted = look_from_result(look, models)  # no look_state.npz: PSA runs once
+    assert adapted.name == StripesBackend.name and len(adapted.state["tone_field"]) == 4
+    assert not (folder / LOOK_STATE_FILE).exists()  # nothing written into the result by reading it
+
+    state = {"theta": [t * 1.1 for t in adapted.state["theta"]], "tone_field": adapted.state["tone_field"]}
+    save_look_state(folder, state)
+    loaded = load_look_state(folder)
+    assert all(torch.equal(x, y) for x, y in zip(loaded["theta"], state["theta"]))
+    from_file = look_from_result(look, models)
+    assert all(torch.allclose(x, y) for x, y in zip(from_file.state["theta"], state["theta"]))
+    assert not torch.allclose(from_file.base, adapted.base)
+
+    with pytest.raises(ShowError, match="no result.json"):
+        look_from_result(Look(str(tmp_path)), models)
+
+
+def test_look_at_a_strip_of_frames():
+    """Not a check: a strip of frames for a person to look at (/tmp/show/frames_strip.png)."""
+    import cv2
+    setup = ShowSetup(fake_models(), load_look=keyed_look)
+    show = Show([Look("/r/a", "a", seed=1, hold_s=0.2, motion=Motion("colour_cycle", 1.0, 0.8)),
+                 Look("/r/b", "b", seed=7, hold_s=0.4, motion=Motion("rise", 1.0, 0.4))],
+                [Transition("morph", 0.6)], fps=10)
+    frames = [f for _, f in show_frames(show, setup)]
+    strip = np.concatenate(frames[::2], axis=1)
+    cv2.imwrite("/tmp/show/frames_strip.png", (strip[..., ::-1] * 255).round().astype(np.uint8))
+    assert len(frames) == 12

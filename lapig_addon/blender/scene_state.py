@@ -448,7 +448,11 @@ def add_show_look(scene, folder: str, name: str = "", **settings) -> int:
     item = s.show_looks.add()
     for key, value in settings.items():
         setattr(item, key, value)
-    item.name = name or os.path.basename(os.path.normpath(folder))
+    if not name:
+        from ..services.show_plan import look_name
+
+        name = look_name(folder)
+    item.name = name
     item.result_dir = storage.stored_path(folder)  # last: its update writes the markers once all is set
     s.show_index = len(s.show_looks) - 1
     return s.show_index

@@ -173,6 +173,19 @@ def _marker_name(text: str) -> str:
 
 # ------------------------------------------------------------------ the list's edits (the panel's buttons)
 
+def look_name(result_dir: str, longest: int = 40) -> str:
+    """A new look's name: its result's prompt (shortened), else the folder's name."""
+    from ...lapig_core.export.result_files import read_summary
+
+    try:
+        prompt = " ".join(str(read_summary(result_dir).get("prompt") or "").split())
+    except (OSError, ValueError):
+        prompt = ""
+    if not prompt:
+        return os.path.basename(os.path.normpath(result_dir))
+    return prompt if len(prompt) <= longest else prompt[:longest - 1].rstrip() + "~"
+
+
 def moved(items: list, index: int, direction: int) -> tuple[list, int]:
     """The list with item `index` moved one place up (-1) or down (+1), and its new index (unchanged at an end)."""
     items = list(items)

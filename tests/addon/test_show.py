@@ -101,6 +101,17 @@ def test_the_list_moves_and_removes_like_the_panel_buttons():
     assert plan.looks[0].hold_s == 9.0
 
 
+def test_a_new_look_is_named_after_its_prompt(results, tmp_path):
+    show_plan = _module("services.show_plan")
+    folders, _ = results
+    assert show_plan.look_name(folders[1]) == "look 1"
+    assert show_plan.look_name(str(tmp_path / "no_result")) == "no_result"
+    from lapig.lapig_core.export.result_files import write_result
+
+    long = write_result(tmp_path / "long", {}, {"prompt": "Render it in the style of a Van Gogh oil painting, at night"})
+    assert show_plan.look_name(str(long)) == "Render it in the style of a Van Gogh oi~"
+
+
 def test_a_look_is_stale_when_its_capture_is_not_the_scenes_or_older(results, state):
     show_plan = _module("services.show_plan")
     folders, capture = results

@@ -210,3 +210,46 @@ def test_show_export_refuses_in_one_line_and_writes_nothing(show_scene, tmp_path
     assert not [m for m in scene.timeline_markers if m.name.startswith("Look")]
     bpy.ops.wm.save_mainfile()
     assert refused("--blend", blend, "--codec", "png") == "error: The show has no looks: add a result to it (Add Look)"
+
+
+@pytest.mark.torch
+def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(captured, tmp_path, capsys):
+    """Capture, two looks generated (the first look's classical model), a morph between them: Bake Show and
+    Export Show (operator and command) make their frames through lapig_core/show's producer."""
+    import json
+
+    from lapig.lapig_addon.blender import projector_nodes, scene_state, show_timeline
+    from lapig.lapig_addon.blender.scene_store import scene_seams
+    from lapig.lapig_addon.cli.main import main
+    from lapig.lapig_addon.services import show_source
+    from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
+
+    scene = captured
+    for prompt in ("stained glass", "ink wash"):
+        request = scene_state.generate_request(scene, prompt=prompt)
+        folder = GenerateJob(scene_seams(scene), request).run_to_completion()["folder"]
+        assert bpy.ops.lapig.show_add_look(directory=folder) == {"FINISHED"}
+    scene.render.fps = 10
+    scene_state.set_show_look(scene, 0, hold_s=0.2, transition="morph", transition_s=0.3)
+    scene_state.set_show_look(scene, 1, hold_s=0.2, motion="pulse", motion_period_s=1.0)
+    assert [m.name for m in sorted(scene.timeline_markers, key=lambda m: m.frame)] == [
+        "stained glass", "morph 0.3s to ink wash", "ink wash"]
+    assert show_timeline.blocker(scene) == "" and show_source.uses_producer(show_timeline.show_source(scene))
+    assert bpy.ops.lapig.bake_show() == {"FINISHED"}
+    assert show_timeline.previz_status(scene) == ("Previz on the projector light: 7 frames at 10 fps", True)
+    folder, _ = scene_state.show_baked(scene)
+    assert json.load(open(os.path.join(folder, "show.json")))["producer"] == "lapig_core.show"
+    projector = scene_state.rig_objects(scene)[0]
+    assert projector_nodes.projected_image(projector.data).source == "SEQUENCE"
+    scene.lapig.show_codec, scene.lapig.show_export_dir = "png", str(tmp_path / "by_operator")
+    assert bpy.ops.lapig.export_show() == {"FINISHED"}
+    frames = sorted(os.listdir(tmp_path / "by_operator" / "show"))
+    assert frames[:2] == ["frame_0001.png", "frame_0002.png"] and "frame_0007.png" in frames
+    bpy.ops.wm.save_mainfile()
+    capsys.readouterr()
+    assert main(["show-export", "--blend", bpy.data.filepath, "--out", str(tmp_path / "by_command"),
+                 "--codec", "png", "--bit-depth", "16"]) == 0
+    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert printed["frames"] == 7 and printed["fps"] == 10.0 and printed["codec"] == "png"
+    sidecar = json.load(open(tmp_path / "by_command" / "show.json"))
+    assert sidecar["bit_depth"] == 16 and sidecar["show"]["looks"][1]["motion"]["kind"] == "pulse"

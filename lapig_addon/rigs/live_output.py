@@ -124,8 +124,10 @@ def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
     period = 1.0 / float(fps)
     late = shown = 0
     ahead = _ahead(frames)  # the next frames are made while this one is on screen
-    start = clock.perf_counter()
+    start = None  # the show's clock starts with its first frame (reading the looks is no lateness)
     for i, pixels in enumerate(ahead):
+        if start is None:
+            start = clock.perf_counter()
         due = start + i * period
         wait = due - clock.perf_counter()
         if wait > 0:
@@ -135,7 +137,8 @@ def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
         shown += 1
         if on_frame is not None:
             on_frame(i, on_screen)
-    return {"frames": shown, "seconds": round(clock.perf_counter() - start, 3), "late_frames": int(late)}
+    seconds = clock.perf_counter() - start if start is not None else 0.0
+    return {"frames": shown, "seconds": round(seconds, 3), "late_frames": int(late)}
 
 
 def _ahead(frames, depth: int = 4):

@@ -148,38 +148,58 @@ def look_images(result_dir: str, count: int) -> list:
 
 def _stored(source: ShowSource, cancel_event, on_progress, start: int, stop: int):
     """Holds and dissolves of the stored projector images (the build without lapig_core's producer, and rigs
-    of several projectors)."""
+    of several projectors). Each look is read and quantised once; an 8-bit dissolve frame is one lookup per pixel
+    in a 256 x 256 table of the two looks' 8-bit levels mixed in linear light (the 1080p frames of a live show
+    come at 30 fps on 2 cores), a 16-bit one is computed in float."""
     plan, models = source.plan, source.projectors
-    native, linear = {}, {}
+    looks = {}
 
-    def look(i):  # each look's frames read once (holds are made once)
-        if i not in native:
+    def look(i):
+        if i not in looks:
             images = look_images(plan.looks[i].result_dir, len(models))
-            native[i] = [quantised_frame(img, m.width, m.height, 16).astype(np.float32) / 65535.0
-                         for img, m in zip(images, models)]
-            linear[i] = [np.power(f, np.float32(m.gamma)) for f, m in zip(native[i], models)]
-        return i
+            looks[i] = [_StoredLook(quantised_frame(img, m.width, m.height, 16), m.gamma, source.bit_depth)
+                        for img, m in zip(images, models)]
+        return looks[i]
 
-    held = {}
     total = max(stop - start, 1)
     for index in range(start, stop):
         if cancel_event is not None and cancel_event.is_set():
             return
         segment = plan.segment_at(index)
-        w = segment.weight(index)
-        if segment.kind == "hold" or w == 0.0:
-            a = look(segment.a)
-            if a not in held:
-                held = {a: [to_bit_depth(f, source.bit_depth) for f in native[a]]}  # the last hold only
-            pixels = held[a]
+        if segment.kind == "hold":
+            pixels = [stored.pixels for stored in look(segment.a)]
         else:
-            a, b = look(segment.a), look(segment.b)
-            pixels = [to_bit_depth(np.power(la * np.float32(1 - w) + lb * np.float32(w), np.float32(1 / m.gamma)),
-                                   source.bit_depth)
-                      for la, lb, m in zip(linear[a], linear[b], models)]
+            w = segment.weight(index)
+            pixels = [a.mixed(b, w) for a, b in zip(look(segment.a), look(segment.b))]
         if on_progress is not None:
             on_progress((index - start + 1) / total, f"frame {index + 1} of {plan.frame_count()}")
         yield index, pixels
+
+
+class _StoredLook:
+    """One projector's frame of a look: its pixels at the bit depth sent, and what a dissolve mixes."""
+
+    def __init__(self, native16: np.ndarray, gamma: float, bit_depth: int):
+        self.gamma, self.bit_depth = float(gamma), bit_depth
+        self.pixels = to_bit_depth(native16, bit_depth)
+        self._linear = None
+
+    def linear(self) -> np.ndarray:
+        if self._linear is None:
+            self._linear = np.power(self.pixels.astype(np.float32) / np.float32(2 ** self.bit_depth - 1),
+                                    np.float32(self.gamma))
+        return self._linear
+
+    def mixed(self, other: "_StoredLook", w: float) -> np.ndarray:
+        """The frame at weight w of the crossfade from this look to `other`, mixed in the projector's linear light."""
+        if self.bit_depth == 8:
+            levels = np.arange(256, dtype=np.float64) / 255.0
+            la, lb = levels[:, None] ** self.gamma, levels[None, :] ** other.gamma
+            table = to_bit_depth(np.power(la * (1.0 - w) + lb * w, 1.0 / self.gamma), 8).reshape(-1)
+            index = (self.pixels.astype(np.uint16) << 8) | other.pixels
+            return table[index]
+        mixed = self.linear() * np.float32(1.0 - w) + other.linear() * np.float32(w)
+        return to_bit_depth(np.power(mixed, np.float32(1.0 / self.gamma)), self.bit_depth)
 
 
 # ------------------------------------------------------------------ the encoder

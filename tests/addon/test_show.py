@@ -163,6 +163,22 @@ def test_holds_are_the_looks_exported_pixels_and_a_dissolve_mixes_in_linear_ligh
     assert notes == ["motions stand still: this build has no per-frame show producer"]
 
 
+def test_an_8_bit_dissolve_is_the_linear_light_mix_of_the_8_bit_looks(tmp_path):
+    from lapig.lapig_core.export.result_files import write_result
+
+    show_source = _module("services.show_source")
+    rng = np.random.default_rng(4)
+    folders = [str(write_result(tmp_path / f"r{i}", {"projector": rng.random((SIZE[1], SIZE[0], 3)).astype(np.float32)},
+                                {"prompt": "noise"})) for i in range(2)]
+    plan = _plan([dict(result_dir=folders[0], hold_s=0.1, transition_s=0.3), dict(result_dir=folders[1], hold_s=0.1)])
+    frames = [f[0] for _, f in show_source.frames(_source(plan, bit_depth=8))]
+    assert len(frames) == 5 and all(f.dtype == np.uint8 for f in frames)
+    a, b = frames[0].astype(np.float64) / 255, frames[4].astype(np.float64) / 255
+    for k, w in ((1, 0.25), (2, 0.5), (3, 0.75)):
+        expected = np.round(255 * ((1 - w) * a ** 2.2 + w * b ** 2.2) ** (1 / 2.2))
+        assert np.abs(frames[k] - expected).max() <= 1
+
+
 def test_the_adapter_hands_the_plan_to_the_show_producer_where_it_is_here(results):
     show_source = _module("services.show_source")
     if not show_source.has_producer():

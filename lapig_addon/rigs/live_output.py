@@ -117,15 +117,15 @@ def status_lines() -> list:
     return lines
 
 
-def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
+def play(window, frames, fps: float = 30.0, clock=time, on_frame=None, ahead: int = 4) -> dict:
     """Show ``frames`` (8- or 16-bit (H, W, 3) pixels) one per 1/fps seconds; {"frames", "seconds",
     "late_frames"}: a frame shown more than half a period after its time was late (a slow machine or a
     large frame)."""
     period = 1.0 / float(fps)
     late = shown = 0
-    ahead = _ahead(frames)  # the next frames are made while this one is on screen
+    made = _ahead(frames, ahead)  # the next frames are made while this one is on screen
     start = None  # the show's clock starts with its first frame (reading the looks is no lateness)
-    for i, pixels in enumerate(ahead):
+    for i, pixels in enumerate(made):
         if start is None:
             start = clock.perf_counter()
         due = start + i * period
@@ -254,6 +254,8 @@ class ShowPlayJob(WorkerJob):
     ({'frames', 'seconds', 'late_frames', 'late_frame_pct'}). Esc in Blender stops it; the window keeps its frame."""
 
     title = "LAPIG play show"
+    AHEAD = 12  # frames made ahead (0.4 s at 30 fps; 75 MB at 1920x1080): a dissolve's first frames or a busy
+    # machine's hiccup are absorbed
 
     def __init__(self, sink: ProjectorWindowSink, source, fps: float | None = None, clock=time):
         super().__init__()
@@ -284,7 +286,8 @@ class ShowPlayJob(WorkerJob):
 
         pixels = (frame[0] for _, frame in show_source.frames(source, cancel_event=cancel_event))
         try:
-            return late_share(play(self.sink.window, pixels, self.fps, clock=self.clock, on_frame=on_frame))
+            return late_share(play(self.sink.window, pixels, self.fps, clock=self.clock, on_frame=on_frame,
+                                   ahead=self.AHEAD))
         except _Stopped:
             return None
 

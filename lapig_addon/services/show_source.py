@@ -183,6 +183,7 @@ class _StoredLook:
         self.gamma, self.bit_depth = float(gamma), bit_depth
         self.pixels = to_bit_depth(native16, bit_depth)
         self._linear = None
+        self._pairs = {}
 
     def linear(self) -> np.ndarray:
         if self._linear is None:
@@ -196,8 +197,11 @@ class _StoredLook:
             levels = np.arange(256, dtype=np.float64) / 255.0
             la, lb = levels[:, None] ** self.gamma, levels[None, :] ** other.gamma
             table = to_bit_depth(np.power(la * (1.0 - w) + lb * w, 1.0 / self.gamma), 8).reshape(-1)
-            index = (self.pixels.astype(np.uint16) << 8) | other.pixels
-            return table[index]
+            index = self._pairs.get(id(other))
+            if index is None:  # the pair's levels, once per transition
+                self._pairs = {id(other): (self.pixels.astype(np.uint16) << 8) | other.pixels}
+                index = self._pairs[id(other)]
+            return np.take(table, index)
         mixed = self.linear() * np.float32(1.0 - w) + other.linear() * np.float32(w)
         return to_bit_depth(np.power(mixed, np.float32(1.0 / self.gamma)), self.bit_depth)
 

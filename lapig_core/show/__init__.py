@@ -21,16 +21,30 @@ The API the add-on (branch `showaddon`) and the video export (branch `video`) ca
                                           #           ('morph', i, j, w) | ('moving', i, t)
                                           # equal keys = the same frame (holds are made once)
 
-    setup = ShowSetup.from_capture(setup_dir)   # the capture's SurfaceModels (saved models or the first look)
+    setup = ShowSetup.from_capture(setup_dir)   # the capture's SurfaceModels: Train's saved models, else its
+                                                # first look (the classical model); ShowError when neither
+    # or ShowSetup(models, load_look=None, setup_dir=None, dark_outside=False, references=None):
+    #   load_look(look, models) -> KeyedLook (default look_from_result: the result folder's result.json,
+    #   its look_state.npz or PSA once); references(w, h) -> References at another output size
+    #   (default: the capture's, registered there)
     for index, frame in show_frames(show, setup, size=None, cancel_event=None, on_progress=None):
         ...   # frame: float32 (H, W, 3) in [0, 1], the projector image; size=None: the working frame,
-              # size=(width, height): that size through native_output (e.g. the projector's native frame)
+              # size=(width, height): that size as native_output makes it (e.g. the projector's native frame)
 
     show_frames(show, setup, *, size=None, cancel_event=None, on_progress=None, start=0, stop=None,
                 settings=None) -> Iterator[tuple[int, np.ndarray]]
-        frames in order from `start` to `stop` (exclusive; None: the end). cancel_event: a threading.Event;
-        when set, the iterator stops before the next frame (nothing is written anywhere: it only yields).
-        on_progress(p, message): p in [0, 1] over the frames asked for. Raises ShowError for a bad show.
+        setup: a ShowSetup or a capture's folder. Frames in order from `start` to `stop` (exclusive; None:
+        the end). cancel_event: a threading.Event; once set, InterruptedError before the next frame (it only
+        yields, it writes nothing: the caller drops what it has). on_progress(p, message) after each frame,
+        p in (0, 1] over the frames asked for. ShowError for a bad show. settings: FrameSettings (the
+        per-frame adaptation's steps and pulls, the dissolve's gamma: pass the projector's, default 2.2).
+        Frames repeat as the schedule's keys do (holds are compensated once; keep one generator per run).
+
+    FrameMaker(show, setup, size=None, settings=None, cancel_event=None)   the producer show_frames drives:
+        .frame(key) -> np.ndarray, .target_of(key) -> (1,3,H,W) tensor (for measures), .schedule, .computed
+    keyed_look_from_prompt(models, prompt, backend, seed=0, mix=None, psa=True, psa_settings=None, state=None)
+        -> KeyedLook: a look made as Generate makes it (for a look not yet saved as a result)
+    save_look_state(folder, state) / load_look_state(folder): look_state.npz beside result.json (optional)
 
 Modules, one concept each:
     model.py      Show, Look, Motion, Transition, ShowError: the data, its validation, to_dict/from_dict
@@ -42,3 +56,24 @@ Modules, one concept each:
                   read with allow_pickle=False; results without it are re-prepared and adapted once
     frames.py     the per-frame producer: show_frames, ShowSetup, FrameSettings
 """
+
+from .model import MOTION_PRESETS, TRANSITION_KINDS, Look, Motion, Show, ShowError, Transition
+from .schedule import Schedule, schedule_of
+
+_LAZY = {"show_frames": "frames", "ShowSetup": "frames", "FrameSettings": "frames", "FrameMaker": "frames",
+         "look_from_result": "frames", "keyed_look_from_prompt": "frames", "KeyedLook": "look_state",
+         "save_look_state": "look_state", "load_look_state": "look_state", "apply_motion": "motion"}
+
+
+def __getattr__(name):
+    """The torch-side names on first use: the model and the schedule import no torch (a panel can read a
+    show without loading it)."""
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["Look", "MOTION_PRESETS", "Motion", "Schedule", "Show", "ShowError", "TRANSITION_KINDS", "Transition",
+           "schedule_of", *_LAZY]

@@ -50,7 +50,7 @@ class FrameSettings:
     psa: PSASettings | None = None  # the style and keep-light terms' settings (None: PSA's defaults)
     adapt: bool = True  # False: moved / morphed looks through the interpolated field, not adapted
     cache_frames: int = 16  # the newest frames kept besides the holds (a periodic motion's repeats)
-    gamma: float | None = None  # dissolves' projector transfer; None: the compensator's, else 2.2
+    gamma: float = 2.2  # dissolves' projector transfer (ProjectorModel.gamma; crossfade_sequence's default)
 
 
 class ShowSetup:
@@ -58,14 +58,26 @@ class ShowSetup:
 
     models: SurfaceModels (pipeline.surface_models or first_look_models). load_look(look, models) ->
     KeyedLook; default: look_from_result (the result folder). setup_dir: the capture, for another output
-    size (its registered references). dark_outside: projector pixels off the object black."""
+    size (its registered references). dark_outside: projector pixels off the object black.
+    references(width, height) -> capture.native_references.References: the surface at another output size
+    (default: the capture's references registered there)."""
 
-    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False):
+    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False, references=None):
         self.models = models
         self.load_look = load_look or look_from_result
         self.setup_dir = Path(setup_dir) if setup_dir is not None else None
         self.dark_outside = dark_outside
+        self._references = references
         self._looks = {}
+
+    def references(self, width: int, height: int):
+        if self._references is not None:
+            return self._references(width, height)
+        from ..capture.native_references import registered_references
+
+        if self.setup_dir is None:
+            raise ShowError("an output size other than the working frame needs the capture's folder")
+        return registered_references(self.setup_dir, width, height)
 
     @classmethod
     def from_capture(cls, setup_dir, device=None, dark_outside: bool = True) -> "ShowSetup":
@@ -163,7 +175,9 @@ class FrameMaker:
         self.optimiser = Adam(list(self.field.parameters()), lr=self.settings.field_lr)
         self.carry = None  # the previous adapted frame's correction of its field (warm start)
         self.psa_settings = self.settings.psa or PSASettings()
-        self.gamma = self.settings.gamma or float(getattr(models.compensator, "gamma_p", 2.2))
+        # the projector's own transfer, not the classical fit's gamma_p: that one trades off against M and
+        # the camera's gamma (the device check's fake rig is 2.2 / 2.2; its fit says 1.37 / 1.61)
+        self.gamma = float(self.settings.gamma)
         self._kept, self._recent = {}, OrderedDict()
         self.computed = 0  # frames made (not from the cache)
         self._params = {}  # the field's parameters each adapted key was made with (target_of reads them)
@@ -177,13 +191,10 @@ class FrameMaker:
         self.s, self.white = self.models.s, None
         height, width = working
         if self.native:
-            from ..capture.native_references import registered_references
             from ..photometric.training_data import to_tensor
 
-            if self.setup.setup_dir is None:
-                raise ShowError("an output size other than the working frame needs the capture's folder")
             width, height = int(size[0]), int(size[1])
-            refs = registered_references(self.setup.setup_dir, width, height)
+            refs = self.setup.references(width, height)
             device = self.models.device
             self.s, self.white = to_tensor(refs.gray).to(device), to_tensor(refs.white).to(device)
             self.valid = (torch.from_numpy(refs.valid)[None, None].to(device=device, dtype=torch.float32)

@@ -168,3 +168,23 @@ def test_look_at_a_strip_of_frames():
     strip = np.concatenate(frames[::2], axis=1)
     cv2.imwrite("/tmp/show/frames_strip.png", (strip[..., ::-1] * 255).round().astype(np.uint8))
     assert len(frames) == 12
+
+
+def test_another_output_size_renders_and_compensates_there():
+    from lapig.lapig_core.capture.native_references import References
+
+    models = fake_models()
+    image = lambda t, w, h: torch.nn.functional.interpolate(t, size=(h, w), mode="bilinear")[0].permute(1, 2, 0).numpy()  # noqa: E731
+    refs = lambda w, h: References(image(models.i_min, w, h), image(models.i_max, w, h), image(models.s, w, h),  # noqa: E731
+                                   np.ones((h, w), bool))
+    setup = ShowSetup(models, load_look=keyed_look, references=refs)
+    show = Show([Look("/r/a", "a", seed=1, hold_s=0.2), Look("/r/b", "b", seed=3, hold_s=0.2, motion=Motion("rise"))],
+                [Transition("morph", 0.2)], fps=10)
+    small = dict(show_frames(show, setup))
+    big = dict(show_frames(show, setup, size=(128, 96)))
+    assert set(big) == set(small) == set(range(6))
+    for index, frame in big.items():
+        assert frame.shape == (96, 128, 3) and frame.dtype == np.float32
+        # the same look at twice the size: close to the working frame's, upsampled
+        down = torch.nn.functional.avg_pool2d(torch.from_numpy(frame).permute(2, 0, 1)[None], 2)[0].permute(1, 2, 0)
+        assert np.abs(down.numpy() - small[index]).mean() < 0.05

@@ -124,10 +124,14 @@ def _produced(source: ShowSource, cancel_event, on_progress, start: int, stop: i
     core_frames = _core_frames()
     show = core_show_of(source.plan, source.summaries or read_summaries(source.plan))
     setup = core_frames.ShowSetup.from_capture(source.capture_dir)
-    for index, image in core_frames.show_frames(show, setup, size=(model.width, model.height),
-                                              cancel_event=cancel_event, on_progress=on_progress,
-                                              start=start, stop=stop):
-        yield index, [quantised_frame(image, model.width, model.height, source.bit_depth)]
+    settings = core_frames.FrameSettings(gamma=model.gamma)  # dissolves in this projector's linear light
+    try:
+        for index, image in core_frames.show_frames(show, setup, size=(model.width, model.height),
+                                                  cancel_event=cancel_event, on_progress=on_progress,
+                                                  start=start, stop=stop, settings=settings):
+            yield index, [quantised_frame(image, model.width, model.height, source.bit_depth)]
+    except InterruptedError:  # the producer saw the cancel first
+        raise JobCancelled() from None
 
 
 def look_images(result_dir: str, count: int) -> list:

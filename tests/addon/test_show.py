@@ -330,3 +330,37 @@ def test_a_late_frame_is_counted():
     frames = (np.zeros((SIZE[1], SIZE[0], 3), np.uint8) for _ in range(10))
     played = live.late_share(live.play(SlowWindow(), frames, fps=25, clock=clock))
     assert played["late_frames"] == 2 and played["late_frame_pct"] == 20.0  # the fourth, and the fifth after it
+
+
+def test_the_producer_is_asked_at_the_projectors_size_and_gamma_and_its_cancel_is_a_cancel(results, tmp_path,
+                                                                                          monkeypatch):
+    """lapig_core/show's producer behind the adapter (a stand-in here: the real one needs a capture): it is given
+    the capture, the projector's native size and gamma; an InterruptedError it raises at a cancel cancels the job,
+    and nothing is written."""
+    import types
+
+    show_source, show_jobs = _module("services.show_source"), _module("services.show_jobs")
+    folders, capture = results
+    asked, stop = {}, threading.Event()
+
+    def show_frames(show, setup, *, size, cancel_event, on_progress, start, stop, settings):
+        asked.update(size=size, gamma=settings.gamma, setup=setup, looks=len(show.looks))
+        for i in range(start, stop):
+            if i == 3:  # Esc, seen by the producer first, between two frames
+                cancel_event.set()
+                raise InterruptedError("cancelled")
+            yield i, np.full((SIZE[1], SIZE[0], 3), 0.5, np.float32)
+
+    fake = types.SimpleNamespace(show_frames=show_frames, FrameSettings=lambda gamma: types.SimpleNamespace(gamma=gamma),
+                                 ShowSetup=types.SimpleNamespace(from_capture=lambda folder: f"setup of {folder}"))
+    monkeypatch.setattr(show_source, "_core_frames", lambda: fake)
+    monkeypatch.setattr(show_source, "has_producer", lambda: True)
+    plan = _plan([dict(result_dir=folders[0], hold_s=0.5, transition="morph", transition_s=0.5),
+                  dict(result_dir=folders[1], hold_s=0.5, motion="rise")])
+    source = show_source.ShowSource(plan, projectors=(ProjectorModel(width=SIZE[0], height=SIZE[1], gamma=2.4),),
+                                    capture_dir=capture)
+    assert show_source.uses_producer(source) and show_source.fallback_notes(source) == []
+    job = show_jobs.ShowExportJob(source, str(tmp_path / "export"), "png")
+    assert job.run() == "CANCELLED"
+    assert asked == {"size": SIZE, "gamma": 2.4, "setup": f"setup of {capture}", "looks": 2}
+    assert os.listdir(tmp_path / "export") == []

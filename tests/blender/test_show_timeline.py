@@ -213,9 +213,11 @@ def test_show_export_refuses_in_one_line_and_writes_nothing(show_scene, tmp_path
 
 
 @pytest.mark.torch
-def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(captured, tmp_path, capsys):
-    """Capture, two looks generated (the first look's classical model), a morph between them: Bake Show and
-    Export Show (operator and command) make their frames through lapig_core/show's producer."""
+def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(captured, tmp_path, capsys,
+                                                                              monkeypatch):
+    """Capture, two looks generated (the first look's classical model), a morph between them: Bake Show, Export
+    Show (operator and command), Play Show and show --timeline make their frames through lapig_core/show's
+    producer."""
     import json
 
     from lapig.lapig_addon.blender import projector_nodes, scene_state, show_timeline
@@ -253,3 +255,72 @@ def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(ca
     assert printed["frames"] == 7 and printed["fps"] == 10.0 and printed["codec"] == "png"
     sidecar = json.load(open(tmp_path / "by_command" / "show.json"))
     assert sidecar["bit_depth"] == 16 and sidecar["show"]["looks"][1]["motion"]["kind"] == "pulse"
+    # Play Show (the panel) and show --timeline (the command) on a stand-in projector window
+    from lapig.lapig_addon.rigs import live_output
+    from lapig.lapig_core.rig import projector_window
+
+    class Window:
+        def __init__(self, display, **kw):
+            self.size, self.is_open, self.shown = tuple(scene_state.projector_size(projector)), True, []
+
+        def show(self, pixels):
+            import time
+
+            self.shown.append(pixels)
+            return time.perf_counter()
+
+        def describe(self):
+            return {"display": {"index": 1, "name": "stand-in"}}
+
+        def close(self):
+            self.is_open = False
+
+    window = Window(1)
+    live_output.open_live("1", window_factory=lambda display: window)
+    try:
+        assert bpy.ops.lapig.play_show() == {"FINISHED"}
+    finally:
+        live_output.close_live()
+    assert len(window.shown) == 7 and window.shown[0].dtype == np.uint8
+    monkeypatch.setattr(projector_window, "ProjectorWindow", Window)
+    capsys.readouterr()
+    assert main(["show", "--timeline", "--blend", bpy.data.filepath, "--display", "1"]) == 0
+    played = json.loads(capsys.readouterr().out.strip().splitlines()[-1])["show"]
+    assert played["frames"] == 7 and {"late_frames", "late_frame_pct"} <= set(played)
+
+
+def test_the_show_panel_draws_the_list_the_blocker_and_the_buttons(show_scene):
+    from test_panels import RecordingLayout
+
+    from lapig.panels.show_panel import LAPIG_PT_show
+
+    class Layout(RecordingLayout):
+        def _child(self, *args, **kwargs):
+            return Layout(self.log)
+
+        row = column = box = split = _child
+
+        def template_list(self, *args, **kwargs):
+            self.log.append(("list", args[3]))
+
+    def draw():
+        log = []
+        LAPIG_PT_show.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+        return log
+
+    log = draw()
+    texts = [entry[1] for entry in log if entry[0] == "label"]
+    assert ("list", "show_looks") in log and ("prop", "hold_s") in log and ("prop", "motion") in log
+    assert "3 frames, 0.3 s at 10 fps (the scene's frame rate)" in texts
+    assert "The show's looks need the scene's capture: capture the surface first" in texts
+    assert "No previz baked yet: Bake Show puts the show on the timeline" in texts
+    ops = [entry[1] for entry in log if entry[0] == "operator"]
+    for op in ("lapig.show_add_look", "lapig.show_remove_look", "lapig.show_move_look", "lapig.bake_show",
+               "lapig.export_show", "lapig.play_show"):
+        assert op in ops
+    scene = bpy.context.scene
+    while scene.lapig.show_looks:
+        assert bpy.ops.lapig.show_remove_look() == {"FINISHED"}
+    texts = [entry[1] for entry in draw() if entry[0] == "label"]
+    assert "The show has no looks: add a result to it (Add Look)" in texts  # a scene without a show reads so
+    assert bpy.ops.lapig.show_remove_look() == {"CANCELLED"}

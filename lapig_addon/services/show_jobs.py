@@ -119,9 +119,13 @@ class ShowExportJob(WorkerJob):
         return self.source
 
     def work(self, source, report, cancel_event):
+        import json
+
+        from ...lapig_core.common.locking import LOCK_FILE
+
         os.makedirs(self.out_dir, exist_ok=True)
         staged = show_source.Staged(self.out_dir)
-        moves, outputs = [], []
+        outputs = []
         try:
             k_all = len(source.projectors)
             for k, model in enumerate(source.projectors):
@@ -132,21 +136,19 @@ class ShowExportJob(WorkerJob):
                                             codec=self.codec, fps=source.plan.fps, width=model.width,
                                             height=model.height, count=source.frame_count,
                                             bit_depth=source.bit_depth, sidecar=meta, cancel_event=cancel_event)
-                moves.append((inside, final))
-                outputs.append({"path": final, "frames": source.frame_count,
-                                **{k2: v for k2, v in (written or {}).items() if k2 not in ("path",)}})
+                outputs.append({"path": os.path.join(self.out_dir, os.path.basename(written["path"])),
+                                "frames": source.frame_count})
             sidecar_path = os.path.join(self.out_dir, f"{self.name}.json")
             staged_sidecar = staged.path(os.path.basename(sidecar_path))
-            import json
-
-            with open(staged_sidecar, "w", encoding="utf-8") as f:
-                json.dump(sidecar(source, {**self.metadata, "codec": self.codec,
-                                           "files": [os.path.basename(final) for _, final in moves]}),
-                          f, indent=2, default=str)
-            moves.append((staged_sidecar, sidecar_path))
+            if not os.path.exists(staged_sidecar):  # one video's own sidecar (the video writer's) is this one
+                with open(staged_sidecar, "w", encoding="utf-8") as f:
+                    json.dump(sidecar(source, {**self.metadata, "codec": self.codec,
+                                               "files": [os.path.basename(o["path"]) for o in outputs]}),
+                              f, indent=2, default=str)
+            names = sorted(n for n in os.listdir(staged.path("")) if n != LOCK_FILE)
         except BaseException:
             staged.discard()
             raise
-        staged.commit(moves)
+        staged.commit([(staged.path(n), os.path.join(self.out_dir, n)) for n in names])
         return {"codec": self.codec, "fps": source.plan.fps, "frames": source.frame_count,
                 "outputs": outputs, "sidecar": sidecar_path, "notes": _notes(source)}

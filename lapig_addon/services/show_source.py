@@ -230,8 +230,23 @@ def codec_problem(codec: str) -> str:
     video = _video_module()
     if video is None:
         return f"{codec} needs the video export (lapig_core/export/video), which this build lacks: use --codec png"
-    check = getattr(video, "codec_problem", None)
-    return check(codec) if check else ""
+    from ...lapig_core.export import codecs as codec_table
+
+    try:
+        codec_table.check_codec(codec)
+    except ValueError as exc:
+        return str(exc)
+    return ""
+
+
+def video_bit_depth(codec: str, bit_depth: int) -> int:
+    """The bit depth a video of `codec` is encoded at for frames of `bit_depth` (16-bit frames: the codec's deepest,
+    10 bits for H.264, H.265 and ProRes; 8 for the others)."""
+    if bit_depth == 8:
+        return 8
+    from ...lapig_core.export import codecs as codec_table
+
+    return max(codec_table.CODECS[codec].pixel_formats)
 
 
 def output_path(out_dir: str, codec: str, projector: int, count: int, name: str = "show") -> str:
@@ -239,23 +254,32 @@ def output_path(out_dir: str, codec: str, projector: int, count: int, name: str 
     suffix = f"_{projector + 1}" if count > 1 else ""
     if codec == "png":
         return os.path.join(out_dir, f"{name}{suffix}")
-    video = _video_module()
-    extension = getattr(video, "EXTENSIONS", {}).get(codec) if video else None
-    return os.path.join(out_dir, f"{name}{suffix}{extension or ('.mov' if codec in ('prores4444', 'hap') else '.mkv' if codec == 'lossless' else '.mp4')}")
+    from ...lapig_core.export import codecs as codec_table
+
+    return os.path.join(out_dir, f"{name}{suffix}{codec_table.CODECS[codec].containers[0]}")
 
 
 def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height: int, count: int,
           bit_depth: int = 8, sidecar: dict | None = None, cancel_event=None) -> dict:
-    """Encode `frames_iter` (pixels, in order) to `path` whole or not at all: a PNG sequence folder, or a video
-    through lapig_core/export/video. Returns what was written."""
+    """Encode `frames_iter` (pixels, in order) to `path`: a PNG sequence folder, or a video (and its sidecar
+    '<name>.json') through lapig_core/export/video. Returns {'path', 'frames'}; a cancel raises JobCancelled."""
     if codec == "png":
         return write_png_sequence(path, frames_iter, count=count, bit_depth=bit_depth, sidecar=sidecar,
                                   cancel_event=cancel_event)
     video = _video_module()
     if video is None:
         raise ValueError(codec_problem(codec))
-    return video.write_video(path, frames_iter, codec=codec, fps=fps, width=width, height=height,
-                             frame_count=count, bit_depth=bit_depth, sidecar=sidecar, cancel_event=cancel_event)
+    from ...lapig_core.export.show_output import Cancelled
+
+    show = (sidecar or {}).get("show")
+    metadata = {k: v for k, v in (sidecar or {}).items() if k != "show"}
+    try:
+        written = video.write_video(frames_iter, path, fps, (width, height), codec,
+                                    bit_depth=video_bit_depth(codec, bit_depth), cancel_event=cancel_event,
+                                    metadata=metadata, show=show, frame_count=count)
+    except Cancelled:
+        raise JobCancelled() from None
+    return {"path": str(written["video"]), "frames": written["frames"], "sidecar": str(written["sidecar"])}
 
 
 FRAME_NAME = "frame_{:04d}.png"  # frame 1 is frame_0001.png: Blender's image sequences count from the file's number

@@ -243,6 +243,7 @@ def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(ca
     assert json.load(open(os.path.join(folder, "show.json")))["producer"] == "lapig_core.show"
     projector = scene_state.rig_objects(scene)[0]
     assert projector_nodes.projected_image(projector.data).source == "SEQUENCE"
+    size = tuple(scene_state.projector_size(projector))  # read now: the commands open the .blend again
     scene.lapig.show_codec, scene.lapig.show_export_dir = "png", str(tmp_path / "by_operator")
     assert bpy.ops.lapig.export_show() == {"FINISHED"}
     frames = sorted(os.listdir(tmp_path / "by_operator" / "show"))
@@ -261,7 +262,7 @@ def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(ca
 
     class Window:
         def __init__(self, display, **kw):
-            self.size, self.is_open, self.shown = tuple(scene_state.projector_size(projector)), True, []
+            self.size, self.is_open, self.shown = size, True, []
 
         def show(self, pixels):
             import time

@@ -141,6 +141,8 @@ def add_parsers(sub):
     ranged_option(bench, "--psa-iterations", "psa_iterations", "psa: PSA iteration cap (default 20)")
     ranged_option(bench, "--seed", "seed", "pattern and style seed", default=0)
     bench.add_argument("--threads", type=int, default=2, help="style-images: torch threads (default 2)")
+    bench.add_argument("--show-rendered", action="store_true",
+                       help="show: also render the frames with Cycles on a demo panel (minutes)")
     ranged_option(bench, "--working-size", "working_size", "style-images: working size of the PSA captures")
     bench.add_argument("--no-warmup", dest="warmup", action="store_false",
                        help="ui, preview: no warm-up before the first job (the session as it was before issue 28)")

@@ -45,6 +45,8 @@ The API the add-on (branch `showaddon`) and the video export (branch `video`) ca
     keyed_look_from_prompt(models, prompt, backend, seed=0, mix=None, psa=True, psa_settings=None, state=None)
         -> KeyedLook: a look made as Generate makes it (for a look not yet saved as a result)
     save_look_state(folder, state) / load_look_state(folder): look_state.npz beside result.json (optional)
+    refine_offset(folder): a refined result's correction (refined minus open-loop projector image), which
+        look_from_result puts on KeyedLook.offset and every frame of that look carries (a morph: mixed by w)
 
 Modules, one concept each:
     model.py      Show, Look, Motion, Transition, ShowError: the data, its validation, to_dict/from_dict
@@ -62,7 +64,7 @@ from .schedule import Schedule, schedule_of
 
 _LAZY = {"show_frames": "frames", "ShowSetup": "frames", "FrameSettings": "frames", "FrameMaker": "frames",
          "look_from_result": "frames", "keyed_look_from_prompt": "frames", "KeyedLook": "look_state",
-         "save_look_state": "look_state", "load_look_state": "look_state", "apply_motion": "motion"}
+         "save_look_state": "look_state", "load_look_state": "look_state", "refine_offset": "look_state", "apply_motion": "motion"}
 
 
 def __getattr__(name):

@@ -34,7 +34,7 @@ from ..export.projector_image import _blend
 from ..native_output import compensate_frame, device_tile
 from ..psa.adaptation import PSASettings, _style_loss, keep_light_loss, proxy_psa_loss, run_psa
 from ..psa.tone_field import AdaptedLook, ToneField
-from .look_state import KeyedLook, load_look_state, read_result_record
+from .look_state import KeyedLook, load_look_state, read_result_record, refine_offset
 from .model import Show, ShowError
 from .morph import lerp_list, morph_base
 from .motion import apply_motion
@@ -98,10 +98,17 @@ class ShowSetup:
         dark = dark_outside and pipeline.object_footprint(cs) is not None
         return cls(models, setup_dir=setup_dir, dark_outside=dark)
 
-    def keyed(self, index: int, look) -> KeyedLook:
-        """Look `index` of the show as PSA left it, made once for this setup."""
+    def keyed(self, index: int, look, cancel_event=None) -> KeyedLook:
+        """Look `index` of the show as PSA left it, made once for this setup. A look whose making was
+        cancelled (PSA stops at the cancel with its best iterate so far) is not kept: InterruptedError."""
         if index not in self._looks:
-            self._looks[index] = self.load_look(look, self.models)
+            if self.load_look is look_from_result:
+                keyed = look_from_result(look, self.models, cancel_event=cancel_event)
+            else:
+                keyed = self.load_look(look, self.models)
+            if cancel_event is not None and cancel_event.is_set():
+                raise InterruptedError("the show was cancelled")
+            self._looks[index] = keyed
         return self._looks[index]
 
 
@@ -114,7 +121,7 @@ def _psa_settings(recorded: dict, seed: int) -> PSASettings:
     return PSASettings(**values)
 
 
-def look_from_result(look, models) -> KeyedLook:
+def look_from_result(look, models, cancel_event=None) -> KeyedLook:
     """A keyed look from its result folder (look_state docstring): the backend prepared from result.json's
     prompt, backend, seed and mix on the white-lit surface; theta and the tone field from look_state.npz,
     else from PSA run again with the recorded settings. A Look whose folder does not exist is made from its
@@ -128,9 +135,13 @@ def look_from_result(look, models) -> KeyedLook:
         record = {"prompt": look.prompt, "backend": look.backend, "seed": look.seed, "mix": None, "psa": True,
                   "psa_settings": {}}
     state = load_look_state(folder) if folder.exists() else None
-    return keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
-                                  psa=record["psa"], psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
-                                  state=state)
+    keyed = keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
+                                   psa=record["psa"], psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
+                                   state=state, cancel_event=cancel_event)
+    keyed.offset = refine_offset(folder) if folder.exists() else None
+    if keyed.offset is not None and tuple(keyed.offset.shape[-2:]) != tuple(models.s.shape[-2:]):
+        keyed.offset = None  # refined at another working frame: not this capture's correction
+    return keyed
 
 
 def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix=None, psa: bool = True,
@@ -204,7 +215,15 @@ class FrameMaker:
 
     # ------------------------------------------------------------------ looks
     def keyed(self, i: int) -> KeyedLook:
-        return self.setup.keyed(i, self.show.looks[i])
+        return self.setup.keyed(i, self.show.looks[i], self.cancel_event)
+
+    def looks_of(self, start: int, stop: int) -> list:
+        """The indices of the looks frames start..stop-1 need, in order of first use."""
+        needed = []
+        for seg in self.schedule.segments:
+            if seg.first < stop and seg.first + seg.frames > start:
+                needed += [i for i in seg.looks if i not in needed]
+        return needed
 
     def base(self, i: int) -> torch.Tensor:
         """Look i's image before its field, at the output size."""
@@ -259,9 +278,9 @@ class FrameMaker:
             # PSA's warm-start objective on this frame's image (the keyed look's field is its optimum)...
             loss = proxy_psa_loss(adapted, self.models, ps) + style_weight * scale * (
                 _style_loss(adapted, base, None, ps) + ps.keep_light_weight * keep_light_loss(adapted, base, self.models))
-            # ...and the pull towards the warm start, so consecutive frames' fields stay close
-            # and towards the keyed look's field (init), so the look does not drift off what PSA chose; both
-            # relative to the frame's proxy loss, as PSA's style term is
+            # ...the pull towards the warm start (consecutive frames' fields stay close), and towards the keyed
+            # look's field (the look does not drift off what PSA chose); relative to the frame's proxy loss,
+            # as PSA's style term is
             pull = sum(((p - w) ** 2).sum() for p, w in zip(self.field.parameters(), warm))
             keep = sum(((p - v) ** 2).sum() for p, v in zip(self.field.parameters(), init))
             loss = loss + scale * (s.temporal_weight * pull + s.keyed_weight * keep)
@@ -279,11 +298,36 @@ class FrameMaker:
         return [t.to(self.models.device) for t in self.keyed(i).state["tone_field"]]
 
     # ------------------------------------------------------------------ frames
-    def _compensate(self, base: torch.Tensor, params: list) -> np.ndarray:
+    def _offset(self, i: int):
+        """Look i's refinement offset at the output size, or None."""
+        offset = self.keyed(i).offset
+        if offset is None:
+            return None
+        size = tuple(self.s.shape[-2:])
+        offset = offset.to(self.s.device)
+        if tuple(offset.shape[-2:]) != size:
+            offset = torch.nn.functional.interpolate(offset, size=size, mode="bilinear", align_corners=False)
+        return offset
+
+    def offset_of(self, key: tuple):
+        """The refinement offset a frame carries: its look's; a morph's the two looks' mixed by w."""
+        if key[0] in ("hold", "moving"):
+            return self._offset(key[1])
+        if key[0] == "morph":
+            a, b, w = self._offset(key[1]), self._offset(key[2]), key[3]
+            if a is None and b is None:
+                return None
+            zero = torch.zeros_like(a if a is not None else b)
+            return (1.0 - w) * (a if a is not None else zero) + w * (b if b is not None else zero)
+        return None
+
+    def _compensate(self, base: torch.Tensor, params: list, offset=None) -> np.ndarray:
         self._load_field(params)
         with torch.no_grad():
             target = self.field.apply(base)
             projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
+            if offset is not None:
+                projector = (projector + offset).clamp(0, 1)
             if self.valid is not None:
                 projector = projector * self.valid
         self.computed += 1
@@ -311,18 +355,26 @@ class FrameMaker:
             return apply_motion(self.base(i), motion, t), params
         if kind == "morph":
             i, j, w = key[1], key[2], key[3]
-            a, b = self.keyed(i), self.keyed(j)
             params = self._params.get(key) if not adapt else None
+            working = None
             if params is None:
                 init = lerp_list(self._field_of(i), self._field_of(j), w)
-                params = self.adapt(self._morph_image(a, b, i, j, w, None), init) if adapt else init
-            return self._morph_image(a, b, i, j, w, self.white if self.native else None), params
+                working = self._morph_image(i, j, w, None) if adapt else None
+                params = self.adapt(working, init) if adapt else init
+            if self.native:
+                return self._morph_image(i, j, w, self.white), params
+            return (working if working is not None else self._morph_image(i, j, w, None)), params
         raise ShowError(f"no recipe for a {kind} frame")
 
-    def _morph_image(self, a, b, i, j, w, surface):
-        image = morph_base(a, b, w, surface, base_a=self.base(i) if surface is not None else None,
-                           base_b=self.base(j) if surface is not None else None)
-        return image
+    def _morph_image(self, i, j, w, surface):
+        """The in-between image; a moving look stands where its hold leaves it (look i at the end of its hold,
+        look j at its start), so the morph starts and lands on the frames beside it."""
+        end_t = self.schedule.hold_end_t(i)
+        move_a = (lambda x: apply_motion(x, self.show.looks[i].motion, end_t)) if self.show.looks[i].motion else None
+        move_b = (lambda x: apply_motion(x, self.show.looks[j].motion, 0.0)) if self.show.looks[j].motion else None
+        native = surface is not None
+        return morph_base(self.keyed(i), self.keyed(j), w, surface, base_a=self.base(i) if native else None,
+                          base_b=self.base(j) if native else None, move_a=move_a, move_b=move_b)
 
     def frame(self, key: tuple) -> np.ndarray:
         """The projector frame (H, W, 3) float32 of a key, from the cache where it was made before."""
@@ -340,7 +392,7 @@ class FrameMaker:
         else:
             base, params = self._recipe(key)
             self._params[key] = params
-            out = self._compensate(base, params)
+            out = self._compensate(base, params, self.offset_of(key))
         if key[0] == "hold" or key in (self.end_key(key[1]),) or (key[0] == "moving" and key[2] == 0.0):
             self._kept[key] = out  # holds and the transitions' ends: for the whole run
         else:
@@ -364,6 +416,13 @@ def show_frames(show: Show, setup, *, size=None, cancel_event=None, on_progress=
     stop = total if stop is None else min(int(stop), total)
     if not 0 <= start <= stop:
         raise ShowError(f"frames {start} to {stop} are outside the show's {total} frames")
+    looks = maker.looks_of(start, stop)
+    for n, i in enumerate(looks, 1):  # the keyed looks first (PSA where no state is saved: seconds each)
+        if cancel_event is not None and cancel_event.is_set():
+            raise InterruptedError("the show was cancelled")
+        if on_progress:
+            on_progress(0.0, f"preparing look {i + 1} ({n} of {len(looks)})")
+        maker.keyed(i)
     for index in range(start, stop):
         if cancel_event is not None and cancel_event.is_set():
             raise InterruptedError("the show was cancelled")

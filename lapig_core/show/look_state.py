@@ -34,6 +34,9 @@ class KeyedLook:
     state: dict  # {"theta": [tensors], "tone_field": [tensors]}
     base: torch.Tensor  # (1,3,H,W) the backend's look of theta, before the tone field
     name: str = ""  # the backend's name (a morph interpolates theta only within one backend)
+    # (1,3,H,W) at the working frame, or None: Refine's last correction of the projector image (refined minus
+    # open loop), carried as a per-pixel offset onto every frame of this look
+    offset: torch.Tensor | None = None
 
 
 def save_look_state(folder, state: dict) -> Path:
@@ -73,3 +76,20 @@ def read_result_record(folder) -> dict:
             "seed": int(summary.get("seed") or 0), "mix": summary.get("style_mix_override"),
             "psa": bool(summary.get("psa", True)), "psa_settings": summary.get("psa_settings") or {},
             "dark_outside": bool(summary.get("dark_outside", False))}
+
+
+def refine_offset(folder) -> torch.Tensor | None:
+    """Refine on the rig's correction of a result: its refined working-frame projector image minus the open-loop
+    one, (1,3,H,W); None for a result that was not refined (or whose images cannot be read)."""
+    from ..export.result_files import read_result_image, refined_images
+
+    name = refined_images(folder).get("projector_working")
+    if not name:
+        return None
+    try:
+        refined, open_loop = read_result_image(folder, name), read_result_image(folder, "projector")
+    except (OSError, ValueError):
+        return None
+    if refined.shape != open_loop.shape:
+        return None
+    return torch.from_numpy(np.ascontiguousarray(refined - open_loop, dtype=np.float32)).permute(2, 0, 1)[None]

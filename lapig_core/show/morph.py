@@ -44,14 +44,20 @@ def _render(look: KeyedLook, theta: list, surface=None) -> torch.Tensor:
         look.backend.load_state(own)
 
 
-def morph_base(a: KeyedLook, b: KeyedLook, w: float, surface=None, base_a=None, base_b=None) -> torch.Tensor:
+def morph_base(a: KeyedLook, b: KeyedLook, w: float, surface=None, base_a=None, base_b=None,
+               move_a=None, move_b=None) -> torch.Tensor:
     """The in-between image (1,3,H,W) at w; `surface`: render at that white-lit surface's size instead of the
-    working frame (base_a / base_b: the keyed looks' images at that size, for the mix fallback)."""
+    working frame (base_a / base_b: the keyed looks' images at that size, for the mix fallback and the ends).
+    move_a / move_b: applied to each look's image before the mix (a moving look where it stands)."""
+    move_a = move_a or (lambda x: x)
+    move_b = move_b or (lambda x: x)
+    image_a = a.base if surface is None else base_a
+    image_b = b.base if surface is None else base_b
     if w <= 0.0:
-        return a.base if surface is None else base_a
+        return move_a(image_a)
     if w >= 1.0:
-        return b.base if surface is None else base_b
+        return move_b(image_b)
     if shares_theta(a, b):
         theta = lerp_list(a.state["theta"], b.state["theta"], w)
-        return mix_linear(_render(a, theta, surface), _render(b, theta, surface), w)
-    return mix_linear(a.base if surface is None else base_a, b.base if surface is None else base_b, w)
+        image_a, image_b = _render(a, theta, surface), _render(b, theta, surface)
+    return mix_linear(move_a(image_a), move_b(image_b), w)

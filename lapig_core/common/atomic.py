@@ -83,8 +83,22 @@ def _remove(paths) -> None:
                 os.unlink(path)
 
 
-def commit(files: list[tuple[Path, bytes]], error=None) -> list[Path]:
+def temporary_beside(target, error=None) -> Path:
+    """A new, empty hidden temporary file beside `target` (.<name>.XXXXXXXX.tmp), for a writer that streams
+    into it (a video); commit(..., written=[(target, it)]) renames it into place. The folder must exist."""
+    target = Path(target)
+    with _reported(target, error):
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=TEMP_SUFFIX, dir=target.parent)
+        os.close(fd)
+        os.chmod(tmp_name, 0o644)
+    return Path(tmp_name)
+
+
+def commit(files: list[tuple[Path, bytes]], error=None, written=()) -> list[Path]:
     """Write every (path, bytes) to a temporary name first, then rename them all into place.
+
+    `written`: (path, temporary file) pairs whose bytes a streaming writer already put in a
+    temporary_beside() file; they are renamed after `files`, in order, and removed on a failure.
 
     Nothing appears under a final name until every byte of every file is written; a failure before
     that leaves no file behind. Renames go in the given order, so put the file that signals "done"
@@ -92,13 +106,16 @@ def commit(files: list[tuple[Path, bytes]], error=None) -> list[Path]:
     byte (each is kept beside its target until the commit is through). The folders must exist.
     `error`: (OSError, path) -> the exception to raise instead (the OSError as its cause).
     """
-    targets = [Path(target) for target, _ in files]
+    targets = [Path(target) for target, _ in files] + [Path(target) for target, _ in written]
     temps: list[Path] = []
     kept: dict[Path, Path | None] = {}  # target -> its previous file, kept under a temporary name
     done: list[Path] = []
     try:
         for target, (_, data) in zip(targets, files):
             temps.append(_write_temp(target, data, error))
+            kept[target] = _keep_previous(target, temps[-1], error)
+        for target, (_, tmp) in zip(targets[len(files):], written):
+            temps.append(Path(tmp))
             kept[target] = _keep_previous(target, temps[-1], error)
         for target, tmp in zip(targets, temps):
             with _reported(target, error):

@@ -52,6 +52,25 @@ class ScratchFolder:
                 raise
             return target
 
+    def replace_folder(self, target) -> Path:
+        """Rename it into `target`, which may hold an earlier copy: that is moved aside first (hidden, beside
+        it), removed after, and put back should the rename fail. The caller decides that `target` may go."""
+        self._lock.release()  # its lock file must not go along
+        target = Path(target)
+        previous = None
+        if target.exists():
+            previous = self.path.with_name(self.path.name + ".previous")
+            os.rename(target, previous)
+        try:
+            os.rename(self.path, target)
+        except BaseException:
+            if previous is not None:
+                os.rename(previous, target)
+            raise
+        if previous is not None:
+            shutil.rmtree(previous, ignore_errors=True)
+        return target
+
 
 def remove_abandoned(parent, prefix: str) -> list[Path]:
     """Remove the <parent>/<prefix>* scratch folders of processes that are gone; returns them."""

@@ -123,7 +123,7 @@ def _encode_png(pixels: np.ndarray, bit_depth: int, name: str) -> bytes:
 # ----------------------------------------------------------------------------- JSON
 
 
-def _software(lapig_version) -> dict:
+def software_info(lapig_version) -> dict:
     """Versions of what made the image, so a result can be traced to its environment."""
     info = {
         "lapig": str(lapig_version) if lapig_version is not None else "unknown",
@@ -144,11 +144,11 @@ def _software(lapig_version) -> dict:
     return info
 
 
-def _utc_now() -> str:
+def utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds").replace("+00:00", "Z")
 
 
-def _sidecar_bytes(caller: dict | None, own: dict) -> bytes:
+def sidecar_bytes(caller: dict | None, own: dict) -> bytes:
     """Caller's metadata plus this module's keys; dict values under the same key are merged."""
     if caller is not None and not isinstance(caller, dict):
         raise ExportError(f"metadata must be a dict, got {type(caller).__name__}")
@@ -171,7 +171,7 @@ def _check_folder(folder: Path) -> None:
         raise ExportError(f"output folder is not a folder: {folder}")
 
 
-def _write_error(exc: OSError, target: Path) -> ExportError:
+def write_error(exc: OSError, target: Path) -> ExportError:
     if isinstance(exc, PermissionError):
         return ExportError(f"cannot write to folder {target.parent}: permission denied")
     if getattr(exc, "errno", None) in _DISK_FULL_ERRNOS:
@@ -184,7 +184,7 @@ def _write_error(exc: OSError, target: Path) -> ExportError:
 def _commit(files: list[tuple[Path, bytes]]) -> list[Path]:
     """atomic.commit (nothing under a final name until every file is complete; put the image last), its
     failures as ExportErrors that say what to do."""
-    return atomic.commit(files, _write_error)
+    return atomic.commit(files, write_error)
 
 
 def _png_path(out_path) -> Path:
@@ -225,7 +225,7 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
     working = _working(working_image, width, height, "working image")
     pixels = quantised_frame(working, width, height, bit_depth)
     own = {
-        "software": _software(lapig_version),
+        "software": software_info(lapig_version),
         "image": {
             "file": png_path.name,
             "width": width,
@@ -236,9 +236,9 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
             "working_frame": [int(working.shape[1]), int(working.shape[0])],
             "resampling": resampling(working.shape[:2], (height, width)),
         },
-        "created": _utc_now(),
+        "created": utc_now(),
     }
-    sidecar = _sidecar_bytes(metadata, own)
+    sidecar = sidecar_bytes(metadata, own)
     png = _encode_png(pixels, bit_depth, png_path.name)
     _commit([(json_path, sidecar), (png_path, png)])  # image last: its appearance means done
     return {"image": png_path, "sidecar": json_path}
@@ -306,7 +306,7 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
     if len(labels) != 2:
         raise ExportError(f"source_labels must name 2 sources, got {len(labels)}")
     own = {
-        "software": _software(lapig_version),
+        "software": software_info(lapig_version),
         "crossfade": {
             "frames": frames,
             "ease": ease,
@@ -320,9 +320,9 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
             {"label": labels[1], "input_size": list(np.shape(image_b)[:2]), "resampling": resampled_b},
         ],
         "image": {"width": width, "height": height, "bit_depth": bit_depth, "channels": "RGB"},
-        "created": _utc_now(),
+        "created": utc_now(),
     }
-    sidecar = _sidecar_bytes(metadata, own)
+    sidecar = sidecar_bytes(metadata, own)
 
     written: list[Path] = []
     try:

@@ -1,0 +1,148 @@
+"""`python -m lapig_addon bench video --json`: a show's video export (issue 38), per codec the installed PyAV has.
+
+- video_roundtrip_psnr_db: the first and last frames decoded by OpenCV (cv2.VideoCapture) against the show's PNG
+  export of the same frames (lapig_core/export/image_sequence, read back): lossless must be exact (inf, written
+  as the string "inf"), H.264 at its high quality >= 40 dB.
+- video_frames_ok: per codec, the decoded frame count, size and frame rate (OpenCV) equal the intended.
+- encode_fps_1080p: frames per second through write_video at 1920x1080, per codec (frames made beforehand).
+- export_fps_dissolve_1080p: a show of hold A, a dissolve (export/projector_image.crossfade_frames: the linear-light
+  mix of two compensated frames, made frame by frame) and hold B, at 1920x1080, 30 fps, encoded to H.264: frames
+  per second from the first frame made to the file renamed in place. A hold is one frame given again (no
+  recomputation, converted once). Goal >= 10 on 2 cores.
+The two looks are "compensated" at native size: a drawn scene and stripes divided by a wood surface's
+reflectance (what a per-pixel compensation does), clipped to [0, 1], so the frames carry the surface's grain.
+The machine's load average is recorded before and after (other processes sharing the cores slow the timings).
+"""
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import tempfile
+import time
+
+import cv2
+import numpy as np
+
+from ...lapig_core.common.imageio import decode_image, to_uint8
+from ...lapig_core.common.surfaces import make_surface
+from ...lapig_core.export import codecs
+from ...lapig_core.export.image_sequence import write_image_sequence
+from ...lapig_core.export.projector_image import crossfade_frames
+from ...lapig_core.export.video import write_video
+from .test_images import drawn_scene
+
+W, H = 1920, 1080
+FPS = 30
+ROUNDTRIP_FRAMES = 12
+
+
+def _compensated_looks() -> tuple[np.ndarray, np.ndarray]:
+    """Two 1080p projector images with a surface's grain in them."""
+    wood = cv2.resize(make_surface("wood", 540, seed=3), (W, H), interpolation=cv2.INTER_CUBIC)
+    reflectance = np.clip(0.35 + 0.65 * wood, 0.05, 1.0)
+    scene = cv2.resize(drawn_scene(540), (W, H), interpolation=cv2.INTER_LINEAR)
+    stripes = cv2.resize(make_surface("stripe", 540, seed=1), (W, H), interpolation=cv2.INTER_LINEAR)
+    look_a = np.clip(0.3 * scene / reflectance, 0, 1).astype(np.float32)
+    look_b = np.clip(0.3 * stripes / reflectance, 0, 1).astype(np.float32)
+    return look_a, look_b
+
+
+def _psnr(a: np.ndarray, b: np.ndarray) -> float:
+    mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
+    return math.inf if mse == 0 else 10 * math.log10(255.0 ** 2 / mse)
+
+
+def _decode_cv2(path) -> tuple[list, float]:
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        frames.append(frame[:, :, ::-1])
+    fps = cap.get(cv2.CAP_PROP_FPS)
+    cap.release()
+    return frames, fps
+
+
+def _json_db(value: float):
+    return "inf" if math.isinf(value) else round(value, 2)
+
+
+def _roundtrip_frames(look_a, look_b) -> list[np.ndarray]:
+    """ROUNDTRIP_FRAMES distinct 8-bit frames: the dissolve from A to B."""
+    return list(crossfade_frames(look_a, look_b, ROUNDTRIP_FRAMES, width=W, height=H, bit_depth=8))
+
+
+def _per_codec(name: str, frames, pngs, work: str) -> dict:
+    start = time.perf_counter()
+    out = write_video(frames, os.path.join(work, f"show_{name}"), FPS, (W, H), name)
+    seconds = time.perf_counter() - start
+    decoded, fps = _decode_cv2(out["video"])
+    ok = (len(decoded) == len(frames) and all(d.shape == (H, W, 3) for d in decoded) and abs(fps - FPS) < 1e-6)
+    first = _psnr(pngs[0], decoded[0]) if decoded else float("nan")
+    last = _psnr(pngs[-1], decoded[-1]) if decoded else float("nan")
+    return {"psnr_db": {"first": _json_db(first), "last": _json_db(last)},
+            "min_psnr_db": min(first, last),
+            "frames_ok": bool(ok), "decoded": [len(decoded), list(decoded[0].shape[1::-1]) if decoded else None,
+                                               round(fps, 4)],
+            "encode_fps": round(len(frames) / seconds, 2), "mb_per_frame": round(out["bytes"] / len(frames) / 2**20, 3),
+            "estimate_mb_per_frame": round(codecs.bytes_per_frame(codecs.CODECS[name], W, H) / 2**20, 3)}
+
+
+def _dissolve_show(look_a, look_b, hold: int, dissolve: int):
+    """hold A, the dissolve, hold B; each hold one array given again."""
+    a8, b8 = to_uint8(look_a), to_uint8(look_b)
+    for _ in range(hold):
+        yield a8
+    yield from crossfade_frames(look_a, look_b, dissolve, width=W, height=H, bit_depth=8)
+    for _ in range(hold):
+        yield b8
+
+
+def run(args) -> dict:
+    load_before = os.getloadavg()[0]
+    work = tempfile.mkdtemp(prefix="lapig_video_")
+    try:
+        look_a, look_b = _compensated_looks()
+        frames = _roundtrip_frames(look_a, look_b)
+        sequence = write_image_sequence(frames, os.path.join(work, "png"), FPS, 8)
+        pngs = [decode_image(np.fromfile(p, np.uint8)) for p in (sequence["files"][0], sequence["files"][-1])]
+        availability = codecs.availability()
+        per_codec = {}
+        for name, problem in availability.items():
+            if problem is None:
+                per_codec[name] = _per_codec(name, frames, pngs, work)
+
+        hold, dissolve = 45, 30
+        start = time.perf_counter()
+        out = write_video(_dissolve_show(look_a, look_b, hold, dissolve), os.path.join(work, "dissolve.mp4"), FPS,
+                          (W, H), "h264", frame_count=2 * hold + dissolve)
+        dissolve_fps = out["frames"] / (time.perf_counter() - start)
+        decoded, _ = _decode_cv2(out["video"])
+        dissolve_frames_ok = len(decoded) == 2 * hold + dissolve
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    load_after = os.getloadavg()[0]
+    cores = os.cpu_count() or 1
+    h264 = per_codec.get("h264", {})
+    lossless = per_codec.get("lossless", {})
+    return {
+        "benchmark": "video",
+        "size": [W, H], "fps": FPS, "roundtrip_frames": ROUNDTRIP_FRAMES,
+        "video_roundtrip_psnr_db": {n: r["psnr_db"] for n, r in per_codec.items()},
+        "lossless_exact": bool(lossless) and math.isinf(lossless["min_psnr_db"]),
+        "h264_psnr_ok": bool(h264) and h264["min_psnr_db"] >= 40.0,
+        "video_frames_ok": all(r["frames_ok"] for r in per_codec.values()) and dissolve_frames_ok,
+        "video_frames_decoded": {n: r["decoded"] for n, r in per_codec.items()},
+        "encode_fps_1080p": {n: r["encode_fps"] for n, r in per_codec.items()},
+        "mb_per_frame_1080p": {n: r["mb_per_frame"] for n, r in per_codec.items()},
+        "disk_check_estimate_mb_per_frame_1080p": {n: r["estimate_mb_per_frame"] for n, r in per_codec.items()},
+        "export_fps_dissolve_1080p": round(dissolve_fps, 2),
+        "export_dissolve_show": {"hold_frames": hold, "dissolve_frames": dissolve, "holds": 2, "codec": "h264"},
+        "export_fps_dissolve_1080p_goal": 10,
+        "unavailable": {n: p for n, p in availability.items() if p is not None},
+        "cores": cores, "loadavg_1m_before": round(load_before, 2), "loadavg_1m_after": round(load_after, 2),
+        "machine_shared": max(load_before, load_after) > 0.5 * cores,
+    }

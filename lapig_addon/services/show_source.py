@@ -261,19 +261,26 @@ def output_path(out_dir: str, codec: str, projector: int, count: int, name: str 
 
 def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height: int, count: int,
           bit_depth: int = 8, sidecar: dict | None = None, cancel_event=None) -> dict:
-    """Encode `frames_iter` (pixels, in order) to `path`: a PNG sequence folder, or a video (and its sidecar
-    '<name>.json') through lapig_core/export/video. Returns {'path', 'frames'}; a cancel raises JobCancelled."""
-    if codec == "png":
-        return write_png_sequence(path, frames_iter, count=count, bit_depth=bit_depth, sidecar=sidecar,
-                                  cancel_event=cancel_event)
+    """Encode `frames_iter` (pixels, in order) to `path` through the video branch's writers: a PNG sequence folder
+    (lapig_core/export/image_sequence) or a video and its sidecar '<name>.json' (lapig_core/export/video).
+    Returns {'path', 'frames', 'sidecar'}; a cancel raises JobCancelled."""
     video = _video_module()
     if video is None:
+        if codec == "png":  # a build without the video branch's writers
+            return write_png_sequence(path, frames_iter, count=count, bit_depth=bit_depth, sidecar=sidecar,
+                                      cancel_event=cancel_event)
         raise ValueError(codec_problem(codec))
     from ...lapig_core.export.show_output import Cancelled
 
     show = (sidecar or {}).get("show")
     metadata = {k: v for k, v in (sidecar or {}).items() if k != "show"}
     try:
+        if codec == "png":  # <path>/frame_000001.png ... and sequence.json
+            from ...lapig_core.export.image_sequence import write_image_sequence
+
+            written = write_image_sequence(frames_iter, path, fps, bit_depth=bit_depth, cancel_event=cancel_event,
+                                           metadata=metadata, size=(width, height), show=show, frame_count=count)
+            return {"path": str(written["folder"]), "frames": written["frames"], "sidecar": str(written["sidecar"])}
         written = video.write_video(frames_iter, path, fps, (width, height), codec,
                                     bit_depth=video_bit_depth(codec, bit_depth), cancel_event=cancel_event,
                                     metadata=metadata, show=show, frame_count=count)

@@ -364,3 +364,34 @@ def test_the_producer_is_asked_at_the_projectors_size_and_gamma_and_its_cancel_i
     assert job.run() == "CANCELLED"
     assert asked == {"size": SIZE, "gamma": 2.4, "setup": f"setup of {capture}", "looks": 2}
     assert os.listdir(tmp_path / "export") == []
+
+
+@pytest.mark.parametrize("codec", ["lossless", "h264"])
+def test_export_show_writes_a_frame_locked_video_with_the_show_in_its_sidecar(results, tmp_path, codec):
+    """Through lapig_core/export/video (PyAV): the decoded video has the show's frames, size and rate; the lossless
+    one holds the exact pixels (OpenCV decodes to BGR)."""
+    import cv2
+
+    show_jobs, show_source = _module("services.show_jobs"), _module("services.show_source")
+    if show_source.codec_problem(codec):
+        pytest.skip(show_source.codec_problem(codec))
+    folders, _ = results
+    plan = _plan([dict(result_dir=folders[0], hold_s=0.3, transition_s=0.2), dict(result_dir=folders[2], hold_s=0.3)])
+    out = show_jobs.ShowExportJob(_source(plan), str(tmp_path / "export"), codec).run_to_completion()
+    video = out["outputs"][0]["path"]
+    assert os.path.isfile(video) and out["sidecar"] == str(tmp_path / "export" / "show.json")
+    assert sorted(os.listdir(tmp_path / "export")) == sorted([os.path.basename(video), "show.json"])
+    sidecar = json.loads((tmp_path / "export" / "show.json").read_text())
+    assert sidecar["show"]["frames"] == 8 and sidecar["show"]["looks"][1]["hold_s"] == 0.3
+    capture = cv2.VideoCapture(video)
+    decoded = []
+    while True:
+        ok, frame = capture.read()
+        if not ok:
+            break
+        decoded.append(frame[..., ::-1])
+    assert len(decoded) == 8 and decoded[0].shape == (SIZE[1], SIZE[0], 3)
+    assert capture.get(cv2.CAP_PROP_FPS) == pytest.approx(10.0)
+    expected = [f[0] for _, f in show_source.frames(_source(plan))]
+    error = max(float(np.abs(d.astype(int) - e.astype(int)).mean()) for d, e in zip(decoded, expected))
+    assert error == 0.0 if codec == "lossless" else error < 2.0

@@ -247,7 +247,7 @@ def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(ca
     scene.lapig.show_codec, scene.lapig.show_export_dir = "png", str(tmp_path / "by_operator")
     assert bpy.ops.lapig.export_show() == {"FINISHED"}
     frames = sorted(os.listdir(tmp_path / "by_operator" / "show"))
-    assert frames[:2] == ["frame_0001.png", "frame_0002.png"] and "frame_0007.png" in frames
+    assert frames[:2] == ["frame_000001.png", "frame_000002.png"] and "frame_000007.png" in frames
     bpy.ops.wm.save_mainfile()
     capsys.readouterr()
     assert main(["show-export", "--blend", bpy.data.filepath, "--out", str(tmp_path / "by_command"),

@@ -256,6 +256,12 @@ def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(ca
     assert printed["frames"] == 7 and printed["fps"] == 10.0 and printed["codec"] == "png"
     sidecar = json.load(open(tmp_path / "by_command" / "show.json"))
     assert sidecar["bit_depth"] == 16 and sidecar["show"]["looks"][1]["motion"]["kind"] == "pulse"
+    if not show_source.codec_problem("h264"):  # PyAV here: the video a media server plays
+        assert main(["show-export", "--blend", bpy.data.filepath, "--out", str(tmp_path / "video"),
+                     "--codec", "h264"]) == 0
+        printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+        assert printed["outputs"][0]["path"].endswith("show.mp4") and printed["frames"] == 7
+        assert json.load(open(tmp_path / "video" / "show.json"))["show"]["fps"] == 10.0
     # Play Show (the panel) and show --timeline (the command) on a stand-in projector window
     from lapig.lapig_addon.rigs import live_output
     from lapig.lapig_core.rig import projector_window

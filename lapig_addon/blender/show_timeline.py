@@ -78,6 +78,16 @@ def previz_images(scene) -> list:
     return [projector_nodes.projected_image(p.data) for p in scene_state.rig_projectors(scene)]
 
 
+def _starts(scene) -> set:
+    """The scene frames the projector lights' sequences start at."""
+    starts = set()
+    for projector in scene_state.rig_projectors(scene):
+        texture = projector.data.node_tree.nodes.get(projector_nodes.TEXTURE_NODE) if projector.data.node_tree else None
+        if texture is not None and texture.image is not None and texture.image.source == "SEQUENCE":
+            starts.add(texture.image_user.frame_start)
+    return starts
+
+
 def is_wired(scene) -> bool:
     images = previz_images(scene)
     return bool(images) and all(image is not None and image.source == "SEQUENCE" for image in images)
@@ -134,7 +144,7 @@ def previz_status(scene) -> tuple[str, bool | None]:
     folder, key = scene_state.show_baked(scene)
     if not folder:
         return "No previz baked yet: Bake Show puts the show on the timeline", None
-    if key != plan.key():
+    if key != plan.key() or _starts(scene) - {scene.frame_start}:
         return "The show changed since it was baked: Bake Show again", False
     wired = "on the projector light" if is_wired(scene) else "baked (not on the light: Bake Show again)"
     return f"Previz {wired}: {plan.frame_count()} frames at {plan.fps:g} fps", is_wired(scene)

@@ -124,6 +124,9 @@ def test_the_baked_show_renders_without_the_addon_and_after_a_move(show_scene, t
     user = texture.image_user
     assert (user.frame_duration, user.frame_start, user.frame_offset, user.use_auto_refresh) == (3, 1, 0, True)
     assert show_timeline.previz_status(scene) == ("Previz on the projector light: 3 frames at 10 fps", True)
+    scene.frame_start = 2  # the show would start a frame later than its baked frames
+    assert show_timeline.previz_status(scene)[1] is False
+    scene.frame_start = 1
     # a projector setting rebuilds the light's nodes: the sequence and its conversion to light stay
     projector.lapig_projector.throw_ratio = projector.lapig_projector.throw_ratio
     assert projector.data.node_tree.nodes.get(projector_nodes.GAMMA_NODE) is not None

@@ -4,10 +4,11 @@ module only.
 
 - frames(source): the show's projector frames, in order, as the pixels each projector receives (the quantised
   native frame Export writes: uint8 or uint16, (H, W, 3)), one list per frame with one array per projector.
-  With lapig_core/show (the per-frame producer: morphs and motions stylized, adapted and compensated, holds
-  made once) the frames are its `show_frames`; without it (a checkout before that merge) holds and dissolves
-  of the stored projector images are made here (a dissolve mixes in the projector's linear light, as Export
-  Crossfade does), a morph plays as a dissolve and motions stand still: `fallback_notes` says so.
+  A show with morphs or motions takes every frame from lapig_core/show's producer (`show_frames`: morphs and
+  motions stylized, adapted and compensated, holds made once); a show of holds and dissolves, a rig of several
+  projectors, or a build without the producer or torch, gets the stored projector images held and dissolved
+  here (a dissolve mixes in the projector's linear light, as Export Crossfade does); there a morph plays as a
+  dissolve and motions stand still, and `fallback_notes` says so.
 - writer(...): the encoder of an export (lapig_core/export/video where it exists; PNG sequences always).
 """
 from __future__ import annotations
@@ -65,9 +66,17 @@ def has_producer() -> bool:
     return _core_model() is not None and importlib.util.find_spec("torch") is not None
 
 
+def needs_producer(plan: ShowPlan) -> bool:
+    """Whether the show has frames that are new looks (a morph, a motion). Holds and dissolves are the looks'
+    stored projector images (what Export writes of each) and their linear-light crossfades: made here, exactly
+    and fast (a live show's 1080p frames at 30 fps)."""
+    return any(s.kind == "morph" for s in plan.segments()) or any(look.motion != "none" for look in plan.looks)
+
+
 def uses_producer(source: "ShowSource") -> bool:
-    """Whether the frames of `source` come from lapig_core's producer (one projector, the producer here)."""
-    return has_producer() and source.use_producer and len(source.projectors) == 1
+    """Whether the frames of `source` come from lapig_core's producer: a show with morphs or motions, one
+    projector, and the producer (and torch) here."""
+    return has_producer() and source.use_producer and len(source.projectors) == 1 and needs_producer(source.plan)
 
 
 def fallback_notes(source: "ShowSource") -> list:

@@ -360,6 +360,8 @@ def test_the_producer_is_asked_at_the_projectors_size_and_gamma_and_its_cancel_i
     source = show_source.ShowSource(plan, projectors=(ProjectorModel(width=SIZE[0], height=SIZE[1], gamma=2.4),),
                                     capture_dir=capture)
     assert show_source.uses_producer(source) and show_source.fallback_notes(source) == []
+    plain = _plan([dict(result_dir=folders[0], hold_s=0.5), dict(result_dir=folders[1], hold_s=0.5)])
+    assert not show_source.uses_producer(show_source.ShowSource(plain, projectors=source.projectors))  # stored looks
     job = show_jobs.ShowExportJob(source, str(tmp_path / "export"), "png")
     assert job.run() == "CANCELLED"
     assert asked == {"size": SIZE, "gamma": 2.4, "setup": f"setup of {capture}", "looks": 2}

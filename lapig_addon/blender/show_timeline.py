@@ -16,7 +16,7 @@ import bpy
 from ..services.show_source import FRAME_NAME
 from . import projector_nodes, scene_state, storage
 
-SEQUENCE_PREFIX = "LAPIG show: "
+SEQUENCE_PREFIX = projector_nodes.SHOW_IMAGE_PREFIX
 
 
 def rewrite_markers(scene) -> list:

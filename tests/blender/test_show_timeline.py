@@ -169,6 +169,18 @@ def test_a_still_result_after_a_show_takes_the_light_back(show_scene):
     out = BakeShowJob(show_timeline.show_source(scene, use_producer=False), show_timeline.baked_folder()).run_to_completion()
     show_timeline.baked(scene, out)
     projector = scene_state.rig_objects(scene)[0]
+    texture = projector.data.node_tree.nodes[projector_nodes.TEXTURE_NODE]
+    # a Capture or a Light Report borrows the light (its own sequence, its own frames) and gives the show back
+    show_image = projector_nodes.projected_image(projector.data)
+    borrowed = bpy.data.images.new("capture batch", 8, 8)
+    projector_nodes.set_projected_image(projector.data, borrowed)
+    texture.image_user.frame_duration, texture.image_user.frame_start = 5, 9
+    assert projector.data.node_tree.nodes.get(projector_nodes.GAMMA_NODE) is None
+    projector_nodes.set_projected_image(projector.data, show_image)
+    assert (texture.image_user.frame_duration, texture.image_user.frame_start) == (3, 1)
+    assert projector.data.node_tree.nodes[projector_nodes.GAMMA_NODE].inputs["Gamma"].default_value == \
+        pytest.approx(projector.lapig_projector.gamma)
+    assert show_timeline.previz_status(scene)[1] is True
     ProjectorLightSink(scene).show(ProjectorFrame(np.full((48, 64, 3), 0.5, np.float32), 64, 48, 8))
     assert projector_nodes.projected_image(projector.data).source != "SEQUENCE"
     assert projector.data.node_tree.nodes.get(projector_nodes.GAMMA_NODE) is None

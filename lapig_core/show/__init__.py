@@ -23,10 +23,11 @@ The API the add-on (branch `showaddon`) and the video export (branch `video`) ca
 
     setup = ShowSetup.from_capture(setup_dir)   # the capture's SurfaceModels: Train's saved models, else its
                                                 # first look (the classical model); ShowError when neither
-    # or ShowSetup(models, load_look=None, setup_dir=None, dark_outside=False, references=None):
+    # or ShowSetup(models, load_look=None, setup_dir=None, dark_outside=False, references=None, fingerprint=None):
     #   load_look(look, models) -> KeyedLook (default look_from_result: the result folder's result.json,
     #   its look_state.npz or PSA once); references(w, h) -> References at another output size
-    #   (default: the capture's, registered there)
+    #   (default: the capture's, registered there); fingerprint: the capture's, so a look whose result was
+    #   made on another capture (stale) is refused with a ShowError
     for index, frame in show_frames(show, setup, size=None, cancel_event=None, on_progress=None):
         ...   # frame: float32 (H, W, 3) in [0, 1], the projector image; size=None: the working frame,
               # size=(width, height): that size as native_output makes it (e.g. the projector's native frame)
@@ -36,8 +37,10 @@ The API the add-on (branch `showaddon`) and the video export (branch `video`) ca
         setup: a ShowSetup or a capture's folder. Frames in order from `start` to `stop` (exclusive; None:
         the end). cancel_event: a threading.Event; once set, InterruptedError before the next frame (it only
         yields, it writes nothing: the caller drops what it has). on_progress(p, message) after each frame,
-        p in (0, 1] over the frames asked for. ShowError for a bad show. settings: FrameSettings (the
-        per-frame adaptation's steps and pulls, the dissolve's gamma: pass the projector's, default 2.2).
+        p in (0, 1] over the frames asked for (p = 0 with "preparing look n" while the keyed looks are made).
+        ShowError for a bad show. settings: FrameSettings (the per-frame adaptation's steps and pulls; the
+        dissolve's gamma: pass the projector's, default 2.2; dissolve="crossfade" (default, the fast path) or
+        "compensated": each dissolve frame's linear-light mix of the targets compensated).
         Frames repeat as the schedule's keys do (holds are compensated once; keep one generator per run).
 
     FrameMaker(show, setup, size=None, settings=None, cancel_event=None)   the producer show_frames drives:
@@ -64,7 +67,8 @@ from .schedule import Schedule, schedule_of
 
 _LAZY = {"show_frames": "frames", "ShowSetup": "frames", "FrameSettings": "frames", "FrameMaker": "frames",
          "look_from_result": "frames", "keyed_look_from_prompt": "frames", "KeyedLook": "look_state",
-         "save_look_state": "look_state", "load_look_state": "look_state", "refine_offset": "look_state", "apply_motion": "motion"}
+         "save_look_state": "look_state", "load_look_state": "look_state", "refine_offset": "look_state",
+         "apply_motion": "motion"}
 
 
 def __getattr__(name):

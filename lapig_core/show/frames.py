@@ -4,15 +4,18 @@
     hold       the keyed look (its theta and PSA's tone field), compensated once and kept
     moving     the keyed look's image moved (motion.py), adapted, compensated
     morph      the in-between image (morph.py), adapted, compensated
-    dissolve   the linear-light crossfade of the two looks' compensated frames (export/projector_image's blend)
+    dissolve   the linear-light crossfade of the two looks' compensated frames (export/projector_image's blend);
+               or, with FrameSettings(dissolve="compensated"), the two targets' linear-light mix compensated
 
 Adapting a new frame is PSA's fast path only: the tone field (psa/tone_field), warm-started from the
 previous frame's correction, a few Adam steps on PSA's warm-start objective (psa/adaptation: the classical
-proxy loss, no network, milliseconds; the style and keep-light terms against the frame's own image), and a
-temporal term that pulls the field towards its warm start, so consecutive frames do not flicker. One optimiser is carried
-from frame to frame, its moments too: a fresh Adam's first step moves every parameter by its whole step
-whatever the gradient, which would shake the field every frame. theta is not optimised per frame: a
-style network's backward costs about a second a frame on 2 cores; the keyed looks had full PSA.
+proxy loss, no network, milliseconds; the style and keep-light terms against the frame's own image), with
+two pulls: towards the warm start (consecutive frames' fields stay close: no flicker) and towards the keyed
+look's own field (no slow drift off what PSA chose). One optimiser is carried from frame to frame, its
+moments too, and the best iterate is kept, the warm start included: Adam's normalised step moves every
+parameter by about its whole step even at the optimum, which would shake the field every frame. theta is not
+optimised per frame: each joint step runs the networks' backward (about 0.6 s at 256x192 on 2 cores,
+PSASettings), where the field's proxy steps cost milliseconds; the keyed looks had full PSA.
 
 Compensation is the setup's chosen compensator (the per-pixel classical solve where Train chose it, or the
 first look's; CompenNeSt's inference otherwise) through native_output.compensate_frame, tiled for memory.
@@ -36,9 +39,12 @@ from ..psa.adaptation import PSASettings, _style_loss, keep_light_loss, proxy_ps
 from ..psa.tone_field import AdaptedLook, ToneField
 from .look_state import KeyedLook, load_look_state, read_result_record, refine_offset
 from .model import Show, ShowError
-from .morph import lerp_list, morph_base
+from .morph import lerp_list, mix_linear, morph_base
 from .motion import apply_motion
 from .schedule import Schedule, schedule_of
+
+
+DISSOLVES = ("crossfade", "compensated")
 
 
 @dataclass
@@ -51,6 +57,9 @@ class FrameSettings:
     adapt: bool = True  # False: moved / morphed looks through the interpolated field, not adapted
     cache_frames: int = 16  # the newest frames kept besides the holds (a periodic motion's repeats)
     gamma: float = 2.2  # dissolves' projector transfer (ProjectorModel.gamma; crossfade_sequence's default)
+    # 'crossfade': the linear-light blend of the two compensated frames (the fast path: no compensation per
+    # frame); 'compensated': each frame's mixed target compensated (better where a look is out of reach)
+    dissolve: str = "crossfade"
 
 
 class ShowSetup:
@@ -62,8 +71,10 @@ class ShowSetup:
     references(width, height) -> capture.native_references.References: the surface at another output size
     (default: the capture's references registered there)."""
 
-    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False, references=None):
+    def __init__(self, models, load_look=None, setup_dir=None, dark_outside: bool = False, references=None,
+                 fingerprint: str | None = None):
         self.models = models
+        self.fingerprint = fingerprint  # the capture's (setup.json): a look made on another one is refused
         self.load_look = load_look or look_from_result
         self.setup_dir = Path(setup_dir) if setup_dir is not None else None
         self.dark_outside = dark_outside
@@ -93,23 +104,27 @@ class ShowSetup:
         else:
             look = load_first_look(setup_dir, cs.meta.get("fingerprint"))
             if look is None:
-                raise ShowError(f"{setup_dir} has neither trained models nor a first look ({problem}): capture it again")
+                raise ShowError(f"{setup_dir} has neither trained models nor a first look ({problem}): "
+                                "capture it again")
             models = pipeline.first_look_models(cs, look.classical, device=device)
         dark = dark_outside and pipeline.object_footprint(cs) is not None
-        return cls(models, setup_dir=setup_dir, dark_outside=dark)
+        return cls(models, setup_dir=setup_dir, dark_outside=dark, fingerprint=cs.meta.get("fingerprint"))
 
     def keyed(self, index: int, look, cancel_event=None) -> KeyedLook:
-        """Look `index` of the show as PSA left it, made once for this setup. A look whose making was
-        cancelled (PSA stops at the cancel with its best iterate so far) is not kept: InterruptedError."""
-        if index not in self._looks:
+        """Look `index` of the show as PSA left it, made once for this setup (kept by what makes it: the
+        result folder, prompt, backend and seed, so an edited show reuses the looks it still has). A look
+        whose making was cancelled (PSA stops at the cancel with its best iterate so far) is not kept:
+        InterruptedError."""
+        key = (str(look.result), look.prompt, look.backend, int(look.seed))
+        if key not in self._looks:
             if self.load_look is look_from_result:
-                keyed = look_from_result(look, self.models, cancel_event=cancel_event)
+                keyed = look_from_result(look, self.models, cancel_event=cancel_event, fingerprint=self.fingerprint)
             else:
                 keyed = self.load_look(look, self.models)
             if cancel_event is not None and cancel_event.is_set():
                 raise InterruptedError("the show was cancelled")
-            self._looks[index] = keyed
-        return self._looks[index]
+            self._looks[key] = keyed
+        return self._looks[key]
 
 
 def _psa_settings(recorded: dict, seed: int) -> PSASettings:
@@ -121,14 +136,18 @@ def _psa_settings(recorded: dict, seed: int) -> PSASettings:
     return PSASettings(**values)
 
 
-def look_from_result(look, models, cancel_event=None) -> KeyedLook:
+def look_from_result(look, models, cancel_event=None, fingerprint: str | None = None) -> KeyedLook:
     """A keyed look from its result folder (look_state docstring): the backend prepared from result.json's
     prompt, backend, seed and mix on the white-lit surface; theta and the tone field from look_state.npz,
     else from PSA run again with the recorded settings. A Look whose folder does not exist is made from its
-    own prompt, backend and seed."""
+    own prompt, backend and seed. fingerprint: the capture's; a result made on another capture (a stale look)
+    is refused with one line."""
     folder = Path(look.result)
     if (folder / "result.json").is_file():
         record = read_result_record(folder)
+        if fingerprint and record.get("fingerprint") and record["fingerprint"] != fingerprint:
+            raise ShowError(f"the look '{record['prompt'] or folder.name}' was made on another capture of the rig "
+                            f"({folder.name}): generate it again on this capture")
     elif folder.exists() or not look.prompt:
         raise ShowError(f"the look's result {folder} has no result.json: choose a result Generate wrote")
     else:
@@ -136,7 +155,8 @@ def look_from_result(look, models, cancel_event=None) -> KeyedLook:
                   "psa_settings": {}}
     state = load_look_state(folder) if folder.exists() else None
     keyed = keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
-                                   psa=record["psa"], psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
+                                   psa=record["psa"],
+                                   psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
                                    state=state, cancel_event=cancel_event)
     keyed.offset = refine_offset(folder) if folder.exists() else None
     if keyed.offset is not None and tuple(keyed.offset.shape[-2:]) != tuple(models.s.shape[-2:]):
@@ -177,6 +197,8 @@ class FrameMaker:
         self.show, self.setup = show, setup
         self.schedule: Schedule = schedule_of(show)
         self.settings = settings or FrameSettings()
+        if self.settings.dissolve not in DISSOLVES:
+            raise ShowError(f"a dissolve is made as one of {', '.join(DISSOLVES)}, not '{self.settings.dissolve}'")
         self.cancel_event = cancel_event
         models = setup.models
         self.models = models
@@ -277,7 +299,8 @@ class FrameMaker:
             adapted = self.field.apply(base)
             # PSA's warm-start objective on this frame's image (the keyed look's field is its optimum)...
             loss = proxy_psa_loss(adapted, self.models, ps) + style_weight * scale * (
-                _style_loss(adapted, base, None, ps) + ps.keep_light_weight * keep_light_loss(adapted, base, self.models))
+                _style_loss(adapted, base, None, ps)
+                + ps.keep_light_weight * keep_light_loss(adapted, base, self.models))
             # ...the pull towards the warm start (consecutive frames' fields stay close), and towards the keyed
             # look's field (the look does not drift off what PSA chose); relative to the frame's proxy loss,
             # as PSA's style term is
@@ -376,6 +399,27 @@ class FrameMaker:
         return morph_base(self.keyed(i), self.keyed(j), w, surface, base_a=self.base(i) if native else None,
                           base_b=self.base(j) if native else None, move_a=move_a, move_b=move_b)
 
+    def _compensated_dissolve(self, key: tuple) -> np.ndarray:
+        """The dissolve's frame compensated as a target of its own: the two ends' targets mixed in linear
+        light (what an ideal dissolve shows), compensated, with the ends' offsets mixed. Where a look lies
+        outside the surface's reach, the mix often lies inside it, which the crossfade of the clipped
+        compensated frames cannot use (bench show: dissolve_check_db)."""
+        i, j, w = key[1], key[2], key[3]
+        ka, kb = self.end_key(i), self.start_key(j)
+        self.frame(ka), self.frame(kb)  # the ends first: a moving end's field is adapted in its order
+        with torch.no_grad():
+            target = mix_linear(self.target_of(ka), self.target_of(kb), float(w))
+            projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
+            oa, ob = self.offset_of(ka), self.offset_of(kb)
+            if oa is not None or ob is not None:
+                zero = torch.zeros_like(projector)
+                offset = (1.0 - w) * (oa if oa is not None else zero) + w * (ob if ob is not None else zero)
+                projector = (projector + offset).clamp(0, 1)
+            if self.valid is not None:
+                projector = projector * self.valid
+        self.computed += 1
+        return _as_frame(projector)
+
     def frame(self, key: tuple) -> np.ndarray:
         """The projector frame (H, W, 3) float32 of a key, from the cache where it was made before."""
         if key in self._kept:
@@ -383,7 +427,9 @@ class FrameMaker:
         if key in self._recent:
             self._recent.move_to_end(key)
             return self._recent[key]
-        if key[0] == "dissolve":
+        if key[0] == "dissolve" and self.settings.dissolve == "compensated":
+            out = self._compensated_dissolve(key)
+        elif key[0] == "dissolve":
             i, j, w = key[1], key[2], key[3]
             a, b = self.frame(self.end_key(i)), self.frame(self.start_key(j))
             g = np.float32(self.gamma)

@@ -75,7 +75,7 @@ def read_result_record(folder) -> dict:
     return {"prompt": summary.get("prompt", ""), "backend": summary.get("backend") or "styletransfer",
             "seed": int(summary.get("seed") or 0), "mix": summary.get("style_mix_override"),
             "psa": bool(summary.get("psa", True)), "psa_settings": summary.get("psa_settings") or {},
-            "dark_outside": bool(summary.get("dark_outside", False))}
+            "dark_outside": bool(summary.get("dark_outside", False)), "fingerprint": summary.get("fingerprint")}
 
 
 def refine_offset(folder) -> torch.Tensor | None:

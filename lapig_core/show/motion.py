@@ -2,17 +2,18 @@
 """The motion presets: smooth, periodic functions of time that move a look.
 
     drift         the look's texture slides on a small loop (a sub-pixel translation, mirrored at the edges)
-    rise          a soft bright band rises over the object and wraps round
+    rise          a soft band of light rises over the object (the rest dimmed) and wraps round
     pulse         the light breathes: dimmed and back, in linear light
     colour_cycle  the hues swing round the grey axis and back (a rotation in linear RGB)
 
 Each acts on the look's image, before its tone field, by differentiable image ops; not on theta.
 Why the image: theta means something different in every backend (a style network's normalisation, a
 mix of style vectors, a diffusion latent), and no backend's theta has a "translate" or a "hue"
-direction; and a style network's forward at 800x600 costs about a second on 2 cores, where
-these ops cost milliseconds, so the look is rendered once per keyed look and moved per frame. Acting
-before the tone field keeps PSA's adaptation fixed to the object: the texture moves, the
-surface's compensation does not (frames.py adapts each moved image through the field, warm-started).
+direction, so a preset on theta would be one per backend and still not move the texture; an image op
+moves any look the same way, costs milliseconds, and leaves the keyed look's rendering (once per look) as
+it was approved. Acting before the tone field keeps PSA's adaptation fixed to the object: the texture
+moves, the surface's compensation does not (frames.py adapts each moved image through the field,
+warm-started).
 
 Every preset is the look itself at t = 0 (so a hold that starts moving starts where the transition
 left it) and has period `period_s`. `amount` in [0, 1] scales its largest move.
@@ -26,7 +27,7 @@ from torch.nn import functional as F
 
 GAMMA = 2.2  # the projector's transfer: light mixes as values ** GAMMA
 DRIFT_MAX = 0.04  # the loop's radius at amount 1, as a share of the frame's short side
-RISE_MAX = 0.6  # the band's extra light at amount 1
+RISE_MAX = 0.7  # the dimming away from the band at amount 1
 RISE_SHARPNESS = 6  # the band's power of a raised cosine: about a fifth of the frame
 PULSE_MAX = 0.6  # the dimming at the pulse's low point at amount 1
 
@@ -59,11 +60,12 @@ def _band(h: int, phase: float, like: torch.Tensor) -> torch.Tensor:
 
 
 def rise(image: torch.Tensor, amount: float, phase: float) -> torch.Tensor:
-    """A soft band of extra light rising up the frame; faded in from t = 0 so it starts at rest."""
+    """A soft band of the look's full light rising up the frame, the rest dimmed (never brighter than the
+    look, so a bright look's band is not lost to the surface's clamp); faded in from t = 0, at rest there."""
     h = image.shape[-2]
     band = _band(h, phase, image)[None, None, :, None]
     fade = (1.0 - math.cos(2.0 * math.pi * phase)) / 2.0  # 0 at the period's start and end
-    light = _linear(image) * (1.0 + RISE_MAX * amount * fade * band)
+    light = _linear(image) * (1.0 - RISE_MAX * amount * fade * (1.0 - band))
     return _encoded(light)
 
 

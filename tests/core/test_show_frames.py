@@ -12,7 +12,6 @@ from show_fakes import CountingCompensator, StripesBackend, fake_models, keyed_l
 
 from lapig.lapig_core.export.projector_image import _blend
 from lapig.lapig_core.lgst.base import BACKENDS, register_backend
-from lapig.lapig_core.show import frames as show_frames_module
 from lapig.lapig_core.show.frames import FrameMaker, FrameSettings, ShowSetup, look_from_result, show_frames
 from lapig.lapig_core.show.look_state import LOOK_STATE_FILE, load_look_state, save_look_state
 from lapig.lapig_core.show.model import Look, Motion, Show, ShowError, Transition
@@ -156,6 +155,12 @@ def test_a_result_folder_gives_its_look_with_or_without_a_saved_state(tmp_path, 
     with pytest.raises(ShowError, match="no result.json"):
         look_from_result(Look(str(tmp_path)), models)
 
+    stale = json.loads((folder / "result.json").read_text())
+    (folder / "result.json").write_text(json.dumps({**stale, "fingerprint": "an older capture"}))
+    with pytest.raises(ShowError, match="made on another capture of the rig"):
+        ShowSetup(models, fingerprint="this capture").keyed(0, look)
+    assert look_from_result(look, models, fingerprint="an older capture").name == StripesBackend.name
+
 
 def test_look_at_a_strip_of_frames():
     """Not a check: a strip of frames for a person to look at (/tmp/show/frames_strip.png)."""
@@ -174,9 +179,13 @@ def test_another_output_size_renders_and_compensates_there():
     from lapig.lapig_core.capture.native_references import References
 
     models = fake_models()
-    image = lambda t, w, h: torch.nn.functional.interpolate(t, size=(h, w), mode="bilinear")[0].permute(1, 2, 0).numpy()  # noqa: E731
-    refs = lambda w, h: References(image(models.i_min, w, h), image(models.i_max, w, h), image(models.s, w, h),  # noqa: E731
-                                   np.ones((h, w), bool))
+    def image(t, w, h):
+        return torch.nn.functional.interpolate(t, size=(h, w), mode="bilinear")[0].permute(1, 2, 0).numpy()
+
+    def refs(w, h):
+        return References(image(models.i_min, w, h), image(models.i_max, w, h), image(models.s, w, h),
+                          np.ones((h, w), bool))
+
     setup = ShowSetup(models, load_look=keyed_look, references=refs)
     show = Show([Look("/r/a", "a", seed=1, hold_s=0.2), Look("/r/b", "b", seed=3, hold_s=0.2, motion=Motion("rise"))],
                 [Transition("morph", 0.2)], fps=10)
@@ -274,3 +283,22 @@ def test_a_captured_setup_plays_at_the_projector_frame(tmp_path, stripes_registe
     for frame in frames.values():
         assert frame.shape == (120, 160, 3) and frame.mean() > 0.05
     assert np.abs(frames[1] - frames[0]).mean() > 1e-3  # it pulses
+
+
+def test_a_compensated_dissolve_compensates_the_mixed_targets():
+    from lapig.lapig_core.native_output import compensate_frame
+    from lapig.lapig_core.show.morph import mix_linear
+
+    setup = ShowSetup(fake_models(), load_look=keyed_look)
+    show = _two_looks("dissolve", fps=10, hold=0.2, seconds=0.1)  # frames: a, a, dissolve w=0.5, b, b
+    crossfade = dict(show_frames(show, setup))
+    maker = FrameMaker(show, setup, settings=FrameSettings(dissolve="compensated"))
+    mid = maker.frame(maker.schedule.at(2))
+    target = mix_linear(maker.target_of(("hold", 0, 0.0)), maker.target_of(("hold", 1, 0.0)), 0.5)
+    with torch.no_grad():
+        expected = compensate_frame(setup.models.compensator, target, setup.models.s, maker.tile)
+    assert np.allclose(mid, expected[0].permute(1, 2, 0).numpy(), atol=1e-6)
+    assert np.abs(mid - crossfade[2]).mean() > 1e-4  # not the crossfade
+    assert np.array_equal(maker.frame(("hold", 0, 0.0)), crossfade[0])
+    with pytest.raises(ShowError, match="crossfade, compensated"):
+        FrameMaker(show, setup, settings=FrameSettings(dissolve="wipe"))

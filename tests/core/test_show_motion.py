@@ -35,9 +35,10 @@ def test_preset_is_differentiable(preset):
     assert image.grad is not None and torch.isfinite(image.grad).all() and image.grad.abs().sum() > 0
 
 
-def test_pulse_never_brightens_and_colour_cycle_keeps_greys():
+def test_pulse_and_rise_never_brighten_and_colour_cycle_keeps_greys():
     image = _image()
     for t in (0.3, 1.0, 1.7):
-        assert (apply_motion(image, Motion("pulse", 1.0, 2.0), t) <= image + 1e-5).all()
+        for preset in ("pulse", "rise"):
+            assert (apply_motion(image, Motion(preset, 1.0, 2.0), t) <= image + 1e-5).all()
     grey = torch.full((1, 3, 8, 8), 0.4)
     assert torch.allclose(apply_motion(grey, Motion("colour_cycle", 1.0, 2.0), 0.5), grey, atol=1e-4)

@@ -18,6 +18,7 @@ here, the keys say so).
                                resampling, no 8-bit steps)
     dissolve_check_db          at a dissolve's midpoint: captured PSNR of the linear-light crossfade of the
                                compensated looks minus that of the midpoint compensated as its own target
+                               (the latter is FrameSettings(dissolve="compensated")'s frame)
     export_fps_moving_800x600  moving frames made per second at 800x600 (adapted and compensated; the look
                                stylized once, moved per frame), no encoding
     export_fps_dissolve_1080p  dissolve frames per second at 1920x1080, no encoding

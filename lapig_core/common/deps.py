@@ -22,6 +22,7 @@ OPTIONAL = (
     ("pytorch_msssim", "pytorch-msssim", "pytorch-msssim==1.0.0: SSIM for training (a built-in fallback exists)"),
     ("diffusers", "diffusers", "for the InstructPix2Pix backend (needs its weights locally)"),
     ("sdl2", "pysdl2", "pysdl2==0.9.17 with pysdl2-dll==2.32.10: the projector window on a real projector"),
+    ("av", "av", "av==18.0.0: a show's video export (PNG image sequences work without it)"),
 )
 
 

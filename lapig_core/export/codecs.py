@@ -5,6 +5,10 @@
     availability()         {name: None where PyAV has its encoder, else the one line that says why not}
     check_codec(name)      the VideoCodec, or VideoExportError with one line naming the available ones
     av_problem()           None where `av` imports, else the one line that says what to install
+    av_version()           the installed PyAV's version (for a sidecar)
+    available_codecs()     the names availability() has no line for
+    pixel_format(codec, bit_depth), check_frame_size(codec, w, h)
+                           the encoder's pixel format for a bit depth, and the frame sizes it takes (one line each)
     bytes_per_frame(...)   a conservative estimate of one encoded frame, for the disk check before writing
 
 Nothing here imports `av` at module import (the torch-free Blender tier imports the export package); it is
@@ -94,7 +98,8 @@ def av_problem() -> str | None:
     return None
 
 
-def _av_version() -> str:
+def av_version() -> str:
+    """The installed PyAV's version (call where av_problem() is None)."""
     import av
 
     return getattr(av, "__version__", "unknown")
@@ -124,7 +129,7 @@ def availability() -> dict:
             out[name] = None
         else:
             why = codec.missing or f"{codec.label} needs FFmpeg's {codec.encoder} encoder"
-            out[name] = (f"{why}; the installed PyAV (av {_av_version()}) has none. Available here: {available}")
+            out[name] = (f"{why}; the installed PyAV (av {av_version()}) has none. Available here: {available}")
     return out
 
 

@@ -178,7 +178,7 @@ def write_video(frames, path, fps, size, codec, bit_depth: int = 8, cancel_event
         if written == 0:
             raise ExportError("the show has no frames")
         own = {
-            "software": {**software_info(lapig_version), "av": codec_table._av_version()},
+            "software": {**software_info(lapig_version), "av": codec_table.av_version()},
             "video": {
                 "file": target.name,
                 "codec": spec.name,

@@ -273,3 +273,23 @@ def test_one_buffer_filled_with_new_frames_is_not_taken_for_a_hold(tmp_path):
     out = write_video(reused(), tmp_path / "buf.mov", 30, (W, H), "lossless")
     decoded, _ = _decode_cv2(out["video"])
     assert all(np.array_equal(d, _u8(f)) for d, f in zip(decoded, frames)) and len(decoded) == 3
+
+
+def test_a_failed_rename_into_place_keeps_the_previous_video_and_sidecar(tmp_path, monkeypatch):
+    import os
+
+    old = write_video(_frames(2), tmp_path / "show.mov", 30, (W, H), "lossless", metadata={"take": 1})
+    before = (old["video"].read_bytes(), old["sidecar"].read_bytes())
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if str(dst).endswith("show.mov"):  # the sidecar is renamed first, then the video fails
+            raise OSError(5, "Input/output error")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(ExportError, match="could not write show.mov"):
+        write_video(_frames(3), tmp_path / "show.mov", 30, (W, H), "lossless", metadata={"take": 2})
+    monkeypatch.undo()
+    assert (old["video"].read_bytes(), old["sidecar"].read_bytes()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["show.json", "show.mov"]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 
 import bpy
+from bpy.app.handlers import persistent
 
 from ..services.show_source import FRAME_NAME
 from . import projector_nodes, scene_state, storage
@@ -19,10 +20,16 @@ from . import projector_nodes, scene_state, storage
 SEQUENCE_PREFIX = projector_nodes.SHOW_IMAGE_PREFIX
 
 
+def _timing(scene) -> list:
+    """What the markers' frames follow besides the list: the scene's frame rate and first frame."""
+    return [scene.render.fps, round(scene.render.fps_base, 6), scene.frame_start]
+
+
 def rewrite_markers(scene) -> list:
     """Write the show's markers anew (the ones it wrote before go) and set the scene's last frame to the show's
     end; returns the markers [(frame, name)]."""
     plan = scene_state.read_show(scene)
+    scene["lapig_show_timing"] = _timing(scene)
     old = set(scene_state.show_markers(scene))
     for marker in list(scene.timeline_markers):
         if (marker.frame, marker.name) in old:
@@ -34,6 +41,27 @@ def rewrite_markers(scene) -> list:
     if markers and plan.frame_count() > 0:
         scene.frame_end = plan.frame_end()
     return markers
+
+
+@persistent
+def _follow_the_frame_rate(scene, *_args) -> None:
+    """After any change (depsgraph_update_post): a scene with a show whose frame rate or first frame changed gets
+    its markers written again (once: then they match)."""
+    try:
+        if scene.lapig.show_looks and list(scene.get("lapig_show_timing", [])) != _timing(scene):
+            rewrite_markers(scene)
+    except (AttributeError, TypeError, ReferenceError):  # a scene without the add-on's settings, or going away
+        pass
+
+
+def register():
+    if _follow_the_frame_rate not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(_follow_the_frame_rate)
+
+
+def unregister():
+    if _follow_the_frame_rate in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(_follow_the_frame_rate)
 
 
 def shows_root() -> str:

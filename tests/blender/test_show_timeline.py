@@ -77,6 +77,9 @@ def test_the_show_is_on_the_timeline_as_markers_rewritten_when_the_list_changes(
     assert marks() == [(1, "Look C"), (2, "Look B"), (2, "artist's cue")]  # the artist's marker stays
     plan = scene_state.read_show(scene)
     assert plan.fps == 10 and [look.label for look in plan.looks] == ["Look C", "Look B"]
+    scene.render.fps = 20  # the scene's frame rate is the show's: the markers follow after the next update
+    bpy.context.view_layer.update()
+    assert marks() == [(1, "Look C"), (2, "artist's cue"), (3, "Look B")] and scene.frame_end == 4
     assert scene.lapig.show_looks[0].result_dir.startswith("//")  # relative to the .blend
 
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...lapig_core.common.imageio import to_bit_depth
-from ...lapig_core.optics.projector_model import ProjectorModel, quantised_frame
+from ...lapig_core.optics.projector_model import quantised_frame
 from .jobs import JobCancelled
 from .show_plan import ShowPlan
 
@@ -48,7 +48,7 @@ class ShowSource:
     """What the frames are made from: the plan, each projector's model (projector 1 first), the bit depth the
     projectors receive, and the scene's capture (the producer's surface models)."""
     plan: ShowPlan
-    projectors: tuple = ()  # ProjectorModel per projector
+    projectors: tuple = ()  # lapig_core.optics.projector_model.ProjectorModel per projector
     bit_depth: int = 8
     capture_dir: str = ""
     summaries: dict = field(default_factory=dict, compare=False)  # result folder -> result.json, read once
@@ -341,8 +341,6 @@ class Staged:
 
     def commit(self, moves: list) -> list:
         """moves: (staged path, final path); each final path replaced whole; returns the final paths."""
-        import shutil
-
         done = []
         try:
             for staged, final in moves:

@@ -9,7 +9,8 @@ module only.
   projectors, or a build without the producer or torch, gets the stored projector images held and dissolved
   here (a dissolve mixes in the projector's linear light, as Export Crossfade does); there a morph plays as a
   dissolve and motions stand still, and `fallback_notes` says so.
-- writer(...): the encoder of an export (lapig_core/export/video where it exists; PNG sequences always).
+- write(...): the encoder of an export: lapig_core/export/image_sequence (PNG) or lapig_core/export/video, one line
+  from codec_problem() for a codec the installed FFmpeg lacks.
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ def _core_frames():
     from ...lapig_core.show import frames as core_frames
 
     return core_frames
+
 
 CODECS = ("h264", "h265", "prores4444", "lossless", "hap", "png")
 
@@ -82,13 +84,16 @@ def uses_producer(source: "ShowSource") -> bool:
 def fallback_notes(source: "ShowSource") -> list:
     """What the frames lack without lapig_core's producer ([] with it)."""
     plan = source.plan
-    if uses_producer(source):
+    if uses_producer(source) or not needs_producer(plan):
         return []
+    why = ("the per-frame producer makes one projector's frames for now" if len(source.projectors) > 1
+           else "this build has no per-frame show producer (lapig_core/show with torch)" if not has_producer()
+           else "the stored looks were asked for")
     notes = []
     if any(s.kind == "morph" for s in plan.segments()):
-        notes.append("morphs play as dissolves: this build has no per-frame show producer")
+        notes.append(f"morphs play as dissolves: {why}")
     if any(look.motion != "none" for look in plan.looks):
-        notes.append("motions stand still: this build has no per-frame show producer")
+        notes.append(f"motions stand still: {why}")
     return notes
 
 
@@ -107,7 +112,7 @@ def core_show_of(plan: ShowPlan, summaries: dict):
         motion = None if look.motion == "none" else core_show.Motion(look.motion, amount=look.motion_amount,
                                                                       period_s=look.motion_period_s)
         looks.append(core_show.Look(result=look.result_dir, prompt=summary.get("prompt") or "",
-                                    backend=summary.get("backend") or "", seed=int(summary.get("seed") or 0),
+                                    backend=summary.get("backend") or "styletransfer", seed=int(summary.get("seed") or 0),
                                     hold_s=look.hold_s, motion=motion))
     transitions = [core_show.Transition(look.transition, seconds=look.transition_s) for look in plan.looks[:-1]]
     return core_show.Show(looks=looks, transitions=transitions, fps=plan.fps)

@@ -159,8 +159,9 @@ def test_holds_are_the_looks_exported_pixels_and_a_dissolve_mixes_in_linear_ligh
     np.testing.assert_allclose(mid, expected, atol=2e-4)
     red = [float(f[0][..., 0].mean()) for _, f in frames]
     assert red[2] > red[4] > red[6] and red[7] == red[9]
-    notes = show_source.fallback_notes(_source(_plan([dict(result_dir=folders[0], motion="drift")])))
-    assert notes == ["motions stand still: this build has no per-frame show producer"]
+    notes = show_source.fallback_notes(_source(_plan([dict(result_dir=folders[0], motion="drift")]), projectors=2))
+    assert notes == ["motions stand still: the per-frame producer makes one projector's frames for now"]
+    assert show_source.fallback_notes(_source(plan)) == []  # holds and dissolves: nothing is missing
 
 
 def test_an_8_bit_dissolve_is_the_linear_light_mix_of_the_8_bit_looks(tmp_path):

@@ -163,7 +163,12 @@ def bake_job(scene, use_producer: bool = True):
 def baked(scene, output: dict) -> list:
     """After Bake Show: the scene records the frames and each projector light projects them."""
     scene_state.record_show_baked(scene, output["folder"], output["key"])
-    return wire_previz(scene, output["folder"], output["frames"])
+    images = wire_previz(scene, output["folder"], output["frames"])
+    if scene_state.read(scene).preview_mode == "PROJECTION":  # the viewport's preview shows the show too
+        from . import result_preview
+
+        result_preview.apply_mode(scene, "PROJECTION")
+    return images
 
 
 def previz_status(scene) -> tuple[str, bool | None]:

@@ -184,6 +184,19 @@ def test_a_still_result_after_a_show_takes_the_light_back(show_scene):
     assert projector.data.node_tree.nodes[projector_nodes.GAMMA_NODE].inputs["Gamma"].default_value == \
         pytest.approx(projector.lapig_projector.gamma)
     assert show_timeline.previz_status(scene)[1] is True
+    # the viewport's Projection preview (Material Preview, Solid) follows the scene's frame too
+    from lapig.lapig_addon.blender import preview, result_preview
+
+    assert result_preview.apply_mode(scene, "PROJECTION")
+    target = scene_state.rig_objects(scene)[2]
+    assert preview.current_preview(target)[0] == show_image
+    tree = next(slot.material.node_tree for slot in target.material_slots if slot.material
+                and slot.material.name.startswith(preview.PREVIEW_PREFIX))
+    node = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage" and n.image == show_image)
+    assert (node.image_user.frame_duration, node.image_user.frame_start, node.image_user.use_auto_refresh) == \
+        (3, 1, True)
+    assert any(n.bl_idname == "ShaderNodeGamma" for n in tree.nodes)
+    assert result_preview.apply_mode(scene, "ORIGINAL")
     ProjectorLightSink(scene).show(ProjectorFrame(np.full((48, 64, 3), 0.5, np.float32), 64, 48, 8))
     assert projector_nodes.projected_image(projector.data).source != "SEQUENCE"
     assert projector.data.node_tree.nodes.get(projector_nodes.GAMMA_NODE) is None

@@ -14,6 +14,7 @@ _MODULES = (
     "...panels",
     ".live_devices",
     ".modal_runner",
+    ".show_timeline",
     "..cli.blender_command",
 )
 

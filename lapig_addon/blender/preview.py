@@ -57,7 +57,23 @@ def _projection_nodes(tree, projector, image):
     links.new(uv.outputs[0], tex.inputs["Vector"])
     for i, node in enumerate((coords, split, uv, tex)):
         node.location = (-1200 + 250 * i, -400)
+    if projector_nodes.is_show_image(image):  # a baked show: its frames follow the scene's, as the light's do
+        user = tex.image_user
+        user.frame_duration, user.frame_start = int(image["lapig_show_frames"]), int(image["lapig_show_start"])
+        user.frame_offset, user.use_auto_refresh, user.use_cyclic = 0, True, False
     return tex
+
+
+def _colour(tree, tex):
+    """The projected light of the image node: a baked show's input values through the projector's gamma (a still
+    result's image is light already)."""
+    if not projector_nodes.is_show_image(tex.image):
+        return tex.outputs["Color"]
+    gamma = tree.nodes.new("ShaderNodeGamma")
+    gamma.inputs["Gamma"].default_value = float(tex.image["lapig_gamma"])
+    tree.links.new(tex.outputs["Color"], gamma.inputs["Color"])
+    gamma.location = (tex.location.x + 250, tex.location.y)
+    return gamma.outputs["Color"]
 
 
 def _preview_material(original, projector, image, appearance=False):
@@ -76,7 +92,7 @@ def _preview_material(original, projector, image, appearance=False):
         if output is None:
             output = tree.nodes.new("ShaderNodeOutputMaterial")
         emission = tree.nodes.new("ShaderNodeEmission")
-        tree.links.new(tex.outputs["Color"], emission.inputs["Color"])
+        tree.links.new(_colour(tree, tex), emission.inputs["Color"])
         tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
         emission.location = (output.location.x - 250, output.location.y - 200)
     elif bsdf is not None:
@@ -88,7 +104,7 @@ def _preview_material(original, projector, image, appearance=False):
             tree.links.new(base.links[0].from_socket, mix.inputs["A"])
         else:
             mix.inputs["A"].default_value = base.default_value
-        tree.links.new(tex.outputs["Color"], mix.inputs["B"])
+        tree.links.new(_colour(tree, tex), mix.inputs["B"])
         tree.links.new(mix.outputs["Result"], base)
         mix.location = (bsdf.location.x - 250, bsdf.location.y)
     tree.nodes.active = tex  # Solid mode's 'Texture' colour shows the active image node

@@ -151,6 +151,47 @@ class LapigExtraProjector(bpy.types.PropertyGroup):
                                                         "a part of its name (each projector needs its own)")
 
 
+def _show_changed(self, context):
+    """The show's list changed: its markers on the timeline are written again (blender/show_timeline)."""
+    from . import show_timeline
+
+    show_timeline.rewrite_markers(self.id_data)
+
+
+SHOW_TRANSITIONS = [
+    ("dissolve", "Dissolve", "Crossfade the two looks' compensated frames in the projector's linear light"),
+    ("morph", "Morph", "The in-between frames are new looks: the looks' parameters interpolated, each frame "
+                       "adapted and compensated"),
+]
+SHOW_MOTIONS = [
+    ("none", "Still", "The look holds still"),
+    ("drift", "Drift", "Strokes and shapes drift slowly"),
+    ("rise", "Rise", "A wave rises through the look"),
+    ("pulse", "Pulse", "The look's strength pulses"),
+    ("colour_cycle", "Colour cycle", "The look's colours cycle"),
+]
+
+
+class LapigShowLook(bpy.types.PropertyGroup):
+    """One look of the show (issue 38): a result, its hold, its transition to the next look and its motion.
+    Read by blender/scene_state.read_show into services/show_plan.ShowLook."""
+    name: StringProperty(name="Name", description="The look's name on the timeline's markers", update=_show_changed)
+    result_dir: StringProperty(name="Result", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS, update=_show_changed,
+                               description="The result folder whose look this is")
+    hold_s: FloatProperty(name="Hold", default=4.0, min=0.0, soft_max=600.0, unit="TIME_ABSOLUTE",
+                          update=_show_changed, description="How long the look holds, in seconds")
+    transition: EnumProperty(name="Transition", items=SHOW_TRANSITIONS, default="dissolve", update=_show_changed,
+                             description="How the show goes from this look to the next")
+    transition_s: FloatProperty(name="Seconds", default=1.0, min=0.0, soft_max=60.0, unit="TIME_ABSOLUTE",
+                                update=_show_changed, description="How long the transition to the next look lasts")
+    motion: EnumProperty(name="Motion", items=SHOW_MOTIONS, default="none", update=_show_changed,
+                         description="How the look moves while it holds")
+    motion_amount: FloatProperty(name="Amount", default=0.5, min=0.0, max=1.0, subtype="FACTOR",
+                                 update=_show_changed, description="How strongly the look moves")
+    motion_period_s: FloatProperty(name="Period", default=4.0, min=0.1, soft_max=120.0, unit="TIME_ABSOLUTE",
+                                   update=_show_changed, description="Seconds of one cycle of the motion")
+
+
 PREVIEW_MODES = [
     ("ORIGINAL", "Original", "The object's own material"),
     ("PROJECTION", "Projection", "The projector image cast on the object (its light times the surface)"),
@@ -291,11 +332,25 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     crossfade_frames: IntProperty(name="Crossfade frames", default=60, **LIMITS["crossfade_frames"].bounds())
     crossfade_fps: FloatProperty(name="Frame rate", default=30.0, **LIMITS["crossfade_fps"].bounds(),
                                  description="Frames per second of the crossfade played on the projector")
+    # the show (issue 38): read and written by blender/scene_state only; its markers by blender/show_timeline
+    show_looks: CollectionProperty(type=LapigShowLook, name="Show")
+    show_index: IntProperty(name="Look", default=0, min=0)
+    show_markers: StringProperty(name="Show markers", description="JSON: the markers the show wrote, [frame, name]")
+    show_baked: StringProperty(name="Baked show", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS,
+                               description="The folder of the show's baked projector frames")
+    show_baked_key: StringProperty(name="Baked show's plan", description="The show the baked frames were made of")
+    show_codec: EnumProperty(name="Codec", items=[
+        ("h264", "H.264", "yuv444 where the codec allows"), ("h265", "H.265", "yuv444 where the codec allows"),
+        ("prores4444", "ProRes 4444", ""), ("lossless", "Lossless", "A lossless video"),
+        ("hap", "HAP", "Where the installed FFmpeg has it"), ("png", "PNG sequence", "A folder of PNGs per projector")],
+        default="h264", description="What Export Show writes")
+    show_export_dir: StringProperty(name="Export show to", subtype="DIR_PATH", default="//show_export")
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
     job_message: StringProperty(name="Status")
 
 
-CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigRealRigSettings, LapigExtraProjector, LapigSceneSettings)
+CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigRealRigSettings, LapigExtraProjector, LapigShowLook,
+           LapigSceneSettings)
 
 
 def register():

@@ -6,6 +6,8 @@ the command line passes its arguments without writing them into the scene.
 """
 from __future__ import annotations
 
+import os
+
 import bpy
 
 from ...lapig_core.capture.settings import CaptureSettings
@@ -412,3 +414,112 @@ def light_plan(scene):
                      ambient_lux=s.ambient_lux, lamp_direction=tuple(s.lamp_direction) if s.use_lamp else None,
                      limit=limit, region_material=s.region_material.name if s.region_material else "",
                      region_group=s.region_group)
+
+
+# ------------------------------------------------------------------ the show (issue 38)
+
+def scene_fps(scene) -> float:
+    """The scene's frame rate, which is the show's."""
+    r = scene.render
+    return r.fps / r.fps_base if r.fps_base else 0.0
+
+
+def read_show(scene):
+    """The show of scene.lapig.show_looks as a services/show_plan.ShowPlan, at the scene's frame rate, starting
+    at the scene's first frame; a look's result folder is found again beside a moved .blend ('' when gone)."""
+    from ..services.show_plan import ShowLook, ShowPlan
+
+    looks = tuple(ShowLook(result_dir=storage.resolve_result_dir(item.result_dir) if item.result_dir else "",
+                           name=item.name, hold_s=item.hold_s, transition=item.transition,
+                           transition_s=item.transition_s, motion=item.motion, motion_amount=item.motion_amount,
+                           motion_period_s=item.motion_period_s)
+                  for item in scene.lapig.show_looks)
+    return ShowPlan(looks=looks, fps=scene_fps(scene), frame_start=scene.frame_start)
+
+
+def show_index(scene) -> int:
+    return scene.lapig.show_index
+
+
+def add_show_look(scene, folder: str, name: str = "", **settings) -> int:
+    """A look of the result `folder` at the end of the show (hold, transition, motion: the defaults or
+    `settings`); the index of the new look, which becomes the active one."""
+    s = scene.lapig
+    item = s.show_looks.add()
+    for key, value in settings.items():
+        setattr(item, key, value)
+    if not name:
+        from ..services.show_plan import look_name
+
+        name = look_name(folder)
+    item.name = name
+    item.result_dir = storage.stored_path(folder)  # last: its update writes the markers once all is set
+    s.show_index = len(s.show_looks) - 1
+    return s.show_index
+
+
+def remove_show_look(scene, index: int) -> bool:
+    from ..services.show_plan import index_after_removal
+
+    s = scene.lapig
+    if not 0 <= index < len(s.show_looks):
+        return False
+    s.show_looks.remove(index)
+    s.show_index = index_after_removal(len(s.show_looks), index)
+    _show_list_changed(scene)
+    return True
+
+
+def move_show_look(scene, index: int, direction: int) -> int:
+    """Move look `index` one place up (-1) or down (+1); its new index (the active one)."""
+    from ..services.show_plan import moved
+
+    s = scene.lapig
+    _, target = moved(range(len(s.show_looks)), index, direction)
+    if target != index:
+        s.show_looks.move(index, target)
+        s.show_index = target
+        _show_list_changed(scene)
+    return target
+
+
+def _show_list_changed(scene) -> None:
+    """A look added, removed or moved (no property's update runs): the timeline's markers follow."""
+    from . import show_timeline
+
+    show_timeline.rewrite_markers(scene)
+
+
+def set_show_look(scene, index: int, **settings) -> None:
+    """Change look `index`'s settings by name (name, hold_s, transition, transition_s, motion, ...)."""
+    item = scene.lapig.show_looks[index]
+    for key, value in settings.items():
+        setattr(item, key, value)
+
+
+def show_markers(scene) -> list:
+    """The markers the show wrote last, [(frame, name)]."""
+    import json
+
+    try:
+        return [(int(f), str(n)) for f, n in json.loads(scene.lapig.show_markers or "[]")]
+    except (ValueError, TypeError):
+        return []
+
+
+def record_show_markers(scene, markers) -> None:
+    import json
+
+    scene.lapig.show_markers = json.dumps([[int(f), str(n)] for f, n in markers])
+
+
+def show_baked(scene) -> tuple[str, str]:
+    """(the baked show's folder, absolute, '' when none or gone; the key of the show it was baked from)."""
+    s = scene.lapig
+    folder = bpy.path.abspath(s.show_baked) if s.show_baked else ""
+    return (folder if folder and os.path.isdir(folder) else ""), s.show_baked_key
+
+
+def record_show_baked(scene, folder: str, key: str) -> None:
+    s = scene.lapig
+    s.show_baked, s.show_baked_key = (storage.stored_path(folder) if folder else ""), key

@@ -335,8 +335,38 @@ def _iterations(args, scene) -> int | None:
     return args.iterations if args.iterations is not None else scene_state.finetune_iterations(scene)
 
 
+def cmd_show_export(args) -> int:
+    """The scene's show, per projector, as a video or a PNG sequence with its sidecar (show-export)."""
+    from ..blender import show_timeline
+
+    scene = _open_scene(args)
+    job = show_timeline.export_job(scene, os.path.abspath(args.out), args.codec, args.bit_depth)
+    out = job.run_to_completion(on_progress=headless.print_progress)
+    print_notes(out.get("notes", []))
+    print_json(out)
+    return 0
+
+
+def _play_timeline(scene, display: str) -> int:
+    """show --timeline: the scene's show on the projector window at its frame rate; the late frames printed."""
+    from ..blender import show_timeline
+    from ..rigs import live_output
+
+    problem = show_timeline.blocker(scene)
+    if problem:  # before the window opens
+        raise ValueError(problem)
+    sink = live_output.open_live(display)
+    try:
+        played = show_timeline.play_job(scene, sink).run_to_completion(on_progress=headless.print_progress)
+        print_json({"display": sink.window.describe()["display"], "show": played})
+    finally:
+        live_output.close_live()
+    return 0
+
+
 def cmd_show(args) -> int:
-    """The scene's look on the projector window, live, until Esc in the window (or --seconds)."""
+    """The scene's look on the projector window, live, until Esc in the window (or --seconds); --timeline: its
+    show."""
     from ...lapig_core.multi.result_files import is_multi_result
     from ..rigs import live_output
     from ..services import export_result
@@ -346,6 +376,8 @@ def cmd_show(args) -> int:
     display = args.display or getattr(scene_state.real_rig_spec(scene), "display", "").strip()
     if not display:
         raise ValueError("show needs --display (or a scene with a real rig: capture --rig real --save)")
+    if args.timeline:
+        return _play_timeline(scene, display)
     folder = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     if not folder:
         raise ValueError("the scene has no result yet: run stylize first, or pass --result")

@@ -146,6 +146,20 @@ def _parser():
     sh.add_argument("--crossfade", action="store_true", help="first fade from the look without PSA to the look")
     sh.add_argument("--fps", type=float, default=30.0, help="crossfade frame rate (default 30)")
     ranged_option(sh, "--frames", "crossfade_frames", "crossfade frames (default: the scene's)")
+    sh.add_argument("--timeline", action="store_true",
+                    help="play the scene's show (its looks on the timeline) at the scene's frame rate, its frames made "
+                         "ahead; prints the late frames")
+
+    se = sub.add_parser("show-export", help="export the scene's show per projector: a video (or a PNG sequence) "
+                                            "and a JSON sidecar of its looks, times, transitions and frame rate")
+    se.add_argument("--blend", help=".blend file with a LAPIG rig and a show (default: the open file)")
+    se.add_argument("--out", required=True, help="the folder to write into (show.mp4 or show_1.mp4, show_2.mp4, "
+                                                 "...; show.json)")
+    se.add_argument("--codec", default="h264", help="h264, h265, prores4444, lossless, hap (where the installed "
+                                                    "FFmpeg has it) or png (a folder of PNGs per projector); "
+                                                    "default h264")
+    se.add_argument("--bit-depth", type=int, choices=[8, 16], help="8 or 16 (default: the scene's export bit depth)")
+    se.set_defaults(func=_show_export)
 
     sub.add_parser("devices", help="list the displays a projector window can open on, and the cameras")
 
@@ -162,6 +176,19 @@ def _parser():
     for command in sub.choices.values():  # --debug after the command name too
         command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     return parser
+
+
+def _show_export(args) -> int:
+    """show-export: the codec is checked before the .blend opens (services/show_source, no bpy)."""
+    from ..services.show_source import codec_problem
+
+    args.codec = args.codec.lower()
+    problem = codec_problem(args.codec)
+    if problem:
+        raise ValueError(problem)
+    from . import commands
+
+    return commands.cmd_show_export(args)
 
 
 def main(argv=None) -> int:

@@ -117,15 +117,17 @@ def status_lines() -> list:
     return lines
 
 
-def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
+def play(window, frames, fps: float = 30.0, clock=time, on_frame=None, ahead: int = 4) -> dict:
     """Show ``frames`` (8- or 16-bit (H, W, 3) pixels) one per 1/fps seconds; {"frames", "seconds",
     "late_frames"}: a frame shown more than half a period after its time was late (a slow machine or a
     large frame)."""
     period = 1.0 / float(fps)
     late = shown = 0
-    ahead = _ahead(frames)  # the next frames are made while this one is on screen
-    start = clock.perf_counter()
-    for i, pixels in enumerate(ahead):
+    made = _ahead(frames, ahead)  # the next frames are made while this one is on screen
+    start = None  # the show's clock starts with its first frame (reading the looks is no lateness)
+    for i, pixels in enumerate(made):
+        if start is None:
+            start = clock.perf_counter()
         due = start + i * period
         wait = due - clock.perf_counter()
         if wait > 0:
@@ -135,7 +137,8 @@ def play(window, frames, fps: float = 30.0, clock=time, on_frame=None) -> dict:
         shown += 1
         if on_frame is not None:
             on_frame(i, on_screen)
-    return {"frames": shown, "seconds": round(clock.perf_counter() - start, 3), "late_frames": int(late)}
+    seconds = clock.perf_counter() - start if start is not None else 0.0
+    return {"frames": shown, "seconds": round(seconds, 3), "late_frames": int(late)}
 
 
 def _ahead(frames, depth: int = 4):
@@ -235,6 +238,56 @@ class CrossfadeJob(WorkerJob):
 
         try:
             return play(self.sink.window, frames, self.fps, on_frame=on_frame)
+        except _Stopped:
+            return None
+
+
+def late_share(played: dict) -> dict:
+    """play()'s figures with the late frames as a share of those shown (late_frame_pct, in percent)."""
+    frames = played.get("frames") or 0
+    return {**played, "late_frame_pct": round(100.0 * played.get("late_frames", 0) / frames, 3) if frames else 0.0}
+
+
+class ShowPlayJob(WorkerJob):
+    """Play the show (services/show_source.ShowSource, projector 1's frames) on the open projector window at the
+    show's frame rate, the frames made ahead on a worker thread (play's _ahead); late frames are counted
+    ({'frames', 'seconds', 'late_frames', 'late_frame_pct'}). Esc in Blender stops it; the window keeps its frame."""
+
+    title = "LAPIG play show"
+    AHEAD = 12  # frames made ahead (0.4 s at 30 fps; 75 MB at 1920x1080): a dissolve's first frames or a busy
+    # machine's hiccup are absorbed
+
+    def __init__(self, sink: ProjectorWindowSink, source, fps: float | None = None, clock=time):
+        super().__init__()
+        self.sink, self.source, self.clock = sink, source, clock
+        self.fps = source.plan.fps if fps is None else fps
+
+    def prepare(self):
+        problem = self.source.plan.problem()
+        if problem:
+            raise ValueError(problem)
+        if not self.source.projectors:
+            raise ValueError("the show needs the rig's projector")
+        model = self.source.projectors[0]
+        problem = size_problem(model.width, model.height, self.sink.window.size)
+        if problem:
+            raise ValueError(problem)
+        return self.source
+
+    def work(self, source, report, cancel_event):
+        from ..services import show_source
+
+        count = source.frame_count
+
+        def on_frame(i, on_screen):
+            if cancel_event.is_set():
+                raise _Stopped
+            report((i + 1) / count, f"frame {i + 1} of {count}")
+
+        pixels = (frame[0] for _, frame in show_source.frames(source, cancel_event=cancel_event))
+        try:
+            return late_share(play(self.sink.window, pixels, self.fps, clock=self.clock, on_frame=on_frame,
+                                   ahead=self.AHEAD))
         except _Stopped:
             return None
 

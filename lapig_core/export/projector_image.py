@@ -327,7 +327,7 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
     written: list[Path] = []
     try:
         for path, w in zip(paths, weights):
-            frame = _blend(frame_a, frame_b, lin_a, lin_b, w, gamma)
+            frame = blend_linear_light(frame_a, frame_b, lin_a, lin_b, w, gamma)
             written += _commit([(path, _encode_png(frame, bit_depth, path.name))])
             if on_progress and (len(written) % max(1, frames // 100) == 0 or len(written) == frames):
                 on_progress(len(written) / frames, f"wrote crossfade frame {len(written)}/{frames}")
@@ -340,7 +340,7 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
     return written
 
 
-def _blend(frame_a, frame_b, lin_a, lin_b, w: float, gamma: float) -> np.ndarray:
+def blend_linear_light(frame_a, frame_b, lin_a, lin_b, w: float, gamma: float) -> np.ndarray:
     """The crossfade at weight w, mixed in the projector's linear light (see crossfade_sequence)."""
     if w == 0.0:  # the end frames are the images themselves, not a gamma round trip
         return frame_a
@@ -360,4 +360,5 @@ def crossfade_frames(image_a, image_b, frames: int, *, width: int, height: int, 
     frame_b, _ = _native(image_b, width, height, "image B")
     lin_a, lin_b = np.power(frame_a, np.float32(gamma)), np.power(frame_b, np.float32(gamma))
     for i in range(frames):
-        yield to_bit_depth(_blend(frame_a, frame_b, lin_a, lin_b, _ease(i / (frames - 1), ease), gamma), bit_depth)
+        w = _ease(i / (frames - 1), ease)
+        yield to_bit_depth(blend_linear_light(frame_a, frame_b, lin_a, lin_b, w, gamma), bit_depth)

@@ -10,7 +10,7 @@ import torch
 
 from show_fakes import CountingCompensator, StripesBackend, fake_models, keyed_look
 
-from lapig.lapig_core.export.projector_image import _blend
+from lapig.lapig_core.export.projector_image import blend_linear_light
 from lapig.lapig_core.lgst.base import BACKENDS, register_backend
 from lapig.lapig_core.show.frames import FrameMaker, FrameSettings, ShowSetup, look_from_result, show_frames
 from lapig.lapig_core.show.look_state import LOOK_STATE_FILE, load_look_state, save_look_state
@@ -38,7 +38,7 @@ def _simulate(models, frame):
 def test_holds_are_compensated_once_and_frames_are_sane():
     setup = _setup()
     show = _two_looks("dissolve", fps=10, hold=1.0, seconds=0.5)
-    out = list(show_frames(show, setup))
+    out = list(show_frames(show, setup, settings=FrameSettings(dissolve="crossfade")))
     assert [i for i, _ in out] == list(range(25))
     assert setup.models.compensator.calls == 2  # two holds; the dissolve's frames are blends
     for _, frame in out:
@@ -49,7 +49,7 @@ def test_holds_are_compensated_once_and_frames_are_sane():
     # a dissolve frame is the linear-light blend of the compensated ends (export/projector_image)
     mid = out[10 + 2][1]  # w = 3/6
     g = np.float32(2.2)
-    assert np.allclose(mid, _blend(first, last, first ** g, last ** g, 0.5, 2.2), atol=1e-6)
+    assert np.allclose(mid, blend_linear_light(first, last, first ** g, last ** g, 0.5, 2.2), atol=1e-6)
 
 
 def test_morph_midpoint_is_a_new_look_and_its_ends_are_the_keyed_looks():
@@ -291,7 +291,7 @@ def test_a_compensated_dissolve_compensates_the_mixed_targets():
 
     setup = ShowSetup(fake_models(), load_look=keyed_look)
     show = _two_looks("dissolve", fps=10, hold=0.2, seconds=0.1)  # frames: a, a, dissolve w=0.5, b, b
-    crossfade = dict(show_frames(show, setup))
+    crossfade = dict(show_frames(show, setup, settings=FrameSettings(dissolve="crossfade")))
     maker = FrameMaker(show, setup, settings=FrameSettings(dissolve="compensated"))
     mid = maker.frame(maker.schedule.at(2))
     target = mix_linear(maker.target_of(("hold", 0, 0.0)), maker.target_of(("hold", 1, 0.0)), 0.5)
@@ -300,5 +300,25 @@ def test_a_compensated_dissolve_compensates_the_mixed_targets():
     assert np.allclose(mid, expected[0].permute(1, 2, 0).numpy(), atol=1e-6)
     assert np.abs(mid - crossfade[2]).mean() > 1e-4  # not the crossfade
     assert np.array_equal(maker.frame(("hold", 0, 0.0)), crossfade[0])
-    with pytest.raises(ShowError, match="crossfade, compensated"):
+    with pytest.raises(ShowError, match="keyed, compensated, crossfade"):
         FrameMaker(show, setup, settings=FrameSettings(dissolve="wipe"))
+
+
+def test_a_keyed_dissolve_compensates_its_keys_and_crossfades_between_them():
+    setup = _setup()
+    show = _two_looks("dissolve", fps=10, hold=0.2, seconds=0.7)  # frames: a, a, 7 dissolve frames (w = n/8), b, b
+    out = dict(show_frames(show, setup))  # the default: keyed
+    assert setup.models.compensator.calls == 2 + 3  # the two looks and the keys at 1/4, 1/2 and 3/4, once each
+    exact = FrameMaker(show, setup, settings=FrameSettings(dissolve="compensated"))
+    for n in (2, 4, 6):  # frame 1 + n has the weight n/8: the keys are compensated as their own targets
+        key = exact.schedule.at(1 + n)
+        assert key[3] == pytest.approx(n / 8)
+        assert np.allclose(out[1 + n], exact.frame(key), atol=1e-6)
+    # between two keys: their linear-light blend, halfway from 1/4 to 1/2 at w = 3/8
+    g = np.float32(2.2)
+    a, b = out[3], out[5]
+    assert np.allclose(out[4], blend_linear_light(a, b, a ** g, b ** g, 0.5, 2.2), atol=1e-6)
+    # and not the plain crossfade of the looks, whose midpoint misses what the surface can show of the mix
+    plain = dict(show_frames(show, ShowSetup(fake_models(), load_look=keyed_look),
+                             settings=FrameSettings(dissolve="crossfade")))
+    assert np.abs(out[5] - plain[5]).mean() > 1e-4

@@ -19,9 +19,12 @@ here, the keys say so).
     dissolve_check_db          at a dissolve's midpoint: captured PSNR of the linear-light crossfade of the
                                compensated looks minus that of the midpoint compensated as its own target
                                (the latter is FrameSettings(dissolve="compensated")'s frame)
+    dissolve_keyed_between_db  the producer's default, the keyed dissolve, at w = 3/8 (between its keys at 1/4
+                               and 1/2) minus that frame compensated as its own target
     export_fps_moving_800x600  moving frames made per second at 800x600 (adapted and compensated; the look
                                stylized once, moved per frame), no encoding
-    export_fps_dissolve_1080p  dissolve frames per second at 1920x1080, no encoding
+    export_fps_dissolve_1080p  dissolve frames per second at 1920x1080 (keyed: three compensated keys in a
+                               dissolve of 30 frames), no encoding
 Run directly: python -m lapig_addon bench show --json (or tools/bench/bench_show.py's main()).
 """
 from __future__ import annotations
@@ -42,7 +45,7 @@ from ...lapig_core.native_output import compensate_frame
 from ...lapig_core.photometric.classical import ClassicalModel
 from ...lapig_core.pipeline import first_look_models, object_footprint
 from ...lapig_core.psa.adaptation import PSASettings
-from ...lapig_core.export.projector_image import _blend
+from ...lapig_core.export.projector_image import blend_linear_light
 from ...lapig_core.show.frames import FrameMaker, FrameSettings, ShowSetup, keyed_look_from_prompt
 from ...lapig_core.show.model import Look, Motion, Show, Transition
 from ...lapig_core.show.morph import mix_linear
@@ -149,21 +152,29 @@ def quality(setup, models, capture_batch, size=None, optics_batch=None) -> dict:
     dissolve = FrameMaker(Show([sa, sb], [Transition("dissolve", 1.0)], fps=FPS), setup, size=size)
     fa, fb = dissolve.frame(("hold", 0, 0.0)), dissolve.frame(("hold", 1, 0.0))
     g = np.float32(dissolve.gamma)
-    crossfade = _blend(fa, fb, fa ** g, fb ** g, 0.5, float(g))
+    crossfade = blend_linear_light(fa, fb, fa ** g, fb ** g, 0.5, float(g))
     target_mid = mix_linear(dissolve.target_of(("hold", 0, 0.0)), dissolve.target_of(("hold", 1, 0.0)), 0.5)
     with torch.no_grad():
         own = compensate_frame(models.compensator, target_mid, dissolve.s, dissolve.tile)
         own = _image(own * dissolve.valid if dissolve.valid is not None else own)
 
+    # the keyed dissolve (the producer's default) between two keys, at w = 3/8: its blend of the keys at 1/4
+    # and 1/2 against that frame compensated as its own target
+    between = 0.375
+    keyed_between = dissolve.frame(("dissolve", 0, 1, between))
+    own_between = dissolve.frame(("dissolve_key", 0, 1, between))
+    target_between = _image(mix_linear(dissolve.target_of(("hold", 0, 0.0)), dissolve.target_of(("hold", 1, 0.0)),
+                                       between))
+
     # every frame captured in one batch (a Cycles rig renders them in one go)
     batch = ([frames[i] for i in used] + keyed_frames + [plain_frames[i] for i in used]
-             + [crossfade.astype(np.float32), own])
+             + [keyed_between, own_between, crossfade.astype(np.float32), own])
     captured = capture_batch(batch)
     n = len(used)
     measured = {i: (*captured[k][:1], targets[i], captured[k][1]) for k, i in enumerate(used)}
     keyed = [(captured[n + k][0], keyed_targets[k], captured[n + k][1]) for k in range(2)]
     measured_plain = {i: (captured[n + 2 + k][0], plain_targets[i], captured[n + 2 + k][1]) for k, i in enumerate(used)}
-    (cap_x, valid_x), (cap_o, valid_o) = captured[-2], captured[-1]
+    (cap_kb, valid_kb), (cap_ob, valid_ob), (cap_x, valid_x), (cap_o, valid_o) = captured[-4:]
     tm = _image(target_mid)
 
     psnr = lambda m: masked_psnr(m[0], m[1], m[2])  # noqa: E731
@@ -180,6 +191,8 @@ def quality(setup, models, capture_batch, size=None, optics_batch=None) -> dict:
            "dissolve_psnr_own_db": masked_psnr(cap_o, tm, valid_o), "show_frames_seconds": frames_s}
     out["temporal_flicker"] = max(out["temporal_flicker_morph"], out["temporal_flicker_moving"])
     out["dissolve_check_db"] = out["dissolve_psnr_crossfade_db"] - out["dissolve_psnr_own_db"]
+    out["dissolve_keyed_between_db"] = (masked_psnr(cap_kb, target_between, valid_kb)
+                                        - masked_psnr(cap_ob, target_between, valid_ob))
     if optics_batch is not None:  # the floor: the targets themselves through the rig's resampling alone
         seen = optics_batch([targets[i] for i in used])
         floor = {i: (seen[k][0], targets[i], seen[k][1] & measured[i][2]) for k, i in enumerate(used)}
@@ -212,11 +225,12 @@ def speed(cs, models, psa_iterations, keyed_cache, frames: int = 8) -> dict:
     sa, sb = _looks(None)
     hd = FrameMaker(Show([sa, sb], [Transition("dissolve", 1.0)], fps=30), setup, size=(1920, 1080))
     hd.frame(("hold", 0, 0.0)), hd.frame(("hold", 1, 0.0))
-    first = hd.schedule.segments[1].first
+    dissolve = hd.schedule.segments[1]  # the whole dissolve: its compensated keys are part of its cost
     t0 = time.perf_counter()
-    for i in range(first, first + frames):
+    for i in range(dissolve.first, dissolve.first + dissolve.frames):
         hd.frame(hd.schedule.at(i))
-    return {"export_fps_moving_800x600": fps_moving, "export_fps_dissolve_1080p": frames / (time.perf_counter() - t0)}
+    return {"export_fps_moving_800x600": fps_moving,
+            "export_fps_dissolve_1080p": dissolve.frames / (time.perf_counter() - t0)}
 
 
 def rendered_quality(args, psa_iterations, out_dir) -> dict:
@@ -265,7 +279,7 @@ def run(args) -> dict:
             return [r(v, n) for v in x]
         return None if x is None or not math.isfinite(x) else round(float(x), n)
 
-    keys = ("inbetween_psnr_drop_db", "temporal_flicker", "dissolve_check_db")
+    keys = ("inbetween_psnr_drop_db", "temporal_flicker", "dissolve_check_db", "dissolve_keyed_between_db")
     summary = {k: r(simulated[k], 4) for k in keys}
     summary.update({k: r(v, 2) for k, v in fast.items()})
     summary.update({

@@ -123,16 +123,18 @@ def is_wired(scene) -> bool:
 
 # ------------------------------------------------------------------ the show's jobs, read on the main thread
 
-def show_source(scene, bit_depth: int | None = None, use_producer: bool = True):
+def show_source(scene, bit_depth: int | None = None, use_producer: bool = True, compensated_dissolves: bool = True):
     """The show of the scene as the jobs take it (services/show_source.ShowSource): the plan, every projector's
-    model, the export's bit depth (or `bit_depth`), the scene's capture."""
+    model, the export's bit depth (or `bit_depth`), the scene's capture. compensated_dissolves=False: dissolves
+    crossfade the looks' images (a live show: no compensation while it plays)."""
     from ..services.show_source import ShowSource
 
     state = scene_state.read(scene)
     models = tuple(scene_state.projector_model(p) for p in scene_state.rig_projectors(scene))
     depth = scene_state.export_settings(scene).bit_depth if bit_depth is None else int(bit_depth)
     return ShowSource(scene_state.read_show(scene), projectors=models, bit_depth=depth,
-                      capture_dir=state.capture_dir, use_producer=use_producer)
+                      capture_dir=state.capture_dir, use_producer=use_producer,
+                      compensated_dissolves=compensated_dissolves)
 
 
 def blocker(scene) -> str:
@@ -202,6 +204,7 @@ def play_job(scene, sink, use_producer: bool = True):
     from ..rigs.live_output import ShowPlayJob
 
     _checked(scene)
-    job = ShowPlayJob(sink, show_source(scene, bit_depth=8, use_producer=use_producer))
+    # live: dissolves crossfade the looks' images (1080p frames at 30 fps; a compensated key costs about a second)
+    job = ShowPlayJob(sink, show_source(scene, bit_depth=8, use_producer=use_producer, compensated_dissolves=False))
     job.check()
     return job

@@ -7,8 +7,12 @@ module only.
   A show with morphs or motions takes every frame from lapig_core/show's producer (`show_frames`: morphs and
   motions stylized, adapted and compensated, holds made once); a show of holds and dissolves, a rig of several
   projectors, or a build without the producer or torch, gets the stored projector images held and dissolved
-  here (a dissolve mixes in the projector's linear light, as Export Crossfade does); there a morph plays as a
-  dissolve and motions stand still, and `fallback_notes` says so.
+  here; there a morph plays as a dissolve and motions stand still, and `fallback_notes` says so. A stored
+  dissolve of one projector is compensated at its keys (lapig_core/show/dissolve: the looks' targets mixed in
+  linear light and compensated by the capture's compensator at 1/4, 1/2 and 3/4) and crossfaded between them,
+  the looks' own images at its ends; where that cannot be (several projectors, no torch, a live show that asks
+  for speed: compensated_dissolves=False) it is the crossfade of the looks' images in the projector's linear
+  light, as Export Crossfade makes.
 - write(...): the encoder of an export: lapig_core/export/image_sequence (PNG) or lapig_core/export/video, one line
   from codec_problem() for a codec the installed FFmpeg lacks.
 """
@@ -20,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...lapig_core.common.imageio import to_bit_depth
+from ...lapig_core.export.result_files import read_output_image
 from ...lapig_core.optics.projector_model import quantised_frame
 from .jobs import JobCancelled
 from .show_plan import ShowPlan
@@ -55,6 +60,7 @@ class ShowSource:
     capture_dir: str = ""
     summaries: dict = field(default_factory=dict, compare=False)  # result folder -> result.json, read once
     use_producer: bool = True  # False: holds and dissolves of the stored images even where the producer is here
+    compensated_dissolves: bool = True  # False: dissolves crossfade the looks' images (a live show's 1080p at 30 fps)
 
     @property
     def frame_count(self) -> int:
@@ -151,7 +157,6 @@ def _produced(source: ShowSource, cancel_event, on_progress, start: int, stop: i
 def look_images(result_dir: str, count: int) -> list:
     """The stored projector image of a result for each of `count` projectors (a result of one projector: its
     image for the first)."""
-    from ...lapig_core.export.result_files import read_output_image
     from ...lapig_core.multi.result_files import is_multi_result, projector_images
 
     if is_multi_result(result_dir):
@@ -171,6 +176,20 @@ def _stored(source: ShowSource, cancel_event, on_progress, start: int, stop: int
     come at 30 fps on 2 cores), a 16-bit one is computed in float."""
     plan, models = source.plan, source.projectors
     looks = {}
+    dissolve = _stored_dissolve(source)
+    keys = {}
+
+    def key(i, j, w):
+        """The dissolve's compensated key at weight w, as a stored look (one transition's keys kept)."""
+        if (i, j, w) not in keys:
+            if not any(k[:2] == (i, j) for k in keys):
+                keys.clear()
+            m = models[0]
+            targets = [quantised_frame(read_output_image(plan.looks[n].result_dir, "target"), m.width, m.height,
+                                       16).astype(np.float32) / np.float32(65535) for n in (i, j)]
+            frame = dissolve.key(targets[0], targets[1], w)
+            keys[(i, j, w)] = _StoredLook(to_bit_depth(frame, 16), m.gamma, source.bit_depth)
+        return keys[(i, j, w)]
 
     def look(i):
         if i not in looks:
@@ -186,12 +205,42 @@ def _stored(source: ShowSource, cancel_event, on_progress, start: int, stop: int
         segment = plan.segment_at(index)
         if segment.kind == "hold":
             pixels = [stored.pixels for stored in look(segment.a)]
+        elif dissolve is not None and segment.kind == "dissolve":
+            w = segment.weight(index)
+            wa, wb = key_span(w)
+            a = look(segment.a)[0] if wa == 0.0 else key(segment.a, segment.b, wa)
+            b = look(segment.b)[0] if wb == 1.0 else key(segment.a, segment.b, wb)
+            pixels = [a.mixed(b, (w - wa) / (wb - wa))]
         else:
             w = segment.weight(index)
             pixels = [a.mixed(b, w) for a, b in zip(look(segment.a), look(segment.b))]
         if on_progress is not None:
             on_progress((index - start + 1) / total, f"frame {index + 1} of {plan.frame_count()}")
         yield index, pixels
+
+
+def _stored_dissolve(source: ShowSource):
+    """lapig_core/show/dissolve's StoredDissolve for the source's projector at its native size, or None where
+    dissolves crossfade the looks' images: asked for, several projectors, no torch, no capture with models, a
+    plan without dissolves."""
+    if (not source.compensated_dissolves or len(source.projectors) != 1 or not source.capture_dir
+            or not has_producer() or not any(s.kind == "dissolve" for s in source.plan.segments())):
+        return None
+    from ...lapig_core.show.dissolve import StoredDissolve
+
+    core_frames = _core_frames()
+    m = source.projectors[0]
+    try:
+        setup = core_frames.ShowSetup.from_capture(source.capture_dir)
+    except (ValueError, OSError):  # no models: the crossfade (the capture's own blocker says why elsewhere)
+        return None
+    return StoredDissolve(setup, m.width, m.height)
+
+
+def key_span(w: float) -> tuple:
+    from ...lapig_core.show.dissolve import key_span as span
+
+    return span(w)
 
 
 class _StoredLook:

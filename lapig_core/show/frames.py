@@ -57,6 +57,12 @@ DISSOLVES = ("keyed", "compensated", "crossfade")
 DISSOLVE_KEYS = (0.25, 0.5, 0.75)  # the keyed dissolve's compensated weights between its two ends
 
 
+def key_span(w: float, keys=DISSOLVE_KEYS) -> tuple[float, float]:
+    """The keyed dissolve's keys on either side of its weight w (0 and 1: the looks themselves)."""
+    w = float(w)
+    return max([0.0] + [k for k in keys if k <= w]), min([1.0] + [k for k in keys if k > w])
+
+
 @dataclass
 class FrameSettings:
     field_steps: int = 3  # Adam steps of the tone field per adapted frame
@@ -434,10 +440,8 @@ class FrameMaker:
     def _dissolve_ends(self, key: tuple) -> tuple:
         """The two frames a dissolve frame is crossfaded between, with their weights: the looks' own frames
         for "crossfade"; for "keyed", the nearest compensated keys (DISSOLVE_KEYS) on either side."""
-        i, j, w = key[1], key[2], float(key[3])
-        keys = DISSOLVE_KEYS if self.settings.dissolve == "keyed" else ()
-        wa = max([0.0] + [k for k in keys if k <= w])
-        wb = min([1.0] + [k for k in keys if k > w])
+        i, j = key[1], key[2]
+        wa, wb = key_span(key[3], DISSOLVE_KEYS if self.settings.dissolve == "keyed" else ())
         a = self.frame(self.end_key(i)) if wa == 0.0 else self.frame(("dissolve_key", i, j, wa))
         b = self.frame(self.start_key(j)) if wb == 1.0 else self.frame(("dissolve_key", i, j, wb))
         return (wa, a), (wb, b)

@@ -164,6 +164,50 @@ def test_holds_are_the_looks_exported_pixels_and_a_dissolve_mixes_in_linear_ligh
     assert show_source.fallback_notes(_source(plan)) == []  # holds and dissolves: nothing is missing
 
 
+@pytest.mark.torch
+def test_a_stored_dissolve_is_compensated_at_its_keys_on_the_scene_capture(tmp_path):
+    """Holds stay the looks' exported pixels; the dissolve's keys are the targets' linear-light mix compensated
+    by the capture's first look (the shipped device-check capture), the frames between them their crossfade."""
+    import shutil
+
+    from lapig.lapig_core.capture.dataset import load_capture_set, setup_dir_of
+    from lapig.lapig_core.export.result_files import write_result
+    from lapig.lapig_core.optics.projector_model import quantised_frame
+    from lapig.lapig_core.photometric.first_look import fit_first_look
+    from lapig.lapig_core.show.dissolve import StoredDissolve
+    from lapig.lapig_core.show.frames import ShowSetup
+    from lapig.tools.bench.device_fixture import FIXTURE
+
+    show_source = _module("services.show_source")
+    shutil.copytree(FIXTURE, tmp_path / "fixture")
+    cs = load_capture_set(tmp_path / "fixture")
+    fit_first_look(cs, setup_dir_of(cs))
+    width, height = 160, 120
+    rows = np.linspace(0.0, 1.0, height, dtype=np.float32)[:, None, None]
+    looks, targets = [], []
+    for i, colour in enumerate([(0.95, 0.9, 0.2), (0.1, 0.2, 0.95)]):  # bright looks: partly out of reach
+        target = np.broadcast_to(np.float32(colour) * (0.5 + 0.5 * rows), (height, width, 3)).copy()
+        targets.append(quantised_frame(target, width, height, 16).astype(np.float32) / 65535)
+        projector = np.clip(target * 1.2, 0, 1)
+        looks.append(str(write_result(tmp_path / "results" / f"look{i}", {"projector": projector, "target": target},
+                                      {"prompt": f"look {i}"})))
+    plan = _plan([dict(result_dir=looks[0], hold_s=0.2, transition_s=0.7), dict(result_dir=looks[1], hold_s=0.2)])
+    model = ProjectorModel(width=width, height=height, gamma=2.2)
+    source = show_source.ShowSource(plan, projectors=(model,), bit_depth=16, use_producer=False,
+                                    capture_dir=str(setup_dir_of(cs)))
+    frames = dict(show_source.frames(source))  # frames 0-1 look 0, 2-8 the dissolve (w = n/8), 9-10 look 1
+    plain = dict(show_source.frames(show_source.ShowSource(plan, projectors=(model,), bit_depth=16,
+                                                           use_producer=False, compensated_dissolves=False)))
+    assert sorted(frames) == list(range(11))
+    for i in (0, 1, 9, 10):
+        np.testing.assert_array_equal(frames[i][0], plain[i][0])  # holds: the looks' own exported pixels
+    dissolve = StoredDissolve(ShowSetup.from_capture(setup_dir_of(cs)), width, height)
+    key = quantised_frame(dissolve.key(targets[0], targets[1], 0.5), width, height, 16)
+    np.testing.assert_allclose(frames[5][0].astype(np.float64), key.astype(np.float64), atol=2)  # w = 4/8: a key
+    assert np.abs(frames[5][0].astype(np.float64) - plain[5][0]).mean() > 100  # not the looks' crossfade
+    assert frames[5][0].mean() > 1000  # lit, not black
+
+
 def test_an_8_bit_dissolve_is_the_linear_light_mix_of_the_8_bit_looks(tmp_path):
     from lapig.lapig_core.export.result_files import write_result
 

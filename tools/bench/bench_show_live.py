@@ -45,7 +45,7 @@ def _source(folders):
     plan = ShowPlan(tuple(ShowLook(f, name=f"look {i}", hold_s=1.0, transition_s=1.0) for i, f in enumerate(folders)),
                     fps=FPS)
     return ShowSource(plan, projectors=(ProjectorModel(width=SIZE[0], height=SIZE[1]),), bit_depth=8,
-                      use_producer=False)
+                      use_producer=False, compensated_dissolves=False)
 
 
 def _frame_make_ms(source) -> float:

@@ -19,7 +19,8 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "transport": "transport", "learned-variants": "learned_variants",
               "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine",
               "train-step": "train_step", "light": "light", "finetune-length": "finetune_length",
-              "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device"}
+              "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device",
+              "multi": "multi"}
 
 
 def _ensure_registered():

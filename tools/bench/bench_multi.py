@@ -146,6 +146,9 @@ class Rig:
         self.model = self.look.model
         self.mask = self.cs.object_mask & self.model.reached.any(axis=0)
         self.object_mask = self.cs.object_mask
+        # the object without its outline (2 px): silhouette pixels mix object and background in the camera
+        inner = cv2.erode(self.object_mask.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+        self.inner = inner & self.model.reached.any(axis=0)
 
     def single(self, k):
         from ...lapig_core.multi.joint_model import JointModel
@@ -249,6 +252,11 @@ def _run_bust(out, projector_size, refine_iterations):
         err = np.abs(cap_joint - look)
         res["seam_ratio"] = _r(seam_ratio(err, model.reached, rig.mask))
         res["psnr_joint_on_reach"] = _r(psnr_on(cap_joint, look, rig.mask))
+        res["seam_ratio_inner"] = _r(seam_ratio(err, model.reached, rig.inner))  # the outline left out
+        inner_obj = cv2.erode(obj.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+        res["psnr_joint_inner"] = _r(psnr_on(cap_joint, look, inner_obj))
+        res["psnr_singles_inner"] = [_r(psnr_on(c, look, inner_obj)) for c in caps]
+        res["joint_gain_db_inner"] = _r(res["psnr_joint_inner"] - max(res["psnr_singles_inner"]))
         # the MPCDI package, read back by the strict reader
         package = os.path.join(out, "bust.mpcdi")
         write_rig_mpcdi(package, model, rig.names, weights)
@@ -329,6 +337,7 @@ def _run_wall(out, projector_size):
         res["wall_vs_single_db"] = _r(res["psnr_joint"] - res["psnr_halves_single"])
         err = np.abs(cap_joint - look)
         res["seam_ratio"] = _r(seam_ratio(err, model.reached, mask))
+        res["seam_ratio_inner"] = _r(seam_ratio(err, model.reached, rig.inner))
         # white through the blend's alpha maps, and the plain white of both (no blend) for comparison
         alphas = alpha_maps(model.maps, weights)
         white_frames = [np.repeat(encode_alpha(a, g)[..., None], 3, axis=-1) for a, g in zip(alphas, model.gamma_p)]
@@ -446,6 +455,8 @@ def run(args) -> dict:
         "joint_gain_db": bust["joint_gain_db"], "wall_vs_single_db": wall["wall_vs_single_db"],
         "seam_ratio": max(seams) if seams else None,
         "seam_ratio_bust": bust["seam_ratio"], "seam_ratio_wall": wall["seam_ratio"],
+        "seam_ratio_inner": {"bust": bust["seam_ratio_inner"], "wall": wall["seam_ratio_inner"]},
+        "joint_gain_db_inner": bust["joint_gain_db_inner"],
         "white_uniformity_pct": wall["white_uniformity_pct"],
         "stack_psa_gain_db": stack.get("stack_psa_gain_db"),
         "refine_gain_db_multi": bust.get("refine_gain_db_multi"),

@@ -59,3 +59,21 @@ def test_psnr_on_a_mask():
     m[0, :2] = True
     assert psnr_on(a, b, m) == pytest.approx(10 * math.log10(1 / (0.01 / 2)))
     assert psnr_on(a, b, ~m) == math.inf and math.isnan(psnr_on(a, b, np.zeros((4, 4), bool)))
+
+
+def test_share_frames_light_each_projectors_share_in_its_colour():
+    from lapig.lapig_core.multi import fake_rig
+    from lapig.lapig_core.multi.blend import blend_weights, share_frames
+
+    rig = fake_rig.side_by_side_rig((96, 72), (128, 96))
+    maps = [rig.camera_map(k) for k in range(rig.count)]
+    weights = blend_weights(maps)
+    frames = share_frames(maps, weights, (2.2, 2.0))
+    assert [f.shape for f in frames] == [(96, 128, 3), (96, 128, 3)]
+    assert frames[0][..., 1:].max() == 0 and frames[1][..., [0, 2]].max() == 0  # red only, green only
+    assert frames[0][..., 0].max() == pytest.approx(1.0) and frames[0][..., 0].min() < 0.5  # handing over
+    light = [np.power(f, g) for f, g in zip(frames, (2.2, 2.0))]
+    # in camera space the two shares' light sums to one colour's worth wherever both reach
+    both = maps[0].valid & maps[1].valid
+    total = sum(m.sample(li)[..., c] for m, li, c in zip(maps, light, (0, 1)))
+    assert np.median(np.abs(total[both] - 1)) < 0.05

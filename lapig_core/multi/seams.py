@@ -69,9 +69,10 @@ def seam_ratio(error, reached, mask=None, band_px: float = 8.0) -> float:
     return float(e[near].mean()) / rest if rest > 0 else math.inf
 
 
-def white_uniformity_pct(white, reached, mask=None, gamma_c: float = 2.2) -> dict:
+def white_uniformity_pct(white, reached, mask=None, gamma_c: float = 2.2, adjacent_px: float | None = None) -> dict:
     """white: (H,W,3) encoded capture of the blended white. Regions: the overlap (reached by >= 2) and each
-    projector's side (reached by it alone). Returns {"overlap": mean, "sides": [mean per projector],
+    projector's side (reached by it alone; adjacent_px: only within that many pixels of the overlap, which
+    leaves out the light's and the surface's slow changes across a wide wall). Returns {"overlap": mean, "sides": [mean per projector],
     "pct": max over sides |overlap / side - 1| * 100} in linear light (nan when a region is empty)."""
     r = _reached(reached)
     lin = np.power(np.clip(np.asarray(white, np.float64), 0, 1), gamma_c)
@@ -80,6 +81,9 @@ def white_uniformity_pct(white, reached, mask=None, gamma_c: float = 2.2) -> dic
     count = r.sum(axis=0)
     overlap = m & (count >= 2)
     sides = [m & mine & (count == 1) for mine in r]
+    if adjacent_px is not None and overlap.any():
+        dist = cv2.distanceTransform((~overlap).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        sides = [s & (dist <= adjacent_px) for s in sides]
 
     def mean(region):
         return float(lum[region].mean()) if region.any() else math.nan

@@ -46,6 +46,10 @@ def test_white_uniformity_compares_the_overlap_with_each_side_in_linear_light():
     white[:, 45:55] = 0.7 * 2 ** (1 / 2.2)  # an overlap twice as bright in linear light: no blend
     u = white_uniformity_pct(white, r, gamma_c=2.2)
     assert u["pct"] == pytest.approx(100.0, rel=1e-6) and len(u["sides"]) == 2
+    white[:, :45] = np.linspace(0.2, 0.7 * 2 ** (1 / 2.2), 45)[None, :, None]  # a slow rise towards the overlap
+    white[:, 55:] = 0.7 * 2 ** (1 / 2.2)
+    assert white_uniformity_pct(white, r)["pct"] > 20
+    assert white_uniformity_pct(white, r, adjacent_px=3)["pct"] < 5  # next to the overlap: even
     mask = np.zeros((H, W), bool)
     mask[:, :30] = True  # no overlap on the mask: no figure
     assert math.isnan(white_uniformity_pct(white, r, mask)["pct"])

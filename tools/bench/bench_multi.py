@@ -230,6 +230,8 @@ def _run_bust(out, projector_size, refine_iterations):
         res = {"projector_size": list(projector_size), "camera": list(CAMERA), "names": list(rig.names),
                "coverage_single": _r(rig.look.coverage_single, 4), "coverage_joint": _r(rig.look.coverage_joint, 4),
                "per_projector": [_r(v, 4) for v in rig.look.coverage.per_projector],
+               "coverage_joint_inner": _r(rig.inner.sum() / max(1, cv2.erode(
+                   obj.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool).sum()), 4),
                "black_uplift": rig.look.to_dict()["black_uplift"], "fit_residual": _r(model.residual, 4),
                "together_rms": _r(model.together_rms, 4), "capture_s": _r(rig.capture_s, 1),
                "first_look_seconds": _r(rig.first_look_s, 2), "joint_solve_s": _r(solve_s, 2),
@@ -347,8 +349,19 @@ def _run_wall(out, projector_size):
         res["white_uniformity_pct"] = _r(u["pct"], 2)
         res["white_means_linear"] = {"overlap": _r(u["overlap"], 4), "sides": [_r(v, 4) for v in u["sides"]]}
         res["white_uniformity_pct_unblended"] = _r(plain["pct"], 2)
+        band = max(4, int(round(0.05 * model.shape[1])))  # 5 % of the camera's width beside the overlap
+        ua = white_uniformity_pct(white, model.reached, mask, model.gamma_c, adjacent_px=band)
+        res["white_uniformity_pct_adjacent"] = _r(ua["pct"], 2)
+        res["white_adjacent_px"] = band
+        res["white_means_linear_adjacent"] = {"overlap": _r(ua["overlap"], 4), "sides": [_r(v, 4) for v in ua["sides"]]}
+        # the same on the all-white captures of each projector alone weighted by the alphas (in camera space):
+        # what the blend would show if it were exact; its non-uniformity is the wall's and the light's own
+        alone = [rig.alone(k, np.ones(rig.cs.sizes[k][::-1] + (3,), np.float32)) for k in range(len(projectors))]
+        ideal = sum(np.power(a, model.gamma_c) * w[..., None] for a, w in zip(alone, weights))
+        ui = white_uniformity_pct(np.power(ideal, 1 / model.gamma_c), model.reached, mask, model.gamma_c)
+        res["white_uniformity_pct_exact_blend"] = _r(ui["pct"], 2)
         # compensated flat white (the joint solve asked for an even grey): the texture taken out
-        level = float(np.percentile(reach(model)[1][mask].mean(-1), 5)) * 0.8
+        level = float(np.percentile(reach(model)[1][mask].min(-1), 2)) * 0.9  # within reach in every channel
         flat = np.full(model.shape + (3,), level, np.float32)
         res["flat_grey_level"] = _r(level)
         flat_cap = rig.render(joint_compensate(model, flat, weights).frames)
@@ -444,7 +457,7 @@ def run(args) -> dict:
         CAMERA, big, small, BENCHMARKS = (96, 72), (128, 96), (128, 96), out
     t0 = time.perf_counter()
     results = {}
-    results["bust"] = _run_bust(out, big, refine_iterations=3)
+    results["bust"] = _run_bust(out, big, refine_iterations=6)
     results["wall"] = _run_wall(out, small)
     results["stack"] = _run_stack(out, small, getattr(args, "backend", "styletransfer"), 128)
     bust, wall, stack = results["bust"], results["wall"], results["stack"]
@@ -458,6 +471,9 @@ def run(args) -> dict:
         "seam_ratio_inner": {"bust": bust["seam_ratio_inner"], "wall": wall["seam_ratio_inner"]},
         "joint_gain_db_inner": bust["joint_gain_db_inner"],
         "white_uniformity_pct": wall["white_uniformity_pct"],
+        "white_uniformity_pct_adjacent": wall["white_uniformity_pct_adjacent"],
+        "white_uniformity_pct_exact_blend": wall["white_uniformity_pct_exact_blend"],
+        "coverage_joint_inner": bust["coverage_joint_inner"],
         "stack_psa_gain_db": stack.get("stack_psa_gain_db"),
         "refine_gain_db_multi": bust.get("refine_gain_db_multi"),
         "first_look_seconds_multi": bust["first_look_seconds"],

@@ -283,6 +283,12 @@ def _run_bust(out, projector_size, refine_iterations):
             res["refine"]["seconds"] = _r(time.perf_counter() - t, 1)
             res["refine_gain_db_multi"] = _r(d["gain_db"])
             refined = rig.render(refinement.images)
+            # the same on the object without its outline (silhouette pixels mix object and background)
+            record_in, _ = refine_gain_db_multi(model, rig.device, look, rig.inner,
+                                                RefineSettings(iterations=refine_iterations, max_repeats=2))
+            d_in = record_in.to_dict()
+            res["refine_inner"] = {k: d_in.get(k) for k in ("open_loop_psnr", "refined_psnr", "iterations", "stopped")}
+            res["refine_gain_db_multi_inner"] = _r(d_in["gain_db"])
             res["refine"]["refined_psnr_object"] = _r(psnr_on(refined, look, obj))
         tiles = [(look * obj[..., None], "asked look (object)"),
                  (cap_joint, f"joint, rendered {res['psnr_joint']:.1f} dB"),
@@ -360,6 +366,14 @@ def _run_wall(out, projector_size):
         ideal = sum(np.power(a, model.gamma_c) * w[..., None] for a, w in zip(alone, weights))
         ui = white_uniformity_pct(np.power(ideal, 1 / model.gamma_c), model.reached, mask, model.gamma_c)
         res["white_uniformity_pct_exact_blend"] = _r(ui["pct"], 2)
+        # the blend's own error: the blended white over the exact blend per pixel (the wall's texture and the
+        # light's fall-off divide out), overlap against each side
+        ratio = np.power(np.clip(white, 1e-4, 1), model.gamma_c).mean(-1) / np.maximum(ideal.mean(-1), 1e-6)
+        count = model.reached.sum(axis=0)
+        over = float(np.median(ratio[mask & (count >= 2)]))
+        sides = [float(np.median(ratio[mask & model.reached[k] & (count == 1)])) for k in range(len(projectors))]
+        res["white_blend_ratio"] = {"overlap": _r(over, 4), "sides": [_r(v, 4) for v in sides]}
+        res["white_uniformity_pct_albedo_normalised"] = _r(max(abs(over / v - 1) * 100 for v in sides), 2)
         # compensated flat white (the joint solve asked for an even grey): the texture taken out
         level = float(np.percentile(reach(model)[1][mask].min(-1), 2)) * 0.9  # within reach in every channel
         flat = np.full(model.shape + (3,), level, np.float32)
@@ -474,6 +488,8 @@ def run(args) -> dict:
         "white_uniformity_pct_adjacent": wall["white_uniformity_pct_adjacent"],
         "white_uniformity_pct_exact_blend": wall["white_uniformity_pct_exact_blend"],
         "coverage_joint_inner": bust["coverage_joint_inner"],
+        "white_uniformity_pct_albedo_normalised": wall["white_uniformity_pct_albedo_normalised"],
+        "refine_gain_db_multi_inner": bust.get("refine_gain_db_multi_inner"),
         "stack_psa_gain_db": stack.get("stack_psa_gain_db"),
         "refine_gain_db_multi": bust.get("refine_gain_db_multi"),
         "first_look_seconds_multi": bust["first_look_seconds"],

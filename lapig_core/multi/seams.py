@@ -69,7 +69,8 @@ def seam_ratio(error, reached, mask=None, band_px: float = 8.0) -> float:
     return float(e[near].mean()) / rest if rest > 0 else math.inf
 
 
-def white_uniformity_pct(white, reached, mask=None, gamma_c: float = 2.2, adjacent_px: float | None = None) -> dict:
+def white_uniformity_pct(white, reached, mask=None, gamma_c: float = 2.2,
+                         adjacent_px: float | None = None) -> dict:
     """white: (H,W,3) encoded capture of the blended white. Regions: the overlap (reached by >= 2) and each
     projector's side (reached by it alone; adjacent_px: only within that many pixels of the overlap, which
     leaves out the light's and the surface's slow changes across a wide wall). Returns {"overlap": mean, "sides": [mean per projector],

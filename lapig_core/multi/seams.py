@@ -73,7 +73,8 @@ def white_uniformity_pct(white, reached, mask=None, gamma_c: float = 2.2,
                          adjacent_px: float | None = None) -> dict:
     """white: (H,W,3) encoded capture of the blended white. Regions: the overlap (reached by >= 2) and each
     projector's side (reached by it alone; adjacent_px: only within that many pixels of the overlap, which
-    leaves out the light's and the surface's slow changes across a wide wall). Returns {"overlap": mean, "sides": [mean per projector],
+    leaves out the light's and the surface's slow changes across a wide wall). Returns {"overlap": mean,
+    "sides": [mean per projector],
     "pct": max over sides |overlap / side - 1| * 100} in linear light (nan when a region is empty)."""
     r = _reached(reached)
     lin = np.power(np.clip(np.asarray(white, np.float64), 0, 1), gamma_c)

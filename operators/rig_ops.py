@@ -68,6 +68,21 @@ class LAPIG_OT_remove_projector(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = (LAPIG_OT_add_rig, LAPIG_OT_focus_on_object, LAPIG_OT_add_projector, LAPIG_OT_remove_projector)
+class LAPIG_OT_blend_preview(ReportsErrors, bpy.types.Operator):
+    """Show each projector's share of the object in its own colour (1 red, 2 green, 3 blue, 4 yellow), from
+    the capture's blend weights: see it in the viewport's Rendered mode or a Cycles render"""
+    bl_idname = "lapig.blend_preview"
+    bl_label = "Blend Preview"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        from ..lapig_addon.blender.blend_preview import show_blend_preview
+
+        self.report({"INFO"}, show_blend_preview(context.scene))
+        return {"FINISHED"}
+
+
+CLASSES = (LAPIG_OT_add_rig, LAPIG_OT_focus_on_object, LAPIG_OT_add_projector, LAPIG_OT_remove_projector,
+           LAPIG_OT_blend_preview)
 
 register, unregister = bpy.utils.register_classes_factory(CLASSES)

@@ -121,6 +121,8 @@ def _projectors(layout, scene, real: bool):
     if shares and state.capture_reach is not None:
         box.label(text=f"All together: {state.capture_reach:.0%} of the object")
     _blocked(box, panel_state.projectors_blocker(state.rig))
+    if shares:  # a capture of this rig: its blend weights to show
+        box.operator("lapig.blend_preview", icon="COLOR")
     box.operator("lapig.add_projector", icon="ADD")
 
 

@@ -89,3 +89,19 @@ def alpha_maps(maps: Sequence[CameraMap], weights: np.ndarray) -> list[np.ndarra
 def encode_alpha(alpha: np.ndarray, gamma_p: float) -> np.ndarray:
     """A linear-light alpha map -> the factor on the projector's signal: (v * a^(1/g))^g = v^g * a."""
     return np.power(np.clip(alpha, 0.0, 1.0), np.float32(1.0 / gamma_p)).astype(np.float32)
+
+
+# the Blend preview's colour per projector (1 red, 2 green, 3 blue, 4 yellow; more wrap around)
+SHARE_COLOURS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 0.0))
+
+
+def share_frames(maps: Sequence[CameraMap], weights: np.ndarray, gamma_p: Sequence[float]) -> list[np.ndarray]:
+    """The Blend preview: one encoded (h_k,w_k,3) float32 frame per projector that lights its share of the
+    object in its own colour (SHARE_COLOURS): in linear light colour_k * alpha_k, so where two projectors
+    overlap their colours mix by the blend's weights and the light sums to one colour's worth."""
+    out = []
+    for k, (alpha, gp) in enumerate(zip(alpha_maps(maps, weights), gamma_p)):
+        colour = np.asarray(SHARE_COLOURS[k % len(SHARE_COLOURS)], np.float32)
+        linear = np.clip(alpha, 0.0, 1.0)[..., None] * colour
+        out.append(np.power(linear, np.float32(1.0 / gp)).astype(np.float32))
+    return out

@@ -483,11 +483,14 @@ def move_show_look(scene, index: int, direction: int) -> int:
     return target
 
 
-def _show_list_changed(scene) -> None:
-    """A look added, removed or moved (no property's update runs): the timeline's markers follow."""
-    from . import show_timeline
+# Called with the scene when a look is removed or moved (no property's update runs then): blender/show_timeline
+# registers its rewrite of the timeline's markers here, as scene_state sits below it and must not import it.
+SHOW_LIST_LISTENERS: list = []
 
-    show_timeline.rewrite_markers(scene)
+
+def _show_list_changed(scene) -> None:
+    for listener in list(SHOW_LIST_LISTENERS):
+        listener(scene)
 
 
 def set_show_look(scene, index: int, **settings) -> None:

@@ -57,11 +57,15 @@ def _follow_the_frame_rate(scene, *_args) -> None:
 def register():
     if _follow_the_frame_rate not in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.append(_follow_the_frame_rate)
+    if rewrite_markers not in scene_state.SHOW_LIST_LISTENERS:  # a look removed or moved
+        scene_state.SHOW_LIST_LISTENERS.append(rewrite_markers)
 
 
 def unregister():
     if _follow_the_frame_rate in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.remove(_follow_the_frame_rate)
+    if rewrite_markers in scene_state.SHOW_LIST_LISTENERS:
+        scene_state.SHOW_LIST_LISTENERS.remove(rewrite_markers)
 
 
 def shows_root() -> str:

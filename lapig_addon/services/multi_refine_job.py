@@ -18,6 +18,7 @@ from ...lapig_core.refine.loop import RefineError, RefineSettings
 from . import panel_state
 from .multi_generate_job import MultiPipelineError, multi_capture
 from .pipeline_jobs import PipelineError, hold_capture
+from .refine_lines import refine_line, with_refine
 
 REFINED_SUFFIX = "_refined"
 
@@ -96,7 +97,6 @@ def write_multi_refined(folder: str, summary: dict, refinement):
     """Steps that write each projector's refined image, then result.json pointing at them; their value is (the
     summary written, the record)."""
     from ...lapig_core.multi.result_files import projector_image_name
-    from .refine_job import _with_refine, refine_line
 
     yield 0.96, "writing the refined result"
     record = refinement.record.to_dict()
@@ -109,7 +109,7 @@ def write_multi_refined(folder: str, summary: dict, refinement):
         entry["image"] = f"{name}.png"
     record["images"] = {f"projector_{k + 1}": f"{n}.png" for k, n in enumerate(names)}
     summary["refine"] = record
-    summary["summary_line"] = _with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
+    summary["summary_line"] = with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
                                            refine_line(record))
     summary.setdefault("metrics", {}).update(
         {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
@@ -143,7 +143,6 @@ def multi_refine_steps(job):
 def record_multi_refined(seams, folder: str, summary: dict, record: dict) -> dict:
     """The refined result into the scene (the main thread): its line, and each image to the sinks of several."""
     from .multi_generate_job import show_projector_images
-    from .refine_job import refine_line
 
     seams.store.record_result(folder, summary["summary_line"])
     show_projector_images(seams, {"folder": folder, "summary": summary})

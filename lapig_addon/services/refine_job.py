@@ -28,6 +28,7 @@ from .limits import LIMITS
 from .pipeline_jobs import PipelineError, current_capture, hold_capture
 from .ports import Seams
 from .projection import projection_session
+from .refine_lines import refine_line, with_refine
 
 REFINED = "projector_refined"
 
@@ -50,14 +51,6 @@ def classical_of(capture: str) -> ClassicalModel:
     if len(cs.prj_train) < 4:
         raise PipelineError("refinement needs the capture's classical model: train the models first")
     return ClassicalModel.fit(cs.prj_train, cs.cam_train)
-
-
-def refine_line(record: dict) -> str:
-    """'; refined 33.1 -> 39.8 dB (floor 41.2), 3 steps, 12 s' for the panel's result line."""
-    if not record or record.get("refined_psnr") is None:
-        return ""
-    return (f"; refined {record['open_loop_psnr']:.1f} -> {record['refined_psnr']:.1f} dB "
-            f"(floor {record['noise_floor_psnr']:.1f}), {record['iterations']} steps, {record['seconds']:.0f} s")
 
 
 class RefineResultJob(Job):
@@ -166,7 +159,7 @@ def write_refined(folder: str, summary: dict, refinement: Refinement):
         chosen["projector"] = REFINED + NATIVE
     record["images"] = chosen
     summary["refine"] = record
-    summary["summary_line"] = _with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
+    summary["summary_line"] = with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
                                            refine_line(record))
     summary.setdefault("metrics", {}).update(
         {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
@@ -189,13 +182,6 @@ def refine_rounds(devices, capture: str, refinement: Refinement, bit_depth: int 
             yield 0.05 + 0.9 * min(rec.iterations, cap) / (cap + 1), \
                 f"refining on the rig: step {rec.iterations}/{cap}, last capture {rec.history[-1]:.1f} dB " \
                 f"(noise floor {rec.noise_floor_psnr:.1f})"
-
-
-def _with_refine(line: str, refined: str) -> str:
-    """The result line with this refinement's figures in place of an earlier one's, before ' | ' (the panel
-    shows what follows it on a line of its own)."""
-    head, bar, missed = line.partition(" | ")
-    return head.split("; refined")[0] + refined + (bar + missed if bar else "")
 
 
 def _has(folder, name) -> bool:

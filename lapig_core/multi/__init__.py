@@ -5,7 +5,7 @@ and a numpy fake rig of K projectors and one camera for tests.
 
 Entry points for the benchmarks (`bench multi`):
 - PSA on the joint reach (joint_psa, torch):
-    joint_psa.stack_psa_gain(stacked: JointModel, single: JointModel, surface, prompt, backend="styletransfer",
+    stack_gain.stack_psa_gain(stacked: JointModel, single: JointModel, surface, prompt, backend="styletransfer",
         object_mask=None, seed=0, working_size=256, settings=None, single_surface=None, looks=None)
         -> StackFigures; .stack_psa_gain_db (PSA's simulated PSNR, each against its own PSA look, stacked
         minus single), .stack_look_gain_db (the same against the asked, un-adapted look), .psa_gain_db_stacked

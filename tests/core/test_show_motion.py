@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The motion presets: the look itself at t = 0, periodic, smooth, differentiable."""
 import pytest
-import torch
+
+torch = pytest.importorskip("torch")  # the producer is torch's: the torch-free tier skips this file
 
 from lapig.lapig_core.show.model import Motion
 from lapig.lapig_core.show.motion import PRESETS, apply_motion

@@ -94,6 +94,7 @@ class MultiRigDevice(MultiProjectorDevice):
         if len(outputs) < 1:
             raise RigError("a rig of several projectors needs at least one projector output")
         self.outputs, self.camera, self.clock, self.name = list(outputs), camera, clock, name
+        self._named = bool(names)
         self.names = list(names) if names else [f"projector {k + 1}" for k in range(len(outputs))]
         self.health_checks, self.max_grabs = health_checks, max_grabs
         self._mask = None if object_mask is None else np.asarray(object_mask, bool)
@@ -132,15 +133,23 @@ class MultiRigDevice(MultiProjectorDevice):
         """Calibrate each projector alone (latency, its code's cells, its health checks), in turn."""
         if self.calibrated:
             return
-        for k, rig in enumerate(self.rigs):
-            self._solo(k)
-            try:
-                rig.lock_exposure(None)
-            except (RigError, CaptureError) as exc:
-                raise type(exc)(f"projector '{self.names[k]}': {exc}") from None
+        for k in range(len(self.rigs)):
+            self.calibrate(k)
         self.joint_settle_s = max(r.sync.settle_s for r in self.rigs)
         self.joint_bands = [self._joint_band(k) for k in range(len(self.rigs))]
         self.calibrated = True
+
+    def calibrate(self, k: int) -> None:
+        """Projector k alone (the others black): its latency, its code's cells and its health checks; an error
+        names the projector."""
+        self._solo(k)
+        try:
+            self.rigs[k].lock_exposure(None)
+        except (RigError, CaptureError) as exc:
+            raise type(exc)(f"{self.label(k)}: {exc}") from None
+
+    def label(self, k: int) -> str:
+        return f"projector '{self.names[k]}'" if self._named else f"projector {k + 1}"
 
     def _joint_band(self, k: int):
         """(band, CellMap of that band alone) projector k's joint shots are verified by, or None: timing only.
@@ -182,7 +191,7 @@ class MultiRigDevice(MultiProjectorDevice):
                 try:
                     out.append(self.rigs[k].capture([frames[k]])[0])
                 except RigError as exc:
-                    raise RigError(f"projector '{self.names[k]}': {exc}") from None
+                    raise RigError(f"{self.label(k)}: {exc}") from None
             else:
                 out.append(self._joint(frames))
         return out
@@ -250,7 +259,7 @@ class MultiRigDevice(MultiProjectorDevice):
             try:
                 moment = max(moment, output.show(frame))
             except RigError as exc:
-                raise RigError(f"projector '{self.names[k]}': {exc}") from None
+                raise RigError(f"{self.label(k)}: {exc}") from None
         return moment
 
 

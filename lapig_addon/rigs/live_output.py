@@ -107,8 +107,9 @@ def status_lines() -> list:
     for sink in open_sinks():
         if isinstance(sink, LockedWindowsSink):
             shown = [w.describe().get("display", {}) for w in sink.window.windows]
-            where = ", ".join(f"display {d['index']}" if "index" in d else "a projector" for d in shown)
-            lines.append((f"Showing {len(shown)} projectors on {where} (Esc in one closes it)", True))
+            where = (" on displays " + ", ".join(str(d["index"]) for d in shown)) if all("index" in d for d in shown) \
+                else ""
+            lines.append((f"Showing {len(shown)} projectors{where}, presented together (Esc in one closes it)", True))
             if sink.problem:
                 lines.append((sink.problem, False))
             continue

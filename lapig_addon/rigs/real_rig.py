@@ -91,7 +91,10 @@ class RealRigFactory:
         self._camera = camera_factory or _camera
 
     def rig_identity(self) -> RigIdentity:
-        return RigIdentity(self.spec.name, self.spec.devices())
+        devices = self.spec.devices()
+        if len(self.projectors) > 1:  # a rig of several: every projector's display is the rig's
+            devices["projectors"] = [f"{name} on display {display}" for name, display, _ in self.projectors]
+        return RigIdentity(self.spec.name, devices)
 
     @contextlib.contextmanager
     def _rig(self, calibrated: bool = False):

@@ -73,3 +73,15 @@ def test_two_projectors_on_one_display_open_no_window(statue, simulated_windows)
     with pytest.raises(RuntimeError, match="are both on display '1': give each its own display"):
         bpy.ops.lapig.show_on_projector()
     assert simulated_windows == {}
+
+
+def test_a_real_rig_of_several_is_another_rig_when_a_projectors_display_changes(statue):
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.blender.scene_store import device_factory
+
+    scene = statue[0]
+    _two_displays(scene)
+    before = scene_state.read_rig(scene).fingerprint
+    assert device_factory(scene).rig_identity().key() == before  # what the capture records is what staleness reads
+    scene.lapig.extra_projectors[0].display = "3"
+    assert scene_state.read_rig(scene).fingerprint != before

@@ -139,6 +139,10 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
             top, bottom = reserved(k) if reserved is not None else (0, 0)
             if top or bottom:
                 decoded.valid = decoded.valid & (decoded.proj_y >= top) & (decoded.proj_y < h - bottom)
+            code = getattr(device, "code_pixels", None)  # where any projector's code lights the object: the
+            lit_by_code = code() if code is not None else None  # joint captures (black, white) carry it there
+            if lit_by_code is not None:
+                decoded.valid = decoded.valid & ~lit_by_code
             camera_map = CameraMap.from_decoded(decoded, (w, h))
             seen = mask if mask is not None else np.ones(camera_map.camera_shape, bool)
             problem = reach_problem(names[k], camera_map, seen)

@@ -168,6 +168,13 @@ class MultiRigDevice(MultiProjectorDevice):
         """(top, bottom) rows of projector k's frame its code takes (the capture marks them invalid)."""
         return self.rigs[k].reserved_rows()
 
+    def code_pixels(self):
+        """(H,W) bool: camera pixels near any projector's code cells (None: no code read). The joint frames carry
+        every projector's code, which a projector's alone captures do not: no registration uses these pixels."""
+        masks = [rig._code_pixels(rig.sync.cells) for rig in self.rigs if rig.sync is not None and rig.sync.verifies]
+        masks = [m for m in masks if m is not None]
+        return np.any(np.stack(masks), axis=0) if masks else None
+
     def object_mask(self):
         return None if self._mask is None else self._mask.copy()
 

@@ -58,6 +58,8 @@ def test_two_windows_and_one_camera_capture_with_every_projector_calibrated_alon
         err = np.hypot(truth.map_x - got.map_x, truth.map_y - got.map_y)[both]
         assert np.median(err) < 1.0, np.median(err)
     assert meta["coverage"]["overlap"] > 0.1
+    code = device.code_pixels()  # the joint frames carry every projector's code: no registration uses its pixels
+    assert code.any() and not any((m.valid & code).any() for m in cs.maps)
 
 
 def test_a_display_that_goes_mid_capture_stops_it_in_one_line_and_the_previous_capture_stays(tmp_path):

@@ -5,8 +5,9 @@ needs: a real rig's on a worker thread) and runs its calibration and health chec
 the display-to-camera latency, the frame code's cells, the exposure, a gray ramp up and down and its gamma).
 A rig of several projectors (the factory's multi_capture_device) is checked projector by projector, each
 alone with the others black, through the one camera (lapig_core.rig.multi_rig.MultiRigDevice.calibrate): its
-lines are named after their projector. It captures and records nothing: the result is a short line per check for the panel and a sentence per
-problem, kept in this module for the rig it checked (a changed rig shows no old result).
+lines are named after their projector. It captures and records nothing: the result is a short line per check
+for the panel and a sentence per problem, kept in this module for the rig it checked (a changed rig shows no old
+result).
 """
 from __future__ import annotations
 

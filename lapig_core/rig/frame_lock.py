@@ -153,4 +153,5 @@ def lock_figures(skews, late: int, fps: float) -> dict:
     return {"frames": count, "late_frames": int(late),
             "late_frame_pct": round(100.0 * late / count, 3) if count else 0.0,
             "max_skew_frames": round(float(arr.max()) * fps, 4), "mean_skew_frames": round(float(arr.mean()) * fps, 4),
-            "max_skew_ms": round(float(arr.max()) * 1000, 3), "p95_skew_ms": round(float(np.percentile(arr, 95)) * 1000, 3)}
+            "max_skew_ms": round(float(arr.max()) * 1000, 3),
+            "p95_skew_ms": round(float(np.percentile(arr, 95)) * 1000, 3)}

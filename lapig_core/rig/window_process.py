@@ -398,7 +398,8 @@ class Helper:
                 self.send({"ok": True})
                 return False
             else:
-                self.send({"ok": False, "error": f"unknown request {cmd!r} (displays, open, show, load, present, close)"})
+                self.send({"ok": False,
+                           "error": f"unknown request {cmd!r} (displays, open, show, load, present, close)"})
         except (RuntimeError, DisplayChoiceError) as exc:
             self.send({"ok": False, "error": str(exc)})
         return True

@@ -6,7 +6,6 @@ mid-capture, each one line with the previous capture kept."""
 import json
 import os
 
-import numpy as np
 import pytest
 
 from test_headless_chain import _cli, _json, rigged_blend  # noqa: F401 (the fixture)

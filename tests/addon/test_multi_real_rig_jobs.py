@@ -9,7 +9,7 @@ import numpy as np
 
 from lapig.lapig_core.multi.fake_rig import FakeProjector, FakeRig, FakeRigDevice, homography_onto
 from lapig.lapig_core.rig.clock import VirtualClock
-from lapig.lapig_core.rig.frame_lock import SimulatedWindow
+from lapig.lapig_core.rig.frame_lock import LockedWindows, SimulatedWindow
 from lapig.lapig_core.rig.multi_rig import SimulatedScreens, _SummedOptics
 from lapig.lapig_core.rig.simulated import CameraFaults, SimulatedCamera, SimulatedScreen
 
@@ -121,3 +121,26 @@ def test_show_on_projector_opens_every_window_at_once_presenting_together():
     finally:
         live_output.close_live()
     assert not windows["1"].is_open and not windows["2"].is_open
+
+
+def test_a_result_of_several_goes_to_the_live_windows_in_one_presentation(tmp_path):
+    from lapig.lapig_core.export.result_files import write_result
+
+    live_output, ports = _module("rigs.live_output"), _module("services.ports")
+    multi_generate_job = _module("services.multi_generate_job")
+    windows = [SimulatedWindow((64, 48)), SimulatedWindow((64, 48))]
+    sink = live_output.LockedWindowsSink(LockedWindows(windows))
+    folder = tmp_path / "result"
+    write_result(folder, {"projector_1": np.full((48, 64, 3), 0.2, np.float32),
+                          "projector_2": np.full((48, 64, 3), 0.8, np.float32)},
+                 {"multi": {"count": 2}, "projectors": [{"image": "projector_1.png", "size": [64, 48]},
+                                                         {"image": "projector_2.png", "size": [64, 48]}]})
+
+    class Store:
+        def export_settings(self):
+            return type("Settings", (), {"bit_depth": 8})()
+
+    multi_generate_job.show_projector_images(ports.Seams(Store(), None, (sink,)),
+                                             {"folder": str(folder), "summary": {}})
+    assert [w.frames for w in windows] == [1, 1]  # one presentation, both windows
+    assert [int(w.shown[5, 5, 0]) for w in windows] == [51, 204] and sink.skew_frames <= 1.0

@@ -425,9 +425,15 @@ class LockedWindowsSink:
 def open_windows(displays, window_factory=None, names=None):
     """A window on each display at once (each helper starts in a thread of its own: seconds, not K times that);
     LockedWindows of them, or RigError naming the display that failed, the others closed."""
-    from concurrent.futures import ThreadPoolExecutor
-
     from ...lapig_core.rig.frame_lock import LockedWindows
+
+    return LockedWindows(open_each(displays, window_factory), names=names or [f"display {d}" for d in displays])
+
+
+def open_each(displays, window_factory=None) -> list:
+    """A window on each display (window_factory(display)), every helper started at once; the first failure
+    raised once every window is waited for, those that opened closed."""
+    from concurrent.futures import ThreadPoolExecutor
 
     if window_factory is None:
         from ...lapig_core.rig.projector_window import ProjectorWindow
@@ -453,7 +459,7 @@ def open_windows(displays, window_factory=None, names=None):
         for window in opened:
             close_window(window)
         raise failed
-    return LockedWindows(opened, names=names or [f"display {d}" for d in displays])
+    return opened
 
 
 @dataclass(frozen=True)

@@ -139,12 +139,12 @@ class RealRigFactory:
         problem = self.spec.problem() or multi_display_problem(self.projectors)
         if problem:
             raise CaptureError(problem)
+        from .live_output import open_each
+
         release_devices()
-        windows = []
+        windows = open_each([d for _, d, _ in self.projectors], self._window)  # every helper starts at once
         try:
-            for name, display, size in self.projectors:
-                window = self._window(display)
-                windows.append(window)
+            for (name, display, size), window in zip(self.projectors, windows):
                 if size and tuple(window.size) != size:
                     w, h = window.size
                     raise CaptureError(f"projector '{name}''s display '{display}' is {w}x{h} but the projector is "

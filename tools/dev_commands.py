@@ -20,7 +20,8 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "pcnet-through": "pcnet_through", "hardware": "hardware", "refine": "refine",
               "train-step": "train_step", "light": "light", "finetune-length": "finetune_length",
               "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device",
-              "show": "show", "show-live": "show_live", "video": "video", "multi": "multi"}
+              "show": "show", "show-live": "show_live", "video": "video", "multi": "multi",
+              "multi-live": "multi_live"}
 
 
 def _ensure_registered():

@@ -142,6 +142,18 @@ def projector_job(scene, window_factory=None) -> live_output.OpenWindowJob:
 
         def window_factory(display):  # the rig's hook, looked up when the window opens: tests replace it
             return real_rig._projector_window(display)
+    rig = scene_state.read_rig(scene)
+    if rig.projector_count > 1:  # every projector's window at once, on its display, presenting together
+        from ..services.panel_state import projectors_blocker
+        from ...lapig_core.multi.result_files import is_multi_result
+
+        problem = projectors_blocker(rig)
+        if problem:
+            raise ValueError(problem)
+        folder = scene_state.read(scene).result_dir
+        looks = live_output.StoredLooks(folder if folder and is_multi_result(folder) else "",
+                                        scene_state.export_settings(scene).bit_depth)
+        return live_output.OpenWindowsJob(rig.displays, looks, window_factory, names=list(rig.projectors))
     return live_output.OpenWindowJob(spec.display, stored_look(scene), window_factory)
 
 

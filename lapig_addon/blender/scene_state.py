@@ -198,7 +198,9 @@ def _real_rig_key(scene) -> str | None:
         return None
     from ..rigs.real_rig import RealRigFactory
 
-    return RealRigFactory(spec).rig_identity().key()
+    names = [p.name for p in rig_projectors(scene)]
+    several = tuple((n, d, None) for n, d in zip(names, projector_displays(scene))) if len(names) > 1 else ()
+    return RealRigFactory(spec, projectors=several).rig_identity().key()  # another display: another rig
 
 
 def read_rig(scene, projector=None, camera=None, target=None) -> Rig:

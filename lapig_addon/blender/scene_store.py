@@ -66,8 +66,9 @@ def device_factory(scene, projector=None, camera=None, target=None):
         return CyclesDeviceFactory(scene, projector, camera, target)
     from ..rigs.real_rig import RealRigFactory
 
-    size = scene_state.read_rig(scene).projector_size
-    return RealRigFactory(spec, expected_size=size)
+    rig = scene_state.read_rig(scene)
+    several = tuple(zip(rig.projectors, rig.displays, rig.projector_sizes)) if rig.projector_count > 1 else ()
+    return RealRigFactory(spec, expected_size=rig.projector_size, projectors=several)
 
 
 def scene_seams(scene, projector=None, camera=None, target=None, sinks=None, devices=None) -> Seams:

@@ -373,6 +373,7 @@ def cmd_show(args) -> int:
 
     scene = _open_scene(args)
     store = BlenderSceneStore(scene)
+    several = store.read().rig.projector_count > 1
     display = args.display or getattr(scene_state.real_rig_spec(scene), "display", "").strip()
     if not display:
         raise ValueError("show needs --display (or a scene with a real rig: capture --rig real --save)")
@@ -381,8 +382,8 @@ def cmd_show(args) -> int:
     folder = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     if not folder:
         raise ValueError("the scene has no result yet: run stylize first, or pass --result")
-    if is_multi_result(folder):
-        raise ValueError("show plays one projector's look for now: this result has one image per projector")
+    if is_multi_result(folder) or several:
+        return _show_several(args, scene, store, folder)
     settings = scene_state.export_settings(scene, crossfade_frames=args.frames)
     frame = export_result.result_frame(store, folder, settings.bit_depth)
     sink = live_output.open_live(display)
@@ -401,6 +402,49 @@ def cmd_show(args) -> int:
         print_json(summary)
         deadline = None if args.seconds is None else time.perf_counter() + args.seconds
         while sink.window.is_open and (deadline is None or time.perf_counter() < deadline):
+            time.sleep(0.05)
+    finally:
+        live_output.close_live()
+    return 0
+
+
+def _show_several(args, scene, store, folder: str) -> int:
+    """show for a rig of several projectors: every projector's window at once, each on its display (--display
+    1,2,.. or the scene's real rig's), its own image of the result; the windows present together, and the lock
+    is measured over --lock-frames presentations at --fps (max_skew_frames: the spread between the windows)."""
+    from ...lapig_core.multi.result_files import is_multi_result
+    from ...lapig_core.rig.frame_lock import play_locked
+    from ..rigs import live_output
+    from ..services.panel_state import projectors_blocker
+
+    if not is_multi_result(folder):
+        raise ValueError("the rig has several projectors but the result is of one: stylize again first")
+    rig = store.read().rig
+    displays = [d.strip() for d in args.display.split(",")] if args.display else list(rig.displays)
+    frames = live_output.result_frames(folder, scene_state.export_settings(scene).bit_depth)
+    if len(displays) != len(frames):
+        raise ValueError(f"the result has {len(frames)} projectors: give --display one display each, e.g. "
+                         f"--display {','.join(str(k + 1) for k in range(len(frames)))}")
+    if not args.display:
+        problem = projectors_blocker(rig)
+        if problem:
+            raise ValueError(problem)
+    windows = live_output.open_windows(displays, names=[f"projector {k + 1}" for k in range(len(frames))])
+    sink = live_output.make_live(live_output.LockedWindowsSink(windows, fps=args.fps))
+    try:
+        t = time.perf_counter()
+        sink.show_all(frames)
+        if sink.problem:
+            raise ValueError(sink.problem)
+        summary = {"displays": [w.describe().get("display") for w in windows.windows], "result": folder,
+                   "show_s": round(time.perf_counter() - t, 4)}
+        if args.lock_frames:
+            summary["lock"] = play_locked(windows, (sink.frames for _ in range(args.lock_frames)), fps=args.fps)
+        print(f"showing {folder} on {len(frames)} projectors: Esc in a window stops"
+              if args.seconds is None else f"showing {folder} on {len(frames)} projectors for {args.seconds:g} s")
+        print_json(summary)
+        deadline = None if args.seconds is None else time.perf_counter() + args.seconds
+        while windows.is_open and (deadline is None or time.perf_counter() < deadline):
             time.sleep(0.05)
     finally:
         live_output.close_live()

@@ -68,6 +68,9 @@ def _parser():
         g.add_argument("--sim-latency", type=float, default=0.1, help="simulated: camera latency in seconds")
         g.add_argument("--sim-faults", type=float, default=0.03,
                        help="simulated: share of dropped, of repeated and of torn frames, each")
+        g.add_argument("--sim-display-gone", type=int, default=None, metavar="N",
+                       help="simulated, several projectors: the last projector's display goes after N frames, as "
+                            "an unplugged display does")
 
     # settings a command does not get keep the scene's (its Capture, Stylize and Export panels)
     cap = sub.add_parser("capture", help="capture the scene's projector-camera setup into a data set "
@@ -139,7 +142,11 @@ def _parser():
 
     sh = sub.add_parser("show", help="play the scene's look live on the projector (Esc in the window stops)")
     blend_arg(sh)
-    sh.add_argument("--display", help="the projector's display (default: the scene's real rig's)")
+    sh.add_argument("--display", help="the projector's display (default: the scene's real rig's); a rig of several: "
+                                      "one each, comma-separated, e.g. 1,2 (default: each projector's own)")
+    sh.add_argument("--lock-frames", type=int, default=30,
+                    help="several projectors: present the look this many times at --fps and report the windows' "
+                         "lock (max_skew_frames; default 30, 0: none)")
     sh.add_argument("--result", help="result folder to show (default: the scene's result)")
     sh.add_argument("--seconds", type=float, default=None,
                     help="close after this long (default: stay until Esc in the window)")

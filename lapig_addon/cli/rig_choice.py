@@ -75,4 +75,11 @@ def _simulated(args, scene):
         raise ValueError("--sim-faults must lie within 0..0.3 and --sim-latency within 0..2 s")
     faults = CameraFaults(latency_s=args.sim_latency, jitter_s=args.sim_latency / 5, drop_rate=rate,
                           repeat_rate=rate, torn_rate=rate)
-    return SimulatedRigFactory(CyclesDeviceFactory(scene), faults, clock=VirtualClock())
+    rig = scene_state.read_rig(scene)
+    gone = getattr(args, "sim_display_gone", None)
+    if gone is not None and (gone < 1 or rig.projector_count < 2):
+        raise ValueError("--sim-display-gone takes a number of frames, and a rig of several projectors")
+    closes_after = [None] * (rig.projector_count - 1) + [gone] if gone is not None else None
+    return SimulatedRigFactory(CyclesDeviceFactory(scene), faults, clock=VirtualClock(),
+                               names=list(rig.projectors) if rig.projector_count > 1 else None,
+                               closes_after=closes_after)

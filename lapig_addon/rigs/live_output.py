@@ -105,6 +105,14 @@ def status_lines() -> list:
     """The panel's lines about the live window, as (text, ok): where it is open, and why a look was not shown."""
     lines = []
     for sink in open_sinks():
+        if isinstance(sink, LockedWindowsSink):
+            shown = [w.describe().get("display", {}) for w in sink.window.windows]
+            where = (" on displays " + ", ".join(str(d["index"]) for d in shown)) if all("index" in d for d in shown) \
+                else ""
+            lines.append((f"Showing {len(shown)} projectors{where}, presented together (Esc in one closes it)", True))
+            if sink.problem:
+                lines.append((sink.problem, False))
+            continue
         describe = getattr(sink.window, "describe", None)  # a test's window may not say: its size is enough
         display = describe().get("display", {}) if describe else {}
         w, h = sink.window.size
@@ -367,3 +375,130 @@ class OpenWindowJob(WorkerJob):
             window, self._unclaimed = self._unclaimed, None
         if window is not None:
             close_window(window, wait)
+
+
+# ------------------------------------------------------------------ several projectors (issue 36)
+def result_frames(folder: str, bit_depth: int) -> list:
+    """A result of several projectors as each projector's ProjectorFrame (result.json's projectors[k].image at
+    its native size, what Export writes), in order."""
+    from ...lapig_core.export.result_files import read_summary
+    from ...lapig_core.multi.result_files import projector_images
+
+    summary = read_summary(folder)
+    return [ProjectorFrame(image, *entry["size"], bit_depth, folder=folder, summary=summary, projector_index=k)
+            for k, (entry, image) in enumerate(projector_images(folder))]
+
+
+class LockedWindowsSink:
+    """Every projector's window of a rig of several (lapig_core.rig.frame_lock.LockedWindows): each frame of
+    a projector replaces its picture, and all the windows present together; `skew_frames` is the last
+    presentation's spread between the windows, in frames at `fps`."""
+
+    several_projectors = True  # Generate hands it each projector's frame
+
+    def __init__(self, windows, fps: float = 60.0):
+        self.window = windows  # the LockedWindows: size, is_open, describe and close, as one window's
+        self.fps = fps
+        self.frames = [identification_frame(w.size) for w in windows.windows]
+        self.shown_at: float | None = None
+        self.skew_frames: float | None = None
+        self.problem = ""
+
+    def show(self, frame: ProjectorFrame) -> None:
+        self.show_all([frame])
+
+    def show_all(self, frames) -> None:
+        """Each frame on its projector's window (ProjectorFrame.projector_index), presented together."""
+        try:
+            for frame in frames:
+                k = frame.projector_index or 0
+                if k >= len(self.frames):
+                    raise RigError(f"the look has a projector {k + 1}; {len(self.frames)} windows are open")
+                self.frames[k] = window_pixels(frame, self.window.windows[k].size)
+            times = self.window.show(self.frames)
+            self.shown_at, self.skew_frames = max(times), (max(times) - min(times)) * self.fps
+            self.problem = ""
+        except RigError as exc:
+            self.problem = str(exc)
+
+
+def open_windows(displays, window_factory=None, names=None):
+    """A window on each display at once (each helper starts in a thread of its own: seconds, not K times that);
+    LockedWindows of them, or RigError naming the display that failed, the others closed."""
+    from ...lapig_core.rig.frame_lock import LockedWindows
+
+    return LockedWindows(open_each(displays, window_factory), names=names or [f"display {d}" for d in displays])
+
+
+def open_each(displays, window_factory=None) -> list:
+    """A window on each display (window_factory(display)), every helper started at once; the first failure
+    raised once every window is waited for, those that opened closed."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    if window_factory is None:
+        from ...lapig_core.rig.projector_window import ProjectorWindow
+
+        def window_factory(display):
+            return ProjectorWindow(int(display) if str(display).strip().isdigit() else display)
+    displays = [str(d) for d in displays]
+    seen = {}
+    for k, display in enumerate(displays):
+        if display.strip() in seen:
+            raise RigError(f"projectors {seen[display.strip()] + 1} and {k + 1} are both on display '{display}': "
+                           f"give each its own display")
+        seen[display.strip()] = k
+    with ThreadPoolExecutor(max_workers=len(displays), thread_name_prefix="LAPIG opening") as pool:
+        futures = [pool.submit(window_factory, d) for d in displays]
+    opened, failed = [], None
+    for future in futures:
+        try:
+            opened.append(future.result())
+        except Exception as exc:  # every window is waited for: none is left open behind a failure
+            failed = failed or exc
+    if failed is not None:
+        for window in opened:
+            close_window(window)
+        raise failed
+    return opened
+
+
+@dataclass(frozen=True)
+class StoredLooks:
+    """A result of several projectors as the windows show it first ('' folder: the identification frames)."""
+    folder: str = ""
+    bit_depth: int = 8
+
+    def frames(self) -> list:
+        return result_frames(self.folder, self.bit_depth) if self.folder else []
+
+
+class OpenWindowsJob(OpenWindowJob):
+    """Show on Projector for a rig of several: every projector's window opens at once, on its display, on the
+    job's worker thread, each showing its own image of the result; the windows present together."""
+
+    def __init__(self, displays, looks: StoredLooks = StoredLooks(), window_factory=None, names=None):
+        super().__init__(",".join(str(d) for d in displays), StoredLook(), window_factory)
+        self.displays, self.looks, self.names = [str(d) for d in displays], looks, names
+
+    def work(self, inputs, report, cancel_event):
+        report(0.05, f"opening the projector windows on displays {', '.join(self.displays)}")
+        frames = self.looks.frames()  # read first: a result that cannot be read opens no window
+        windows = open_windows(self.displays, self.window_factory, self.names)
+        with self._lock:
+            self._unclaimed = windows
+        if cancel_event.is_set():
+            self._close_unclaimed(wait=True)
+            return None
+        try:
+            report(0.9, "showing the look on every projector")
+            sink = LockedWindowsSink(windows)
+            if frames:
+                sink.show_all(frames)
+                if sink.problem:
+                    raise RigError(sink.problem)
+            else:
+                windows.show(sink.frames)
+        except BaseException:
+            self._close_unclaimed(wait=True)
+            raise
+        return sink

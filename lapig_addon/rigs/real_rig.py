@@ -78,17 +78,23 @@ class RigSpec:
 class RealRigFactory:
     main_thread = False
 
-    def __init__(self, spec: RigSpec, window_factory=None, camera_factory=None, expected_size=None, clock=None):
+    def __init__(self, spec: RigSpec, window_factory=None, camera_factory=None, expected_size=None, clock=None,
+                 projectors=()):
         """window_factory(display) and camera_factory(spec): the real ones by default (tests pass others);
         expected_size: the projector resolution the looks are made for (the display must have it);
-        clock: the devices' (lapig_core.rig.clock; None: the real one)."""
+        clock: the devices' (lapig_core.rig.clock; None: the real one); projectors: a rig of several, each
+        projector's (name, display, (width, height)), projector 1 first (its display is the spec's)."""
         self.spec, self.expected_size = spec, tuple(expected_size) if expected_size else None
+        self.projectors = tuple((str(n), str(d), tuple(size) if size else None) for n, d, size in projectors)
         self.clock = clock if clock is not None else _clock()
         self._window = window_factory or _projector_window
         self._camera = camera_factory or _camera
 
     def rig_identity(self) -> RigIdentity:
-        return RigIdentity(self.spec.name, self.spec.devices())
+        devices = self.spec.devices()
+        if len(self.projectors) > 1:  # a rig of several: every projector's display is the rig's
+            devices["projectors"] = [f"{name} on display {display}" for name, display, _ in self.projectors]
+        return RigIdentity(self.spec.name, devices)
 
     @contextlib.contextmanager
     def _rig(self, calibrated: bool = False):
@@ -123,6 +129,39 @@ class RealRigFactory:
     def capture_device(self, settings: CaptureSettings):
         return self._rig()
 
+    @contextlib.contextmanager
+    def multi_capture_device(self, settings: CaptureSettings):
+        """A rig of several projectors: one window per display, each its own helper process, and the one
+        camera (lapig_core.rig.multi_rig.MultiRigDevice: each projector calibrated and shot alone, the joint
+        frames on every window at once)."""
+        from ...lapig_core.rig.multi_rig import MultiRigDevice
+
+        problem = self.spec.problem() or multi_display_problem(self.projectors)
+        if problem:
+            raise CaptureError(problem)
+        from .live_output import open_each
+
+        release_devices()
+        windows = open_each([d for _, d, _ in self.projectors], self._window)  # every helper starts at once
+        try:
+            for (name, display, size), window in zip(self.projectors, windows):
+                if size and tuple(window.size) != size:
+                    w, h = window.size
+                    raise CaptureError(f"projector '{name}''s display '{display}' is {w}x{h} but the projector is "
+                                       f"{size[0]}x{size[1]}: set its resolution to {w}x{h}, its native one, and "
+                                       f"capture again")
+            camera = self._camera(self.spec)
+        except BaseException:
+            for window in windows:
+                window.close()
+            raise
+        device = MultiRigDevice(windows, camera, names=[n for n, _, _ in self.projectors], name=self.spec.name,
+                                frame_code=self.spec.frame_code, health_checks=self.spec.health_checks,
+                                **({"clock": self.clock} if self.clock is not None else {}))
+        self.last_device = device
+        with device:
+            yield device
+
     def setup_device(self, setup_meta: dict, seed: int = 0):
         if setup_meta.get("fingerprint") not in (None, self.rig_identity().key()):
             raise CaptureError("this capture was made with another rig: connect that one, or capture again")
@@ -132,8 +171,12 @@ class RealRigFactory:
 class SimulatedRigFactory:
     """Another factory's devices as the optics of a simulated real rig (latency, faults, a frame code)."""
 
-    def __init__(self, optics_factory, faults=None, name: str = "simulated rig", clock=None, **rig_options):
+    def __init__(self, optics_factory, faults=None, name: str = "simulated rig", clock=None, names=None,
+                 closes_after=None, **rig_options):
+        """names: a rig of several projectors' names; closes_after[k]: projector k's display goes after that
+        many frames (None: never), as an unplugged display does."""
         self.optics_factory, self.faults, self.name = optics_factory, faults, name
+        self.names, self.closes_after = names, closes_after
         self.clock, self.rig_options = clock, rig_options
         self.main_thread = optics_factory.main_thread  # Cycles renders the optics: its thread rules
         self.last = None  # (device, screen, camera) of the last rig opened: the bench reads the truth there
@@ -157,10 +200,40 @@ class SimulatedRigFactory:
     def capture_device(self, settings: CaptureSettings):
         return self._rig(self.optics_factory.capture_device(settings))
 
+    @contextlib.contextmanager
+    def multi_capture_device(self, settings: CaptureSettings):
+        """K simulated windows and one simulated camera around the optics factory's device of several (the
+        Cycles studio of every projector): lapig_core.rig.multi_rig.simulated_multi_rig."""
+        from ...lapig_core.rig.multi_rig import simulated_multi_rig
+
+        opener = getattr(self.optics_factory, "multi_capture_device", None)
+        if opener is None:
+            raise CaptureError(f"{self.name} cannot simulate several projectors over these optics")
+        with opener(settings) as optics:
+            options = dict(self.rig_options)
+            options.pop("geometry", None)
+            device, screens, camera = simulated_multi_rig(optics, self.faults, clock=self.clock, names=self.names,
+                                                          closes_after=self.closes_after, **options)
+            self.last = (device, screens, camera)
+            yield device
+
     def setup_device(self, setup_meta: dict, seed: int = 0):
         from ...lapig_core.rig.simulated import optics_meta
 
         return self._rig(self.optics_factory.setup_device(optics_meta(setup_meta), seed), calibrated=True)
+
+
+def multi_display_problem(projectors) -> str:
+    """Why a rig of several projectors cannot open its windows ('' when it can): each needs its own display."""
+    seen = {}
+    for name, display, _ in projectors:
+        key = display.strip()
+        if not key:
+            return f"Choose projector '{name}''s display: each projector of a real rig has its own"
+        if key in seen:
+            return f"Projectors '{seen[key]}' and '{name}' are both on display '{key}': give each its own display"
+        seen[key] = name
+    return ""
 
 
 def release_devices() -> None:

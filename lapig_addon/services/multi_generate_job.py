@@ -155,7 +155,8 @@ class MultiGenerateJob(WorkerJob):
 
 def show_projector_images(seams, output) -> None:
     """Each projector's image of a result of several to the sinks that take several projectors (Blender's
-    lights): the pixels Export writes at the scene's bit depth. output: {"folder", "summary"}."""
+    lights; the live windows of a real rig, all at once): the pixels Export writes at the scene's bit depth.
+    output: {"folder", "summary"}."""
     from ...lapig_core.multi.result_files import projector_images
     from .ports import ProjectorFrame
 
@@ -163,10 +164,14 @@ def show_projector_images(seams, output) -> None:
     if not sinks:
         return
     bit_depth = seams.store.export_settings().bit_depth
-    for k, (entry, image) in enumerate(projector_images(output["folder"])):
-        frame = ProjectorFrame(image, *entry["size"], bit_depth, folder=output["folder"],
-                               summary=output["summary"], projector_index=k)
-        for sink in sinks:
+    frames = [ProjectorFrame(image, *entry["size"], bit_depth, folder=output["folder"], summary=output["summary"],
+                             projector_index=k) for k, (entry, image) in enumerate(projector_images(output["folder"]))]
+    for sink in sinks:
+        show_all = getattr(sink, "show_all", None)  # the live windows of a real rig: every frame presented together
+        if show_all is not None:
+            show_all(frames)
+            continue
+        for frame in frames:
             sink.show(frame)
 
 

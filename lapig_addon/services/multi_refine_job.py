@@ -33,7 +33,7 @@ def multi_refine_inputs(seams) -> tuple[str, str]:
         raise PipelineError(blocker)
     if seams.devices is None or getattr(seams.devices, "multi_capture_device", None) is None:
         raise PipelineError("refinement of several projectors needs a rig that shows them all at once (the virtual "
-                            "rig)")
+                            "rig, or a real one with a window on each projector's display)")
     try:
         capture = multi_capture(state)
     except MultiPipelineError as exc:

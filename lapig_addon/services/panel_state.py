@@ -36,17 +36,19 @@ def device_blocker(rig: Rig) -> str:
 
 
 def projectors_blocker(rig: Rig) -> str:
-    """Why a rig of several projectors cannot be captured ('' when it can, and for one projector)."""
+    """Why a rig of several projectors cannot be captured ('' when it can, and for one projector): a real rig
+    opens one window per display (rigs/real_rig.multi_display_problem says the same where the rig opens)."""
     if rig.projector_count < 2 or rig.kind != "REAL":
         return ""
     seen = {}
     for name, display in zip(rig.projectors, rig.displays):
-        if display and display in seen:
+        if not display:
+            return f"Choose projector '{name}''s display: each projector of a real rig has its own"
+        if display in seen:
             return (f"Projectors '{seen[display]}' and '{name}' are both on display '{display}': give each its own "
                     f"display")
         seen[display] = name
-    return ("A real rig captures one projector for now: remove the other projectors, or capture them with the "
-            "virtual rig")
+    return ""
 
 
 def one_projector_blocker(rig: Rig) -> str:
@@ -136,8 +138,8 @@ def single_result_blocker(state: SceneState) -> str:
 
 def refine_blocker(state: SceneState) -> str:
     """Why Refine on the Rig cannot run ('' when it can): one projector's result as single_result_blocker says;
-    a rig of several refines all its projectors together (services/multi_refine_job) where its devices can show
-    them at once (device_blocker: not a real rig of several yet)."""
+    a rig of several refines all its projectors together (services/multi_refine_job): the virtual rig, or a real
+    one with a window on each projector's own display (projectors_blocker)."""
     if state.rig.projector_count > 1:
         return result_blocker(state) or projectors_blocker(state.rig)
     return single_result_blocker(state)

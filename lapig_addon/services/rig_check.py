@@ -3,8 +3,11 @@
 The job opens the rig as a capture would (the device factory's capture_device, on the thread the factory
 needs: a real rig's on a worker thread) and runs its calibration and health checks (RigDevice.lock_exposure:
 the display-to-camera latency, the frame code's cells, the exposure, a gray ramp up and down and its gamma).
-It captures and records nothing: the result is a short line per check for the panel and a sentence per
-problem, kept in this module for the rig it checked (a changed rig shows no old result).
+A rig of several projectors (the factory's multi_capture_device) is checked projector by projector, each
+alone with the others black, through the one camera (lapig_core.rig.multi_rig.MultiRigDevice.calibrate): its
+lines are named after their projector. It captures and records nothing: the result is a short line per check
+for the panel and a sentence per problem, kept in this module for the rig it checked (a changed rig shows no old
+result).
 """
 from __future__ import annotations
 
@@ -21,7 +24,7 @@ from .ports import Seams
 
 @dataclass(frozen=True)
 class CheckLine:
-    name: str  # 'Latency', 'Frame code', 'Exposure', 'Gray ramp', 'Gamma'
+    name: str  # 'Latency', 'Frame code', 'Exposure', 'Gray ramp', 'Gamma' (several projectors: '<name>: Latency')
     text: str
     ok: bool | None  # None: not measured (an earlier step failed)
 
@@ -85,8 +88,36 @@ class RigCheckJob(Job):
         super().__init__()
         self.seams, self.settings = seams, settings
 
+    def _check_several(self, opener):
+        """Every projector of a rig of several checked alone (the others black), through the one camera: its
+        lines, each named after its projector, and its problems, each a sentence naming it."""
+        devices = self.seams.devices
+        lines, problems = [], []
+        yield 0.05, "opening every projector's window and the camera"
+        try:
+            with opener(self.settings) as device:
+                count = len(device.rigs)
+                for k, rig in enumerate(device.rigs):
+                    yield 0.1 + 0.85 * k / count, f"checking {device.label(k)}: latency, frame code, exposure, ramp"
+                    try:
+                        device.calibrate(k)
+                    except CaptureError as exc:
+                        problems.extend(f"{device.label(k)}: {p}" for p in
+                                        (rig.health.get("problems") or [one_line(exc)]))
+                    except RigError as exc:
+                        problems.append(one_line(exc))
+                    lines += [CheckLine(f"{device.names[k]}: {line.name}", line.text, line.ok)
+                              for line in check_lines(rig)]
+                yield 0.95, "closing the devices"
+        except (CaptureError, RigError, OSError) as exc:
+            problems.append(one_line(exc))
+        return RigCheck(devices.rig_identity().key(), tuple(lines), tuple(problems))
+
     def _check(self):
         devices = self.seams.devices
+        opener = getattr(devices, "multi_capture_device", None)
+        if opener is not None and self.seams.store.read().rig.projector_count > 1:
+            return (yield from self._check_several(opener))
         device, problems = None, []
         yield 0.05, "opening the projector window and the camera"
         try:

@@ -134,7 +134,16 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
                 caps += device.capture([_alone(k, count, np.repeat(p[..., None], 3, axis=-1)) for p in chunk])
                 done = (k + len(caps) / len(patterns)) / count
                 yield 0.02 + 0.5 * done, f"{names[k]}: structured light {len(caps)}/{len(patterns)}"
-            camera_map = CameraMap.from_decoded(decode_graycode(caps, w, h), (w, h))
+            decoded = decode_graycode(caps, w, h)
+            reserved = getattr(device, "reserved_rows", None)  # a real rig's frame code lit these rows
+            top, bottom = reserved(k) if reserved is not None else (0, 0)
+            if top or bottom:
+                decoded.valid = decoded.valid & (decoded.proj_y >= top) & (decoded.proj_y < h - bottom)
+            code = getattr(device, "code_pixels", None)  # where any projector's code lights the object: the
+            lit_by_code = code() if code is not None else None  # joint captures (black, white) carry it there
+            if lit_by_code is not None:
+                decoded.valid = decoded.valid & ~lit_by_code
+            camera_map = CameraMap.from_decoded(decoded, (w, h))
             seen = mask if mask is not None else np.ones(camera_map.camera_shape, bool)
             problem = reach_problem(names[k], camera_map, seen)
             if problem:

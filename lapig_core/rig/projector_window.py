@@ -275,6 +275,31 @@ class ProjectorWindow:
         self._frames = int(answer.get("frame", self._frames + 1))
         return answer["_received"]
 
+    def load(self, frame) -> None:
+        """The frame into the window, not yet on screen: present() shows it (several windows of one rig load
+        their frames, then present together: lapig_core.rig.frame_lock)."""
+        frame = self._checked(frame)
+        height, width = frame.shape[:2]
+        self._call({"cmd": "load", "width": int(width), "height": int(height)}, payload=frame.reshape(-1))
+
+    def present(self) -> float:
+        """The loaded frame on screen; time.monotonic() in the helper once the window was updated (every
+        process of the machine shares that clock: the skew between windows is measured with it)."""
+        answer = self._call({"cmd": "present"})
+        self._frames = int(answer.get("frame", self._frames + 1))
+        return float(answer["t"])
+
+    def _checked(self, frame) -> np.ndarray:
+        frame = np.asarray(frame)
+        if frame.dtype != np.uint8 or frame.ndim != 3 or frame.shape[2] != 3:
+            raise RigError(f"a projector frame is uint8 RGB (H, W, 3), not {frame.dtype} {frame.shape}")
+        height, width = frame.shape[:2]
+        if width > self._size[0] or height > self._size[1]:
+            raise RigError(f"the frame is {width}x{height} but the projector's display "
+                           f"'{self._opened['display']['name']}' is {self._size[0]}x{self._size[1]}: frames are "
+                           f"shown 1:1, never scaled; render at the projector's resolution")
+        return np.ascontiguousarray(frame)
+
     def describe(self) -> dict:
         d = self._opened["display"]
         return {"kind": "projector window (SDL2)", "display": {k: d[k] for k in ("index", "name", "x", "y", "width",

@@ -53,16 +53,20 @@ class SimulatedScreen:
         self.clock = clock
         self.timeline: list[tuple[float, np.ndarray]] = []  # (shown at, frame)
         self.closes_after = closes_after
+        self.closed_message = "the projector window was closed (Esc or the window's close button)"
         self.frame_bit_depths = frame_bit_depths
+        self.on_show = None  # on_show(moment, frame): a rig of several screens keeps their joint timeline
 
     def show(self, frame) -> float:
         w, h = self.size
         if frame.shape[:2] != (h, w):
             raise RigError(f"a {frame.shape[1]}x{frame.shape[0]} frame does not fit the {w}x{h} display")
         if self.closes_after is not None and len(self.timeline) >= self.closes_after:
-            raise RigError("the projector window was closed (Esc or the window's close button)")
+            raise RigError(self.closed_message)
         t = self.clock.now()
         self.timeline.append((t, np.array(frame, copy=True)))
+        if self.on_show is not None:
+            self.on_show(t, self.timeline[-1][1])
         return t
 
     def shown_at(self, moment: float) -> int | None:

@@ -34,6 +34,12 @@ The protocol, both ways: a message is one JSON line (UTF-8, ending in a newline)
              {"cmd": "show", "width": w, "height": h, "nbytes": w*h*3} + uint8 RGB rows
                                                  -> {"ok": true, "frame": n} once SDL_UpdateWindowSurface
                                                     returned
+             {"cmd": "load", "width": w, "height": h, "nbytes": w*h*3} + rows
+                                                 -> {"ok": true}: the frame drawn into the window's surface,
+                                                    not yet on screen
+             {"cmd": "present"}                  -> {"ok": true, "frame": n, "t": time.monotonic()} once
+                                                    SDL_UpdateWindowSurface returned (several windows load,
+                                                    then present together: rig/frame_lock)
              {"cmd": "close"}                    -> {"ok": true}, then the process exits
   a refused request                              -> {"ok": false, "error": "..."}
   events     {"event": "ready", "sdl": "2.32.10", "driver": "x11", ...} once, first
@@ -268,6 +274,23 @@ class Window:
         return name.decode("ascii", "replace") if name else "?"
 
     def show(self, width, height, pixels: bytearray) -> dict:
+        self.load(width, height, pixels)
+        return self.present()
+
+    def present(self) -> dict:
+        """The loaded frame on screen (SDL_UpdateWindowSurface); "t": time.monotonic() once it returned, the
+        clock every process of this machine shares (the windows of several projectors compare theirs)."""
+        import time
+
+        if self.window is None:
+            raise RuntimeError("no window is open: send 'open' first")
+        if self.sdl2.SDL_UpdateWindowSurface(self.window) != 0:
+            raise RuntimeError(f"SDL could not draw the window: {self.error()}")
+        self.frames += 1
+        return {"ok": True, "frame": self.frames, "t": time.monotonic()}
+
+    def load(self, width, height, pixels: bytearray) -> dict:
+        """The frame into the window's surface, not yet on screen (present() puts it there)."""
         import ctypes
 
         sdl2 = self.sdl2
@@ -296,11 +319,8 @@ class Window:
         finally:
             sdl2.SDL_FreeSurface(source)
             del buffer
-        if sdl2.SDL_UpdateWindowSurface(self.window) != 0:
-            raise RuntimeError(f"SDL could not draw the window: {self.error()}")
-        self.frames += 1
         self.last = (width, height, pixels)
-        return {"ok": True, "frame": self.frames}
+        return {"ok": True}
 
     def redraw(self) -> None:
         """After the window was uncovered or its surface remade: the last frame again."""
@@ -369,12 +389,17 @@ class Helper:
                 self.send(self.window.open(header.get("display")))
             elif cmd == "show":
                 self.send(self.window.show(header.get("width"), header.get("height"), payload))
+            elif cmd == "load":
+                self.send(self.window.load(header.get("width"), header.get("height"), payload))
+            elif cmd == "present":
+                self.send(self.window.present())
             elif cmd == "close":
                 self.window.destroy()
                 self.send({"ok": True})
                 return False
             else:
-                self.send({"ok": False, "error": f"unknown request {cmd!r} (displays, open, show, close)"})
+                self.send({"ok": False,
+                           "error": f"unknown request {cmd!r} (displays, open, show, load, present, close)"})
         except (RuntimeError, DisplayChoiceError) as exc:
             self.send({"ok": False, "error": str(exc)})
         return True

@@ -120,7 +120,10 @@ def test_the_panel_decides_on_a_rig_of_several(tmp_path):
     assert panel_state.device_blocker(real) == "Projectors 'Left' and 'Right' are both on display '1': give each " \
                                                "its own display"
     apart = MultiStore(state, tmp_path, kind="REAL", displays=("1", "2")).read().rig
-    assert panel_state.device_blocker(apart).startswith("A real rig captures one projector for now")
+    assert panel_state.device_blocker(apart) == ""  # one window per display: a real rig of several captures
+    unset = MultiStore(state, tmp_path, kind="REAL", displays=("1", "")).read().rig
+    assert panel_state.device_blocker(unset) == "Choose projector 'Right''s display: each projector of a real rig " \
+                                                "has its own"
     # a projector added after a capture of one: the capture is stale, and the panel says why
     folder = tmp_path / "capture"
     folder.mkdir()
@@ -226,10 +229,14 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     refined = [image for _, image in projector_images(folder)]
     assert not np.allclose(refined[0], comp.frames[0], atol=2 / 255)
     assert [f.projector_index for f in sink.frames] == [0, 1]
-    # a real rig of several cannot show them all at once yet: refused in the panel's words
+    # a real rig of several shows them all at once, one window per display: refined as the virtual one; two on
+    # one display are refused in the panel's words
     real = MultiStore(state, tmp_path, kind="REAL", displays=("1", "2"))
     real.result = str(folder)
-    assert panel_state.refine_blocker(real.read()).startswith("A real rig captures one projector for now")
+    assert panel_state.refine_blocker(real.read()) == ""
+    shared = MultiStore(state, tmp_path, kind="REAL", displays=("1", "1"))
+    shared.result = str(folder)
+    assert panel_state.refine_blocker(shared.read()).endswith("are both on display '1': give each its own display")
 
 
 @pytest.mark.torch

@@ -119,8 +119,8 @@ def availability() -> dict:
     """{codec name: None where the installed PyAV encodes it, else the one line why not} (every name is
     there; where `av` itself is missing, every line is av_problem())."""
     problem = av_problem()
-    if problem is not None:
-        return {name: problem for name in NAMES}
+    if problem is not None:  # the line names the codec asked for: "hap: video export needs PyAV ..."
+        return {name: f"{CODECS[name].label}: {problem}" for name in NAMES}
     have = {name: _has_encoder(codec) for name, codec in CODECS.items()}
     available = ", ".join(name for name in NAMES if have[name]) or "none"
     out = {}

@@ -16,7 +16,8 @@ def test_the_model_loads_without_torch_and_the_api_names_resolve():
             "s = show.Show([show.Look('/r/a', hold_s=1.0)], [], fps=4)\n"
             "assert show.schedule_of(s).total_frames == 4\n"
             "assert 'torch' not in sys.modules, 'the model imported torch'\n"
-            "assert callable(show.show_frames) and show.ShowSetup and show.FrameSettings and show.KeyedLook\n"
+            "if importlib.util.find_spec('torch'):  # the producer's names, where torch is (not the torch-free tier)\n"
+            "    assert callable(show.show_frames) and show.ShowSetup and show.FrameSettings and show.KeyedLook\n"
             "print('ok')\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr

@@ -211,7 +211,9 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     scene = store.read()
     panel_state = _module("panel_state")
     assert panel_state.refine_blocker(scene) == ""  # Refine lets a rig of several through now
-    assert panel_state.single_result_blocker(scene) == "Works with one projector for now; the rig has 2"  # render
+    assert panel_state.render_blocker(scene) == ""  # Render Real Capture too
+    # the crossfade and the preview modes still want one projector
+    assert panel_state.single_result_blocker(scene) == "Works with one projector for now; the rig has 2"
     job = _module("refine_job").RefineResultJob(seams, 4)
     assert job.run() == "DONE", job.error
     record = job.result["refine"]
@@ -230,6 +232,51 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     real = MultiStore(state, tmp_path, kind="REAL", displays=("1", "2"))
     real.result = str(folder)
     assert panel_state.refine_blocker(real.read()).startswith("A real rig captures one projector for now")
+
+
+def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_on_the_object(tmp_path):
+    """Render Real Capture on a rig of several: both projectors' images of the result shown together, captured
+    once in camera space; rendered.png and its PSNR against the look (and the predicted capture) go into the
+    result, its comparison sheet shows it, and the rendered capture is close to the joint model's prediction."""
+    from lapig.lapig_core.common.imageio import read_image
+    from lapig.lapig_core.multi.capture_set import load_multi_capture
+    from lapig.lapig_core.multi.first_look import load_joint_model
+    from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
+    from lapig.lapig_core.multi.result_files import write_joint_result
+    from lapig.lapig_core.multi.stylize import JointLook
+
+    ports, state = _module("ports"), _module("state")
+    store = MultiStore(state, tmp_path / "data")
+    seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)))
+    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    cs = load_multi_capture(store.capture_dir, pairs=False)
+    model = load_joint_model(cs.setup_dir)
+    lo, hi = reach(model)
+    ramp = np.linspace(0.2, 0.8, CAMERA[0], dtype=np.float32)[None, :, None] * np.ones((CAMERA[1], 1, 3), np.float32)
+    target = lo + (hi - lo) * ramp
+    look = JointLook(target, joint_compensate(model, target), {"styles": []}, 1.0, 0.0)
+    folder, _ = write_joint_result(tmp_path / "results", "look", look, target, cs.names, cs.sizes,
+                                   {"prompt": "look", "capture": str(cs.setup_dir), "summary_line": "look"},
+                                   model.reached.any(axis=0))
+    store.result = str(folder)
+    job = _module("pipeline_jobs").RenderResultJob(seams)
+    assert job.run() == "DONE", job.error
+    m = job.result["metrics"]
+    print("rendered", m["rendered_psnr"], "vs predicted", m["rendered_vs_predicted_psnr"], "simulated",
+          m["simulated_psnr"])
+    # a look within the joint reach: the prediction is exact (simulated_psnr ~ inf), the render is within the
+    # camera's noise and 8-bit frames of it (about 33 dB here)
+    assert np.isfinite(m["rendered_psnr"]) and m["rendered_psnr"] > 28.0
+    assert m["rendered_vs_predicted_psnr"] > 28.0  # the model foresaw the render
+    rendered = read_image(folder / "rendered.png")
+    assert rendered.shape == (CAMERA[1], CAMERA[0], 3) and rendered.mean() > 0.05
+    saved = json.loads((folder / "result.json").read_text())
+    assert saved["metrics"]["rendered_psnr"] == pytest.approx(m["rendered_psnr"])
+    assert saved["projectors"][0]["image"] == "projector_1.png"  # the result itself untouched
+    sheet = read_image(folder / "comparison.png")
+    assert sheet.shape[1] == 3 * 256  # look, predicted, rendered; the projectors below
+    # the left and right halves are each lit by their own projector: both bright where the look is
+    assert rendered[:, : CAMERA[0] // 3].mean() > 0.02 and rendered[:, -CAMERA[0] // 3:].mean() > 0.02
 
 
 @pytest.mark.torch

@@ -115,6 +115,25 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     assert [tuple(i.size) for i in shown] == [(64, 48), (64, 48)] and shown[0] != shown[1]  # each light its own
     assert summary["psa"]["warm_start_steps"] > 0 and os.path.isfile(os.path.join(result, "projector_1_nopsa.png"))
 
+    # Render Real Capture: both projectors show their image together in Cycles, the camera captures it
+    assert bpy.ops.lapig.render_result() == {"FINISHED"}
+    from lapig.lapig_core.common.imageio import read_image, write_png
+    from lapig.lapig_core.multi.first_look import load_joint_model
+
+    rendered = read_image(os.path.join(result, "rendered.png"))
+    write_png("/tmp/lapig_multi_rendered.png", np.concatenate(
+        [read_image(os.path.join(result, n + ".png")) for n in ("look", "predicted", "rendered")], axis=1))
+    m = json.loads(open(os.path.join(result, "result.json")).read())["metrics"]
+    print("rendered", m["rendered_psnr"], "vs predicted", m["rendered_vs_predicted_psnr"], "simulated",
+          m["simulated_psnr"])
+    assert rendered.shape == (60, 80, 3) and rendered.mean() > 0.03
+    reached = load_joint_model(cs.setup_dir).reached
+    for k in (0, 1):  # each projector's own region (reached by it alone) is lit
+        own = reached[k] & ~reached[1 - k]
+        assert own.sum() > 20 and rendered[own].mean() > 0.05, k
+    assert np.isfinite(m["rendered_psnr"]) and abs(m["rendered_psnr"] - m["simulated_psnr"]) < 5.0
+    assert m["rendered_vs_predicted_psnr"] > 20.0
+
     # Refine on the rig: both projectors' images projected together in Cycles, corrected jointly
     scene.lapig.refine_steps = 2
     assert bpy.ops.lapig.refine_result() == {"FINISHED"}

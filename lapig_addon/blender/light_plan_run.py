@@ -221,3 +221,17 @@ def several_report_job(scene, plan, folder: str | None, width: int = 160, maps_d
     from ..services.light_report_job import SeveralReportJob
 
     return SeveralReportJob(plan, SeveralSceneLight(scene, plan, width), folder or None, maps_dir)
+
+
+def several_cap_job(scene, plan, folder: str | None = None, record: bool = True):
+    """Limit Look to the Dose for a result of several projectors (services/several_dose_cap.SeveralDoseCapJob):
+    one factor on every projector's light, a result of its own."""
+    from ..services.several_dose_cap import SeveralDoseCapJob
+    from .scene_store import scene_seams
+
+    if plan.limit is None:
+        raise ValueError("limiting the look needs a conservation category")
+    folder = folder or scene_state.read(scene).result_dir
+    if not folder:
+        raise ValueError("limiting the look needs a result: generate a look first")
+    return SeveralDoseCapJob(scene_seams(scene), plan, SeveralSceneLight(scene, plan), folder, record=record)

@@ -300,3 +300,30 @@ def several_cap_scale(plan: LightPlan, report: dict) -> float:
     within the limit already."""
     within = (report.get("dose") or {}).get("lumens_within_limit")
     return min(1.0, within / report["lumens"]) if within else 1.0
+
+
+def several_cap_factor(plan: LightPlan, total, combined, margin: float = 0.01) -> float:
+    """The one factor on every projector's emitted light that keeps the sum of their looks plus the room within
+    the plan's limit on the marked region (maps and look as several_report returns them; `margin` below it, as
+    one projector's cap keeps): 1 when the look is within it already, 0 when the room alone is over it."""
+    if plan.limit is None:
+        raise ValueError("set a conservation category first: there is no limit to keep")
+    region = np.asarray(total.region, bool) & np.asarray(total.on_object, bool)
+    look = (total.white_lux * (1.0 if combined is None else combined))[region]
+    room = np.broadcast_to(total.ambient_lux, region.shape)[region]
+    limit = plan.limit.limit_lux * (1 - margin)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room_left = np.where(look > 1e-9, (limit - room) / look, np.inf)
+    return float(np.clip(room_left, 0.0, 1.0).min()) if room_left.size else 1.0
+
+
+def scaled_frame(frame: np.ndarray, model, scale: float, bit_depth: int = 16) -> np.ndarray:
+    """A projector frame whose emitted light is `scale` times the frame's (each channel, so the hue and the
+    blend with the other projectors hold; never below the black level), back to input values rounded down to
+    the bit depth's steps, never above the frame's own."""
+    frame = np.asarray(frame, np.float64)
+    black, gamma = model.black_level, model.gamma
+    e = black + (1.0 - black) * np.power(np.clip(frame, 0, 1), gamma)
+    rel = np.clip((np.maximum(e * scale, black) - black) / max(1.0 - black, 1e-12), 0.0, 1.0)
+    steps = 2 ** bit_depth - 1
+    return np.minimum(np.floor(np.power(rel, 1.0 / gamma) * steps + 1e-9) / steps, frame).astype(np.float32)

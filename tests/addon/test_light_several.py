@@ -81,3 +81,59 @@ def test_one_projector_through_the_several_path_reads_as_today(lr):
     several, _, _ = lr.several_report(plan, [_maps(400.0, 320.0, room=20.0)], [emitted], [model], ["P"], [2000.0])
     for key in ("white_lux", "look_lux", "total_lux", "contrast_ratio", "dose", "lumens", "light_power_w"):
         assert several[key] == today[key], key
+
+
+def test_the_dose_cap_scales_every_projectors_light_by_one_factor(lr):
+    model = ProjectorModel()
+    frame = np.full((6, 8, 3), 0.8, np.float32)
+    frame[:, :4] = 0.0  # black stays black
+    half = lr.scaled_frame(frame, model, 0.5)
+    e0, e1 = model.emitted(frame), model.emitted(half)
+    lit = frame[..., 0] > 0
+    assert np.allclose(e1[lit], 0.5 * e0[lit], rtol=1e-3) and np.all(half <= frame)
+    assert np.array_equal(half[~lit], frame[~lit])
+    assert np.array_equal(lr.scaled_frame(frame, model, 1.0), np.floor(frame * 65535 + 1e-9) / 65535)
+    plan = lr.LightPlan(lumens=1000, ambient_lux=10, limit=dose.ConservationLimit("high", schedule=dose.Schedule(10, 200)))
+    _, total, combined = lr.several_report(plan, [_maps(300.0, 0.0, room=10.0), _maps(0.0, 300.0)], None,
+                                           [model, model], ["L", "R"], [1000.0, 1000.0])
+    factor = lr.several_cap_factor(plan, total, combined)
+    assert factor == pytest.approx((50 * 0.99 - 10) / 300)  # the brightest point of the sum meets the limit
+
+
+def test_the_dose_cap_job_of_several_writes_a_limited_result_of_its_own(lr, tmp_path):
+    from lapig.lapig_core.common.steps import run_to_end  # noqa: F401
+    from lapig.lapig_core.export.result_files import write_new_result
+    from lapig.lapig_core.multi.result_files import projector_images
+
+    model = ProjectorModel(width=8, height=6)
+    frames = [np.full((6, 8, 3), 0.9, np.float32), np.full((6, 8, 3), 0.6, np.float32)]
+    folder = write_new_result(tmp_path, "look", {"look": np.full((8, 10, 3), 0.5, np.float32),
+                                                 "projector_1": frames[0], "projector_2": frames[1]},
+                              {"prompt": "p", "summary_line": "look", "multi": {"count": 2},
+                               "projectors": [{"name": "L", "image": "projector_1.png", "size": [8, 6]},
+                                              {"name": "R", "image": "projector_2.png", "size": [8, 6]}]})
+
+    class Light:
+        models, names, lumens, target_name = [model, model], ["L", "R"], [1000.0, 1000.0], "Bust"
+
+        def steps(self, shown):
+            assert len(shown) == 2
+            yield 0.5, "rendering"
+            return [_maps(300.0, 0.0, room=10.0), _maps(0.0, 300.0)], [np.ones((8, 10)), np.ones((8, 10))]
+
+    plan = lr.LightPlan(lumens=1000, ambient_lux=10, limit=dose.ConservationLimit("high", schedule=dose.Schedule(10, 200)))
+    job = importlib.import_module("lapig.lapig_addon.services.several_dose_cap").SeveralDoseCapJob(
+        None, plan, Light(), str(folder), record=False)
+    assert job.run() == "DONE", job.error
+    out = job.result
+    assert out["folder"] != str(folder) and out["scale"] == pytest.approx((50 * 0.99 - 10) / 300)
+    assert out["max_lux_before"] == pytest.approx(310) and out["predicted_max_lux"] <= 50
+    capped = [image for _, image in projector_images(out["folder"])]
+    for before, after in zip(frames, capped):  # both projectors dimmed by the same factor of light
+        ratio = model.emitted(after)[0, 0, 0] / model.emitted(before)[0, 0, 0]
+        assert ratio == pytest.approx(out["scale"], rel=0.01)
+    saved = json.loads(open(f"{out['folder']}/result.json").read())
+    assert saved["dose_cap"]["scale"] == pytest.approx(out["scale"], abs=1e-4)
+    assert "every projector's light x0.13" in saved["summary_line"]
+    assert [p["image"] for p in saved["projectors"]] == ["projector_1.png", "projector_2.png"]
+    assert json.loads(open(f"{folder}/result.json").read())["summary_line"] == "look"  # the free look stays

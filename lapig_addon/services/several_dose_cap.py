@@ -15,11 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from . import light_report
+from .dose_cap import DoseCapJob
 from .jobs import Job
 
 
 class SeveralDoseCapJob(Job):
-    title = "LAPIG limit look to the dose"
+    title = DoseCapJob.title  # the panel's progress line is the one job's
 
     def __init__(self, seams, plan, light, folder: str, record: bool = True):
         super().__init__()

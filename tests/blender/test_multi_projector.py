@@ -134,6 +134,39 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     assert np.isfinite(m["rendered_psnr"]) and abs(m["rendered_psnr"] - m["simulated_psnr"]) < 5.0
     assert m["rendered_vs_predicted_psnr"] > 20.0
 
+    # Light in real units: every projector's light together, each one's share; the dose cap one factor for all
+    light = scene.lapig_light
+    light.preset, light.lumens, light.ambient_lux, light.category = "NONE", 2000.0, 10.0, "HIGH"
+    assert bpy.ops.lapig.light_report() == {"FINISHED"}
+    report = json.loads(open(os.path.join(result, "light_report.json")).read())
+    print("light", report["projectors_line"], report["look_lux"], report["dose"]["max_lux"])
+    assert [p["name"] for p in report["projectors"]] == list(names) and report["frame"] == "camera"
+    assert report["lumens"] == pytest.approx(4000) and min(p["share"] for p in report["projectors"]) > 0.1
+    from lapig.panels.light_panel import LAPIG_PT_light
+    from test_panels import RecordingLayout
+
+    class Layout(RecordingLayout):
+        def prop_search(self, data, name, *args, **kwargs):
+            self.log.append(("prop", name))
+
+        def _child(self, *args, **kwargs):
+            return Layout(self.log)
+
+        row = column = box = split = _child
+
+    log = []
+    LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+    texts = [e[1] for e in log if e[0] == "label"]
+    assert any(t.startswith(f"{names[1]}: 2,000 lm, ") for t in texts), texts
+    assert bpy.ops.lapig.light_cap() == {"FINISHED"}
+    capped = scene_state.read(scene).result_dir
+    saved = json.loads(open(os.path.join(capped, "result.json")).read())
+    assert capped != result and 0 < saved["dose_cap"]["scale"] < 1
+    assert saved["dose_cap"]["max_lux_after"] <= 50.0
+    from lapig.lapig_addon.blender.scene_store import scene_seams
+
+    scene_seams(scene).store.record_result(result, summary["summary_line"])  # back to the free look
+
     # Refine on the rig: both projectors' images projected together in Cycles, corrected jointly
     scene.lapig.refine_steps = 2
     assert bpy.ops.lapig.refine_result() == {"FINISHED"}

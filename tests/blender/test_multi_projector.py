@@ -249,12 +249,14 @@ def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp
     captured = json.loads(proc.stdout[proc.stdout.index("{"):])
     assert captured["coverage"]["reached"] > max(captured["coverage"]["per_projector"])
     assert captured["first_look_seconds"] < 10
-    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--render")
-    assert proc.returncode == 1 and "works with one projector for now; this rig has 2" in proc.stderr
-    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save", "--refine", "1")
+    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save", "--refine", "1",
+                "--render")
     assert proc.returncode == 0, proc.stderr[-2000:]
     stylized = json.loads(proc.stdout[proc.stdout.index("{"):])
     assert stylized["refine"]["iterations"] == 1 and stylized["simulated_psnr_nopsa"] is not None
+    # --render: the refined images shown together and captured, after the refinement
+    assert np.isfinite(stylized["rendered_psnr"]) and np.isfinite(stylized["rendered_vs_predicted_psnr"])
+    assert os.path.isfile(os.path.join(stylized["result"], "rendered.png"))
     out = tmp_path / "out"
     out.mkdir()
     proc = _cli("export", "--blend", blend, "--out", str(out / "look.png"), "--mpcdi", str(out / "rig.mpcdi"))

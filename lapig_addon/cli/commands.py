@@ -248,6 +248,8 @@ def _stylize_multi(args, seams, request, capture) -> int:
         refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
         out["summary"] = read_summary_of(refined["folder"])
     if args.render:  # after the refinement: the render captures the refined images
+        from ..services.pipeline_jobs import RenderResultJob
+
         out["summary"] = RenderResultJob(seams).run_to_completion()
     _save_if_asked(args)
     print_notes(out["summary"].get("notes", []))

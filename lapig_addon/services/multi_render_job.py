@@ -12,6 +12,8 @@ rendered_psnr (against the look, on the object where some projector reaches) and
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ...lapig_core.capture.settings import CaptureError
@@ -76,5 +78,19 @@ def multi_render_steps(job):
     rendered = dict(zip(sets, captured))
     summary.setdefault("metrics", {}).update(rendered_metrics(rendered, folder, render_valid(capture)))
     summary["rendered_bit_depth"] = 8  # the device's frames: multi/refine.device_capture's contract
+    summary["summary_line"] = with_rendered(summary.get("summary_line") or summary.get("prompt") or "result",
+                                            summary["metrics"]["rendered_psnr"])
     write_rendered(folder, rendered, summary)
+    job.seams.store.record_result(folder, summary["summary_line"])  # the panel's line says it
     return summary
+
+
+RENDERED = "; rendered in Cycles "
+
+
+def with_rendered(line: str, psnr: float) -> str:
+    """The result line with this render's figure in place of an earlier render's, before ' | ' (the panel shows
+    what follows it on a line of its own)."""
+    head, bar, missed = line.partition(" | ")
+    head = re.sub(re.escape(RENDERED) + r"[^;]*", "", head)
+    return head + f"{RENDERED}{psnr:.1f} dB against the look" + (bar + missed if bar else "")

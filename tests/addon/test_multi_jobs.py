@@ -273,6 +273,11 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
     saved = json.loads((folder / "result.json").read_text())
     assert saved["metrics"]["rendered_psnr"] == pytest.approx(m["rendered_psnr"])
     assert saved["projectors"][0]["image"] == "projector_1.png"  # the result itself untouched
+    assert saved["summary_line"].endswith(f"; no PSA; rendered in Cycles {m['rendered_psnr']:.1f} dB against the look")
+    assert store.result == str(folder)
+    # rendered again: one figure in the line, the newest
+    assert _module("pipeline_jobs").RenderResultJob(seams).run() == "DONE"
+    assert json.loads((folder / "result.json").read_text())["summary_line"].count("rendered in Cycles") == 1
     sheet = read_image(folder / "comparison.png")
     assert sheet.shape[1] == 3 * 256  # look, predicted, rendered; the projectors below
     # the left and right halves are each lit by their own projector: both bright where the look is

@@ -133,6 +133,8 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
         assert own.sum() > 20 and rendered[own].mean() > 0.05, k
     assert np.isfinite(m["rendered_psnr"]) and abs(m["rendered_psnr"] - m["simulated_psnr"]) < 5.0
     assert m["rendered_vs_predicted_psnr"] > 20.0
+    texts = [e[1] for e in draw_panels(bpy.context, []) if e[0] == "label"]  # the result's line says it
+    assert any(f"rendered in Cycles {m['rendered_psnr']:.1f} dB against the look" in t for t in texts), texts
 
     # Light in real units: every projector's light together, each one's share; the dose cap one factor for all
     light = scene.lapig_light

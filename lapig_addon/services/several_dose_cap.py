@@ -63,7 +63,7 @@ class SeveralDoseCapJob(Job):
         yield 0.92, "writing the limited look"
         summary = read_summary(self.folder)
         folder = Path(self.folder)
-        skip = {"rendered", "rendered_nopsa", "comparison"} | {Path(e["image"]).stem for e, _ in entries}
+        skip = {"rendered", "rendered_nopsa"} | {Path(e["image"]).stem for e, _ in entries}
         images = {p.stem: read_result_image(folder, p.stem) for p in folder.glob("*.png")
                   if p.stem not in skip and not p.stem.startswith("light_")}
         names = [projector_image_name(k) for k in range(len(frames))]

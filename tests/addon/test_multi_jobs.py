@@ -282,6 +282,9 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
     assert sheet.shape[1] == 3 * 256  # look, predicted, rendered; the projectors below
     # the left and right halves are each lit by their own projector: both bright where the look is
     assert rendered[:, : CAMERA[0] // 3].mean() > 0.02 and rendered[:, -CAMERA[0] // 3:].mean() > 0.02
+    # a refinement afterwards keeps the sheet of several (look, predicted, rendered; the projectors below)
+    assert _module("refine_job").RefineResultJob(seams, 1).run() == "DONE"
+    assert read_image(folder / "comparison.png").shape == sheet.shape
 
 
 @pytest.mark.torch

@@ -65,3 +65,22 @@ def test_the_light_report_of_two_projectors_names_each_ones_share(lapig_register
     assert lux.shape[:2] == (30, 40)
     write_png("/tmp/lapig_lux_two_projectors.png", np.repeat(np.repeat(lux, 8, 0), 8, 1))
     assert 0 < report["dose_cap_scale"] <= 1.0
+
+
+def test_the_report_command_adds_every_projectors_light(lapig_registered, tmp_path):
+    from test_multi_projector import _cli
+
+    scene, projector, camera, target = _statue_lit_from_the_front_left(tmp_path)
+    assert bpy.ops.lapig.add_projector() == {"FINISHED"}
+    blend = str(tmp_path / "two.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    proc = _cli("report", "--blend", blend, "--lumens", "1500", "--ambient-lux", "5", "--map-width", "40",
+                "--maps", str(tmp_path / "maps"))
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    report = json.loads(proc.stdout[proc.stdout.index("{"):])
+    assert report["frame"] == "camera" and report["lumens"] == pytest.approx(3000)
+    assert [p["lumens"] for p in report["projectors"]] == [1500, 1500]
+    assert (tmp_path / "maps" / "light_lux.png").is_file()
+    proc = _cli("report", "--blend", blend, "--lumens", "1500", "--category", "high", "--cap-out",
+                str(tmp_path / "cap.png"))
+    assert proc.returncode == 1 and "--cap-out and --psnr work with one projector" in proc.stderr

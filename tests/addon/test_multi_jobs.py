@@ -154,6 +154,20 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     sidecar = json.loads(open(written["sidecars"][1]).read())
     assert sidecar["projector"] == {"index": 2, "count": 2, "name": "Right", "resolution": list(PROJECTOR)}
     assert sidecar["image"]["bit_depth"] == 16 and os.path.isfile(written["mpcdi"])
+    assert "light" not in sidecar and "table" not in written  # no Light Report yet: as it always wrote
+    # after a Light Report of several: each sidecar its projector's share, the table every projector's row
+    row = {"resolution": list(PROJECTOR), "lumens": 2000.0, "throw_ratio": 1.2, "shift_x": 0.0, "shift_y": 0.0,
+           "position_m": [0, -3, 1], "rotation_deg": [90, 0, 0], "target_distance_m": 3.0, "target_lux": 250.0}
+    report = {"lumens": 4000.0, "light_power_w": 200.0, "frame": "camera", "look_lux": {"mean": 300.0},
+              "projectors": [{"name": "Left", "lumens": 2000.0, "share": 0.6},
+                             {"name": "Right", "lumens": 2000.0, "share": 0.4}],
+              "projector_table_rows": [{**row, "name": "Left"}, {**row, "name": "Right"}]}
+    _module("light_report").write_report(str(folder), report)
+    written = export.export_multi(store, settings)
+    sidecar = json.loads(open(written["sidecars"][1]).read())
+    assert sidecar["light"]["lumens"] == 4000 and sidecar["light"]["projector"]["share"] == 0.4
+    table = open(written["table"]).read()
+    assert os.path.basename(written["table"]) == "grey_projectors.csv" and "Left" in table and "Right" in table
     # the one export of the scene's result takes the same path for a result of several
     assert _module("export_result").export_current(store, settings)["images"] == written["images"]
     blocked = tmp_path / "out" / "grey_1.png" / "rig.mpcdi"

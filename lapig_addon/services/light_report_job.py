@@ -116,7 +116,9 @@ class SeveralReportJob(Job):
             raise ValueError(f"no projector reaches '{light.target_name}' in the camera's view: aim them at it")
         report["frame"] = "camera"  # the maps are over the rig camera's pixels
         report["result"] = self.folder
-        report["dose_cap_scale"] = light_report.several_cap_scale(self.plan, report) if self.plan.limit else None
+        # the one factor on every projector's light that Limit Look to the Dose would apply
+        report["dose_cap_scale"] = (round(light_report.several_cap_factor(self.plan, total, combined), 4)
+                                    if self.plan.limit else None)
         report["projector_table_rows"] = [{**row, "target_lux": p["white_lux_mean"]}
                                           for row, p in zip(light.rows, report["projectors"])]
         images = light_report.report_images(self.plan, total, combined)

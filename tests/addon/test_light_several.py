@@ -101,7 +101,6 @@ def test_the_dose_cap_scales_every_projectors_light_by_one_factor(lr):
 
 
 def test_the_dose_cap_job_of_several_writes_a_limited_result_of_its_own(lr, tmp_path):
-    from lapig.lapig_core.common.steps import run_to_end  # noqa: F401
     from lapig.lapig_core.export.result_files import write_new_result
     from lapig.lapig_core.multi.result_files import projector_images
 

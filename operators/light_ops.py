@@ -18,10 +18,18 @@ class LAPIG_OT_light_report(JobRunnerMixin, bpy.types.Operator):
         problem = rig_blocker(scene_state.read_rig(scene)) or plan.problem()
         if problem:
             raise ValueError(problem)
-        return light_plan_run.report_job(scene, plan, scene_state.read(scene).result_dir or None)
+        folder = scene_state.read(scene).result_dir or None
+        if scene_state.read_rig(scene).projector_count > 1:  # every projector's light over the camera's pixels
+            from ..lapig_core.multi.result_files import is_multi_result
+
+            return light_plan_run.several_report_job(scene, plan, folder if folder and is_multi_result(folder)
+                                                     else None)
+        return light_plan_run.report_job(scene, plan, folder)
 
     def on_done(self, context, job):
         report = job.result
+        if report.get("projectors"):  # several: their maps are the camera's, not a projector's frame
+            self.report({"INFO"}, "Each projector's share: " + report["projectors_line"])
         if report["warning"]:
             self.report({"WARNING"}, report["warning"])
         dose = report.get("dose")
@@ -29,7 +37,8 @@ class LAPIG_OT_light_report(JobRunnerMixin, bpy.types.Operator):
             self.report({"WARNING"}, f"{dose['max_lux']} lux on the marked region: over its {dose['limit_lux']:g} "
                                      "lux limit")
         scene = context.scene
-        if report["result"] and result_preview.apply_mode(scene, "LUX", report=self.report):
+        if report["result"] and not report.get("projectors") and result_preview.apply_mode(scene, "LUX",
+                                                                                            report=self.report):
             scene_state.record_preview_mode(scene, "LUX")
         c = report["contrast_ratio"]["median"]
         self.report({"INFO"}, f"look {report['look_lux']['mean']} lux mean, contrast {c}:1 against the room")
@@ -49,12 +58,18 @@ class LAPIG_OT_light_cap(JobRunnerMixin, bpy.types.Operator):
             problem = "generate a look first"
         if problem:
             raise ValueError(problem)
+        if scene_state.read_rig(scene).projector_count > 1:  # one factor on every projector's light
+            return light_plan_run.several_cap_job(scene, plan)
         return light_plan_run.cap_job(scene, plan)
 
     def on_done(self, context, job):
         out = job.result
         for note in out.get("notes", []):
             self.report({"WARNING"}, note)
+        if "scale" in out:
+            self.report({"INFO"}, f"limited look: every projector's light x{out['scale']:.2f}, "
+                                  f"{out['predicted_max_lux']} lux at most on the region")
+            return
         self.report({"INFO"}, f"limited look: {out['predicted_max_lux']} lux at most on the region "
                               f"({out['changed_pixel_share']:.0%} of the pixels dimmed)")
 

@@ -57,7 +57,10 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
         if not report:
             return
         box = layout.box()
-        box.label(text=f"{report['lumens']:,.0f} lm = {report['light_power_w']:,.1f} W of Blender light")
+        box.label(text=f"{report['lumens']:,.0f} lm = {report['light_power_w']:,.1f} W of Blender light"
+                       + (" (all projectors)" if report.get("projectors") else ""))
+        for p in report.get("projectors") or []:  # several: each one's lumens and share of the light
+            box.label(text=f"{p['name']}: {p['lumens']:,.0f} lm, {p['share']:.0%} of the light", icon="LIGHT_SPOT")
         box.label(text=f"Look: {report['look_lux']['mean']} lux mean, {report['look_lux']['max']} max")
         box.label(text=f"Luminance: {report['luminance_cd_m2']['mean']} cd/m2 mean")
         box.label(text=f"Contrast against the room: {report['contrast_ratio']['median']}:1 (median)",

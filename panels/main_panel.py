@@ -366,10 +366,11 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)
-        single = not panel_state.one_projector_blocker(state.rig)  # render and crossfade: one projector
+        single = not panel_state.one_projector_blocker(state.rig)  # the crossfade: one projector
         row = layout.row()
-        # rendering also needs torch and the capture the result was made on
-        row.enabled = has_result and single and not panel_state.models_blocker(state) and not _job_running()
+        # rendering also needs torch and the capture the result was made on; several projectors render together
+        row.enabled = (has_result and not panel_state.render_blocker(state) and not panel_state.models_blocker(state)
+                       and not _job_running())
         row.operator("lapig.render_result", icon="RENDER_RESULT")
         row = layout.row(align=True)  # closed loop: the rig's captures correct the image (progress; Esc cancels)
         # several projectors are refined together (their joint model): refine_blocker says when
@@ -393,7 +394,8 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         else:  # one image per projector (<name>_1.png, ...), and the rig's warps and blends for a media server
             col.operator("lapig.export_image", icon="EXPORT", text="Export Projector Images")
             col.operator("lapig.export_mpcdi", icon="PACKAGE")
-            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no render or crossfade yet")
+            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no crossfade or result preview "
+                                                                             "modes yet")
 
 
 CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,

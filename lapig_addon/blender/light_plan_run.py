@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 import os
 
+import numpy as np
+
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.steps import run_to_end
 from ...lapig_core.photometry import units
@@ -145,3 +147,91 @@ def apply_projector(scene, plan) -> tuple[dict, list[str]]:
     settings, notes = light_report.projector_settings(plan, scene_state.projector_model(projector))
     scene_state.write_projector_settings(projector, settings)
     return {k: (round(v, 6) if isinstance(v, float) else v) for k, v in settings.items()}, notes
+
+
+class SeveralSceneLight:
+    """The light of a rig of several projectors over its camera's pixels (issue 36): each projector's maps from
+    a LightStudio viewed from the rig's camera (light_render's view), so their light adds pixel by pixel; the
+    room's light rendered once, with the first. Each projector at its own lumens (light_report.several_lumens:
+    the plan's are the first's, the others' in proportion to their own light power); a result's look as each
+    projector shows its image of it (result.json's projectors[k].image), rendered as the light it emits.
+    Read on the main thread when made; steps() renders, one Cycles render a step."""
+
+    def __init__(self, scene, plan, width: int = 160):
+        plan.check()
+        self.scene, self.plan = scene, plan
+        self.projectors = scene_state.rig_projectors(scene)
+        _, self.camera, self.target = scene_state.rig_objects(scene)
+        if not self.projectors or self.camera is None or self.target is None:
+            raise light_render.LightRenderError("set up the rig first: there is no projector, camera or object")
+        for p in self.projectors:
+            if p.data.energy <= 0:
+                raise ValueError(f"'{p.name}' has no light power to render with: set its brightness above 0")
+        self.models = [plan_model(p, plan) for p in self.projectors]
+        self.names = [p.name for p in self.projectors]
+        self.lumens = light_report.several_lumens(plan, [p.data.energy for p in self.projectors], self.models)
+        self.scales = [units.lumens_to_watts(lm, m) / p.data.energy
+                       for lm, m, p in zip(self.lumens, self.models, self.projectors)]
+        c = self.camera.lapig_camera
+        width = min(width, c.resolution_x)
+        self.size = (width, max(8, round(width * c.resolution_y / c.resolution_x)))
+        self.target_name = self.target.name
+        self.rows = [rig_row(p, self.target, m, plan) for p, m in zip(self.projectors, self.models)]
+        for row, lm in zip(self.rows, self.lumens):
+            row["lumens"] = lm
+
+    def steps(self, frames=None):
+        """Steps (progress, message), one render each; the value is (each projector's maps at its lumens, each
+        one's relative emitted light of its frame over the camera's pixels, or None for white frames).
+        frames: each projector's native image (values as Export writes them), or None."""
+        plan, maps, emitted = self.plan, [], ([] if frames is not None else None)
+        count = len(self.projectors) * (2 if frames is not None else 1) + (1 if plan.ambient_lux > 0 else 0)
+        done = 0
+        for k, (projector, model, scale) in enumerate(zip(self.projectors, self.models, self.scales)):
+            with light_render.LightStudio(self.scene, projector, self.target, *self.size,
+                                          plan.ambient_lux if k == 0 else 0.0, plan.lamp_direction,
+                                          plan.region_material, region_group=plan.region_group,
+                                          view=self.camera) as studio:
+                renders = studio.render_steps()
+                try:
+                    while True:
+                        try:
+                            what = next(renders)
+                        except StopIteration as finished:
+                            passes = finished.value
+                            break
+                        yield done / count, f"rendering {projector.name}: {what}"
+                        done += 1
+                finally:
+                    renders.close()
+                m = passes.maps()
+                m.white_lux = m.white_lux * scale
+                maps.append(m)
+                if frames is not None:
+                    yield done / count, f"rendering {projector.name}: its image of the look"
+                    done += 1
+                    look = studio.render_frame_lux(model.emitted(frames[k]).astype(np.float32)) * scale
+                    with np.errstate(divide="ignore", invalid="ignore"):
+                        emitted.append(np.where(m.white_lux > 1e-9, look / np.maximum(m.white_lux, 1e-12), 0.0))
+        return maps, emitted
+
+
+def several_report_job(scene, plan, folder: str | None, width: int = 160, maps_dir: str | None = None):
+    """The Light Report of a rig of several projectors as a job (services/light_report_job.SeveralReportJob)."""
+    from ..services.light_report_job import SeveralReportJob
+
+    return SeveralReportJob(plan, SeveralSceneLight(scene, plan, width), folder or None, maps_dir)
+
+
+def several_cap_job(scene, plan, folder: str | None = None, record: bool = True):
+    """Limit Look to the Dose for a result of several projectors (services/several_dose_cap.SeveralDoseCapJob):
+    one factor on every projector's light, a result of its own."""
+    from ..services.several_dose_cap import SeveralDoseCapJob
+    from .scene_store import scene_seams
+
+    if plan.limit is None:
+        raise ValueError("limiting the look needs a conservation category")
+    folder = folder or scene_state.read(scene).result_dir
+    if not folder:
+        raise ValueError("limiting the look needs a result: generate a look first")
+    return SeveralDoseCapJob(scene_seams(scene), plan, SeveralSceneLight(scene, plan), folder, record=record)

@@ -42,8 +42,10 @@ def _white_image(width, height):
 
 class LightStudio:
     def __init__(self, scene, projector, target, width: int, height: int, ambient_lux: float = 0.0,
-                 lamp_direction=None, region_material: str = "", ambient_samples: int = 32, region_group: str = ""):
+                 lamp_direction=None, region_material: str = "", ambient_samples: int = 32, region_group: str = "",
+                 view=None):
         self.source, self.projector, self.target = scene, projector, target
+        self.view = view  # a camera object: the maps over its pixels (several projectors' light adds there)
         self.region_group = region_group
         self.width, self.height = width, height
         self.ambient_lux, self.lamp_direction = ambient_lux, lamp_direction
@@ -77,7 +79,8 @@ class LightStudio:
                 raise LightRenderError(f"'{self.target.name}' has no material '{self.region_material}' to mark "
                                        f"(its materials: {names})")
         p = self.projector.lapig_projector
-        if abs(self.width / self.height - p.resolution_x / p.resolution_y) > 0.02 * p.resolution_x / p.resolution_y:
+        if self.view is None and abs(self.width / self.height - p.resolution_x / p.resolution_y) > \
+                0.02 * p.resolution_x / p.resolution_y:
             raise LightRenderError(f"a light map of {self.width} x {self.height} does not have the projector's "
                                    f"{p.resolution_x} x {p.resolution_y} shape")
         self._dir = tempfile.mkdtemp(prefix="lapig_light_")
@@ -85,22 +88,25 @@ class LightStudio:
         self.scene = scene
         for ob in renderable_objects(self.source):
             scene.collection.objects.link(ob)
-        cam_data = bpy.data.cameras.new(STUDIO)
+        cam_data = bpy.data.cameras.new(STUDIO) if self.view is None else self.view.data.copy()
         cam = bpy.data.objects.new(STUDIO, cam_data)
         self._made += [cam, cam_data]
         scene.collection.objects.link(cam)
         scene.camera = cam
-        cam.matrix_world = self.projector.matrix_world.normalized()
-        p = self.projector.lapig_projector
-        w, h = p.resolution_x, p.resolution_y
-        cam_data.sensor_fit = "HORIZONTAL"
-        cam_data.sensor_width = 36.0
-        cam_data.lens = p.throw_ratio * 36.0  # focal / sensor width = distance / image width
-        cam_data.clip_start = 0.001
-        cam_data.clip_end = 1e5
-        s = max(w, h)  # Blender's shift is in units of the larger side; LAPIG's image shift runs opposite
-        cam_data.shift_x = -p.shift_x * w / s
-        cam_data.shift_y = -p.shift_y * h / s
+        if self.view is not None:  # the rig's camera as it is: its lens, sensor and shift, its pose
+            cam.matrix_world = self.view.matrix_world.normalized()
+        else:
+            cam.matrix_world = self.projector.matrix_world.normalized()
+            p = self.projector.lapig_projector
+            w, h = p.resolution_x, p.resolution_y
+            cam_data.sensor_fit = "HORIZONTAL"
+            cam_data.sensor_width = 36.0
+            cam_data.lens = p.throw_ratio * 36.0  # focal / sensor width = distance / image width
+            cam_data.clip_start = 0.001
+            cam_data.clip_end = 1e5
+            s = max(w, h)  # Blender's shift is in units of the larger side; LAPIG's image shift runs opposite
+            cam_data.shift_x = -p.shift_x * w / s
+            cam_data.shift_y = -p.shift_y * h / s
         world = bpy.data.worlds.new(STUDIO)
         self._made.append(world)
         scene.world = world

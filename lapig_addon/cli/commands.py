@@ -237,18 +237,20 @@ def cmd_stylize(args) -> int:
 
 def _stylize_multi(args, seams, request, capture) -> int:
     """stylize on a rig of several projectors: the joint look (PSA on their joint reach) and compensation, then
-    --refine N: all the projectors refined together on the rig (no --render yet)."""
+    --refine N: all the projectors refined together on the rig; --render: every projector's image (refined
+    where it was) shown at once and captured, its figures in the JSON."""
     from ..services.multi_generate_job import MultiGenerateJob
 
-    if args.render:  # before any work
-        raise ValueError(f"--render works with one projector for now; this rig has "
-                         f"{seams.store.read().rig.projector_count}")
     out = MultiGenerateJob(seams, request, capture=capture).run_to_completion(on_progress=headless.print_progress)
     if args.refine:  # the scene's result is the one just made: every projector's image refined together
         from ..services.refine_job import RefineResultJob
 
         refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
         out["summary"] = read_summary_of(refined["folder"])
+    if args.render:  # after the refinement: the render captures the refined images
+        from ..services.pipeline_jobs import RenderResultJob
+
+        out["summary"] = RenderResultJob(seams).run_to_completion()
     _save_if_asked(args)
     print_notes(out["summary"].get("notes", []))
     if not args.save:

@@ -93,6 +93,22 @@ def cmd_report(args) -> int:
 
     scene = _open_scene(args)
     folder = os.path.abspath(args.result) if args.result else BlenderSceneStore(scene).read().result_dir
+    several = BlenderSceneStore(scene).read().rig.projector_count > 1
+    if several:  # every projector's light over the camera's pixels; the cap one factor on all of them
+        if args.cap_out or args.psnr:
+            raise ValueError("--cap-out and --psnr work with one projector; for several use --cap-result")
+        from ...lapig_core.multi.result_files import is_multi_result
+
+        folder = folder if folder and is_multi_result(folder) else None
+        report = light_plan_run.several_report_job(scene, plan, folder, args.map_width,
+                                                   args.maps).run_to_completion()
+        if args.cap_result:
+            report["capped_result"] = light_plan_run.several_cap_job(scene, plan, folder,
+                                                                     record=args.save).run_to_completion()
+            report["capped_result"].pop("summary", None)
+            _save_if_asked(args)
+        print_json(report)
+        return 0
     # the Light Report button's job, run here to its end
     report = light_plan_run.report_job(scene, plan, folder or None, args.map_width, args.maps).run_to_completion()
     if args.cap_out:

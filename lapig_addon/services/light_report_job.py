@@ -81,3 +81,50 @@ def _report_work(plan, light: ReportLight, passes, room, folder, maps_dir, progr
     if folder:
         report["report_file"] = light_report.write_report(folder, report, images)
     return report
+
+
+class SeveralReportJob(Job):
+    """The light report of a rig of several projectors (issue 36): every projector's light over the camera's
+    pixels (blender/light_plan_run.SeveralSceneLight: its renders are this job's main-thread steps, one render a
+    step), added on a worker (light_report.several_report), the report written whole into the result as one
+    projector's is. Its 'projectors' name each one's lumens and share of the light on the object; 'dose' is
+    that of their sum, and 'dose_cap_scale' the one factor on every projector's light that meets the limit."""
+
+    title = "LAPIG light report"
+
+    def __init__(self, plan, light, folder: str | None, maps_dir: str | None = None):
+        super().__init__()
+        self.plan, self.light, self.folder, self.maps_dir = plan, light, folder or None, maps_dir
+
+    def steps(self):
+        self.plan.check()
+        frames = None
+        if self.folder:
+            from ...lapig_core.multi.result_files import projector_images
+
+            frames = [image for _, image in projector_images(self.folder)]
+        maps, emitted = yield from self.light.steps(frames)
+        return_value = yield from self.drive(lambda: self._work(maps, emitted), False)
+        self.result = return_value
+
+    def _work(self, maps, emitted):
+        yield 0.85, "the light report"
+        light = self.light
+        report, total, combined = light_report.several_report(self.plan, maps, emitted, light.models, light.names,
+                                                              light.lumens)
+        if not total.on_object.any():
+            raise ValueError(f"no projector reaches '{light.target_name}' in the camera's view: aim them at it")
+        report["frame"] = "camera"  # the maps are over the rig camera's pixels
+        report["result"] = self.folder
+        # the one factor on every projector's light that Limit Look to the Dose would apply
+        report["dose_cap_scale"] = (round(light_report.several_cap_factor(self.plan, total, combined), 4)
+                                    if self.plan.limit else None)
+        report["projector_table_rows"] = [{**row, "target_lux": p["white_lux_mean"]}
+                                          for row, p in zip(light.rows, report["projectors"])]
+        images = light_report.report_images(self.plan, total, combined)
+        if self.maps_dir:
+            report["maps"] = os.path.abspath(self.maps_dir)
+            light_report.write_maps(self.maps_dir, images)
+        if self.folder:
+            report["report_file"] = light_report.write_report(self.folder, report, images)
+        return report

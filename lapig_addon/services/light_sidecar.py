@@ -28,6 +28,31 @@ def table_row(report: dict) -> ProjectorRow | None:
     row = (report or {}).get("projector_table_row")
     if not row:
         return None
+    return _row(row)
+
+
+def several_sidecar_fields(folder, k: int) -> dict:
+    """Projector k's sidecar `light` from a report of several (light_report.several_report): the rig's
+    figures, all projectors together, and under `projector` its own lumens, watts and share ({} without)."""
+    report = read_report(folder)
+    fields = sidecar_fields(folder)
+    own = (report or {}).get("projectors") or []
+    if fields and k < len(own):
+        fields["light"]["projector"] = own[k]
+        fields["light"]["frame"] = report.get("frame")
+    return fields
+
+
+def write_several_table(path, folder) -> Path | None:
+    """<path stem>_projectors.csv: the projector table of every projector of a report of several (None without)."""
+    rows = [_row(r) for r in ((read_report(folder) or {}).get("projector_table_rows") or [])]
+    if not rows:
+        return None
+    path = Path(path)
+    return write_projector_table(path.with_name(path.stem + "_projectors.csv"), rows)
+
+
+def _row(row: dict) -> ProjectorRow:
     return ProjectorRow(row["name"], row.get("maker", ""), row.get("model", ""), tuple(row["resolution"]),
                         float(row["lumens"]), float(row["throw_ratio"]), float(row["shift_x"]),
                         float(row["shift_y"]), tuple(row["position_m"]), tuple(row["rotation_deg"]),

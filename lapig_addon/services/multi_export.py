@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ...lapig_core.export.result_files import read_summary, stored_bit_depth
 from ...lapig_core.multi.capture_set import joint_model_path
+from . import light_sidecar
 from .export_source import addon_version, result_folder
 from .ports import ProjectorFrame
 from .sinks import ProjectorImageFile
@@ -62,11 +63,16 @@ def export_multi(store, settings: ExportSettings, result: str | None = None, mpc
     common = metadata(store, summary)
     for k, (entry, image) in enumerate(shown if images else []):
         width, height = entry["size"]
-        meta = {**common, "projector": {"index": k + 1, "count": len(shown), "name": entry["name"],
-                                        "resolution": [width, height]},
+        meta = {**common, **light_sidecar.several_sidecar_fields(folder, k),  # the Light Report's, where run
+                "projector": {"index": k + 1, "count": len(shown), "name": entry["name"],
+                              "resolution": [width, height]},
                 "result_bit_depth": stored_bit_depth(folder, Path(entry["image"]).stem)}
         sink = ProjectorImageFile(projector_path(settings.path, k), meta, addon_version())
         sink.show(ProjectorFrame(image, width, height, settings.bit_depth, folder=folder, summary=summary))
         written["images"].append(str(sink.written["image"]))
         written["sidecars"].append(str(sink.written["sidecar"]))
+    if images:  # every projector's row of the Light Report's table, where it ran
+        table = light_sidecar.write_several_table(settings.path, folder)
+        if table is not None:
+            written["table"] = str(table)
     return written

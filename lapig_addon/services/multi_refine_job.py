@@ -23,7 +23,7 @@ from .refine_lines import refine_line, with_refine
 REFINED_SUFFIX = "_refined"
 
 
-def multi_refine_inputs(seams) -> tuple[str, str]:
+def multi_refine_inputs(seams, doing: str = "refinement") -> tuple[str, str]:
     """(the result folder, the capture) from the scene (the main thread), or PipelineError saying why not."""
     from ...lapig_core.multi.result_files import is_multi_result
 
@@ -32,8 +32,8 @@ def multi_refine_inputs(seams) -> tuple[str, str]:
     if blocker:
         raise PipelineError(blocker)
     if seams.devices is None or getattr(seams.devices, "multi_capture_device", None) is None:
-        raise PipelineError("refinement of several projectors needs a rig that shows them all at once (the virtual "
-                            "rig, or a real one with a window on each projector's display)")
+        raise PipelineError(f"{doing} of several projectors needs a rig that shows them all at once (the virtual "
+                            f"rig, or a real one with a window on each projector's display)")
     try:
         capture = multi_capture(state)
     except MultiPipelineError as exc:

@@ -136,6 +136,15 @@ def single_result_blocker(state: SceneState) -> str:
     return result_blocker(state) or one_projector_blocker(state.rig)
 
 
+def render_blocker(state: SceneState) -> str:
+    """Why Render Real Capture cannot run ('' when it can): one projector's result as single_result_blocker
+    says; a rig of several renders every projector's image at once (services/multi_render_job) where its devices
+    can show them together (projectors_blocker: each on its own display)."""
+    if state.rig.projector_count > 1:
+        return result_blocker(state) or projectors_blocker(state.rig)
+    return single_result_blocker(state)
+
+
 def refine_blocker(state: SceneState) -> str:
     """Why Refine on the Rig cannot run ('' when it can): one projector's result as single_result_blocker says;
     a rig of several refines all its projectors together (services/multi_refine_job): the virtual rig, or a real

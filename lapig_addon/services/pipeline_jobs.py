@@ -541,6 +541,11 @@ class RenderResultJob(Job):
     def steps(self):
         store, devices = self.seams.store, self.seams.devices
         state = store.read()
+        if state.rig.projector_count > 1:  # every projector's image shown at once, captured in camera space
+            from .multi_render_job import multi_render_steps
+
+            self.result = yield from multi_render_steps(self)
+            return
         blocker = panel_state.single_result_blocker(state)
         if blocker:
             raise PipelineError(blocker)

@@ -83,9 +83,10 @@ def write_result(folder, images: dict, summary: dict) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     for name, img in images.items():
         write_png(folder / f"{name}.png", img, bit_depth=BIT_DEPTH)
-    # the sheet shows every image the folder now holds, the ones written before included
-    tiles = [(images[n] if n in images else read_result_image(folder, n), lab) for n, lab in COMPARISON
-             if (folder / f"{n}.png").is_file()]
+    # the sheet shows every image the folder now holds, the ones written before included; a result of several
+    # projectors keeps its own (multi/result_files: look, predicted and rendered in camera space)
+    tiles = [] if "multi" in summary else [(images[n] if n in images else read_result_image(folder, n), lab)
+                                           for n, lab in COMPARISON if (folder / f"{n}.png").is_file()]
     if tiles:
         cols = 3 if len(tiles) == 6 else 2
         write_png(folder / "comparison.png", labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles],

@@ -85,3 +85,58 @@ def projector_images(folder) -> list[tuple[dict, np.ndarray]]:
     if MULTI_KEY not in summary or not entries:
         raise ValueError(f"{folder} is a result of one projector, not of several")
     return [(entry, read_result_image(folder, Path(entry["image"]).stem)) for entry in entries]
+
+
+def nopsa_images(folder) -> list[np.ndarray] | None:
+    """Each projector's image without PSA (projector_1_nopsa.png ..), or None where the result has none."""
+    summary = read_summary(folder)
+    names = [f"{projector_image_name(k)}_nopsa" for k in range(len(summary.get("projectors") or []))]
+    if not names or not all((Path(folder) / f"{n}.png").is_file() for n in names + ["look_nopsa"]):
+        return None
+    return [read_result_image(folder, n) for n in names]
+
+
+def rendered_metrics(rendered: dict, folder, valid: np.ndarray) -> dict:
+    """The rendered captures' figures, in camera space on `valid` (the object where some projector reaches):
+    rendered_psnr against the look (as one projector's rendered_psnr is against its target) and
+    rendered_vs_predicted_psnr against the joint model's predicted capture (how well the model foresaw the
+    render); the same with _nopsa for the look without PSA. rendered: {"rendered": .., "rendered_nopsa": ..}."""
+    out = {}
+    for name, image in rendered.items():
+        suffix = name[len("rendered"):]
+        out["rendered_psnr" + suffix] = masked_psnr(image, read_result_image(folder, "look" + suffix), valid)
+        out["rendered_vs_predicted_psnr" + suffix] = masked_psnr(image, read_result_image(folder, "predicted" + suffix),
+                                                                 valid)
+    return out
+
+
+def write_rendered(folder, rendered: dict, summary: dict) -> Path:
+    """Add Render Real Capture's images (rendered.png, rendered_nopsa.png) to a result of several, rebuild its
+    comparison sheet with them (look, predicted and rendered side by side), then result.json last: `summary`
+    with its metrics already updated. Written in place, each file whole (write_result's rule)."""
+    import json
+
+    from ..common.atomic import atomic_write_bytes
+    from ..common.imageio import write_png
+    from ..common.jsonable import json_default_or_str
+    from ..export.result_files import BIT_DEPTH
+
+    folder = Path(folder)
+    for name, image in rendered.items():
+        write_png(folder / f"{name}.png", image, bit_depth=BIT_DEPTH)
+    read = lambda n: rendered[n] if n in rendered else read_result_image(folder, n)  # noqa: E731
+    rows = [("look", "look" + (" with PSA" if "look_nopsa" in _present(folder) else "")),
+            ("predicted", "predicted capture"), ("rendered", "rendered in Cycles")]
+    if "rendered_nopsa" in rendered or (folder / "rendered_nopsa.png").is_file():
+        rows += [("look_nopsa", "look without PSA"), ("predicted_nopsa", "predicted without PSA"),
+                 ("rendered_nopsa", "rendered without PSA")]
+    tiles = [(read(n), lab) for n, lab in rows if (folder / f"{n}.png").is_file() or n in rendered]
+    tiles += [(read(Path(p["image"]).stem), p["name"]) for p in summary.get("projectors") or []]
+    write_png(folder / "comparison.png", labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles], columns=3,
+                                                       cell=256, title=summary.get("prompt", "")))
+    atomic_write_bytes(folder / "result.json", json.dumps(summary, indent=2, default=json_default_or_str).encode("utf-8"))
+    return folder
+
+
+def _present(folder) -> set:
+    return {p.stem for p in Path(folder).glob("*.png")}

@@ -90,3 +90,29 @@ class LightPasses:
     def discard(self):
         """Remove the files (again: harmless)."""
         shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def sum_projector_maps(maps: "list[ProjectorLightMaps]") -> ProjectorLightMaps:
+    """Several projectors' maps over the same samples (the camera's pixels: light_render's LightStudio with a
+    view), each white_lux already at its projector's own lumens, as one: light adds, so the white frames'
+    illuminance is their sum; the room's light is in the maps that rendered it (the first's; the others' are
+    0) and adds too. The object, the region and the albedo are the view's: the same in every map."""
+    if not maps:
+        raise ValueError("no projectors' light to add")
+    first = maps[0]
+    for m in maps[1:]:
+        if m.white_lux.shape != first.white_lux.shape:
+            raise ValueError(f"light maps over other samples: {m.white_lux.shape} and {first.white_lux.shape}")
+    radiance = (None if any(m.white_radiance is None for m in maps) else sum(m.white_radiance for m in maps))
+    return ProjectorLightMaps(sum(m.white_lux for m in maps), sum(m.ambient_lux for m in maps), first.albedo,
+                              np.logical_or.reduce([m.on_object for m in maps]),
+                              np.logical_or.reduce([m.region for m in maps]), radiance)
+
+
+def projector_shares(lux: "list[np.ndarray]", valid: np.ndarray) -> list[float]:
+    """Each projector's share of the light on the valid samples (its lux over all of theirs, summed there): the
+    report's 'who lights the object'. All 0 where no projector lights them."""
+    valid = np.asarray(valid, bool)
+    totals = [float(np.asarray(x, np.float64)[valid].sum()) for x in lux]
+    whole = sum(totals)
+    return [t / whole if whole > 0 else 0.0 for t in totals]

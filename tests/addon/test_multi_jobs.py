@@ -157,6 +157,20 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     sidecar = json.loads(open(written["sidecars"][1]).read())
     assert sidecar["projector"] == {"index": 2, "count": 2, "name": "Right", "resolution": list(PROJECTOR)}
     assert sidecar["image"]["bit_depth"] == 16 and os.path.isfile(written["mpcdi"])
+    assert "light" not in sidecar and "table" not in written  # no Light Report yet: as it always wrote
+    # after a Light Report of several: each sidecar its projector's share, the table every projector's row
+    row = {"resolution": list(PROJECTOR), "lumens": 2000.0, "throw_ratio": 1.2, "shift_x": 0.0, "shift_y": 0.0,
+           "position_m": [0, -3, 1], "rotation_deg": [90, 0, 0], "target_distance_m": 3.0, "target_lux": 250.0}
+    report = {"lumens": 4000.0, "light_power_w": 200.0, "frame": "camera", "look_lux": {"mean": 300.0},
+              "projectors": [{"name": "Left", "lumens": 2000.0, "share": 0.6},
+                             {"name": "Right", "lumens": 2000.0, "share": 0.4}],
+              "projector_table_rows": [{**row, "name": "Left"}, {**row, "name": "Right"}]}
+    _module("light_report").write_report(str(folder), report)
+    written = export.export_multi(store, settings)
+    sidecar = json.loads(open(written["sidecars"][1]).read())
+    assert sidecar["light"]["lumens"] == 4000 and sidecar["light"]["projector"]["share"] == 0.4
+    table = open(written["table"]).read()
+    assert os.path.basename(written["table"]) == "grey_projectors.csv" and "Left" in table and "Right" in table
     # the one export of the scene's result takes the same path for a result of several
     assert _module("export_result").export_current(store, settings)["images"] == written["images"]
     blocked = tmp_path / "out" / "grey_1.png" / "rig.mpcdi"
@@ -214,7 +228,9 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     scene = store.read()
     panel_state = _module("panel_state")
     assert panel_state.refine_blocker(scene) == ""  # Refine lets a rig of several through now
-    assert panel_state.single_result_blocker(scene) == "Works with one projector for now; the rig has 2"  # render
+    assert panel_state.render_blocker(scene) == ""  # Render Real Capture too
+    # the crossfade and the preview modes still want one projector
+    assert panel_state.single_result_blocker(scene) == "Works with one projector for now; the rig has 2"
     job = _module("refine_job").RefineResultJob(seams, 4)
     assert job.run() == "DONE", job.error
     record = job.result["refine"]
@@ -237,6 +253,59 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     shared = MultiStore(state, tmp_path, kind="REAL", displays=("1", "1"))
     shared.result = str(folder)
     assert panel_state.refine_blocker(shared.read()).endswith("are both on display '1': give each its own display")
+
+
+def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_on_the_object(tmp_path):
+    """Render Real Capture on a rig of several: both projectors' images of the result shown together, captured
+    once in camera space; rendered.png and its PSNR against the look (and the predicted capture) go into the
+    result, its comparison sheet shows it, and the rendered capture is close to the joint model's prediction."""
+    from lapig.lapig_core.common.imageio import read_image
+    from lapig.lapig_core.multi.capture_set import load_multi_capture
+    from lapig.lapig_core.multi.first_look import load_joint_model
+    from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
+    from lapig.lapig_core.multi.result_files import write_joint_result
+    from lapig.lapig_core.multi.stylize import JointLook
+
+    ports, state = _module("ports"), _module("state")
+    store = MultiStore(state, tmp_path / "data")
+    seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)))
+    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    cs = load_multi_capture(store.capture_dir, pairs=False)
+    model = load_joint_model(cs.setup_dir)
+    lo, hi = reach(model)
+    ramp = np.linspace(0.2, 0.8, CAMERA[0], dtype=np.float32)[None, :, None] * np.ones((CAMERA[1], 1, 3), np.float32)
+    target = lo + (hi - lo) * ramp
+    look = JointLook(target, joint_compensate(model, target), {"styles": []}, 1.0, 0.0)
+    folder, _ = write_joint_result(tmp_path / "results", "look", look, target, cs.names, cs.sizes,
+                                   {"prompt": "look", "capture": str(cs.setup_dir), "summary_line": "look"},
+                                   model.reached.any(axis=0))
+    store.result = str(folder)
+    job = _module("pipeline_jobs").RenderResultJob(seams)
+    assert job.run() == "DONE", job.error
+    m = job.result["metrics"]
+    print("rendered", m["rendered_psnr"], "vs predicted", m["rendered_vs_predicted_psnr"], "simulated",
+          m["simulated_psnr"])
+    # a look within the joint reach: the prediction is exact (simulated_psnr ~ inf), the render is within the
+    # camera's noise and 8-bit frames of it (about 33 dB here)
+    assert np.isfinite(m["rendered_psnr"]) and m["rendered_psnr"] > 28.0
+    assert m["rendered_vs_predicted_psnr"] > 28.0  # the model foresaw the render
+    rendered = read_image(folder / "rendered.png")
+    assert rendered.shape == (CAMERA[1], CAMERA[0], 3) and rendered.mean() > 0.05
+    saved = json.loads((folder / "result.json").read_text())
+    assert saved["metrics"]["rendered_psnr"] == pytest.approx(m["rendered_psnr"])
+    assert saved["projectors"][0]["image"] == "projector_1.png"  # the result itself untouched
+    assert saved["summary_line"].endswith(f"; no PSA; rendered in Cycles {m['rendered_psnr']:.1f} dB against the look")
+    assert store.result == str(folder)
+    # rendered again: one figure in the line, the newest
+    assert _module("pipeline_jobs").RenderResultJob(seams).run() == "DONE"
+    assert json.loads((folder / "result.json").read_text())["summary_line"].count("rendered in Cycles") == 1
+    sheet = read_image(folder / "comparison.png")
+    assert sheet.shape[1] == 3 * 256  # look, predicted, rendered; the projectors below
+    # the left and right halves are each lit by their own projector: both bright where the look is
+    assert rendered[:, : CAMERA[0] // 3].mean() > 0.02 and rendered[:, -CAMERA[0] // 3:].mean() > 0.02
+    # a refinement afterwards keeps the sheet of several (look, predicted, rendered; the projectors below)
+    assert _module("refine_job").RefineResultJob(seams, 1).run() == "DONE"
+    assert read_image(folder / "comparison.png").shape == sheet.shape
 
 
 @pytest.mark.torch

@@ -115,6 +115,60 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     assert [tuple(i.size) for i in shown] == [(64, 48), (64, 48)] and shown[0] != shown[1]  # each light its own
     assert summary["psa"]["warm_start_steps"] > 0 and os.path.isfile(os.path.join(result, "projector_1_nopsa.png"))
 
+    # Render Real Capture: both projectors show their image together in Cycles, the camera captures it
+    assert bpy.ops.lapig.render_result() == {"FINISHED"}
+    from lapig.lapig_core.common.imageio import read_image, write_png
+    from lapig.lapig_core.multi.first_look import load_joint_model
+
+    rendered = read_image(os.path.join(result, "rendered.png"))
+    write_png("/tmp/lapig_multi_rendered.png", np.concatenate(
+        [read_image(os.path.join(result, n + ".png")) for n in ("look", "predicted", "rendered")], axis=1))
+    m = json.loads(open(os.path.join(result, "result.json")).read())["metrics"]
+    print("rendered", m["rendered_psnr"], "vs predicted", m["rendered_vs_predicted_psnr"], "simulated",
+          m["simulated_psnr"])
+    assert rendered.shape == (60, 80, 3) and rendered.mean() > 0.03
+    reached = load_joint_model(cs.setup_dir).reached
+    for k in (0, 1):  # each projector's own region (reached by it alone) is lit
+        own = reached[k] & ~reached[1 - k]
+        assert own.sum() > 20 and rendered[own].mean() > 0.05, k
+    assert np.isfinite(m["rendered_psnr"]) and abs(m["rendered_psnr"] - m["simulated_psnr"]) < 5.0
+    assert m["rendered_vs_predicted_psnr"] > 20.0
+    texts = [e[1] for e in draw_panels(bpy.context, []) if e[0] == "label"]  # the result's line says it
+    assert any(f"rendered in Cycles {m['rendered_psnr']:.1f} dB against the look" in t for t in texts), texts
+
+    # Light in real units: every projector's light together, each one's share; the dose cap one factor for all
+    light = scene.lapig_light
+    light.preset, light.lumens, light.ambient_lux, light.category = "NONE", 2000.0, 10.0, "HIGH"
+    assert bpy.ops.lapig.light_report() == {"FINISHED"}
+    report = json.loads(open(os.path.join(result, "light_report.json")).read())
+    print("light", report["projectors_line"], report["look_lux"], report["dose"]["max_lux"])
+    assert [p["name"] for p in report["projectors"]] == list(names) and report["frame"] == "camera"
+    assert report["lumens"] == pytest.approx(4000) and min(p["share"] for p in report["projectors"]) > 0.1
+    from lapig.panels.light_panel import LAPIG_PT_light
+    from test_panels import RecordingLayout
+
+    class Layout(RecordingLayout):
+        def prop_search(self, data, name, *args, **kwargs):
+            self.log.append(("prop", name))
+
+        def _child(self, *args, **kwargs):
+            return Layout(self.log)
+
+        row = column = box = split = _child
+
+    log = []
+    LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
+    texts = [e[1] for e in log if e[0] == "label"]
+    assert any(t.startswith(f"{names[1]}: 2,000 lm, ") for t in texts), texts
+    assert bpy.ops.lapig.light_cap() == {"FINISHED"}
+    capped = scene_state.read(scene).result_dir
+    saved = json.loads(open(os.path.join(capped, "result.json")).read())
+    assert capped != result and 0 < saved["dose_cap"]["scale"] < 1
+    assert saved["dose_cap"]["max_lux_after"] <= 50.0
+    from lapig.lapig_addon.blender.scene_store import scene_seams
+
+    scene_seams(scene).store.record_result(result, summary["summary_line"])  # back to the free look
+
     # Refine on the rig: both projectors' images projected together in Cycles, corrected jointly
     scene.lapig.refine_steps = 2
     assert bpy.ops.lapig.refine_result() == {"FINISHED"}
@@ -197,12 +251,14 @@ def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp
     captured = json.loads(proc.stdout[proc.stdout.index("{"):])
     assert captured["coverage"]["reached"] > max(captured["coverage"]["per_projector"])
     assert captured["first_look_seconds"] < 10
-    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--render")
-    assert proc.returncode == 1 and "works with one projector for now; this rig has 2" in proc.stderr
-    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save", "--refine", "1")
+    proc = _cli("stylize", "--blend", blend, "--prompt", "Make it a stained glass artwork", "--save", "--refine", "1",
+                "--render")
     assert proc.returncode == 0, proc.stderr[-2000:]
     stylized = json.loads(proc.stdout[proc.stdout.index("{"):])
     assert stylized["refine"]["iterations"] == 1 and stylized["simulated_psnr_nopsa"] is not None
+    # --render: the refined images shown together and captured, after the refinement
+    assert np.isfinite(stylized["rendered_psnr"]) and np.isfinite(stylized["rendered_vs_predicted_psnr"])
+    assert os.path.isfile(os.path.join(stylized["result"], "rendered.png"))
     out = tmp_path / "out"
     out.mkdir()
     proc = _cli("export", "--blend", blend, "--out", str(out / "look.png"), "--mpcdi", str(out / "rig.mpcdi"))

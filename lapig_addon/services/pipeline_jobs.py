@@ -471,6 +471,14 @@ def _tone_field_summary(res) -> dict | None:
     return field.summary() if field is not None and res.with_psa is not None else None
 
 
+def _look_state_file(chosen) -> dict:
+    """The look's theta and tone field as the result keeps them (look_state.npz): a show makes this very look
+    again from it, not from the prompt and PSA run once more (lapig_core/show/look_state)."""
+    from ...lapig_core.show.look_state import LOOK_STATE_FILE, look_state_bytes
+
+    return {LOOK_STATE_FILE: look_state_bytes(chosen.state)} if chosen.state else {}
+
+
 def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     """Write the result folder (worker-thread safe: files only) and return a short summary.
 
@@ -523,7 +531,7 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     if missed:  # last: the panel shows what follows " | " on a line of its own
         line += f" | {missed}"
     summary["summary_line"] = line  # Refine on the rig adds its figures to it
-    folder = str(write_new_result(job["results"], job["name"], images, summary))
+    folder = str(write_new_result(job["results"], job["name"], images, summary, _look_state_file(chosen)))
     # the finest projector image as the folder now holds it (read_output_image's values), for the sinks
     projector = as_stored(images.get("projector_native", images["projector"]))
     return {"folder": folder, "summary": summary, "summary_line": line, "projector": projector}

@@ -64,11 +64,14 @@ def folder_name(prompt: str, when: datetime.datetime) -> str:
     return f"{when:%Y%m%d_%H%M%S}_{slug}"
 
 
-def write_new_result(root, name: str, images: dict, summary: dict) -> Path:
+def write_new_result(root, name: str, images: dict, summary: dict, files: dict | None = None) -> Path:
     """Write a result folder as a whole, as <root>/<name> (<name>_2, ... when that is taken): a
-    kill or an error leaves no half-written result, and two results never share a folder."""
+    kill or an error leaves no half-written result, and two results never share a folder. files: other
+    files of the folder, name -> bytes (Generate's look_state.npz)."""
     scratch = ScratchFolder(root, ".writing_")
     try:
+        for file_name, data in (files or {}).items():
+            (Path(scratch.path) / file_name).write_bytes(data)
         write_result(scratch.path, images, summary)
     except BaseException:
         scratch.remove()

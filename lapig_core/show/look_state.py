@@ -22,6 +22,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..common.atomic import atomic_write_bytes
+
 LOOK_STATE_FILE = "look_state.npz"
 FORMAT = 1
 
@@ -39,8 +41,9 @@ class KeyedLook:
     offset: torch.Tensor | None = None
 
 
-def save_look_state(folder, state: dict) -> Path:
-    """Write `state` (theta and the tone field: lists of tensors) as folder/look_state.npz, whole or not at all."""
+def look_state_bytes(state: dict) -> bytes:
+    """`state` (theta and the tone field: lists of tensors) as the bytes of look_state.npz: Generate writes it
+    into the result folder with the rest (export/result_files.write_new_result's files)."""
     arrays = {"format": np.array(FORMAT)}
     for group in ("theta", "tone_field"):
         tensors = state.get(group) or []
@@ -49,11 +52,12 @@ def save_look_state(folder, state: dict) -> Path:
             arrays[f"{group}_{n}"] = t.detach().cpu().numpy()
     buffer = io.BytesIO()
     np.savez(buffer, **arrays)
-    path = Path(folder) / LOOK_STATE_FILE
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(buffer.getvalue())
-    tmp.replace(path)  # the file appears whole
-    return path
+    return buffer.getvalue()
+
+
+def save_look_state(folder, state: dict) -> Path:
+    """Write `state` as folder/look_state.npz, whole or not at all."""
+    return atomic_write_bytes(Path(folder) / LOOK_STATE_FILE, look_state_bytes(state))
 
 
 def load_look_state(folder) -> dict | None:

@@ -86,6 +86,11 @@ def test_capture_train_generate_render_and_export_without_blender(seams, tmp_pat
     out = pipeline_jobs.GenerateJob(seams, request, 2).run_to_completion()
     assert store.recorded[-1] == "result" and store.result[0] == out["folder"]
     assert "projector" not in out  # the image went to the sinks, not to the caller
+    # the look's theta kept beside it, so a show makes this very look again (lapig_core/show/look_state)
+    from lapig.lapig_core.show.look_state import load_look_state
+
+    state = load_look_state(out["folder"])
+    assert state is not None and len(state["theta"]) > 0
     [frame] = sink.frames
     assert (frame.width, frame.height, frame.bit_depth) == (64, 48, 8)
     np.testing.assert_array_equal(frame.image, read_output_image(out["folder"], "projector"))

@@ -213,3 +213,21 @@ def camera_object_mask(scene, camera_obj, target_obj, render_scene, width, heigh
     if step > 1:
         mask = cv2.resize(mask.astype(np.uint8), (width, height), interpolation=cv2.INTER_NEAREST).astype(bool)
     return mask
+
+
+def sl_surface_points(bvh, projector_obj, model, step: int = 8) -> np.ndarray:
+    """(h', w', 3) world points (metres, Blender Z up) where the rays of the 'sl' warp's texel pixels
+    (lapig_core/multi/mpcdi_export.sl_texel_pixels) first hit the scene; NaN where they miss. Main thread."""
+    from ...lapig_core.multi.mpcdi_export import sl_texel_pixels
+
+    pixels = sl_texel_pixels(model, step)
+    return projector_hits(bvh, projector_obj, model, pixels).reshape(pixels.shape[:2] + (3,))
+
+
+def sl_rig_geometry(scene, projector_objs, models, step: int = 8) -> dict:
+    """What the 'sl' package needs of the scene, gathered on the main thread (bpy): each projector's world
+    matrix and its texels' surface points (plain numpy, for a worker to write)."""
+    objects = [ob for ob in renderable_objects(scene) if ob not in projector_objs]
+    bvh = scene_bvh(objects, bpy.context.evaluated_depsgraph_get())
+    return {"matrices": [np.array(ob.matrix_world, dtype=np.float64) for ob in projector_objs],
+            "points": [sl_surface_points(bvh, ob, m, step) for ob, m in zip(projector_objs, models)]}

@@ -1,0 +1,86 @@
+"""export 'sl' (shader lamp) MPCDI of two projectors over a plane, read back strictly (issue 36)."""
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+
+def _scene():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=4.0, location=(0.0, 0.0, 0.0))
+    target = bpy.context.active_object
+    projectors = []
+    for k, (x, yaw) in enumerate(((-0.6, -0.15), (0.7, 0.2))):
+        ob = bpy.data.objects.new(f"P{k + 1}", None)  # an empty: the pose is all the package needs
+        scene.collection.objects.link(ob)
+        ob.location = (x, -0.3, 2.5)
+        ob.rotation_euler = (0.1, yaw, 0.05 * k)
+        projectors.append(ob)
+    bpy.context.view_layer.update()
+    return scene, target, projectors
+
+
+def test_sl_package_round_trip(tmp_path):
+    from lapig.lapig_addon.blender.geometry_probe import sl_rig_geometry
+    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+    from lapig.lapig_core.multi.mpcdi_export import (sl_coordinate_frame, sl_frustum, sl_texel_pixels,
+                                                     write_rig_mpcdi_sl)
+    from lapig.lapig_core.optics.projector_model import ProjectorModel
+
+    scene, target, projectors = _scene()
+    models = [ProjectorModel(width=64, height=48, throw_ratio=1.4, shift_x=0.05, shift_y=-0.1),
+              ProjectorModel(width=80, height=50, throw_ratio=1.8)]
+    geometry = sl_rig_geometry(scene, projectors, models, step=8)
+    alphas = [np.full((m.height, m.width), 0.5) for m in models]
+    path = write_rig_mpcdi_sl(tmp_path / "rig.mpcdi", ["P1", "P2"], models, geometry["matrices"],
+                              geometry["points"], alphas)
+    package = read_mpcdi(path)
+    assert package.profile == "sl"
+    assert [b.id for b in package.buffers] == ["P1", "P2"]
+    for k, (ob, model) in enumerate(zip(projectors, models)):
+        region = package.regions[f"P{k + 1} region"]
+        want_f, want_c = sl_frustum(model), sl_coordinate_frame(np.array(ob.matrix_world))
+        for name in ("yaw", "pitch", "roll", "right_angle", "left_angle", "up_angle", "down_angle"):
+            assert getattr(region.frustum, name) == pytest.approx(getattr(want_f, name), abs=1e-4)
+        # the frame is the object's own, read from Blender directly
+        m = np.array(ob.matrix_world)
+        assert region.coordinate_frame.position == pytest.approx(tuple(m[:3, 3]), abs=1e-4)
+        assert region.coordinate_frame.roll_axis == pytest.approx(tuple(-m[:3, 2]), abs=1e-4)
+        assert region.coordinate_frame.yaw_axis == pytest.approx(tuple(m[:3, 1]), abs=1e-4)
+        assert region.coordinate_frame.pitch_axis == pytest.approx(tuple(m[:3, 0]), abs=1e-4)
+        assert want_c.position == pytest.approx(region.coordinate_frame.position, abs=1e-4)
+        # the frustum's edge angles are the lens's: the right edge of the image through the model
+        right = model.pixel_to_direction(np.array([model.width - 0.5, model.height / 2 - 0.5]))
+        assert region.frustum.right_angle == pytest.approx(
+            math.degrees(math.atan2(right[0], -right[2])), abs=0.6)  # within half a pixel's angle
+        warp = package.warp(region.id)
+        pixels = sl_texel_pixels(model, 8)
+        assert warp.shape == pixels.shape[:2] + (3,)
+        hit = np.isfinite(warp).all(axis=-1)
+        assert hit.sum() > 0.5 * hit.size
+        points = warp[hit].astype(np.float64)
+        # on the object: the plane z = 0, |x|, |y| <= 2
+        assert np.abs(points[:, 2]).max() < 0.01
+        assert np.abs(points[:, :2]).max() <= 2.0 + 1e-3
+        # back through the projector to the texel's pixel
+        local = (points - m[:3, 3]) @ (m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0))
+        back = model.uv_to_pixel(model.directions_to_uv(local))
+        assert np.abs(back - pixels[hit]).max() < 1.0
+
+
+def test_sl_unwritable_path_one_line_nothing_left(tmp_path):
+    from lapig.lapig_core.multi.mpcdi_export import write_rig_mpcdi_sl
+    from lapig.lapig_core.optics.projector_model import ProjectorModel
+
+    model = ProjectorModel(width=16, height=12)
+    points = [np.zeros((3, 3, 3), np.float32)]
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    target = blocker / "rig.mpcdi"  # its folder is a file: cannot be written
+    with pytest.raises((OSError, ValueError)) as err:
+        write_rig_mpcdi_sl(target, ["P"], [model], [np.eye(4)], points, [np.ones((12, 16))])
+    assert "\n" not in str(err.value)
+    assert blocker.read_text() == "x" and list(tmp_path.iterdir()) == [blocker]

@@ -194,11 +194,16 @@ class LAPIG_OT_export_image(ReportsErrors, bpy.types.Operator):
 
 class LAPIG_OT_export_mpcdi(ReportsErrors, bpy.types.Operator):
     """Write the rig's calibration (each projector's warp and blend from the capture) as an MPCDI 2.0 package
-    for a media server (Watchout, BrightSign: the '2d' profile)"""
+    for a media server (Watchout, BrightSign: the '2d' profile) or an engine (nDisplay, TouchDesigner: 'sl')"""
     bl_idname = "lapig.export_mpcdi"
     bl_label = "Export MPCDI Package"
 
     filepath: bpy.props.StringProperty(subtype="FILE_PATH")
+    profile: bpy.props.EnumProperty(
+        name="Profile", default="2d",
+        items=[("2d", "2D", "Each projector's warp (camera coordinates per pixel) and blend: Watchout, BrightSign"),
+               ("sl", "Shader Lamp", "Each projector's pose, frustum and 3D surface point per 8th pixel, and blend: "
+                                     "nDisplay, TouchDesigner")])
 
     def invoke(self, context, event):
         path = scene_state.export_settings(context.scene).path
@@ -211,7 +216,7 @@ class LAPIG_OT_export_mpcdi(ReportsErrors, bpy.types.Operator):
 
         store = BlenderSceneStore(context.scene)
         written = export_multi(store, scene_state.export_settings(context.scene), mpcdi=bpy.path.abspath(self.filepath),
-                               images=False)
+                               images=False, profile=self.profile)
         self.report({"INFO"}, f"Exported {written['mpcdi']}")
         return {"FINISHED"}
 

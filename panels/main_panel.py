@@ -393,7 +393,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
             col.operator("lapig.export_crossfade", icon="SEQUENCE")
         else:  # one image per projector (<name>_1.png, ...), and the rig's warps and blends for a media server
             col.operator("lapig.export_image", icon="EXPORT", text="Export Projector Images")
-            col.operator("lapig.export_mpcdi", icon="PACKAGE")
+            row = col.row(align=True)  # the MPCDI profile: '2d' (default) or 'sl' (shader lamp)
+            row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Export MPCDI 2D").profile = "2d"
+            row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Shader Lamp").profile = "sl"
             _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no crossfade or result preview "
                                                                              "modes yet")
 

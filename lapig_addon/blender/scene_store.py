@@ -39,6 +39,15 @@ class BlenderSceneStore:
     def rig_metadata(self) -> dict:
         return scene_state.rig_metadata(self.scene)
 
+    def sl_geometry(self, step: int = 8) -> dict:
+        """The 'sl' MPCDI package's scene data, gathered here on the main thread: each projector's model, world
+        matrix and texels' surface points (geometry_probe.sl_rig_geometry)."""
+        from .geometry_probe import sl_rig_geometry
+
+        objects = scene_state.rig_projectors(self.scene)
+        models = [scene_state.projector_model(ob) for ob in objects]
+        return {"models": models, **sl_rig_geometry(self.scene, objects, models, step)}
+
     def software(self) -> dict:
         return {"software_blender": bpy.app.version_string}
 

@@ -286,7 +286,8 @@ def cmd_export(args) -> int:
 
         if args.crossfade:
             raise ValueError("--crossfade is made of one projector's images for now: this rig has several")
-        written = export_multi(store, settings, result, mpcdi=os.path.abspath(args.mpcdi) if args.mpcdi else None)
+        written = export_multi(store, settings, result, mpcdi=os.path.abspath(args.mpcdi) if args.mpcdi else None,
+                               profile=getattr(args, "profile", "2d") or "2d")
         print_json({"result": result or scene_state.read(scene).result_dir, **written})
         return 0
     written = export_result.export_current(store, settings, result)

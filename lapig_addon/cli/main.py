@@ -138,6 +138,9 @@ def _parser():
     ex.add_argument("--mpcdi", help="also write the rig's MPCDI 2.0 package ('2d' profile: each projector's warp "
                                     "and blend) to this .mpcdi file; a rig of several projectors writes one image "
                                     "per projector, <out>_1.png, <out>_2.png, ...")
+    ex.add_argument("--profile", choices=["2d", "sl"], default="2d",
+                    help="the MPCDI profile: '2d' (Watchout, BrightSign; default) or 'sl' (shader lamp: nDisplay, "
+                         "TouchDesigner: each projector's pose, frustum and 3D surface point per 8th pixel)")
     ranged_option(ex, "--frames", "crossfade_frames", "crossfade frames (default: the scene's)")
 
     sh = sub.add_parser("show", help="play the scene's look live on the projector (Esc in the window stops)")

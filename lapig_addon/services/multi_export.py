@@ -35,15 +35,36 @@ def metadata(store, summary: dict) -> dict:
             **store.software()}
 
 
+MPCDI_PROFILES = ("2d", "sl")
+
+
+def write_sl_package(store, path, model, names):
+    """The 'sl' (shader lamp: nDisplay, TouchDesigner) package: poses, frusta and 3D surface points per texel
+    from the scene (store.sl_geometry, main thread: bpy), alpha maps from the joint model as the '2d' one."""
+    from ...lapig_core.multi.blend import alpha_maps, blend_weights
+    from ...lapig_core.multi.mpcdi_export import write_rig_mpcdi_sl
+
+    geometry = store.sl_geometry()
+    alphas = alpha_maps(model.maps, blend_weights(model.maps))
+    for name, pm, alpha in zip(names, geometry["models"], alphas):
+        if tuple(alpha.shape) != (pm.height, pm.width):
+            raise ValueError(f"projector {name}: the capture was made at {alpha.shape[1]}x{alpha.shape[0]}, "
+                             f"the projector is now {pm.width}x{pm.height}: capture again")
+    return write_rig_mpcdi_sl(path, names, geometry["models"], geometry["matrices"], geometry["points"], alphas,
+                              gammas=model.gamma_p)
+
+
 def export_multi(store, settings: ExportSettings, result: str | None = None, mpcdi: str | None = None,
-                 images: bool = True) -> dict:
+                 images: bool = True, profile: str = "2d") -> dict:
     """Write every projector's image of `result` (None: the scene's; images=False: none) and, with `mpcdi`, the
-    rig's package; returns {'images': [paths], 'sidecars': [paths], 'mpcdi': path or None}."""
+    rig's package in `profile` ('2d' or 'sl'); returns {'images': [paths], 'sidecars': [paths], 'mpcdi': path or None}."""
     from ...lapig_core.multi.joint_model import JointModel
     from ...lapig_core.multi.mpcdi_export import write_rig_mpcdi
     from ...lapig_core.multi.result_files import projector_images
 
     problem = settings.problem()
+    if profile not in MPCDI_PROFILES:
+        problem = f"MPCDI profile must be one of {', '.join(MPCDI_PROFILES)}, got {profile!r}"
     if problem:
         raise ValueError(problem)
     folder = result_folder(store, result)
@@ -59,7 +80,9 @@ def export_multi(store, settings: ExportSettings, result: str | None = None, mpc
         model_path = joint_model_path(summary.get("capture") or "")
         if not model_path.is_file():
             raise ValueError(f"the result's capture has no joint model ({model_path}): capture again")
-        written["mpcdi"] = str(write_rig_mpcdi(mpcdi, JointModel.load(model_path), names))
+        joint = JointModel.load(model_path)
+        written["mpcdi"] = str(write_sl_package(store, mpcdi, joint, names) if profile == "sl"
+                               else write_rig_mpcdi(mpcdi, joint, names))
     common = metadata(store, summary)
     for k, (entry, image) in enumerate(shown if images else []):
         width, height = entry["size"]

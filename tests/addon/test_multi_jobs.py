@@ -158,6 +158,23 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     assert sidecar["projector"] == {"index": 2, "count": 2, "name": "Right", "resolution": list(PROJECTOR)}
     assert sidecar["image"]["bit_depth"] == 16 and os.path.isfile(written["mpcdi"])
     assert "light" not in sidecar and "table" not in written  # no Light Report yet: as it always wrote
+    # the 'sl' profile: the scene's geometry from the store (main thread), alphas from the joint model
+    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+    from lapig.lapig_core.optics.projector_model import ProjectorModel
+
+    pm = ProjectorModel(width=PROJECTOR[0], height=PROJECTOR[1], throw_ratio=1.2)
+    moved = np.eye(4)
+    moved[:3, 3] = (0.5, -3.0, 1.0)
+    store.sl_geometry = lambda step=8: {"models": [pm, pm], "matrices": [np.eye(4), moved],
+                                        "points": [np.full((3, 4, 3), 0.25, np.float32)] * 2}
+    sl = export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "rig_sl.mpcdi"), images=False,
+                             profile="sl")
+    package = read_mpcdi(sl["mpcdi"])
+    assert package.profile == "sl" and [b.id for b in package.buffers] == ["Left", "Right"]
+    assert package.regions["Right region"].coordinate_frame.position == pytest.approx((0.5, -3.0, 1.0))
+    assert package.regions["Left region"].coordinate_frame.roll_axis == pytest.approx((0.0, 0.0, -1.0))
+    with pytest.raises(ValueError, match="MPCDI profile must be one of 2d, sl"):
+        export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "x.mpcdi"), profile="3d")
     # after a Light Report of several: each sidecar its projector's share, the table every projector's row
     row = {"resolution": list(PROJECTOR), "lumens": 2000.0, "throw_ratio": 1.2, "shift_x": 0.0, "shift_y": 0.0,
            "position_m": [0, -3, 1], "rotation_deg": [90, 0, 0], "target_distance_m": 3.0, "target_lux": 250.0}

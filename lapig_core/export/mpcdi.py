@@ -209,12 +209,13 @@ def _check_options(profile, path, geometric_unit, origin_of_3d_data, interpolati
 
 def write_mpcdi(path, profile: str, buffers: Sequence[MpcdiBuffer], *, geometric_unit: str | None = None,
                 origin_of_3d_data: str = "unknown", interpolation: str = "linear", bit_depth: int = 16,
-                date: dt.datetime | None = None) -> Path:
+                date: dt.datetime | None = None, comment: str | None = None) -> Path:
     """Write the MPCDI package of `buffers` to `path` (a .mpcdi file) and return its path.
 
     geometric_unit and origin_of_3d_data describe 'sl' 3D data (default metres, Blender's unit, and
     'unknown' origin); '2d' data has neither ('unknown'). interpolation: how a reader fills between warp
     texels (2.7). bit_depth: the PNG blend maps' 8 or 16 bits. date: the descriptor's date (default now).
+    comment: an XML comment written before the root of mpcdi.xml (e.g. the 3D data's axis convention).
     Raises ValueError (one line) for input the spec does not allow, OSError (one line) when the file
     cannot be written; in both cases nothing is left at `path` but what was there before.
     """
@@ -226,7 +227,7 @@ def write_mpcdi(path, profile: str, buffers: Sequence[MpcdiBuffer], *, geometric
     color_level = 2 if any(item.beta is not None for item in prepared) else 1
     facts = PackageFacts(profile=profile, geometry_level=_geometry_level(profile, prepared), color_level=color_level,
                          date=date, geometric_unit=geometric_unit, origin_of_3d_data=origin_of_3d_data,
-                         interpolation=interpolation, bit_depth=bit_depth)
+                         interpolation=interpolation, bit_depth=bit_depth, comment=comment)
     names = _member_names(prepared)
     members = [(DESCRIPTOR, descriptor_xml(buffers, names, facts))]
     for item in prepared:

@@ -50,6 +50,7 @@ class PackageFacts:
     origin_of_3d_data: str
     interpolation: str
     bit_depth: int
+    comment: str | None = None  # written as an XML comment before the root (e.g. the 3D data's axes)
 
 
 def _number(value) -> str:
@@ -149,4 +150,7 @@ def descriptor_xml(buffers: list[MpcdiBuffer], files: dict[str, RegionFiles], fa
         for region in buffer.regions:
             _fileset(files_element, region, files[region.id], facts)
     ET.indent(root, space="  ")
-    return (DECLARATION + ET.tostring(root, encoding="unicode") + "\n").encode("utf-8")
+    comment = ""
+    if facts.comment:
+        comment = "<!-- " + " ".join(str(facts.comment).replace("--", "- -").split()) + " -->\n"
+    return (DECLARATION + comment + ET.tostring(root, encoding="unicode") + "\n").encode("utf-8")

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The rig's calibration as an MPCDI 2.0 '2d' package: each projector's warp and blend from its capture.
+"""The rig's calibration as an MPCDI 2.0 package: '2d', each projector's warp and blend from its capture
+(below); 'sl' (shader lamp), each projector's pose, frustum and 3D surface points (write_rig_mpcdi_sl).
 
 The content space is the camera's image (the view the look was made in): a media server that plays
 camera-space content through this package shows it as the camera saw the looks. Per projector, one buffer
@@ -71,6 +72,11 @@ def write_rig_mpcdi(path, model: JointModel, names: Sequence[str], weights: np.n
 # frustum's yaw, pitch and roll are 0 (the frame carries the orientation), its edge angles come from the
 # lens (throw ratio and shift, lapig_core/optics/projector_model).
 
+SL_AXES = ("LAPIG shader-lamp package. 3D data: Blender world coordinates, Z up, right-handed, metres. "
+           "Coordinate frame: position = the projector object's world location; yawAxis = its local +Y (image "
+           "up), pitchAxis = its local +X (image right), rollAxis = its local -Z (throw direction). Frustum "
+           "yaw = pitch = roll = 0; edge angles from the lens (throw ratio, shift). Warp: the surface point each "
+           "texel's projector pixel ray hits (NaN: misses).")
 SL_TEXEL_STEP = 8  # a texel every 8th projector pixel (3.6: the warp grid may be coarser than the region)
 
 
@@ -128,4 +134,4 @@ def write_rig_mpcdi_sl(path, names, models, matrices, points, alphas, gammas=Non
     """Write the 'sl' package (3D points in metres, Blender world: Z up, right-handed) whole or not at all;
     returns its path. ValueError or OSError (one line) when it cannot, the previous file at `path` kept."""
     return write_mpcdi(path, "sl", sl_buffers(names, models, matrices, points, alphas, gammas),
-                       geometric_unit="m")
+                       geometric_unit="m", comment=SL_AXES)

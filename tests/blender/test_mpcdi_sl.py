@@ -39,6 +39,7 @@ def test_sl_package_round_trip(tmp_path):
                               geometry["points"], alphas)
     package = read_mpcdi(path)
     assert package.profile == "sl"
+    assert b"<!-- LAPIG shader-lamp package. 3D data: Blender world coordinates, Z up" in package.descriptor
     assert [b.id for b in package.buffers] == ["P1", "P2"]
     for k, (ob, model) in enumerate(zip(projectors, models)):
         region = package.regions[f"P{k + 1} region"]

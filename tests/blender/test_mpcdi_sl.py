@@ -85,3 +85,36 @@ def test_sl_unwritable_path_one_line_nothing_left(tmp_path):
         write_rig_mpcdi_sl(target, ["P"], [model], [np.eye(4)], points, [np.ones((12, 16))])
     assert "\n" not in str(err.value)
     assert blocker.read_text() == "x" and list(tmp_path.iterdir()) == [blocker]
+
+
+def test_the_scene_store_gathers_a_lapig_projectors_pose_and_surface_points(small_setup):
+    """BlenderSceneStore.sl_geometry on the demo panel's rig: the LAPIG projector's own world matrix and
+    model, each texel's point on the target (< 1 cm from its mesh) and back through the lens to its pixel."""
+    from mathutils import Vector
+    from mathutils.bvhtree import BVHTree
+
+    from lapig.lapig_addon.blender import scene_state
+    from lapig.lapig_addon.blender.scene_store import BlenderSceneStore
+    from lapig.lapig_core.multi.mpcdi_export import sl_texel_pixels
+
+    scene, projector, camera, target = small_setup
+    geometry = BlenderSceneStore(scene).sl_geometry(step=16)
+    model = geometry["models"][0]
+    assert (model.width, model.height) == (160, 120)
+    assert model == scene_state.projector_model(projector)
+    m = np.array(projector.matrix_world)
+    assert np.allclose(geometry["matrices"][0], m, atol=1e-6)
+    points, pixels = geometry["points"][0], sl_texel_pixels(model, 16)
+    hit = np.isfinite(points).all(axis=-1)
+    assert hit.sum() > 0.3 * hit.size, "the projector should light the panel"
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    bvh = BVHTree.FromObject(target, depsgraph)
+    inv = np.linalg.inv(np.array(target.matrix_world))
+    scale = np.linalg.norm(np.array(target.matrix_world)[:3, :3], axis=0).max()
+    for p in points[hit].astype(np.float64):
+        local = inv[:3, :3] @ p + inv[:3, 3]
+        nearest, _, _, dist = bvh.find_nearest(Vector(local))
+        assert nearest is not None and dist * scale < 0.01
+    rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    back = model.uv_to_pixel(model.directions_to_uv((points[hit] - m[:3, 3]) @ rot))
+    assert np.abs(back - pixels[hit]).max() < 1.0

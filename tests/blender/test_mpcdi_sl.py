@@ -118,3 +118,13 @@ def test_the_scene_store_gathers_a_lapig_projectors_pose_and_surface_points(smal
     rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
     back = model.uv_to_pixel(model.directions_to_uv((points[hit] - m[:3, 3]) @ rot))
     assert np.abs(back - pixels[hit]).max() < 1.0
+
+
+def test_export_takes_a_profile_2d_by_default_and_refuses_another():
+    from lapig.lapig_addon.cli.main import _parser
+
+    parser = _parser()
+    assert parser.parse_args(["export", "--out", "x.png", "--mpcdi", "r.mpcdi"]).profile == "2d"
+    assert parser.parse_args(["export", "--out", "x.png", "--mpcdi", "r.mpcdi", "--profile", "sl"]).profile == "sl"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["export", "--out", "x.png", "--profile", "3d"])

@@ -192,6 +192,15 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     with pytest.raises(RuntimeError, match="cannot write the MPCDI package"):
         bpy.ops.lapig.export_mpcdi(filepath=str(tmp_path / "export" / "statue_1.png" / "rig.mpcdi"))
     assert package.read_bytes() == before and scene_state.read(scene).result_dir == result
+    # the 'sl' profile through the operator: the rig's real projectors, alphas from the capture's joint model
+    shader_lamp = tmp_path / "export" / "statue_sl.mpcdi"
+    assert bpy.ops.lapig.export_mpcdi(filepath=str(shader_lamp), profile="sl") == {"FINISHED"}
+    sl = read_mpcdi(shader_lamp)
+    assert sl.profile == "sl" and [b.id for b in sl.buffers] == list(names)
+    for name, ob in zip(names, scene_state.rig_projectors(scene)):
+        frame = sl.regions[f"{name} region"].coordinate_frame
+        assert frame.position == pytest.approx(tuple(ob.matrix_world.translation), abs=1e-4)
+        assert np.isfinite(sl.warp(f"{name} region")).all(axis=-1).any()  # some texels land on the statue
 
 
 @pytest.mark.blender

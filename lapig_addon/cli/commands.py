@@ -349,21 +349,45 @@ def cmd_show_export(args) -> int:
     return 0
 
 
-def _play_timeline(scene, display: str) -> int:
-    """show --timeline: the scene's show on the projector window at its frame rate; the late frames printed."""
+def _play_timeline(scene, display: str, displays=None) -> int:
+    """show --timeline: the scene's show on the projector window at its frame rate; the late frames printed. A rig
+    of several (``displays``: one display per projector): every projector's window, each its own frames of the
+    show, presented together (the figures add max_skew_frames)."""
     from ..blender import show_timeline
     from ..rigs import live_output
 
     problem = show_timeline.blocker(scene)
     if problem:  # before the window opens
         raise ValueError(problem)
-    sink = live_output.open_live(display)
+    if displays:
+        windows = live_output.open_windows(displays, names=[f"projector {k + 1}" for k in range(len(displays))])
+        sink = live_output.make_live(live_output.LockedWindowsSink(windows, fps=scene_state.scene_fps(scene) or 60.0))
+        where = {"displays": [w.describe().get("display") for w in windows.windows]}
+    else:
+        sink = live_output.open_live(display)
+        where = {"display": sink.window.describe()["display"]}
     try:
         played = show_timeline.play_job(scene, sink).run_to_completion(on_progress=headless.print_progress)
-        print_json({"display": sink.window.describe()["display"], "show": played})
+        print_json({**where, "show": played})
     finally:
         live_output.close_live()
     return 0
+
+
+def _several_displays(args, store, count: int) -> list:
+    """The displays of a rig of several (--display 1,2,.. or the scene's real rig's), one per projector."""
+    from ..services.panel_state import projectors_blocker
+
+    rig = store.read().rig
+    displays = [d.strip() for d in args.display.split(",")] if args.display else list(rig.displays)
+    if len(displays) != count:
+        raise ValueError(f"the rig has {count} projectors: give --display one display each, e.g. "
+                         f"--display {','.join(str(k + 1) for k in range(count))}")
+    if not args.display:
+        problem = projectors_blocker(rig)
+        if problem:
+            raise ValueError(problem)
+    return displays
 
 
 def cmd_show(args) -> int:
@@ -375,7 +399,10 @@ def cmd_show(args) -> int:
 
     scene = _open_scene(args)
     store = BlenderSceneStore(scene)
-    several = store.read().rig.projector_count > 1
+    count = store.read().rig.projector_count
+    several = count > 1
+    if args.timeline and several:
+        return _play_timeline(scene, "", _several_displays(args, store, count))
     display = args.display or getattr(scene_state.real_rig_spec(scene), "display", "").strip()
     if not display:
         raise ValueError("show needs --display (or a scene with a real rig: capture --rig real --save)")

@@ -394,8 +394,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         else:  # one image per projector (<name>_1.png, ...), and the rig's warps and blends for a media server
             col.operator("lapig.export_image", icon="EXPORT", text="Export Projector Images")
             col.operator("lapig.export_mpcdi", icon="PACKAGE")
-            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no crossfade or result preview "
-                                                                             "modes yet")
+            col.prop(s, "crossfade_frames")  # a folder per projector, each in its own gamma
+            col.operator("lapig.export_crossfade", icon="SEQUENCE")
+            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no result preview modes yet")
 
 
 CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,

@@ -284,9 +284,11 @@ def cmd_export(args) -> int:
     if args.mpcdi or store.read().rig.projector_count > 1:  # several projectors: an image each, and the package
         from ..services.multi_export import export_multi
 
-        if args.crossfade:
-            raise ValueError("--crossfade is made of one projector's images for now: this rig has several")
         written = export_multi(store, settings, result, mpcdi=os.path.abspath(args.mpcdi) if args.mpcdi else None)
+        if args.crossfade:  # a folder per projector: <crossfade>/projector_<k>/
+            frames = export_result.export_crossfade(store, os.path.abspath(args.crossfade), settings, result,
+                                                    on_progress=headless.print_progress)
+            written["crossfade_frames"] = len(frames)
         print_json({"result": result or scene_state.read(scene).result_dir, **written})
         return 0
     written = export_result.export_current(store, settings, result)
@@ -461,12 +463,17 @@ def _show_several(args, scene, store, folder: str) -> int:
     windows = live_output.open_windows(displays, names=[f"projector {k + 1}" for k in range(len(frames))])
     sink = live_output.make_live(live_output.LockedWindowsSink(windows, fps=args.fps))
     try:
+        crossfade = None
+        if args.crossfade:  # each projector's crossfade on its window, presented together
+            settings = scene_state.export_settings(scene, crossfade_frames=args.frames)
+            crossfade = live_output.CrossfadeJob(sink, store, folder, settings.crossfade_frames, args.fps,
+                                                 settings.bit_depth).run_to_completion()
         t = time.perf_counter()
         sink.show_all(frames)
         if sink.problem:
             raise ValueError(sink.problem)
         summary = {"displays": [w.describe().get("display") for w in windows.windows], "result": folder,
-                   "show_s": round(time.perf_counter() - t, 4)}
+                   "show_s": round(time.perf_counter() - t, 4), **({"crossfade": crossfade} if crossfade else {})}
         if args.lock_frames:
             summary["lock"] = play_locked(windows, (sink.frames for _ in range(args.lock_frames)), fps=args.fps)
         print(f"showing {folder} on {len(frames)} projectors: Esc in a window stops"

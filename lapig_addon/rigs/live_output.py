@@ -223,16 +223,41 @@ class _Stopped(Exception):
 
 class CrossfadeJob(WorkerJob):
     """Play a result's crossfade on the open projector window at ``fps``, on a worker thread (Esc in
-    Blender stops it; the window keeps the frame it was showing)."""
+    Blender stops it; the window keeps the frame it was showing). A result of several on the windows of several
+    (a LockedWindowsSink): each projector's crossfade on its own window (services/several_crossfade), every frame
+    presented together; the figures add `max_skew_frames`."""
 
     title = "LAPIG crossfade"
 
-    def __init__(self, sink: ProjectorWindowSink, store, folder: str, frames: int, fps: float, bit_depth: int = 8):
+    def __init__(self, sink, store, folder: str, frames: int, fps: float, bit_depth: int = 8):
         super().__init__()
         self.sink, self.store, self.folder = sink, store, folder
         self.frames, self.fps, self.bit_depth = frames, fps, bit_depth
 
+    @property
+    def several(self) -> bool:
+        return bool(getattr(self.sink, "several_projectors", False))
+
     def prepare(self):
+        from ...lapig_core.multi.result_files import is_multi_result
+
+        multi = is_multi_result(self.folder)
+        if multi or self.several:
+            from ..services import several_crossfade
+
+            if not (multi and self.several):
+                raise ValueError("the result has several projectors but one window is open: Show on Projector again"
+                                 if multi else "the windows of several are open but the result is of one projector: "
+                                 "Generate first")
+            sizes, windows = several_crossfade.sizes(self.folder), self.sink.window.windows
+            if len(sizes) != len(windows):
+                raise ValueError(f"the result has {len(sizes)} projectors but {len(windows)} window(s) are open: "
+                                 f"Show on Projector again")
+            for k, (size, window) in enumerate(zip(sizes, windows)):
+                problem = size_problem(size[0], size[1], window.size)
+                if problem:
+                    raise ValueError(f"projector {k + 1}: {problem}")
+            return several_crossfade.crossfade_sets(self.store, self.folder, self.bit_depth, self.frames)
         model = self.store.projector_model()
         problem = size_problem(model.width, model.height, self.sink.window.size)
         if problem:
@@ -245,10 +270,14 @@ class CrossfadeJob(WorkerJob):
                 raise _Stopped
             report((i + 1) / self.frames, f"frame {i + 1} of {self.frames}")
 
+        window = LockedTogether(self.sink) if self.several else self.sink.window
         try:
-            return play(self.sink.window, frames, self.fps, on_frame=on_frame)
+            played = play(window, frames, self.fps, on_frame=on_frame)
         except _Stopped:
             return None
+        if self.several:
+            played["max_skew_frames"] = round(window.max_skew_s * float(self.fps), 4)
+        return played
 
 
 def late_share(played: dict) -> dict:

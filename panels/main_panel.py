@@ -366,7 +366,7 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)
-        single = not panel_state.one_projector_blocker(state.rig)  # the crossfade: one projector
+        single = not panel_state.one_projector_blocker(state.rig)  # several: an image each, MPCDI
         row = layout.row()
         # rendering also needs torch and the capture the result was made on; several projectors render together
         row.enabled = (has_result and not panel_state.render_blocker(state) and not panel_state.models_blocker(state)

@@ -382,7 +382,7 @@ def _several_displays(args, store, count: int) -> list:
 
     rig = store.read().rig
     displays = [d.strip() for d in args.display.split(",")] if args.display else list(rig.displays)
-    if len(displays) != count:
+    if len(displays) != count or not all(displays):
         raise ValueError(f"the rig has {count} projectors: give --display one display each, e.g. "
                          f"--display {','.join(str(k + 1) for k in range(count))}")
     if not args.display:

@@ -153,3 +153,8 @@ def test_play_show_and_show_timeline_play_each_projectors_frames_on_its_window(s
     assert printed["show"]["frames"] == 4 and "max_skew_frames" in printed["show"] and len(printed["displays"]) == 2
     assert [win.frames for win in opened] == [4, 4]  # the show's four frames on both windows
     assert [int(win.shown[5, 5, 0]) for win in opened] == [191, 64]
+    capsys.readouterr()
+    assert main(["show", "--timeline", "--blend", bpy.data.filepath, "--display", "1"]) != 0  # one display for two
+    said = capsys.readouterr()
+    assert "the rig has 2 projectors: give --display one display each, e.g. --display 1,2" in said.out + said.err
+    assert len(opened) == 2  # no window opened

@@ -5,7 +5,7 @@ Export Crossfade and Play Crossfade make of its image (lapig_core/export/project
 crossfade_frames).
 
 - export_crossfades: a folder per projector, <directory>/projector_<k>/crossfade_0001.png .. with crossfade.json
-  (its sidecar names the projector); every folder or none (the folders made here are removed after a failure).
+  (its sidecar names the projector, with its share of a Light Report where one ran); every folder or none (the folders made here are removed after a failure).
 - crossfade_sets: the frames played live, one list per frame with one array per projector (rigs/live_output
   plays them on the windows of several, presented together).
 """
@@ -16,6 +16,7 @@ import shutil
 
 from ...lapig_core.export import projector_image as export
 from ...lapig_core.export.result_files import read_summary
+from . import light_sidecar
 
 
 def projector_folder(directory: str, k: int) -> str:
@@ -55,8 +56,9 @@ def export_crossfades(store, directory: str, frames: int, bit_depth: int, folder
                 os.makedirs(out)
                 made.append(out)
             width, height = entry["size"]
-            meta = {**metadata, "projector": {"index": k + 1, "count": len(pairs), "name": entry.get("name"),
-                                              "resolution": [width, height], "gamma": model.gamma}}
+            meta = {**metadata, **light_sidecar.several_sidecar_fields(folder, k),  # the Light Report's, where run
+                    "projector": {"index": k + 1, "count": len(pairs), "name": entry.get("name"),
+                                  "resolution": [width, height], "gamma": model.gamma}}
             heard = None if on_progress is None else (
                 lambda f, m, k=k: on_progress((k + f) / len(pairs), f"projector {k + 1}: {m}"))
             paths += export.crossfade_sequence(out, start, end, frames=frames, width=width, height=height,

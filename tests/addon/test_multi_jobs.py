@@ -186,8 +186,8 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     # Export Crossfade of the result of several: a folder per projector, each its own crossfade (issue 36)
     frames = _module("export_result").export_crossfade(store, str(tmp_path / "fade"), settings)
     assert len(frames) == 8 and sorted(os.listdir(tmp_path / "fade")) == ["projector_1", "projector_2"]
-    assert json.loads((tmp_path / "fade" / "projector_2" / "crossfade.json").read_text())["projector"]["name"] == \
-        "Right"
+    faded = json.loads((tmp_path / "fade" / "projector_2" / "crossfade.json").read_text())
+    assert faded["projector"]["name"] == "Right" and faded["light"]["projector"]["share"] == 0.4  # its own share
 
 
 @pytest.mark.torch  # refine_job reads the capture through pipeline_jobs, which loads torch

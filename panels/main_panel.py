@@ -366,7 +366,7 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)
-        single = not panel_state.one_projector_blocker(state.rig)  # the crossfade: one projector
+        single = not panel_state.one_projector_blocker(state.rig)  # several: an image each, MPCDI
         row = layout.row()
         # rendering also needs torch and the capture the result was made on; several projectors render together
         row.enabled = (has_result and not panel_state.render_blocker(state) and not panel_state.models_blocker(state)
@@ -394,8 +394,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         else:  # one image per projector (<name>_1.png, ...), and the rig's warps and blends for a media server
             col.operator("lapig.export_image", icon="EXPORT", text="Export Projector Images")
             col.operator("lapig.export_mpcdi", icon="PACKAGE")
-            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no crossfade or result preview "
-                                                                             "modes yet")
+            col.prop(s, "crossfade_frames")  # a folder per projector, each in its own gamma
+            col.operator("lapig.export_crossfade", icon="SEQUENCE")
+            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no result preview modes yet")
 
 
 CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,

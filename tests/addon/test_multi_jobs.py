@@ -263,6 +263,7 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     assert panel_state.refine_blocker(shared.read()).endswith("are both on display '1': give each its own display")
 
 
+@pytest.mark.torch  # RenderResultJob lives in pipeline_jobs, which loads torch
 def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_on_the_object(tmp_path):
     """Render Real Capture on a rig of several: both projectors' images of the result shown together, captured
     once in camera space; rendered.png and its PSNR against the look (and the predicted capture) go into the

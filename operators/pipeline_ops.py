@@ -231,7 +231,9 @@ class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
 
         paths = export_result.export_crossfade(BlenderSceneStore(context.scene), bpy.path.abspath(self.directory),
                                                scene_state.export_settings(context.scene))
-        self.report({"INFO"}, f"Wrote {len(paths)} frames to {os.path.dirname(paths[0])}")
+        folders = sorted({os.path.dirname(p) for p in paths})  # several projectors: a folder each
+        where = folders[0] if len(folders) == 1 else f"{os.path.dirname(folders[0])} (a folder per projector)"
+        self.report({"INFO"}, f"Wrote {len(paths)} frames to {where}")
         return {"FINISHED"}
 
 

@@ -366,7 +366,7 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)
-        single = not panel_state.one_projector_blocker(state.rig)  # the crossfade: one projector
+        single = not panel_state.one_projector_blocker(state.rig)  # several: an image each, MPCDI
         row = layout.row()
         # rendering also needs torch and the capture the result was made on; several projectors render together
         row.enabled = (has_result and not panel_state.render_blocker(state) and not panel_state.models_blocker(state)
@@ -396,8 +396,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
             row = col.row(align=True)  # the MPCDI profile: '2d' (default) or 'sl' (shader lamp)
             row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Export MPCDI 2D").profile = "2d"
             row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Shader Lamp").profile = "sl"
-            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no crossfade or result preview "
-                                                                             "modes yet")
+            col.prop(s, "crossfade_frames")  # a folder per projector, each in its own gamma
+            col.operator("lapig.export_crossfade", icon="SEQUENCE")
+            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no result preview modes yet")
 
 
 CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,

@@ -36,6 +36,10 @@ class BlenderSceneStore:
     def projector_model(self):
         return scene_state.projector_model(scene_state.rig_objects(self.scene)[0])
 
+    def projector_models(self) -> tuple:
+        """Every projector's model, the first first (a rig of several: its crossfades, each in its own gamma)."""
+        return tuple(scene_state.projector_model(p) for p in scene_state.rig_projectors(self.scene))
+
     def rig_metadata(self) -> dict:
         return scene_state.rig_metadata(self.scene)
 

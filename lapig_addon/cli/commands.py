@@ -284,10 +284,12 @@ def cmd_export(args) -> int:
     if args.mpcdi or store.read().rig.projector_count > 1:  # several projectors: an image each, and the package
         from ..services.multi_export import export_multi
 
-        if args.crossfade:
-            raise ValueError("--crossfade is made of one projector's images for now: this rig has several")
         written = export_multi(store, settings, result, mpcdi=os.path.abspath(args.mpcdi) if args.mpcdi else None,
                                profile=getattr(args, "profile", "2d") or "2d")
+        if args.crossfade:  # a folder per projector: <crossfade>/projector_<k>/
+            frames = export_result.export_crossfade(store, os.path.abspath(args.crossfade), settings, result,
+                                                    on_progress=headless.print_progress)
+            written["crossfade_frames"] = len(frames)
         print_json({"result": result or scene_state.read(scene).result_dir, **written})
         return 0
     written = export_result.export_current(store, settings, result)
@@ -350,21 +352,45 @@ def cmd_show_export(args) -> int:
     return 0
 
 
-def _play_timeline(scene, display: str) -> int:
-    """show --timeline: the scene's show on the projector window at its frame rate; the late frames printed."""
+def _play_timeline(scene, display: str, displays=None) -> int:
+    """show --timeline: the scene's show on the projector window at its frame rate; the late frames printed. A rig
+    of several (``displays``: one display per projector): every projector's window, each its own frames of the
+    show, presented together (the figures add max_skew_frames)."""
     from ..blender import show_timeline
     from ..rigs import live_output
 
     problem = show_timeline.blocker(scene)
     if problem:  # before the window opens
         raise ValueError(problem)
-    sink = live_output.open_live(display)
+    if displays:
+        windows = live_output.open_windows(displays, names=[f"projector {k + 1}" for k in range(len(displays))])
+        sink = live_output.make_live(live_output.LockedWindowsSink(windows, fps=scene_state.scene_fps(scene) or 60.0))
+        where = {"displays": [w.describe().get("display") for w in windows.windows]}
+    else:
+        sink = live_output.open_live(display)
+        where = {"display": sink.window.describe()["display"]}
     try:
         played = show_timeline.play_job(scene, sink).run_to_completion(on_progress=headless.print_progress)
-        print_json({"display": sink.window.describe()["display"], "show": played})
+        print_json({**where, "show": played})
     finally:
         live_output.close_live()
     return 0
+
+
+def _several_displays(args, store, count: int) -> list:
+    """The displays of a rig of several (--display 1,2,.. or the scene's real rig's), one per projector."""
+    from ..services.panel_state import projectors_blocker
+
+    rig = store.read().rig
+    displays = [d.strip() for d in args.display.split(",")] if args.display else list(rig.displays)
+    if len(displays) != count or not all(displays):
+        raise ValueError(f"the rig has {count} projectors: give --display one display each, e.g. "
+                         f"--display {','.join(str(k + 1) for k in range(count))}")
+    if not args.display:
+        problem = projectors_blocker(rig)
+        if problem:
+            raise ValueError(problem)
+    return displays
 
 
 def cmd_show(args) -> int:
@@ -376,7 +402,10 @@ def cmd_show(args) -> int:
 
     scene = _open_scene(args)
     store = BlenderSceneStore(scene)
-    several = store.read().rig.projector_count > 1
+    count = store.read().rig.projector_count
+    several = count > 1
+    if args.timeline and several:
+        return _play_timeline(scene, "", _several_displays(args, store, count))
     display = args.display or getattr(scene_state.real_rig_spec(scene), "display", "").strip()
     if not display:
         raise ValueError("show needs --display (or a scene with a real rig: capture --rig real --save)")
@@ -435,12 +464,17 @@ def _show_several(args, scene, store, folder: str) -> int:
     windows = live_output.open_windows(displays, names=[f"projector {k + 1}" for k in range(len(frames))])
     sink = live_output.make_live(live_output.LockedWindowsSink(windows, fps=args.fps))
     try:
+        crossfade = None
+        if args.crossfade:  # each projector's crossfade on its window, presented together
+            settings = scene_state.export_settings(scene, crossfade_frames=args.frames)
+            crossfade = live_output.CrossfadeJob(sink, store, folder, settings.crossfade_frames, args.fps,
+                                                 settings.bit_depth).run_to_completion()
         t = time.perf_counter()
         sink.show_all(frames)
         if sink.problem:
             raise ValueError(sink.problem)
         summary = {"displays": [w.describe().get("display") for w in windows.windows], "result": folder,
-                   "show_s": round(time.perf_counter() - t, 4)}
+                   "show_s": round(time.perf_counter() - t, 4), **({"crossfade": crossfade} if crossfade else {})}
         if args.lock_frames:
             summary["lock"] = play_locked(windows, (sink.frames for _ in range(args.lock_frames)), fps=args.fps)
         print(f"showing {folder} on {len(frames)} projectors: Esc in a window stops"

@@ -140,7 +140,8 @@ def play(window, frames, fps: float = 30.0, clock=time, on_frame=None, ahead: in
         wait = due - clock.perf_counter()
         if wait > 0:
             clock.sleep(wait)
-        on_screen = window.show(to_uint8(pixels))  # a 16-bit frame shows its top 8 bits
+        # a 16-bit frame shows its top 8 bits; a list is one frame per projector window (LockedTogether)
+        on_screen = window.show([to_uint8(p) for p in pixels] if isinstance(pixels, list) else to_uint8(pixels))
         late += on_screen - due > period / 2
         shown += 1
         if on_frame is not None:
@@ -222,16 +223,41 @@ class _Stopped(Exception):
 
 class CrossfadeJob(WorkerJob):
     """Play a result's crossfade on the open projector window at ``fps``, on a worker thread (Esc in
-    Blender stops it; the window keeps the frame it was showing)."""
+    Blender stops it; the window keeps the frame it was showing). A result of several on the windows of several
+    (a LockedWindowsSink): each projector's crossfade on its own window (services/several_crossfade), every frame
+    presented together; the figures add `max_skew_frames`."""
 
     title = "LAPIG crossfade"
 
-    def __init__(self, sink: ProjectorWindowSink, store, folder: str, frames: int, fps: float, bit_depth: int = 8):
+    def __init__(self, sink, store, folder: str, frames: int, fps: float, bit_depth: int = 8):
         super().__init__()
         self.sink, self.store, self.folder = sink, store, folder
         self.frames, self.fps, self.bit_depth = frames, fps, bit_depth
 
+    @property
+    def several(self) -> bool:
+        return bool(getattr(self.sink, "several_projectors", False))
+
     def prepare(self):
+        from ...lapig_core.multi.result_files import is_multi_result
+
+        multi = is_multi_result(self.folder)
+        if multi or self.several:
+            from ..services import several_crossfade
+
+            if not (multi and self.several):
+                raise ValueError("the result has several projectors but one window is open: Show on Projector again"
+                                 if multi else "the windows of several are open but the result is of one projector: "
+                                 "Generate first")
+            sizes, windows = several_crossfade.sizes(self.folder), self.sink.window.windows
+            if len(sizes) != len(windows):
+                raise ValueError(f"the result has {len(sizes)} projectors but {len(windows)} window(s) are open: "
+                                 f"Show on Projector again")
+            for k, (size, window) in enumerate(zip(sizes, windows)):
+                problem = size_problem(size[0], size[1], window.size)
+                if problem:
+                    raise ValueError(f"projector {k + 1}: {problem}")
+            return several_crossfade.crossfade_sets(self.store, self.folder, self.bit_depth, self.frames)
         model = self.store.projector_model()
         problem = size_problem(model.width, model.height, self.sink.window.size)
         if problem:
@@ -244,10 +270,14 @@ class CrossfadeJob(WorkerJob):
                 raise _Stopped
             report((i + 1) / self.frames, f"frame {i + 1} of {self.frames}")
 
+        window = LockedTogether(self.sink) if self.several else self.sink.window
         try:
-            return play(self.sink.window, frames, self.fps, on_frame=on_frame)
+            played = play(window, frames, self.fps, on_frame=on_frame)
         except _Stopped:
             return None
+        if self.several:
+            played["max_skew_frames"] = round(window.max_skew_s * float(self.fps), 4)
+        return played
 
 
 def late_share(played: dict) -> dict:
@@ -257,18 +287,26 @@ def late_share(played: dict) -> dict:
 
 
 class ShowPlayJob(WorkerJob):
-    """Play the show (services/show_source.ShowSource, projector 1's frames) on the open projector window at the
-    show's frame rate, the frames made ahead on a worker thread (play's _ahead); late frames are counted
-    ({'frames', 'seconds', 'late_frames', 'late_frame_pct'}). Esc in Blender stops it; the window keeps its frame."""
+    """Play the show (services/show_source.ShowSource) on the open projector window at the show's frame rate, the
+    frames made ahead on a worker thread (play's _ahead); late frames are counted ({'frames', 'seconds',
+    'late_frames', 'late_frame_pct'}). Esc in Blender stops it; the window keeps its frame.
+
+    On a rig of several (a LockedWindowsSink) each projector's window shows its own frame of the show, all
+    presented together for every frame (LockedTogether), and the figures add `max_skew_frames` (the largest
+    spread of one frame's presentations across the windows, in frames of the show's rate)."""
 
     title = "LAPIG play show"
     AHEAD = 12  # frames made ahead (0.4 s at 30 fps; 75 MB at 1920x1080): a dissolve's first frames or a busy
     # machine's hiccup are absorbed
 
-    def __init__(self, sink: ProjectorWindowSink, source, fps: float | None = None, clock=time):
+    def __init__(self, sink, source, fps: float | None = None, clock=time):
         super().__init__()
         self.sink, self.source, self.clock = sink, source, clock
         self.fps = source.plan.fps if fps is None else fps
+
+    @property
+    def several(self) -> bool:
+        return bool(getattr(self.sink, "several_projectors", False))
 
     def prepare(self):
         problem = self.source.plan.problem()
@@ -276,6 +314,16 @@ class ShowPlayJob(WorkerJob):
             raise ValueError(problem)
         if not self.source.projectors:
             raise ValueError("the show needs the rig's projector")
+        if self.several:
+            windows = self.sink.window.windows
+            if len(windows) != len(self.source.projectors):
+                raise ValueError(f"the rig has {len(self.source.projectors)} projectors but {len(windows)} "
+                                 f"window(s) are open: Show on Projector again")
+            for k, (model, window) in enumerate(zip(self.source.projectors, windows)):
+                problem = size_problem(model.width, model.height, window.size)
+                if problem:
+                    raise ValueError(f"projector {k + 1}: {problem}")
+            return self.source
         model = self.source.projectors[0]
         problem = size_problem(model.width, model.height, self.sink.window.size)
         if problem:
@@ -292,12 +340,40 @@ class ShowPlayJob(WorkerJob):
                 raise _Stopped
             report((i + 1) / count, f"frame {i + 1} of {count}")
 
-        pixels = (frame[0] for _, frame in show_source.frames(source, cancel_event=cancel_event))
+        made = show_source.frames(source, cancel_event=cancel_event)
+        if self.several:
+            window = LockedTogether(self.sink, self.clock)
+            pixels = (list(frame) for _, frame in made)
+        else:
+            window, pixels = self.sink.window, (frame[0] for _, frame in made)
         try:
-            return late_share(play(self.sink.window, pixels, self.fps, clock=self.clock, on_frame=on_frame,
-                                   ahead=self.AHEAD))
+            played = late_share(play(window, pixels, self.fps, clock=self.clock, on_frame=on_frame,
+                                     ahead=self.AHEAD))
         except _Stopped:
             return None
+        if self.several:
+            played["max_skew_frames"] = round(window.max_skew_s * float(self.fps), 4)
+        return played
+
+
+class LockedTogether:
+    """A LockedWindowsSink as play()'s one window: show(one frame per projector) presents them together and
+    answers the latest present time on the player's clock (the windows answer time.monotonic; the offset to
+    clock.perf_counter is taken at each frame). The sink keeps the frames, so a look shown after the show on
+    one projector leaves the others' frames as they are."""
+
+    def __init__(self, sink, clock=time):
+        self.sink, self.clock = sink, clock
+        self.max_skew_s = 0.0
+
+    def show(self, frames) -> float:
+        times = self.sink.window.show(frames)
+        offset = self.clock.perf_counter() - time.monotonic()
+        self.sink.frames = list(frames)
+        skew = max(times) - min(times)
+        self.max_skew_s = max(self.max_skew_s, skew)
+        self.sink.shown_at, self.sink.skew_frames = max(times), skew * self.sink.fps
+        return max(times) + offset
 
 
 @dataclass(frozen=True)

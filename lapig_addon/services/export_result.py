@@ -72,13 +72,20 @@ def export_current(store, settings: ExportSettings, result: str | None = None) -
 
 def export_crossfade(store, directory: str, settings: ExportSettings, result: str | None = None,
                      on_progress=None) -> list:
-    """Write the crossfade frames of `result` (None: the scene's result) into `directory` (absolute)."""
+    """Write the crossfade frames of `result` (None: the scene's result) into `directory` (absolute). A result of
+    several projectors: a folder per projector, directory/projector_<k>/ (services/several_crossfade)."""
     _check(settings)
     folder = result_folder(store, result)
-    if is_multi_result(folder):
-        raise ValueError("a crossfade is made of one projector's images for now: this result has several")
     if not directory:
         raise ValueError("Choose a folder for the crossfade frames")
+    if is_multi_result(folder):
+        from .several_crossfade import export_crossfades
+
+        summary = read_summary(folder)
+        common = {key: summary.get(key) for key in ("prompt", "backend", "seed", "psa", "metrics", "refine")}
+        return export_crossfades(store, directory, settings.crossfade_frames, settings.bit_depth, folder,
+                                 {**common, **store.rig_metadata(), **store.software()}, addon_version(),
+                                 on_progress=on_progress)
     summary = read_summary(folder)
     model = store.projector_model()
     b = read_output_image(folder, "projector")

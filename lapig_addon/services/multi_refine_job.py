@@ -17,8 +17,8 @@ from ...lapig_core.refine.check import RegistrationCheckError
 from ...lapig_core.refine.loop import RefineError, RefineSettings
 from . import panel_state
 from .multi_generate_job import MultiPipelineError, multi_capture
-from .pipeline_jobs import PipelineError, hold_capture
-from .refine_lines import refine_line, with_refine
+from .pipeline_errors import PipelineError, hold_capture
+from .refine_lines import record_refinement, refine_line
 
 REFINED_SUFFIX = "_refined"
 
@@ -108,13 +108,7 @@ def write_multi_refined(folder: str, summary: dict, refinement):
         entry.setdefault("image_open_loop", entry["image"])
         entry["image"] = f"{name}.png"
     record["images"] = {f"projector_{k + 1}": f"{n}.png" for k, n in enumerate(names)}
-    summary["refine"] = record
-    summary["summary_line"] = with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
-                                           refine_line(record))
-    summary.setdefault("metrics", {}).update(
-        {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
-         "refine_noise_floor_psnr": record["noise_floor_psnr"], "refine_iterations": record["iterations"],
-         "refine_seconds": record["seconds"]})
+    record_refinement(summary, record)
     write_result(folder, images, summary)  # the images first, result.json last: it names them
     return summary, record
 

@@ -19,7 +19,7 @@ import numpy as np
 from ...lapig_core.capture.settings import CaptureError
 from ...lapig_core.export.result_files import read_summary
 from .multi_refine_job import multi_refine_inputs
-from .pipeline_jobs import PipelineError, hold_capture
+from .pipeline_errors import PipelineError, hold_capture
 
 
 def render_valid(capture: str) -> np.ndarray:

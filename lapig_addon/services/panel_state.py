@@ -132,7 +132,7 @@ def train_blocker(state: SceneState) -> str:
 
 
 def single_result_blocker(state: SceneState) -> str:
-    """Why the result cannot be rendered or refined on the rig, projected live or crossfaded ('' when it can)."""
+    """Why the result cannot be rendered or refined on the rig, or previewed in a result mode ('' when it can)."""
     return result_blocker(state) or one_projector_blocker(state.rig)
 
 

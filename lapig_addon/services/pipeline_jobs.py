@@ -16,7 +16,6 @@ from ...lapig_core.common import compute_device, metrics
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
                                            resolve_setup, setup_dir_of)
-from ...lapig_core.capture.staging import hold_root
 from ...lapig_core.lgst import backend_class
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
@@ -32,13 +31,10 @@ from . import panel_state, warmup
 from .capture_job import CaptureError
 from .export_result import result_frame
 from .jobs import Job, WorkerJob
+from .pipeline_errors import PipelineError, hold_capture  # noqa: F401 (their home for the jobs that import them here)
 from .ports import Seams
 from .projection import project_and_capture, projection_steps, register_at
 from .state import GenerateRequest, SceneState
-
-
-class PipelineError(ValueError):
-    """A step that cannot run yet; the message says which step to do first."""
 
 
 def current_capture(state: SceneState, explicit: str | None = None) -> str:
@@ -93,12 +89,6 @@ def _setup_stamp(folder: str) -> tuple:
     """setup.json's identity on disk: a new capture swaps in a new file."""
     st = os.stat(resolve_setup(folder).setup_json)
     return st.st_ino, st.st_mtime_ns, st.st_size
-
-
-def hold_capture(folder: str, title: str):
-    """The lock of the capture's data set root, where the models are written and which a capture
-    must not replace meanwhile."""
-    return hold_root(resolve_setup(folder).root, title)
 
 
 def _why_not_measured(cs, verification, devices) -> str:

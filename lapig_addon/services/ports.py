@@ -67,6 +67,9 @@ class SceneStore(Protocol):
 
     def projector_model(self) -> ProjectorModel: ...
 
+    def projector_models(self) -> tuple:
+        """Every projector's ProjectorModel, the first first (one for a rig of one)."""
+
     def rig_metadata(self) -> dict:
         """The rig as an exported image's sidecar describes it."""
 

@@ -28,7 +28,7 @@ from .limits import LIMITS
 from .pipeline_jobs import PipelineError, current_capture, hold_capture
 from .ports import Seams
 from .projection import projection_session
-from .refine_lines import refine_line, with_refine
+from .refine_lines import record_refinement, refine_line
 
 REFINED = "projector_refined"
 
@@ -158,13 +158,7 @@ def write_refined(folder: str, summary: dict, refinement: Refinement):
         images[REFINED + NATIVE] = refinement.images[0]
         chosen["projector"] = REFINED + NATIVE
     record["images"] = chosen
-    summary["refine"] = record
-    summary["summary_line"] = with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
-                                           refine_line(record))
-    summary.setdefault("metrics", {}).update(
-        {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
-         "refine_noise_floor_psnr": record["noise_floor_psnr"], "refine_iterations": record["iterations"],
-         "refine_seconds": record["seconds"]})
+    record_refinement(summary, record)
     write_result(folder, images, summary)  # the images first, result.json last: it names them
     return summary, record, read_output_image(folder, "projector")
 

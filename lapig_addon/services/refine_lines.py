@@ -1,5 +1,5 @@
-"""The result line's refinement figures, for one projector's refinement (refine_job) and several's
-(multi_refine_job) alike."""
+"""What a refinement adds to its result's summary (the line's figures, the record, the metrics), for one
+projector's refinement (refine_job) and several's (multi_refine_job) alike."""
 from __future__ import annotations
 
 
@@ -16,3 +16,14 @@ def with_refine(line: str, refined: str) -> str:
     shows what follows it on a line of its own)."""
     head, bar, missed = line.partition(" | ")
     return head.split("; refined")[0] + refined + (bar + missed if bar else "")
+
+
+def record_refinement(summary: dict, record: dict) -> None:
+    """The refinement's record, its figures on the result's line and in its metrics (result.json)."""
+    summary["refine"] = record
+    summary["summary_line"] = with_refine(summary.get("summary_line") or summary.get("prompt") or "result",
+                                          refine_line(record))
+    summary.setdefault("metrics", {}).update(
+        {"refine_open_loop_psnr": record["open_loop_psnr"], "refine_refined_psnr": record["refined_psnr"],
+         "refine_noise_floor_psnr": record["noise_floor_psnr"], "refine_iterations": record["iterations"],
+         "refine_seconds": record["seconds"]})

@@ -59,6 +59,11 @@ class MultiStore:
     def data_root(self):
         return self.root
 
+    def projector_models(self):
+        from lapig.lapig_core.optics.projector_model import ProjectorModel
+
+        return (ProjectorModel(width=PROJECTOR[0], height=PROJECTOR[1]),) * 2
+
     def rig_metadata(self):
         return {"camera": None, "surface_object": "Bust"}
 
@@ -195,8 +200,11 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
         export.export_multi(store, state.ExportSettings(str(tmp_path / "out" / "again.png"), 16, 4),
                             mpcdi=str(blocked))
     assert not (tmp_path / "out" / "again_1.png").exists()  # the package first: nothing written on its failure
-    with pytest.raises(ValueError, match="a crossfade is made of one projector's images"):
-        _module("export_result").export_crossfade(store, str(tmp_path / "fade"), settings)
+    # Export Crossfade of the result of several: a folder per projector, each its own crossfade (issue 36)
+    frames = _module("export_result").export_crossfade(store, str(tmp_path / "fade"), settings)
+    assert len(frames) == 8 and sorted(os.listdir(tmp_path / "fade")) == ["projector_1", "projector_2"]
+    faded = json.loads((tmp_path / "fade" / "projector_2" / "crossfade.json").read_text())
+    assert faded["projector"]["name"] == "Right" and faded["light"]["projector"]["share"] == 0.4  # its own share
 
 
 @pytest.mark.torch  # refine_job reads the capture through pipeline_jobs, which loads torch
@@ -272,6 +280,7 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     assert panel_state.refine_blocker(shared.read()).endswith("are both on display '1': give each its own display")
 
 
+@pytest.mark.torch  # RenderResultJob lives in pipeline_jobs, which loads torch
 def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_on_the_object(tmp_path):
     """Render Real Capture on a rig of several: both projectors' images of the result shown together, captured
     once in camera space; rendered.png and its PSNR against the look (and the predicted capture) go into the

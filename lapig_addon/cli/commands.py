@@ -377,14 +377,15 @@ def _play_timeline(scene, display: str, displays=None) -> int:
     return 0
 
 
-def _several_displays(args, store, count: int) -> list:
-    """The displays of a rig of several (--display 1,2,.. or the scene's real rig's), one per projector."""
+def _several_displays(args, store, count: int, whose: str = "the rig") -> list:
+    """The displays of a rig of several (--display 1,2,.. or the scene's real rig's), one per projector of
+    `whose` (the rig, or the result played)."""
     from ..services.panel_state import projectors_blocker
 
     rig = store.read().rig
     displays = [d.strip() for d in args.display.split(",")] if args.display else list(rig.displays)
     if len(displays) != count or not all(displays):
-        raise ValueError(f"the rig has {count} projectors: give --display one display each, e.g. "
+        raise ValueError(f"{whose} has {count} projectors: give --display one display each, e.g. "
                          f"--display {','.join(str(k + 1) for k in range(count))}")
     if not args.display:
         problem = projectors_blocker(rig)
@@ -447,20 +448,11 @@ def _show_several(args, scene, store, folder: str) -> int:
     from ...lapig_core.multi.result_files import is_multi_result
     from ...lapig_core.rig.frame_lock import play_locked
     from ..rigs import live_output
-    from ..services.panel_state import projectors_blocker
 
     if not is_multi_result(folder):
         raise ValueError("the rig has several projectors but the result is of one: stylize again first")
-    rig = store.read().rig
-    displays = [d.strip() for d in args.display.split(",")] if args.display else list(rig.displays)
     frames = live_output.result_frames(folder, scene_state.export_settings(scene).bit_depth)
-    if len(displays) != len(frames):
-        raise ValueError(f"the result has {len(frames)} projectors: give --display one display each, e.g. "
-                         f"--display {','.join(str(k + 1) for k in range(len(frames)))}")
-    if not args.display:
-        problem = projectors_blocker(rig)
-        if problem:
-            raise ValueError(problem)
+    displays = _several_displays(args, store, len(frames), "the result")
     windows = live_output.open_windows(displays, names=[f"projector {k + 1}" for k in range(len(frames))])
     sink = live_output.make_live(live_output.LockedWindowsSink(windows, fps=args.fps))
     try:

@@ -41,7 +41,7 @@ import numpy as np
 from ..common.psnr import masked_psnr
 from ..photometric.box_solve import response_weights
 from ..refine.check import RegistrationCheckError, registration_problem
-from ..refine.loop import RefineError, RefineRecord, RefineSettings
+from ..refine.loop import RefineError, RefineRecord, RefineSettings, damping, repeats_for, round_stop
 from .blend import blend_weights
 from .joint_model import JointModel
 from .joint_solve import DEFAULT_SPLIT_WEIGHT, joint_compensate, joint_drives_linear, reach
@@ -126,16 +126,12 @@ class MultiRefinement:
         if self.noise_var is None:
             self._first(captures)
         mean = captures.mean(axis=0)
-        psnr = masked_psnr(captures[0], self.target, self.valid)  # one capture: comparable every round
-        rec.history.append(psnr)
-        rec.repeats.append(self.repeats)
-        gain = psnr - rec.history[-2] if len(rec.history) > 1 else math.inf
+        psnr = masked_psnr(captures[0], self.target, self.valid)
         if psnr > self.best[0]:
             self.best = (psnr, [lt.copy() for lt in self.light])
-        if rec.iterations >= self.settings.iterations:
-            return self._finish("cap")
-        if gain < self.settings.stop_gain_db:
-            return self._finish(f"gain below {self.settings.stop_gain_db:g} dB")
+        stop = round_stop(rec, psnr, self.repeats, self.settings)
+        if stop:
+            return self._finish(stop)
         self._step(mean)
 
     def _first(self, captures) -> None:
@@ -154,10 +150,7 @@ class MultiRefinement:
         model = self.model
         y = np.power(np.clip(mean.astype(np.float64), 0, 1), model.gamma_c)
         err_pix = ((self.response * (self.y_target - y)) ** 2).sum(-1)
-        if self.previous_err is not None:  # per-pixel damping: back off where the last step overshot
-            worse = err_pix > self.previous_err
-            self.alpha = np.where(worse, np.maximum(self.alpha * 0.5, self.settings.min_damping),
-                                  np.minimum(self.alpha * 1.5, self.settings.damping))
+        self.alpha = damping(self.alpha, self.previous_err, err_pix, self.settings)
         self.previous_err = err_pix
         lin_pred = np.einsum("khwij,khwj->hwi", model.M.astype(np.float64), self.q) + model.o
         wanted = lin_pred + self.alpha[..., None] * (self.y_target - y)
@@ -183,11 +176,7 @@ class MultiRefinement:
     def _choose_repeats(self, mean) -> None:
         """Average more captures once the error left is mostly the captures' own noise (Refinement's rule)."""
         err = float(((mean.astype(np.float64) - self.target) ** 2).mean(-1)[self.valid].mean())
-        systematic = max(err - self.noise_var / self.repeats, 0.0)
-        r = 1
-        while r < self.settings.max_repeats and systematic < self.settings.average_below_noise * self.noise_var / r:
-            r *= 2
-        self.repeats = min(r, self.settings.max_repeats)
+        self.repeats = repeats_for(err, self.noise_var, self.repeats, self.settings)
 
     def _finish(self, why: str) -> None:
         psnr, light = self.best

@@ -92,6 +92,37 @@ class RefineRecord:
                 f"(noise floor {self.noise_floor_psnr:.1f}) in {self.iterations} steps, {self.seconds:.1f} s")
 
 
+def round_stop(record: RefineRecord, psnr: float, repeats: int, settings: RefineSettings) -> str | None:
+    """Record one round's PSNR (a single capture's: comparable every round) and say why the loop stops now: the
+    step cap, or a gain below stop_gain_db (None: it steps). One projector's loop and several's share it."""
+    record.history.append(psnr)
+    record.repeats.append(repeats)
+    gain = psnr - record.history[-2] if len(record.history) > 1 else math.inf
+    if record.iterations >= settings.iterations:
+        return "cap"
+    if gain < settings.stop_gain_db:
+        return f"gain below {settings.stop_gain_db:g} dB"
+    return None
+
+
+def damping(alpha: np.ndarray, previous_err, err_pix: np.ndarray, settings: RefineSettings) -> np.ndarray:
+    """Per-pixel damping: back off where the last step overshot (the error grew), grow it where it did not."""
+    if previous_err is None:
+        return alpha
+    worse = err_pix > previous_err
+    return np.where(worse, np.maximum(alpha * 0.5, settings.min_damping), np.minimum(alpha * 1.5, settings.damping))
+
+
+def repeats_for(err: float, noise_var: float, repeats: int, settings: RefineSettings) -> int:
+    """Captures to average next round: more once the error left (err, mean squared, of a mean of `repeats`
+    captures) is mostly the captures' own noise (noise_var: one capture's variance)."""
+    systematic = max(err - noise_var / repeats, 0.0)  # this round's mean had noise_var / repeats
+    r = 1
+    while r < settings.max_repeats and systematic < settings.average_below_noise * noise_var / r:
+        r *= 2
+    return min(r, settings.max_repeats)
+
+
 class Refinement:
     """The loop's state for N target images at the working frame.
 
@@ -185,16 +216,12 @@ class Refinement:
         if self.noise_var is None:
             self._first(rounds)
         mean = rounds.mean(axis=1)
-        psnr = masked_psnr(rounds[:, 0], self.target, self.valid)  # a single capture: comparable every round
-        rec.history.append(psnr)
-        rec.repeats.append(self.repeats)
-        gain = psnr - rec.history[-2] if len(rec.history) > 1 else math.inf
+        psnr = masked_psnr(rounds[:, 0], self.target, self.valid)
         if psnr > self.best[0]:
             self.best = (psnr, self._state())
-        if rec.iterations >= self.settings.iterations:
-            return self._finish("cap")
-        if gain < self.settings.stop_gain_db:
-            return self._finish(f"gain below {self.settings.stop_gain_db:g} dB")
+        stop = round_stop(rec, psnr, self.repeats, self.settings)
+        if stop:
+            return self._finish(stop)
         self._step(mean)
 
     def _first(self, rounds) -> None:
@@ -214,10 +241,7 @@ class Refinement:
         y = np.power(np.clip(mean.astype(np.float64), 0, 1), m.gamma_c)
         err = self.weights * (self.y_target - y)  # encoded-unit error per channel (first order)
         err_pix = (err ** 2).sum(-1)
-        if self.previous_err is not None:  # per-pixel damping: back off where the last step overshot
-            worse = err_pix > self.previous_err
-            self.alpha = np.where(worse, np.maximum(self.alpha * 0.5, self.settings.min_damping),
-                                  np.minimum(self.alpha * 1.5, self.settings.damping))
+        self.alpha = damping(self.alpha, self.previous_err, err_pix, self.settings)
         self.previous_err = err_pix
         lin_pred = np.einsum("hwij,nhwj->nhwi", m.M.astype(np.float64), self.x) + m.o
         wanted = lin_pred + self.alpha[..., None] * (self.y_target - y)
@@ -236,11 +260,7 @@ class Refinement:
     def _choose_repeats(self, mean) -> None:
         """Average more captures once the error left is mostly the captures' own noise."""
         err = float(((mean.astype(np.float64) - self.target) ** 2).mean(-1)[:, self.valid].mean())
-        systematic = max(err - self.noise_var / self.repeats, 0.0)  # this round's mean had noise_var / repeats
-        r = 1
-        while r < self.settings.max_repeats and systematic < self.settings.average_below_noise * self.noise_var / r:
-            r *= 2
-        self.repeats = min(r, self.settings.max_repeats)
+        self.repeats = repeats_for(err, self.noise_var, self.repeats, self.settings)
 
     def _finish(self, why: str) -> None:
         psnr, (x, native) = self.best

@@ -262,15 +262,8 @@ class ProjectorWindow:
     def show(self, frame) -> float:
         """Show an RGB uint8 (H, W, 3) frame 1:1 at the top-left (black around a smaller one); returns
         time.perf_counter() when the helper said the window was updated."""
-        frame = np.asarray(frame)
-        if frame.dtype != np.uint8 or frame.ndim != 3 or frame.shape[2] != 3:
-            raise RigError(f"a projector frame is uint8 RGB (H, W, 3), not {frame.dtype} {frame.shape}")
+        frame = self._checked(frame)
         height, width = frame.shape[:2]
-        if width > self._size[0] or height > self._size[1]:
-            raise RigError(f"the frame is {width}x{height} but the projector's display "
-                           f"'{self._opened['display']['name']}' is {self._size[0]}x{self._size[1]}: frames are "
-                           f"shown 1:1, never scaled; render at the projector's resolution")
-        frame = np.ascontiguousarray(frame)
         answer = self._call({"cmd": "show", "width": int(width), "height": int(height)}, payload=frame.reshape(-1))
         self._frames = int(answer.get("frame", self._frames + 1))
         return answer["_received"]

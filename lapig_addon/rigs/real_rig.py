@@ -108,11 +108,10 @@ class RealRigFactory:
         release_devices()
         window = self._window(self.spec.display)
         try:
-            if self.expected_size and tuple(window.size) != self.expected_size:
-                w, h = window.size
-                raise CaptureError(f"the projector's display is {w}x{h} but the scene's projector is "
-                                   f"{self.expected_size[0]}x{self.expected_size[1]}: set the projector's "
-                                   f"resolution to {w}x{h}, its native one, and capture again")
+            problem = display_size_problem("the projector's display", "the scene's projector", window.size,
+                                           self.expected_size)
+            if problem:
+                raise CaptureError(problem)
             camera = self._camera(self.spec)
         except BaseException:
             window.close()
@@ -145,11 +144,10 @@ class RealRigFactory:
         windows = open_each([d for _, d, _ in self.projectors], self._window)  # every helper starts at once
         try:
             for (name, display, size), window in zip(self.projectors, windows):
-                if size and tuple(window.size) != size:
-                    w, h = window.size
-                    raise CaptureError(f"projector '{name}''s display '{display}' is {w}x{h} but the projector is "
-                                       f"{size[0]}x{size[1]}: set its resolution to {w}x{h}, its native one, and "
-                                       f"capture again")
+                problem = display_size_problem(f"projector '{name}''s display '{display}'", "the projector",
+                                               window.size, size)
+                if problem:
+                    raise CaptureError(problem)
             camera = self._camera(self.spec)
         except BaseException:
             for window in windows:
@@ -221,6 +219,16 @@ class SimulatedRigFactory:
         from ...lapig_core.rig.simulated import optics_meta
 
         return self._rig(self.optics_factory.setup_device(optics_meta(setup_meta), seed), calibrated=True)
+
+
+def display_size_problem(display: str, projector: str, display_size, expected) -> str:
+    """Why a projector's window cannot show the looks ('' when it can): its display is not the resolution the
+    looks are made for. One rule and one wording for a rig of one projector and of several."""
+    if not expected or tuple(display_size) == tuple(expected):
+        return ""
+    w, h = display_size
+    return (f"{display} is {w}x{h} but {projector} is {expected[0]}x{expected[1]}: set {projector}'s resolution "
+            f"to {w}x{h}, its native one, and capture again")
 
 
 def multi_display_problem(projectors) -> str:

@@ -4,7 +4,6 @@ import shutil
 import threading
 from fractions import Fraction
 
-import cv2
 import numpy as np
 import pytest
 
@@ -14,6 +13,7 @@ from lapig.lapig_core.export import codecs, video  # noqa: E402
 from lapig.lapig_core.export.show_output import Cancelled  # noqa: E402
 from lapig.lapig_core.export.projector_image import ExportError  # noqa: E402
 from lapig.lapig_core.export.video import write_video  # noqa: E402
+from lapig.lapig_core.export.video_read import decode_with_opencv as _decode_cv2  # noqa: E402
 
 W, H = 64, 48
 
@@ -39,19 +39,6 @@ def _u8(frame):
 def _psnr(a, b):
     mse = np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2)
     return float("inf") if mse == 0 else 10 * np.log10(255 ** 2 / mse)
-
-
-def _decode_cv2(path):
-    cap = cv2.VideoCapture(str(path))
-    frames = []
-    while True:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        frames.append(frame[:, :, ::-1])
-    fps = cap.get(cv2.CAP_PROP_FPS)
-    cap.release()
-    return frames, fps
 
 
 def _decode_av(path):

@@ -30,6 +30,7 @@ from ...lapig_core.export import codecs
 from ...lapig_core.export.image_sequence import write_image_sequence
 from ...lapig_core.export.projector_image import crossfade_frames
 from ...lapig_core.export.video import write_video
+from ...lapig_core.export.video_read import decode_with_opencv as _decode_cv2
 from .test_images import drawn_scene
 
 W, H = 1920, 1080
@@ -51,19 +52,6 @@ def _compensated_looks() -> tuple[np.ndarray, np.ndarray]:
 def _psnr(a: np.ndarray, b: np.ndarray) -> float:
     mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
     return math.inf if mse == 0 else 10 * math.log10(255.0 ** 2 / mse)
-
-
-def _decode_cv2(path) -> tuple[list, float]:
-    cap = cv2.VideoCapture(str(path))
-    frames = []
-    while True:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        frames.append(frame[:, :, ::-1])
-    fps = cap.get(cv2.CAP_PROP_FPS)
-    cap.release()
-    return frames, fps
 
 
 def _json_db(value: float):

@@ -7,7 +7,8 @@ it), the look and the joint model's capture of those images in camera space (loo
 surface it was made from (surface.png) and a comparison sheet. result.json's "projectors" lists each image with its projector's
 name and size; "multi" holds the joint figures. With PSA (stylize_joint's default) the un-adapted look is
 kept beside it, as one projector's result keeps target_nopsa: look_nopsa.png, predicted_nopsa.png and
-projector_1_nopsa.png .. (result.json's "psa" says what PSA did, "metrics" both simulated PSNRs).
+projector_1_nopsa.png .. (result.json's "psa" says what PSA did, "metrics" both simulated PSNRs), and PSA's
+state (theta and the tone field) as look_state.npz, which a show's morphs and motions start from.
 """
 from __future__ import annotations
 
@@ -75,7 +76,18 @@ def write_joint_result(root, name: str, look, surface: np.ndarray, names, sizes,
             "metrics": metrics,
             "summary_line": line,
             "created": datetime.datetime.now().isoformat(timespec="seconds")}
-    return write_new_result(root, name, images, full), full
+    return write_new_result(root, name, images, full, _look_state_file(look)), full
+
+
+def _look_state_file(look) -> dict:
+    """look_state.npz where PSA ran (theta and its tone field): a show makes this very look again from it
+    (lapig_core/show/look_state; torch is here, since PSA ran)."""
+    state = getattr(look, "state", None)
+    if not state:
+        return {}
+    from ..show.look_state import LOOK_STATE_FILE, look_state_bytes
+
+    return {LOOK_STATE_FILE: look_state_bytes(state)}
 
 
 def projector_images(folder) -> list[tuple[dict, np.ndarray]]:

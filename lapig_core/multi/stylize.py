@@ -42,6 +42,9 @@ class JointLook:
     # the rig shows, the frames' resampling included; compensation.predicted is the drives' in camera space,
     # finer than a projector coarser than the camera can show. None: not computed (the drives' stands in)
     simulated: np.ndarray | None = None
+    # PSA's state of the look (theta and the tone field, lists of tensors) where PSA ran: the result keeps it as
+    # look_state.npz, and a show's morphs and motions start from it (multi/show_setup)
+    state: dict | None = None
 
     @property
     def shown(self) -> np.ndarray:
@@ -162,4 +165,5 @@ def stylize_joint(model: JointModel, surface: np.ndarray, prompt: str, backend: 
         looks.append(JointLook(target, compensation, describe, _reach_share(model, target, on), lgst_seconds,
                                simulated=model.predict(compensation.frames)))
     looks[0].without, looks[0].psa = looks[1], summary
+    looks[0].state = result.look.state() if hasattr(result.look, "state") else None
     return looks[0]

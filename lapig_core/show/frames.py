@@ -97,6 +97,7 @@ class ShowSetup:
         self.dark_outside = dark_outside
         self._references = references
         self._looks = {}
+        self.look_surface = None  # (1,3,H,W): the white-lit surface the looks' backends are prepared on (None: I+)
 
     def references(self, width: int, height: int):
         if self._references is not None:
@@ -135,7 +136,8 @@ class ShowSetup:
         key = (str(look.result), look.prompt, look.backend, int(look.seed))
         if key not in self._looks:
             if self.load_look is look_from_result:
-                keyed = look_from_result(look, self.models, cancel_event=cancel_event, fingerprint=self.fingerprint)
+                keyed = look_from_result(look, self.models, cancel_event=cancel_event, fingerprint=self.fingerprint,
+                                         surface=self.look_surface)
             else:
                 keyed = self.load_look(look, self.models)
             if cancel_event is not None and cancel_event.is_set():
@@ -153,12 +155,12 @@ def _psa_settings(recorded: dict, seed: int) -> PSASettings:
     return PSASettings(**values)
 
 
-def look_from_result(look, models, cancel_event=None, fingerprint: str | None = None) -> KeyedLook:
+def look_from_result(look, models, cancel_event=None, fingerprint: str | None = None, surface=None) -> KeyedLook:
     """A keyed look from its result folder (look_state docstring): the backend prepared from result.json's
     prompt, backend, seed and mix on the white-lit surface; theta and the tone field from look_state.npz,
     else from PSA run again with the recorded settings. A Look whose folder does not exist is made from its
     own prompt, backend and seed. fingerprint: the capture's; a result made on another capture (a stale look)
-    is refused with one line."""
+    is refused with one line. surface: what the backend is prepared on (keyed_look_from_prompt)."""
     folder = Path(look.result)
     if (folder / "result.json").is_file():
         record = read_result_record(folder)
@@ -174,7 +176,7 @@ def look_from_result(look, models, cancel_event=None, fingerprint: str | None = 
     keyed = keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
                                    psa=record["psa"],
                                    psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
-                                   state=state, cancel_event=cancel_event)
+                                   state=state, cancel_event=cancel_event, surface=surface)
     keyed.offset = refine_offset(folder) if folder.exists() else None
     if keyed.offset is not None and tuple(keyed.offset.shape[-2:]) != tuple(models.s.shape[-2:]):
         keyed.offset = None  # refined at another working frame: not this capture's correction
@@ -183,14 +185,16 @@ def look_from_result(look, models, cancel_event=None, fingerprint: str | None = 
 
 def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix=None, psa: bool = True,
                            psa_settings: PSASettings | None = None, state: dict | None = None,
-                           cancel_event=None) -> KeyedLook:
+                           cancel_event=None, surface: torch.Tensor | None = None) -> KeyedLook:
     """The look of a prompt on this surface as Generate makes it: the backend prepared on the white-lit
-    surface, then `state` loaded (theta and the tone field) or PSA run with `psa_settings`."""
+    surface (`surface`, (1,3,H,W) at the working frame; default the models' I+), then `state` loaded (theta and
+    the tone field) or PSA run with `psa_settings`."""
     from ..lgst import prepared_backend
     from ..pipeline import with_device
 
     options = with_device(backend, None, models.device)
-    lgst, _ = prepared_backend(backend, models.i_max, prompt, seed=seed, mix=mix, options=options)
+    lgst, _ = prepared_backend(backend, models.i_max if surface is None else surface, prompt, seed=seed, mix=mix,
+                               options=options)
     adapted = AdaptedLook(lgst, models.i_min, models.i_max)
     if state is None:
         settings = psa_settings or PSASettings(seed=seed)
@@ -204,6 +208,12 @@ def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix
 
 def _as_frame(t: torch.Tensor) -> np.ndarray:
     return t.detach()[0].permute(1, 2, 0).clamp(0, 1).cpu().numpy().astype(np.float32)
+
+
+def _blend(a: np.ndarray, b: np.ndarray, w: float, gamma: float) -> np.ndarray:
+    """Two encoded projector frames mixed at weight w in the projector's linear light (transfer `gamma`)."""
+    g = np.float32(gamma)
+    return blend_linear_light(a, b, np.power(a, g), np.power(b, g), w, float(g)).astype(np.float32)
 
 
 class FrameMaker:
@@ -231,6 +241,12 @@ class FrameMaker:
         self._kept, self._recent = {}, OrderedDict()
         self.computed = 0  # frames made (not from the cache)
         self._params = {}  # the field's parameters each adapted key was made with (target_of reads them)
+        # a setup of several projectors (multi/show_setup.JointShowSetup) makes each frame in camera space at its
+        # output size and turns it into one frame per projector (setup.project); its dissolves mix each
+        # projector's frame in that projector's linear light (setup.gammas)
+        self.joint = getattr(setup, "project", None) is not None
+        if size is None and self.joint:
+            size = setup.output_size
         self._size_refs(size)
 
     def _size_refs(self, size):
@@ -361,17 +377,31 @@ class FrameMaker:
             return (1.0 - w) * (a if a is not None else zero) + w * (b if b is not None else zero)
         return None
 
-    def _compensate(self, base: torch.Tensor, params: list, offset=None) -> np.ndarray:
+    def _compensate(self, base: torch.Tensor, params: list, offset=None):
         self._load_field(params)
         with torch.no_grad():
             target = self.field.apply(base)
+        return self._project(target, offset)
+
+    def _project(self, target: torch.Tensor, offset=None):
+        """The frame that shows `target` (1,3,H,W) at the output size: the projector frame (H, W, 3), or with a
+        setup of several projectors the list of their frames (the joint solve; no refinement offset)."""
+        self.computed += 1
+        if self.joint:
+            return self.setup.project(_as_frame(target))
+        with torch.no_grad():
             projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
             if offset is not None:
                 projector = (projector + offset).clamp(0, 1)
             if self.valid is not None:
                 projector = projector * self.valid
-        self.computed += 1
         return _as_frame(projector)
+
+    def _crossfade(self, a, b, w: float):
+        """Frames a and b mixed at weight w in the projector's linear light (each projector's, for several)."""
+        if self.joint:
+            return [_blend(fa, fb, w, g) for fa, fb, g in zip(a, b, self.setup.gammas)]
+        return _blend(a, b, w, self.gamma)
 
     def target_of(self, key: tuple) -> torch.Tensor:
         """The frame's target at the output size, as its frame was made (for measures)."""
@@ -426,16 +456,12 @@ class FrameMaker:
         self.frame(ka), self.frame(kb)  # the ends first: a moving end's field is adapted in its order
         with torch.no_grad():
             target = mix_linear(self.target_of(ka), self.target_of(kb), float(w))
-            projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
-            oa, ob = self.offset_of(ka), self.offset_of(kb)
-            if oa is not None or ob is not None:
-                zero = torch.zeros_like(projector)
-                offset = (1.0 - w) * (oa if oa is not None else zero) + w * (ob if ob is not None else zero)
-                projector = (projector + offset).clamp(0, 1)
-            if self.valid is not None:
-                projector = projector * self.valid
-        self.computed += 1
-        return _as_frame(projector)
+        oa, ob = self.offset_of(ka), self.offset_of(kb)
+        offset = None
+        if oa is not None or ob is not None:
+            zero = torch.zeros_like(oa if oa is not None else ob)
+            offset = (1.0 - w) * (oa if oa is not None else zero) + w * (ob if ob is not None else zero)
+        return self._project(target, offset)
 
     def _dissolve_ends(self, key: tuple) -> tuple:
         """The two frames a dissolve frame is crossfaded between, with their weights: the looks' own frames
@@ -457,9 +483,7 @@ class FrameMaker:
             out = self._compensated_dissolve(key)
         elif key[0] == "dissolve":
             (wa, a), (wb, b) = self._dissolve_ends(key)
-            g = np.float32(self.gamma)
-            w = (float(key[3]) - wa) / (wb - wa)
-            out = blend_linear_light(a, b, np.power(a, g), np.power(b, g), w, float(g)).astype(np.float32)
+            out = self._crossfade(a, b, (float(key[3]) - wa) / (wb - wa))
             self.computed += 1
         else:
             base, params = self._recipe(key)

@@ -76,9 +76,11 @@ def load_look_state(folder) -> dict | None:
 def read_result_record(folder) -> dict:
     """What result.json says made the look (prompt, backend, seed, style mix, PSA settings)."""
     summary = json.loads((Path(folder) / "result.json").read_text(encoding="utf-8"))
+    psa = summary.get("psa", True)  # one projector's: True / False; several projectors': what PSA did, or False
+    settings = summary.get("psa_settings") or (psa.get("settings") if isinstance(psa, dict) else None) or {}
     return {"prompt": summary.get("prompt", ""), "backend": summary.get("backend") or "styletransfer",
             "seed": int(summary.get("seed") or 0), "mix": summary.get("style_mix_override"),
-            "psa": bool(summary.get("psa", True)), "psa_settings": summary.get("psa_settings") or {},
+            "psa": bool(psa), "psa_settings": settings,
             "dark_outside": bool(summary.get("dark_outside", False)), "fingerprint": summary.get("fingerprint")}
 
 

@@ -5,14 +5,15 @@ module only.
 - frames(source): the show's projector frames, in order, as the pixels each projector receives (the quantised
   native frame Export writes: uint8 or uint16, (H, W, 3)), one list per frame with one array per projector.
   A show with morphs or motions takes every frame from lapig_core/show's producer (`show_frames`: morphs and
-  motions stylized, adapted and compensated, holds made once); a show of holds and dissolves, a rig of several
-  projectors, or a build without the producer or torch, gets the stored projector images held and dissolved
-  here; there a morph plays as a dissolve and motions stand still, and `fallback_notes` says so. A stored
-  dissolve of one projector is compensated at its keys (lapig_core/show/dissolve: the looks' targets mixed in
-  linear light and compensated by the capture's compensator at 1/4, 1/2 and 3/4) and crossfaded between them,
-  the looks' own images at its ends; where that cannot be (several projectors, no torch, a live show that asks
-  for speed: compensated_dissolves=False) it is the crossfade of the looks' images in the projector's linear
-  light, as Export Crossfade makes.
+  motions stylized, adapted and compensated, holds made once; on a rig of several projectors in camera space on
+  their joint reach, each frame split among them by the joint solve: lapig_core/show/joint_setup); a show of
+  holds and dissolves, or a build without the producer or torch, gets the stored projector images held and
+  dissolved here; without the producer a morph plays as a dissolve and motions stand still, and
+  `fallback_notes` says so. A stored dissolve is compensated at its keys (lapig_core/show/dissolve: the looks'
+  targets mixed in linear light and compensated by the capture's compensator, or jointly for several
+  projectors, at 1/4, 1/2 and 3/4) and crossfaded between them in each projector's linear light, the looks' own
+  images at its ends; where that cannot be (no torch, a live show that asks for speed:
+  compensated_dissolves=False) it is the crossfade of the looks' images, as Export Crossfade makes.
 - write(...): the encoder of an export: lapig_core/export/image_sequence (PNG) or lapig_core/export/video, one line
   from codec_problem() for a codec the installed FFmpeg lacks.
 """
@@ -82,9 +83,10 @@ def needs_producer(plan: ShowPlan) -> bool:
 
 
 def uses_producer(source: "ShowSource") -> bool:
-    """Whether the frames of `source` come from lapig_core's producer: a show with morphs or motions, one
-    projector, and the producer (and torch) here."""
-    return has_producer() and source.use_producer and len(source.projectors) == 1 and needs_producer(source.plan)
+    """Whether the frames of `source` come from lapig_core's producer: a show with morphs or motions, and the
+    producer (and torch) here; a rig of several projectors also needs its capture (the joint model)."""
+    several_ready = len(source.projectors) == 1 or bool(source.capture_dir)
+    return has_producer() and source.use_producer and several_ready and needs_producer(source.plan)
 
 
 def fallback_notes(source: "ShowSource") -> list:
@@ -92,9 +94,9 @@ def fallback_notes(source: "ShowSource") -> list:
     plan = source.plan
     if uses_producer(source) or not needs_producer(plan):
         return []
-    why = ("the per-frame producer makes one projector's frames for now" if len(source.projectors) > 1
-           else "this build has no per-frame show producer (lapig_core/show with torch)" if not has_producer()
-           else "the stored looks were asked for")
+    why = ("this build has no per-frame show producer (lapig_core/show with torch)" if not has_producer()
+           else "the rig of several projectors has no capture" if len(source.projectors) > 1
+           and not source.capture_dir else "the stored looks were asked for")
     notes = []
     if any(s.kind == "morph" for s in plan.segments()):
         notes.append(f"morphs play as dissolves: {why}")
@@ -142,16 +144,35 @@ def frames(source: ShowSource, cancel_event=None, on_progress=None, start: int =
 def _produced(source: ShowSource, cancel_event, on_progress, start: int, stop: int):
     model = source.projectors[0]
     core_frames = _core_frames()
-    show = core_show_of(source.plan, source.summaries or read_summaries(source.plan))
-    setup = core_frames.ShowSetup.from_capture(source.capture_dir)
+    summaries = source.summaries or read_summaries(source.plan)
+    show = core_show_of(source.plan, summaries)
+    several = len(source.projectors) > 1
+    setup = _joint_setup(source, summaries) if several else core_frames.ShowSetup.from_capture(source.capture_dir)
     settings = core_frames.FrameSettings(gamma=model.gamma)  # dissolves in this projector's linear light
+    size = None if several else (model.width, model.height)  # several: the camera's, then each projector's frame
     try:
-        for index, image in core_frames.show_frames(show, setup, size=(model.width, model.height),
-                                                  cancel_event=cancel_event, on_progress=on_progress,
-                                                  start=start, stop=stop, settings=settings):
-            yield index, [quantised_frame(image, model.width, model.height, source.bit_depth)]
+        for index, image in core_frames.show_frames(show, setup, size=size, cancel_event=cancel_event,
+                                                  on_progress=on_progress, start=start, stop=stop,
+                                                  settings=settings):
+            images = image if several else [image]
+            yield index, [quantised_frame(im, m.width, m.height, source.bit_depth)
+                          for im, m in zip(images, source.projectors)]
     except InterruptedError:  # the producer saw the cancel first
         raise JobCancelled() from None
+
+
+def _joint_setup(source: ShowSource, summaries: dict):
+    """lapig_core/show/joint_setup's setup of the scene's capture of several projectors, at the working size the
+    show's first look was made at, each projector's dissolves in its own transfer."""
+    from ...lapig_core.show.joint_setup import JointShowSetup, working_size_of
+
+    first = (summaries.get(source.plan.looks[0].result_dir) if source.plan.looks else None) or {}
+    setup = JointShowSetup.from_capture(source.capture_dir, working_size=working_size_of(first),
+                                        gammas=[m.gamma for m in source.projectors])
+    if setup.model.count != len(source.projectors):
+        raise ValueError(f"the capture is of {setup.model.count} projectors; the rig has {len(source.projectors)}: "
+                         "capture the rig again")
+    return setup
 
 
 def look_images(result_dir: str, count: int) -> list:
@@ -180,15 +201,21 @@ def _stored(source: ShowSource, cancel_event, on_progress, start: int, stop: int
     keys = {}
 
     def key(i, j, w):
-        """The dissolve's compensated key at weight w, as a stored look (one transition's keys kept)."""
+        """The dissolve's compensated key at weight w, as a stored look per projector (one transition's keys
+        kept)."""
         if (i, j, w) not in keys:
             if not any(k[:2] == (i, j) for k in keys):
                 keys.clear()
-            m = models[0]
-            targets = [quantised_frame(read_output_image(plan.looks[n].result_dir, "target"), m.width, m.height,
-                                       16).astype(np.float32) / np.float32(65535) for n in (i, j)]
-            frame = dissolve.key(targets[0], targets[1], w)
-            keys[(i, j, w)] = _StoredLook(to_bit_depth(frame, 16), m.gamma, source.bit_depth)
+            if len(models) > 1:  # the looks in camera space (look.png), one key frame per projector
+                targets = [read_output_image(plan.looks[n].result_dir, "look").astype(np.float32) for n in (i, j)]
+                frames = dissolve.key(targets[0], targets[1], w)
+            else:
+                m = models[0]
+                targets = [quantised_frame(read_output_image(plan.looks[n].result_dir, "target"), m.width,
+                                           m.height, 16).astype(np.float32) / np.float32(65535) for n in (i, j)]
+                frames = [dissolve.key(targets[0], targets[1], w)]
+            keys[(i, j, w)] = [_StoredLook(quantised_frame(f, m.width, m.height, 16), m.gamma, source.bit_depth)
+                               for f, m in zip(frames, models)]
         return keys[(i, j, w)]
 
     def look(i):
@@ -208,9 +235,9 @@ def _stored(source: ShowSource, cancel_event, on_progress, start: int, stop: int
         elif dissolve is not None and segment.kind == "dissolve":
             w = segment.weight(index)
             wa, wb = key_span(w)
-            a = look(segment.a)[0] if wa == 0.0 else key(segment.a, segment.b, wa)
-            b = look(segment.b)[0] if wb == 1.0 else key(segment.a, segment.b, wb)
-            pixels = [a.mixed(b, (w - wa) / (wb - wa))]
+            a = look(segment.a) if wa == 0.0 else key(segment.a, segment.b, wa)
+            b = look(segment.b) if wb == 1.0 else key(segment.a, segment.b, wb)
+            pixels = [x.mixed(y, (w - wa) / (wb - wa)) for x, y in zip(a, b)]
         else:
             w = segment.weight(index)
             pixels = [a.mixed(b, w) for a, b in zip(look(segment.a), look(segment.b))]
@@ -220,10 +247,10 @@ def _stored(source: ShowSource, cancel_event, on_progress, start: int, stop: int
 
 
 def _stored_dissolve(source: ShowSource):
-    """lapig_core/show/dissolve's StoredDissolve for the source's projector at its native size, or None where
-    dissolves crossfade the looks' images: asked for, several projectors, no torch, no capture with models, a
-    plan without dissolves."""
-    if (not source.compensated_dissolves or len(source.projectors) != 1 or not source.capture_dir
+    """lapig_core/show/dissolve's StoredDissolve for the source's projector at its native size (several
+    projectors: at the camera's, their joint solve), or None where dissolves crossfade the looks' images: asked
+    for, no torch, no capture with models, a plan without dissolves."""
+    if (not source.compensated_dissolves or not source.capture_dir
             or not has_producer() or not any(s.kind == "dissolve" for s in source.plan.segments())):
         return None
     from ...lapig_core.show.dissolve import StoredDissolve
@@ -231,6 +258,9 @@ def _stored_dissolve(source: ShowSource):
     core_frames = _core_frames()
     m = source.projectors[0]
     try:
+        if len(source.projectors) > 1:
+            setup = _joint_setup(source, source.summaries or read_summaries(source.plan))
+            return StoredDissolve(setup, *setup.output_size)
         setup = core_frames.ShowSetup.from_capture(source.capture_dir)
     except (ValueError, OSError):  # no models: the crossfade (the capture's own blocker says why elsewhere)
         return None

@@ -18,12 +18,15 @@ from .morph import mix_linear
 
 
 class StoredDissolve:
-    """The compensated keys of dissolves at one output size, from a capture's setup (ShowSetup.from_capture)."""
+    """The compensated keys of dissolves at one output size, from a capture's setup (ShowSetup.from_capture).
+    A setup of several projectors (joint_setup.JointShowSetup) works at the camera's size, with the looks' targets
+    in camera space (their look.png), and its keys are one frame per projector (the joint solve)."""
 
     def __init__(self, setup: ShowSetup, width: int, height: int):
         from ..photometric.training_data import to_tensor
 
         self.models = setup.models
+        self.project = getattr(setup, "project", None)
         refs = setup.references(width, height)
         device = self.models.device
         self.s = to_tensor(refs.gray).to(device)
@@ -38,11 +41,13 @@ class StoredDissolve:
                              f"{self.size[0]}x{self.size[1]}")
         return torch.from_numpy(np.ascontiguousarray(image, np.float32)).permute(2, 0, 1)[None].to(self.models.device)
 
-    def key(self, target_a: np.ndarray, target_b: np.ndarray, w: float) -> np.ndarray:
+    def key(self, target_a: np.ndarray, target_b: np.ndarray, w: float):
         """The projector frame (H, W, 3) float32 of the two targets (H, W, 3 in [0, 1], at the output size)
-        mixed in linear light at weight w and compensated."""
+        mixed in linear light at weight w and compensated; for several projectors, the list of their frames."""
         with torch.no_grad():
             target = mix_linear(self._tensor(target_a), self._tensor(target_b), float(w))
+            if self.project is not None:
+                return self.project(target[0].permute(1, 2, 0).clamp(0, 1).cpu().numpy().astype(np.float32))
             projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
             if self.valid is not None:
                 projector = projector * self.valid

@@ -354,3 +354,59 @@ def test_generate_adapts_the_look_to_the_joint_reach_when_asked(multi, psa):
     else:
         assert not any(nopsa) and saved["psa"] is False and saved["summary_line"].endswith("no PSA")
     assert store.result == folder
+
+
+@pytest.mark.torch
+def test_a_show_of_several_makes_its_morph_and_motion_per_projector_and_exports_each(multi, tmp_path):
+    """Issues 36 and 38 where they meet: a show of two looks of the rig of two, a morph into a drifting look, is made
+    by lapig_core's producer on the joint reach (show/joint_setup), one frame per projector; the holds are the
+    looks' own images, the in-betweens new ones; Export Show writes one sequence per projector."""
+    seams, store = multi
+    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    folders = []
+    for prompt in ("Make it a stained glass artwork", "Make it a charcoal sketch"):
+        request = _module("state").GenerateRequest(prompt, "styletransfer", "", True, 0.5, 0)
+        job = _module("multi_generate_job").MultiGenerateJob(seams, request, working_size=48)
+        assert job.run() == "DONE", job.error
+        folders.append(job.result["folder"])
+        assert os.path.isfile(os.path.join(job.result["folder"], "look_state.npz"))  # PSA's state, for the show
+    show_plan, show_source, show_jobs = _module("show_plan"), _module("show_source"), _module("show_jobs")
+    plan = show_plan.ShowPlan(looks=(
+        show_plan.ShowLook(result_dir=folders[0], hold_s=0.3, transition="morph", transition_s=0.4),
+        show_plan.ShowLook(result_dir=folders[1], hold_s=0.5, motion="drift", motion_amount=0.6)), fps=10.0)
+    source = show_source.ShowSource(plan, projectors=store.projector_models(), bit_depth=16,
+                                    capture_dir=store.capture_dir)
+    assert show_source.uses_producer(source) and show_source.fallback_notes(source) == []
+    frames = [pixels for _, pixels in show_source.frames(source)]
+    assert len(frames) == plan.frame_count() == 12
+    assert all([p.shape for p in f] == [PROJECTOR[::-1] + (3,)] * 2 and f[0].dtype == np.uint16 for f in frames)
+    from lapig.lapig_core.multi.result_files import projector_images
+
+    stored = [image for _, image in projector_images(folders[0])]
+    for got, want in zip(frames[0], stored):  # look 1's hold is its result's image, made again from its state
+        assert np.abs(got / 65535.0 - want).mean() < 2 / 255
+    held_a, held_b = frames[0], frames[7]
+    morph = frames[4]  # frames 3..6 morph from look 1 into look 2
+    for k in range(2):
+        assert np.abs(morph[k].astype(float) - held_a[k]).mean() > 300
+        assert np.abs(morph[k].astype(float) - held_b[k]).mean() > 300
+    assert any(np.abs(frames[8][k].astype(float) - frames[11][k]).mean() > 100 for k in range(2))  # it drifts
+    job = show_jobs.ShowExportJob(source, str(tmp_path / "show"), "png")
+    assert job.run() == "DONE", job.error
+    for k in (1, 2):
+        pngs = sorted(n for n in os.listdir(tmp_path / "show" / f"show_{k}") if n.endswith(".png"))
+        assert len(pngs) == 12
+    # a show of holds and a dissolve plays the stored images; its dissolve is compensated jointly at its keys
+    plain = show_plan.ShowPlan(looks=(
+        show_plan.ShowLook(result_dir=folders[0], hold_s=0.1, transition="dissolve", transition_s=0.8),
+        show_plan.ShowLook(result_dir=folders[1], hold_s=0.1)), fps=10.0)
+    keyed = show_source.ShowSource(plain, projectors=store.projector_models(), bit_depth=16,
+                                   capture_dir=store.capture_dir)
+    crossfade = show_source.ShowSource(plain, projectors=store.projector_models(), bit_depth=16,
+                                       capture_dir=store.capture_dir, compensated_dissolves=False)
+    assert not show_source.uses_producer(keyed)
+    made = {i: p for i, p in show_source.frames(keyed)}
+    faded = {i: p for i, p in show_source.frames(crossfade)}
+    assert all(np.array_equal(made[0][k], faded[0][k]) for k in range(2))  # the holds: the stored images
+    mid = 5  # frames 1..8 dissolve (w = 1/9 .. 8/9): frame 5 at 5/9, between the keys at 1/2 and 3/4
+    assert any(np.abs(made[mid][k].astype(float) - faded[mid][k]).mean() > 50 for k in range(2))

@@ -21,7 +21,7 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "train-step": "train_step", "light": "light", "finetune-length": "finetune_length",
               "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device",
               "show": "show", "show-live": "show_live", "video": "video", "multi": "multi",
-              "multi-live": "multi_live"}
+              "multi-live": "multi_live", "show-multi": "show_multi"}
 
 
 def _ensure_registered():

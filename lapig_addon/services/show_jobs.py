@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import os
 
-from . import show_source
-from .jobs import WorkerJob
+from . import show_fanout, show_source
+from .jobs import JobCancelled, WorkerJob
 from .show_source import ShowSource
 
 
@@ -30,20 +30,15 @@ def sidecar(source: ShowSource, extra: dict | None = None) -> dict:
     return {**out, **(extra or {})}
 
 
-class _FramesOf:
-    """Projector k's pixels of the show's frames, reporting progress and stopping at a cancel."""
-
-    def __init__(self, source: ShowSource, k: int, report, cancel_event, share: tuple):
-        self.source, self.k, self.report, self.cancel_event = source, k, report, cancel_event
-        self.share = share  # (start, width) of this pass in the job's progress
-
-    def __iter__(self):
-        count = self.source.frame_count
-        start, width = self.share
-        for index, pixels in show_source.frames(self.source, cancel_event=self.cancel_event):
-            self.report(start + width * (index + 1) / count,
-                        f"projector {self.k + 1}: frame {index + 1} of {count}")  # raises JobCancelled on a cancel
-            yield pixels[self.k]
+def _write_each(source: ShowSource, writers: list, report, cancel_event) -> list:
+    """The show's frames made once, each projector's pixels to its writer (services/show_fanout), progress
+    reported per frame (report raises JobCancelled at a cancel); a cancel seen anywhere is a cancel."""
+    count = source.frame_count
+    progress = lambda index: report((index + 1) / count, f"frame {index + 1} of {count}")  # noqa: E731
+    written = show_fanout.write_each(show_source.frames(source, cancel_event=cancel_event), writers, progress)
+    if cancel_event is not None and cancel_event.is_set():  # the frames stopped early at the cancel
+        raise JobCancelled()
+    return written
 
 
 class BakeShowJob(WorkerJob):
@@ -73,11 +68,14 @@ class BakeShowJob(WorkerJob):
         staged = show_source.Staged(parent)
         try:
             inside = staged.path("show")
-            count, k_all = source.frame_count, len(source.projectors)
-            for k in range(k_all):
-                frames = _FramesOf(source, k, report, cancel_event, (k / k_all, 1 / k_all))
-                show_source.write_png_sequence(os.path.join(inside, f"projector_{k + 1}"), frames, count=count,
-                                               bit_depth=source.bit_depth, cancel_event=cancel_event)
+            count = source.frame_count
+
+            def writer(k):
+                return lambda frames: show_source.write_png_sequence(
+                    os.path.join(inside, f"projector_{k + 1}"), frames, count=count, bit_depth=source.bit_depth,
+                    cancel_event=cancel_event)
+
+            _write_each(source, [writer(k) for k in range(len(source.projectors))], report, cancel_event)
             with open(os.path.join(inside, "show.json"), "w", encoding="utf-8") as f:
                 import json
 
@@ -125,19 +123,21 @@ class ShowExportJob(WorkerJob):
 
         os.makedirs(self.out_dir, exist_ok=True)
         staged = show_source.Staged(self.out_dir)
-        outputs = []
         try:
             k_all = len(source.projectors)
-            for k, model in enumerate(source.projectors):
+
+            def writer(k, model):
                 final = show_source.output_path(self.out_dir, self.codec, k, k_all, self.name)
                 inside = staged.path(os.path.basename(final))
                 meta = sidecar(source, {**self.metadata, "codec": self.codec, "projector": k + 1})
-                written = show_source.write(inside, _FramesOf(source, k, report, cancel_event, (k / k_all, 1 / k_all)),
-                                            codec=self.codec, fps=source.plan.fps, width=model.width,
-                                            height=model.height, count=source.frame_count,
-                                            bit_depth=source.bit_depth, sidecar=meta, cancel_event=cancel_event)
-                outputs.append({"path": os.path.join(self.out_dir, os.path.basename(written["path"])),
-                                "frames": source.frame_count})
+                return lambda frames: show_source.write(
+                    inside, frames, codec=self.codec, fps=source.plan.fps, width=model.width, height=model.height,
+                    count=source.frame_count, bit_depth=source.bit_depth, sidecar=meta, cancel_event=cancel_event)
+
+            written = _write_each(source, [writer(k, m) for k, m in enumerate(source.projectors)], report,
+                                  cancel_event)
+            outputs = [{"path": os.path.join(self.out_dir, os.path.basename(w["path"])), "frames": source.frame_count}
+                       for w in written]
             sidecar_path = os.path.join(self.out_dir, f"{self.name}.json")
             staged_sidecar = staged.path(os.path.basename(sidecar_path))
             if not os.path.exists(staged_sidecar):  # one video's own sidecar (the video writer's) is this one

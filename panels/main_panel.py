@@ -398,7 +398,6 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
             row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Shader Lamp").profile = "sl"
             col.prop(s, "crossfade_frames")  # a folder per projector, each in its own gamma
             col.operator("lapig.export_crossfade", icon="SEQUENCE")
-            _blocked(layout, panel_state.one_projector_blocker(state.rig) + ": no result preview modes yet")
 
 
 CLASSES = (LAPIG_PT_setup, LAPIG_PT_real_rig, LAPIG_PT_capture, LAPIG_PT_models, LAPIG_PT_stylize,

@@ -14,6 +14,7 @@ import bpy
 
 from . import projector_nodes
 from .compat import material_node_tree
+from ...lapig_core.optics.projector_model import ProjectorModel
 from .scene_state import projector_model
 
 ORIGINALS_KEY = "lapig_preview_originals"
@@ -25,9 +26,26 @@ def is_previewing(obj) -> bool:
     return ORIGINALS_KEY in obj.keys()
 
 
-def _projection_nodes(tree, projector, image):
+def caster_model(caster, image) -> ProjectorModel:
+    """How `caster` casts `image`: a projector light by its own settings; the rig's camera (a rig of several
+    projectors shows its camera-space result images from where they were seen) by its lens, sensor fit and
+    shift, at the image's size."""
+    if caster.type != "CAMERA":
+        return projector_model(caster)
+    cam, (width, height) = caster.data, image.size
+    aspect = width / height
+    if cam.sensor_fit == "VERTICAL" or (cam.sensor_fit == "AUTO" and height > width):
+        sensor_h = cam.sensor_height if cam.sensor_fit == "VERTICAL" else cam.sensor_width
+        width_mm = sensor_h * aspect
+    else:
+        width_mm = cam.sensor_width
+    larger = max(width, height)  # Blender's shift is in units of the larger side
+    return ProjectorModel(width=width, height=height, throw_ratio=cam.lens / width_mm,
+                          shift_x=cam.shift_x * larger / width, shift_y=cam.shift_y * larger / height)
+
+
+def _projection_nodes(tree, projector, image, model):
     nodes, links = tree.nodes, tree.links
-    model = projector_model(projector)
     sx, sy = model.uv_scale()
     coords = nodes.new("ShaderNodeTexCoord")
     coords.object = projector
@@ -76,14 +94,14 @@ def _colour(tree, tex):
     return gamma.outputs["Color"]
 
 
-def _preview_material(original, projector, image, appearance=False):
+def _preview_material(original, projector, image, model, appearance=False):
     if original is not None:
         mat = original.copy()
         mat.name = PREVIEW_PREFIX + original.name
     else:
         mat = bpy.data.materials.new(PREVIEW_PREFIX + "(no material)")
     tree = material_node_tree(mat)
-    tex = _projection_nodes(tree, projector, image)
+    tex = _projection_nodes(tree, projector, image, model)
     bsdf = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
     if appearance:
         # an appearance (target, simulated or rendered capture) already includes the surface: show it
@@ -115,13 +133,12 @@ LENS_NAME = "LAPIG projector lens"
 UV_NAME = "LAPIG projection"
 
 
-def _add_solid_mode_projection(obj, projector):
+def _add_solid_mode_projection(obj, projector, model):
     """Solid mode maps textures through the active UV map: project one with a UV Project modifier.
 
     The modifier needs a camera for perspective, so a hidden camera with the projector's field of
     view rides along as the projector's child.
     """
-    model = projector_model(projector)
     lens = bpy.data.cameras.new(LENS_NAME)
     lens.sensor_fit, lens.sensor_width = "HORIZONTAL", 36.0
     lens.lens = 36.0 * model.throw_ratio  # tan(half fov) = 0.5 / throw ratio
@@ -166,13 +183,15 @@ def _remove_solid_mode_projection(obj):
 
 
 def enable_preview(obj, projector, image, appearance=False):
+    """Show `image` cast from `projector` (a projector light, or the rig's camera: caster_model) on obj."""
     if image is None:
         raise ValueError("the projector has no image to preview")
     if obj.type != "MESH":
         raise ValueError(f"'{obj.name}' is not a mesh: the preview needs one")
     if is_previewing(obj):
         disable_preview(obj)
-    _add_solid_mode_projection(obj, projector)
+    model = caster_model(projector, image)
+    _add_solid_mode_projection(obj, projector, model)
     if len(obj.material_slots) == 0:
         obj.data.materials.append(None)
         obj["lapig_preview_added_slot"] = True
@@ -183,18 +202,21 @@ def enable_preview(obj, projector, image, appearance=False):
         fake_users.append(bool(original.use_fake_user) if original else False)
         if original is not None:
             original.use_fake_user = True
-        slot.material = _preview_material(original, projector, image, appearance)
+        slot.material = _preview_material(original, projector, image, model, appearance)
     obj[ORIGINALS_KEY] = originals
+    obj["lapig_preview_caster"] = projector.name
     obj["lapig_preview_appearance"] = bool(appearance)
     obj["lapig_preview_image"] = image.name
     obj["lapig_preview_fake_users"] = fake_users
 
 
 def current_preview(obj):
-    """(image, appearance) shown now, so a capture can turn the preview off and back on as it was."""
+    """(image, appearance, caster) shown now, so a capture can turn the preview off and back on as it was
+    (caster: the object it is cast from, None where it is gone)."""
     if not is_previewing(obj):
         return None
-    return bpy.data.images.get(obj.get("lapig_preview_image", "")), bool(obj.get("lapig_preview_appearance"))
+    return (bpy.data.images.get(obj.get("lapig_preview_image", "")), bool(obj.get("lapig_preview_appearance")),
+            bpy.data.objects.get(obj.get("lapig_preview_caster", "")))
 
 
 @contextlib.contextmanager
@@ -208,8 +230,9 @@ def real_surface(obj, projector):
         yield
     finally:
         if previewing:
-            image, appearance = previewing
-            enable_preview(obj, projector, image or projector_nodes.projected_image(projector.data), appearance)
+            image, appearance, caster = previewing
+            caster = caster if caster is not None and image is not None else projector
+            enable_preview(obj, caster, image or projector_nodes.projected_image(projector.data), appearance)
 
 
 def disable_preview(obj):
@@ -232,4 +255,5 @@ def disable_preview(obj):
     obj.pop("lapig_preview_fake_users", None)
     obj.pop("lapig_preview_appearance", None)
     obj.pop("lapig_preview_image", None)
+    obj.pop("lapig_preview_caster", None)
     _remove_solid_mode_projection(obj)

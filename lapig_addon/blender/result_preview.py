@@ -23,6 +23,11 @@ IMAGE_PREFIX = "LAPIG "
 LIGHT_MAPS = {"LUX": "light_lux", "CONTRAST": "light_contrast"}  # blender/light_plan_run writes them
 MODE_IMAGES = {"TARGET": "target", "SIMULATED": "simulated", "RENDERED": "rendered",
                "COMPENSABILITY": "compensability"}
+# a result of several projectors (lapig_core/multi/result_files): its camera-space images by preview mode
+SEVERAL_IMAGES = {"TARGET": "look", "SIMULATED": "predicted", "RENDERED": "rendered", **LIGHT_MAPS}
+SEVERAL_MISSING = {"RENDERED": "Rendered: press Render Real Capture first",
+                   "LUX": "no light maps for this result yet: press Light Report",
+                   "CONTRAST": "no light maps for this result yet: press Light Report"}
 
 
 def frame_image(name: str, pixels: np.ndarray, non_color: bool = True) -> bpy.types.Image:
@@ -60,15 +65,31 @@ def _light_map_image(projector, result_dir: str, name: str) -> bpy.types.Image:
     return frame_image(IMAGE_PREFIX + name, colours)
 
 
+def _several_image(result_dir: str, mode: str) -> bpy.types.Image:
+    """A result of several projectors' camera-space image of `mode` (its look, the joint model's capture, the
+    rendered capture, the light maps of its Light Report), as an image at the camera's size."""
+    name = SEVERAL_IMAGES[mode]
+    path = os.path.join(result_dir, name + ".png")
+    if not os.path.isfile(path):
+        raise ValueError(SEVERAL_MISSING.get(mode, f"this result has no {name} image"))
+    pixels = to_float(read_image(path))
+    if mode in LIGHT_MAPS:  # the maps' colours are display (sRGB) values: made linear, shown as drawn
+        pixels = np.power(pixels, 2.2)
+    return frame_image(IMAGE_PREFIX + "camera " + name, np.ascontiguousarray(pixels[..., :3], dtype=np.float32))
+
+
 def apply_mode(scene, mode: str, report=None) -> bool:
     """Switch the object's look; False (and a report) when the mode cannot be shown yet."""
     state = scene_state.read(scene)
     blocker = preview_blocker(state, mode)
     if blocker:
         return _fail(report, blocker)
-    projector, _, target = scene_state.rig_objects(scene)
+    projector, camera, target = scene_state.rig_objects(scene)
     try:
-        if mode == "ORIGINAL":
+        if mode != "ORIGINAL" and state.rig.projector_count > 1:
+            # a result of several lives in the camera's frame: its images are cast from the rig's camera
+            preview.enable_preview(target, camera, _several_image(state.result_dir, mode), appearance=True)
+        elif mode == "ORIGINAL":
             preview.disable_preview(target)
         elif mode == "PROJECTION":
             image = projector_nodes.projected_image(projector.data)

@@ -135,6 +135,15 @@ def test_the_panel_decides_on_a_rig_of_several(tmp_path):
     added = state.SceneState(rig=two, capture_dir=str(folder), capture_fingerprint="rig1")
     assert panel_state.capture_status(added).text == "Captured with 1 projector(s); the rig now has 2"
     assert panel_state.capture_blocker(added) == "The rig's projectors changed: capture again"
+    # the result preview modes of several: the result's camera-space images; Projection and Problem areas refused
+    store = MultiStore(state, tmp_path)
+    assert panel_state.preview_blocker(store.read(), "TARGET") == "Generate a projector image first"
+    store.result = str(folder)
+    generated = store.read()
+    assert [m for m in ("ORIGINAL", "TARGET", "SIMULATED", "RENDERED", "LUX", "CONTRAST")
+            if panel_state.preview_blocker(generated, m)] == []
+    assert panel_state.preview_blocker(generated, "PROJECTION").startswith("Projection casts one projector's image")
+    assert panel_state.preview_blocker(generated, "COMPENSABILITY").startswith("Problem areas are one projector's")
 
 
 def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_write(multi, tmp_path):

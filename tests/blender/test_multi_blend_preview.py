@@ -56,3 +56,48 @@ def test_the_blend_preview_lights_each_projectors_share_in_its_colour(lapig_regi
     print("first alone: red", r1, "green", g1, "; second alone: red", r2, "green", g2)
     assert r1 > 3 * g1 and g2 > 3 * r2  # red where the first reaches alone, green where the second does
     assert render[..., 2][first | second].mean() < 0.3 * max(r1, g2)  # neither lights blue
+
+
+@pytest.mark.blender
+def test_the_result_preview_modes_of_several_cast_the_camera_space_images_from_the_camera(lapig_registered, tmp_path):
+    """A result of two projectors lives in the camera's frame: Target casts its look from the rig's camera, so a
+    render from that camera shows the look where the camera saw it; Original puts the materials back as they were;
+    Projection and Problem areas are one projector's and say so in one line."""
+    from lapig.lapig_addon.blender import preview, result_preview, scene_state
+    from lapig.lapig_core.common.imageio import read_image, write_png
+    from lapig.lapig_core.multi.first_look import load_joint_model
+
+    scene, projector, camera, target = _statue_lit_from_the_front_left(tmp_path)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "statue.blend"))
+    originals = [slot.material.name if slot.material else "" for slot in target.material_slots]
+    assert bpy.ops.lapig.add_projector() == {"FINISHED"}
+    assert bpy.ops.lapig.capture() == {"FINISHED"}
+    assert bpy.ops.lapig.generate() == {"FINISHED"}
+    state = scene_state.read(scene)
+    look = read_image(os.path.join(state.result_dir, "look.png"))
+    reached = load_joint_model(state.capture_dir).reached.any(axis=0)
+
+    reports = []
+    assert result_preview.apply_mode(scene, "TARGET", lambda kind, text: reports.append(text)), reports
+    assert preview.is_previewing(target) and target.get("lapig_preview_caster") == camera.name
+    seen = _render(scene, camera, tmp_path / "target.exr")
+    shown = np.clip(seen, 0, 1)  # the preview emits the image's values as they are (as one projector's does)
+    write_png(str(tmp_path / "target_preview.png"), np.concatenate([look, shown], axis=1))
+    inner = reached.copy()
+    inner[[0, -1], :] = inner[:, [0, -1]] = False
+    error = np.abs(shown - look)[inner].mean()
+    print("target preview against the look: mean abs", error)
+    assert error < 0.06  # the look lands where the camera saw it (a misplaced cast is off by its texture)
+    shifted = np.abs(np.roll(shown, 4, axis=1) - look)[inner].mean()
+    assert shifted > error + 0.01
+
+    assert not result_preview.apply_mode(scene, "RENDERED", lambda kind, text: reports.append(text))
+    assert reports[-1] == "Rendered: press Render Real Capture first"
+    assert not result_preview.apply_mode(scene, "PROJECTION", lambda kind, text: reports.append(text))
+    assert reports[-1].startswith("Projection casts one projector's image")
+    assert preview.is_previewing(target)  # a refused mode leaves the preview as it was
+    assert result_preview.apply_mode(scene, "SIMULATED")
+    assert result_preview.apply_mode(scene, "ORIGINAL")
+    assert not preview.is_previewing(target)
+    assert [slot.material.name if slot.material else "" for slot in target.material_slots] == originals
+    assert "lapig_preview_caster" not in target.keys()

@@ -59,6 +59,7 @@ def test_the_blend_preview_lights_each_projectors_share_in_its_colour(lapig_regi
 
 
 @pytest.mark.blender
+@pytest.mark.torch
 def test_the_result_preview_modes_of_several_cast_the_camera_space_images_from_the_camera(lapig_registered, tmp_path):
     """A result of two projectors lives in the camera's frame: Target casts its look from the rig's camera, so a
     render from that camera shows the look where the camera saw it; Original puts the materials back as they were;

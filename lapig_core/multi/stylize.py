@@ -43,7 +43,7 @@ class JointLook:
     # finer than a projector coarser than the camera can show. None: not computed (the drives' stands in)
     simulated: np.ndarray | None = None
     # PSA's state of the look (theta and the tone field, lists of tensors) where PSA ran: the result keeps it as
-    # look_state.npz, and a show's morphs and motions start from it (multi/show_setup)
+    # look_state.npz, and a show's morphs and motions start from it (show/joint_setup)
     state: dict | None = None
 
     @property

@@ -241,7 +241,7 @@ class FrameMaker:
         self._kept, self._recent = {}, OrderedDict()
         self.computed = 0  # frames made (not from the cache)
         self._params = {}  # the field's parameters each adapted key was made with (target_of reads them)
-        # a setup of several projectors (multi/show_setup.JointShowSetup) makes each frame in camera space at its
+        # a setup of several projectors (joint_setup.JointShowSetup) makes each frame in camera space at its
         # output size and turns it into one frame per projector (setup.project); its dissolves mix each
         # projector's frame in that projector's linear light (setup.gammas)
         self.joint = getattr(setup, "project", None) is not None

@@ -210,6 +210,19 @@ def _as_frame(t: torch.Tensor) -> np.ndarray:
     return t.detach()[0].permute(1, 2, 0).clamp(0, 1).cpu().numpy().astype(np.float32)
 
 
+def _mixed_offset(a, b, w: float):
+    """Two looks' refinement offsets mixed at weight w (a missing one counts as none); tensors, or for several
+    projectors lists of per-projector arrays (an entry may be None)."""
+    if a is None and b is None:
+        return None
+    if isinstance(a, list) or isinstance(b, list):
+        pairs = zip(a or [None] * len(b), b or [None] * len(a))
+        return [None if x is None and y is None else
+                (1.0 - w) * (x if x is not None else 0.0) + w * (y if y is not None else 0.0) for x, y in pairs]
+    zero = torch.zeros_like(a if a is not None else b)
+    return (1.0 - w) * (a if a is not None else zero) + w * (b if b is not None else zero)
+
+
 def _blend(a: np.ndarray, b: np.ndarray, w: float, gamma: float) -> np.ndarray:
     """Two encoded projector frames mixed at weight w in the projector's linear light (transfer `gamma`)."""
     g = np.float32(gamma)
@@ -355,7 +368,10 @@ class FrameMaker:
 
     # ------------------------------------------------------------------ frames
     def _offset(self, i: int):
-        """Look i's refinement offset at the output size, or None."""
+        """Look i's refinement offset at the output size, or None (several projectors: one per projector, in
+        each one's frame)."""
+        if self.joint:
+            return self.setup.offsets(self.show.looks[i].result)
         offset = self.keyed(i).offset
         if offset is None:
             return None
@@ -370,11 +386,7 @@ class FrameMaker:
         if key[0] in ("hold", "moving"):
             return self._offset(key[1])
         if key[0] == "morph":
-            a, b, w = self._offset(key[1]), self._offset(key[2]), key[3]
-            if a is None and b is None:
-                return None
-            zero = torch.zeros_like(a if a is not None else b)
-            return (1.0 - w) * (a if a is not None else zero) + w * (b if b is not None else zero)
+            return _mixed_offset(self._offset(key[1]), self._offset(key[2]), key[3])
         return None
 
     def _compensate(self, base: torch.Tensor, params: list, offset=None):
@@ -388,7 +400,7 @@ class FrameMaker:
         setup of several projectors the list of their frames (the joint solve; no refinement offset)."""
         self.computed += 1
         if self.joint:
-            return self.setup.project(_as_frame(target))
+            return self.setup.project(_as_frame(target), offset)
         with torch.no_grad():
             projector = compensate_frame(self.models.compensator, target, self.s, self.tile)
             if offset is not None:
@@ -456,12 +468,7 @@ class FrameMaker:
         self.frame(ka), self.frame(kb)  # the ends first: a moving end's field is adapted in its order
         with torch.no_grad():
             target = mix_linear(self.target_of(ka), self.target_of(kb), float(w))
-        oa, ob = self.offset_of(ka), self.offset_of(kb)
-        offset = None
-        if oa is not None or ob is not None:
-            zero = torch.zeros_like(oa if oa is not None else ob)
-            offset = (1.0 - w) * (oa if oa is not None else zero) + w * (ob if ob is not None else zero)
-        return self._project(target, offset)
+        return self._project(target, _mixed_offset(self.offset_of(ka), self.offset_of(kb), w))
 
     def _dissolve_ends(self, key: tuple) -> tuple:
         """The two frames a dissolve frame is crossfaded between, with their weights: the looks' own frames

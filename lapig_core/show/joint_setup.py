@@ -12,10 +12,14 @@ camera's frame, where their look was made (multi/stylize), so a JointShowSetup h
 - gammas: each projector's transfer, in whose linear light a dissolve mixes that projector's frames;
 - look_surface: the white-lit surface at the working frame, which the looks' backends are prepared on, as
   multi/stylize prepared them; a look's theta and tone field come from its result's look_state.npz, else PSA runs
-  again on the joint reach with the settings result.json records.
+  again on the joint reach with the settings result.json records;
+- offsets(result): a refined result's correction per projector (refined minus open-loop image), carried onto
+  that look's frames, as one projector's show carries its refinement.
 Holds, keyed dissolves, morphs and motions are then FrameMaker's own: nothing of the schedule is repeated here.
 """
 from __future__ import annotations
+
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -61,6 +65,7 @@ class JointShowSetup(ShowSetup):
             raise ShowError(f"{len(gammas)} projector transfer{plural} for a rig of {model.count} projectors")
         self.gammas = tuple(gammas)
         self.output_size = (int(model.shape[1]), int(model.shape[0]))  # (width, height): the camera's
+        self._offsets = {}  # result folder -> its projectors' refinement offsets (or None)
 
     @classmethod
     def from_capture(cls, setup_dir, working_size: int = DEFAULT_WORKING_SIZE, gammas=None) -> "JointShowSetup":
@@ -84,13 +89,39 @@ class JointShowSetup(ShowSetup):
 
         return References(reach(self.model)[0], self.surface, self.surface, self.on)
 
-    def project(self, target: np.ndarray) -> list:
+    def offsets(self, result) -> list | None:
+        """Refine on the Rig's correction of a result of several: each projector's refined image minus its
+        open-loop one ((h_k,w_k,3) float32, in its frame), carried onto every frame of that look as one
+        projector's show carries its offset; None for a result that was not refined (or cannot be read)."""
+        key = str(result)
+        if key not in self._offsets:
+            self._offsets[key] = _refined_offsets(Path(key), self.model.count)
+        return self._offsets[key]
+
+    def project(self, target: np.ndarray, offsets: list | None = None) -> list:
         """(H,W,3) the frame's target in camera space -> each projector's frame (h_k,w_k,3) float32 encoded.
         Off the reach the target is the surface itself: nothing can change it there (multi/stylize)."""
         from ..multi.joint_solve import joint_compensate
 
         target = np.where(self.reached[..., None], target, self.surface).astype(np.float32)
-        return joint_compensate(self.model, target, self.weights).frames
+        frames = joint_compensate(self.model, target, self.weights).frames
+        if offsets is None:
+            return frames
+        return [np.clip(f + o, 0.0, 1.0).astype(np.float32) if o is not None and o.shape == f.shape else f
+                for f, o in zip(frames, offsets)]
+
+
+def _refined_offsets(folder: Path, count: int) -> list | None:
+    from ..export.result_files import read_result_image, read_summary
+
+    try:
+        entries = read_summary(folder).get("projectors") or []
+        if len(entries) != count or not all(e.get("image_open_loop") for e in entries):
+            return None
+        image = lambda name: read_result_image(folder, Path(name).stem)  # noqa: E731
+        return [image(e["image"]) - image(e["image_open_loop"]) for e in entries]
+    except (OSError, ValueError):
+        return None
 
 
 def working_size_of(summary: dict, default: int = DEFAULT_WORKING_SIZE) -> int:

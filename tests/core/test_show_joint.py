@@ -120,3 +120,27 @@ def test_bad_sizes_and_transfers_get_one_line(rig):
         JointShowSetup(rig.true_model(), np.ones((24, 32, 3), np.float32))
     assert working_size_of({"psa": {"working_size": [128, 96]}}) == 128
     assert working_size_of({"psa": False}) == 256
+
+
+def test_a_refined_result_of_several_carries_each_projectors_correction_onto_its_frames(rig, tmp_path):
+    """Refine of several keeps each projector's open-loop image beside its refined one (result.json's
+    image_open_loop): a show carries the difference onto that look's frames, as one projector's show does."""
+    from lapig.lapig_core.export.result_files import write_result
+
+    setup = _setup(rig)
+    open_loop = [np.full((60, 80, 3), 0.5, np.float32) for _ in range(2)]
+    refined = [np.full((60, 80, 3), 0.5 + d, np.float32) for d in (0.1, -0.05)]
+    folder = write_result(tmp_path / "refined", {"projector_1": refined[0], "projector_2": refined[1],
+                                                 "projector_1_open": open_loop[0], "projector_2_open": open_loop[1]},
+                          {"multi": {"count": 2}, "projectors": [
+                              {"image": "projector_1.png", "image_open_loop": "projector_1_open.png"},
+                              {"image": "projector_2.png", "image_open_loop": "projector_2_open.png"}]})
+    offsets = setup.offsets(folder)
+    assert [float(o.mean()) for o in offsets] == pytest.approx([0.1, -0.05], abs=1e-3)
+    assert setup.offsets(tmp_path / "nothing here") is None
+    show = Show([Look(str(folder), "warm stripes", seed=1, hold_s=0.3)], [], fps=FPS)
+    maker = FrameMaker(show, setup)
+    plain = setup.project(_target(maker, ("hold", 0, 0.0)))
+    held = maker.frame(("hold", 0, 0.0))
+    for got, base, offset in zip(held, plain, offsets):
+        np.testing.assert_allclose(got, np.clip(base + offset, 0, 1), atol=1e-5)

@@ -5,6 +5,10 @@ ignore light node trees, so the preview swaps each material slot for a copy whos
 multiplied by the image, projected from the projector object (Texture Coordinate 'Object'), and
 adds a projected UV map for Solid mode, which draws image textures through the active UV map.
 The originals get a fake user while swapped, so saving the file can never lose them.
+
+A rig of several projectors casts every projector's image at once (enable_casts): the copy's base colour is
+multiplied by the sum of their projected images, as their lights add on the surface. Solid mode's UV map
+follows the first caster only (one UV map, one image).
 """
 from __future__ import annotations
 
@@ -44,7 +48,7 @@ def caster_model(caster, image) -> ProjectorModel:
                           shift_x=cam.shift_x * larger / width, shift_y=cam.shift_y * larger / height)
 
 
-def _projection_nodes(tree, projector, image, model):
+def _projection_nodes(tree, projector, image, model, row=0):
     nodes, links = tree.nodes, tree.links
     sx, sy = model.uv_scale()
     coords = nodes.new("ShaderNodeTexCoord")
@@ -74,7 +78,7 @@ def _projection_nodes(tree, projector, image, model):
     # exact per-pixel projection for Material Preview and renders; Solid mode uses the UV map
     links.new(uv.outputs[0], tex.inputs["Vector"])
     for i, node in enumerate((coords, split, uv, tex)):
-        node.location = (-1200 + 250 * i, -400)
+        node.location = (-1200 + 250 * i, -400 - 300 * row)
     if projector_nodes.is_show_image(image):  # a baked show: its frames follow the scene's, as the light's do
         user = tex.image_user
         user.frame_duration, user.frame_start = int(image["lapig_show_frames"]), int(image["lapig_show_start"])
@@ -94,14 +98,34 @@ def _colour(tree, tex):
     return gamma.outputs["Color"]
 
 
-def _preview_material(original, projector, image, model, appearance=False):
+def _summed_colour(tree, casts):
+    """The colour of every cast added up (lights add on the surface) and the first image node; one cast is its
+    colour alone, so one projector's material is as it always was."""
+    first, total = None, None
+    for i, (caster, image, model) in enumerate(casts):
+        tex = _projection_nodes(tree, caster, image, model, row=i)
+        colour = _colour(tree, tex)
+        if total is None:
+            first, total = tex, colour
+            continue
+        add = tree.nodes.new("ShaderNodeMix")
+        add.data_type, add.blend_type = "RGBA", "ADD"
+        add.inputs["Factor"].default_value = 1.0
+        tree.links.new(total, add.inputs["A"])
+        tree.links.new(colour, add.inputs["B"])
+        add.location = (tex.location.x + 500, tex.location.y)
+        total = add.outputs["Result"]
+    return first, total
+
+
+def _preview_material(original, casts, appearance=False):
     if original is not None:
         mat = original.copy()
         mat.name = PREVIEW_PREFIX + original.name
     else:
         mat = bpy.data.materials.new(PREVIEW_PREFIX + "(no material)")
     tree = material_node_tree(mat)
-    tex = _projection_nodes(tree, projector, image, model)
+    tex, colour = _summed_colour(tree, casts)
     bsdf = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
     if appearance:
         # an appearance (target, simulated or rendered capture) already includes the surface: show it
@@ -110,7 +134,7 @@ def _preview_material(original, projector, image, model, appearance=False):
         if output is None:
             output = tree.nodes.new("ShaderNodeOutputMaterial")
         emission = tree.nodes.new("ShaderNodeEmission")
-        tree.links.new(_colour(tree, tex), emission.inputs["Color"])
+        tree.links.new(colour, emission.inputs["Color"])
         tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
         emission.location = (output.location.x - 250, output.location.y - 200)
     elif bsdf is not None:
@@ -122,7 +146,7 @@ def _preview_material(original, projector, image, model, appearance=False):
             tree.links.new(base.links[0].from_socket, mix.inputs["A"])
         else:
             mix.inputs["A"].default_value = base.default_value
-        tree.links.new(_colour(tree, tex), mix.inputs["B"])
+        tree.links.new(colour, mix.inputs["B"])
         tree.links.new(mix.outputs["Result"], base)
         mix.location = (bsdf.location.x - 250, bsdf.location.y)
     tree.nodes.active = tex  # Solid mode's 'Texture' colour shows the active image node
@@ -186,12 +210,21 @@ def enable_preview(obj, projector, image, appearance=False):
     """Show `image` cast from `projector` (a projector light, or the rig's camera: caster_model) on obj."""
     if image is None:
         raise ValueError("the projector has no image to preview")
+    enable_casts(obj, [(projector, image)], appearance)
+
+
+def enable_casts(obj, casts, appearance=False):
+    """Show every (caster, image) of `casts` on obj at once, their light added (a rig of several projectors'
+    Projection); one cast is enable_preview's."""
+    casts = [(caster, image) for caster, image in casts if image is not None]
+    if not casts:
+        raise ValueError("the projectors have no image to preview: press Generate")
     if obj.type != "MESH":
         raise ValueError(f"'{obj.name}' is not a mesh: the preview needs one")
     if is_previewing(obj):
         disable_preview(obj)
-    model = caster_model(projector, image)
-    _add_solid_mode_projection(obj, projector, model)
+    modelled = [(caster, image, caster_model(caster, image)) for caster, image in casts]
+    _add_solid_mode_projection(obj, modelled[0][0], modelled[0][2])
     if len(obj.material_slots) == 0:
         obj.data.materials.append(None)
         obj["lapig_preview_added_slot"] = True
@@ -202,37 +235,47 @@ def enable_preview(obj, projector, image, appearance=False):
         fake_users.append(bool(original.use_fake_user) if original else False)
         if original is not None:
             original.use_fake_user = True
-        slot.material = _preview_material(original, projector, image, model, appearance)
+        slot.material = _preview_material(original, modelled, appearance)
     obj[ORIGINALS_KEY] = originals
-    obj["lapig_preview_caster"] = projector.name
+    obj["lapig_preview_caster"] = casts[0][0].name
     obj["lapig_preview_appearance"] = bool(appearance)
-    obj["lapig_preview_image"] = image.name
+    obj["lapig_preview_image"] = casts[0][1].name
+    obj["lapig_preview_casters"] = [caster.name for caster, _ in casts]
+    obj["lapig_preview_images"] = [image.name for _, image in casts]
     obj["lapig_preview_fake_users"] = fake_users
 
 
 def current_preview(obj):
     """(image, appearance, caster) shown now, so a capture can turn the preview off and back on as it was
-    (caster: the object it is cast from, None where it is gone)."""
+    (caster: the object it is cast from, None where it is gone); the first cast where there are several."""
     if not is_previewing(obj):
         return None
     return (bpy.data.images.get(obj.get("lapig_preview_image", "")), bool(obj.get("lapig_preview_appearance")),
             bpy.data.objects.get(obj.get("lapig_preview_caster", "")))
 
 
+def _current_casts(obj, projector) -> list:
+    """Every (caster, image) shown now, each one still there; the projector's own image where none is."""
+    names = zip(obj.get("lapig_preview_casters", [obj.get("lapig_preview_caster", "")]),
+                obj.get("lapig_preview_images", [obj.get("lapig_preview_image", "")]))
+    casts = [(bpy.data.objects.get(c), bpy.data.images.get(i)) for c, i in names]
+    casts = [(c, i) for c, i in casts if c is not None and i is not None]
+    return casts or [(projector, projector_nodes.projected_image(projector.data))]
+
+
 @contextlib.contextmanager
 def real_surface(obj, projector):
     """The object in its own materials for the block (a capture must see the real surface, not the
     preview's tinted copies), then the preview back as it was."""
-    previewing = current_preview(obj)
+    previewing = is_previewing(obj)
     if previewing:
+        casts, appearance = _current_casts(obj, projector), bool(obj.get("lapig_preview_appearance"))
         disable_preview(obj)
     try:
         yield
     finally:
         if previewing:
-            image, appearance, caster = previewing
-            caster = caster if caster is not None and image is not None else projector
-            enable_preview(obj, caster, image or projector_nodes.projected_image(projector.data), appearance)
+            enable_casts(obj, casts, appearance)
 
 
 def disable_preview(obj):
@@ -256,4 +299,6 @@ def disable_preview(obj):
     obj.pop("lapig_preview_appearance", None)
     obj.pop("lapig_preview_image", None)
     obj.pop("lapig_preview_caster", None)
+    obj.pop("lapig_preview_casters", None)
+    obj.pop("lapig_preview_images", None)
     _remove_solid_mode_projection(obj)

@@ -2,7 +2,8 @@
 
 The projector light gets the compensated image from result_sinks.ProjectorLightSink; here the object's
 material is switched between its original and a result image cast from the projector (preview.py keeps
-the original safe).
+the original safe). A result of several projectors lives in the camera's frame: its images are cast from the
+rig's camera, and Projection casts every projector's image at once.
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from ...lapig_core.common.imageio import read_image, to_float
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.optics.projector_model import frame_from_working_image
 from ...lapig_core.export.result_files import read_output_image
+from ...lapig_core.multi.result_files import problem_areas
 from ..services.panel_state import preview_blocker
 from . import preview, projector_nodes, scene_state
 from .scene_state import projector_model
@@ -78,6 +80,21 @@ def _several_image(result_dir: str, mode: str) -> bpy.types.Image:
     return frame_image(IMAGE_PREFIX + "camera " + name, np.ascontiguousarray(pixels[..., :3], dtype=np.float32))
 
 
+def _several_problem_image(result_dir: str) -> bpy.types.Image:
+    """Problem areas of a result of several: where their joint light falls short of the look (camera space)."""
+    return frame_image(IMAGE_PREFIX + "camera problem areas", problem_areas(result_dir).astype(np.float32))
+
+
+def _several_mode(scene, mode: str, camera, target, result_dir: str) -> None:
+    if mode == "PROJECTION":  # every projector's light carries its own image: the surface shows their sum
+        projectors = scene_state.rig_projectors(scene)
+        preview.enable_casts(target, [(p, projector_nodes.projected_image(p.data)) for p in projectors])
+    elif mode == "COMPENSABILITY":
+        preview.enable_preview(target, camera, _several_problem_image(result_dir), appearance=True)
+    else:  # a result of several lives in the camera's frame: its images are cast from the rig's camera
+        preview.enable_preview(target, camera, _several_image(result_dir, mode), appearance=True)
+
+
 def apply_mode(scene, mode: str, report=None) -> bool:
     """Switch the object's look; False (and a report) when the mode cannot be shown yet."""
     state = scene_state.read(scene)
@@ -87,8 +104,7 @@ def apply_mode(scene, mode: str, report=None) -> bool:
     projector, camera, target = scene_state.rig_objects(scene)
     try:
         if mode != "ORIGINAL" and state.rig.projector_count > 1:
-            # a result of several lives in the camera's frame: its images are cast from the rig's camera
-            preview.enable_preview(target, camera, _several_image(state.result_dir, mode), appearance=True)
+            _several_mode(scene, mode, camera, target, state.result_dir)
         elif mode == "ORIGINAL":
             preview.disable_preview(target)
         elif mode == "PROJECTION":

@@ -205,21 +205,11 @@ def result_blocker(state: SceneState) -> str:
     return rig_blocker(state.rig) or ("" if state.result_dir else "Generate a projector image first")
 
 
-# the result preview modes of a rig of several projectors: its camera-space images, cast from the rig's camera
-SEVERAL_PREVIEW_MODES = ("TARGET", "SIMULATED", "RENDERED", "LUX", "CONTRAST")
-
-
 def preview_blocker(state: SceneState, mode: str) -> str:
-    """Why the object cannot show preview `mode` yet ('' when it can). A rig of several projectors shows its
-    result's camera-space images from the rig's camera; Projection and Problem areas are one projector's."""
-    if mode in NEEDS_NO_RESULT and (mode == "ORIGINAL" or state.rig.projector_count < 2):
+    """Why the object cannot show preview `mode` yet ('' when it can). A rig of several projectors casts every
+    projector's image at once (Projection) and its result's camera-space images from the rig's camera."""
+    if mode in NEEDS_NO_RESULT:
         return rig_blocker(state.rig)
-    if state.rig.projector_count > 1:
-        if mode == "PROJECTION":
-            return ("Projection casts one projector's image: with several, see every projector's light in the "
-                    "viewport's Rendered mode, or their shares with Blend")
-        if mode not in SEVERAL_PREVIEW_MODES:
-            return ("Problem areas are one projector's: a result of several shows Target, Simulated, Rendered, Lux "
-                    "and Contrast")
+    if state.rig.projector_count > 1:  # every result mode: an image of the result, missing ones said where read
         return result_blocker(state) or ("" if state.rig.camera else "the rig has no camera to show its images from")
     return single_result_blocker(state)

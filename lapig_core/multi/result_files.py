@@ -19,7 +19,7 @@ import numpy as np
 
 from ..common.psnr import masked_psnr
 from ..common.sheets import labelled_grid
-from ..export.result_files import read_result_image, read_summary, write_new_result
+from ..export.result_files import heat_overlay, read_result_image, read_summary, write_new_result
 
 MULTI_KEY = "multi"
 
@@ -97,6 +97,22 @@ def projector_images(folder) -> list[tuple[dict, np.ndarray]]:
     if MULTI_KEY not in summary or not entries:
         raise ValueError(f"{folder} is a result of one projector, not of several")
     return [(entry, read_result_image(folder, Path(entry["image"]).stem)) for entry in entries]
+
+
+# an error of 5 % of full scale is where the heat starts to show whole: a result that misses by less shows its
+# worst places faint, not painted red by a scale that only ever follows its own 99th percentile
+PROBLEM_FLOOR = 0.05
+
+
+def problem_areas(folder) -> np.ndarray:
+    """Where the projectors together cannot show the look, in camera space: the joint model's capture's shortfall
+    from the look (mean abs over colours, what the box-constrained joint solve could not reach: light out of
+    every projector's range, or a place no projector reaches) as a heat map over the surface, as one projector's
+    compensability.png is over its L_ps + L_cs. Made from the result's own images; nothing is written."""
+    look, predicted = read_result_image(folder, "look"), read_result_image(folder, "predicted")
+    shortfall = np.abs(predicted[..., :3] - look[..., :3]).mean(axis=-1)
+    scale = max(float(np.percentile(shortfall, 99)), PROBLEM_FLOOR)
+    return heat_overlay(read_result_image(folder, "surface"), shortfall, scale)
 
 
 def nopsa_images(folder) -> list[np.ndarray] | None:

@@ -1,6 +1,7 @@
 """Several projectors (issue 36) with bpy blocked: the capture job, its first look and the export against fakes of
 the seams (the numpy fake rig of lapig_core/multi as the device), and the panel's decisions on a rig of several."""
 import contextlib
+import dataclasses
 import importlib
 import json
 import os
@@ -135,15 +136,18 @@ def test_the_panel_decides_on_a_rig_of_several(tmp_path):
     added = state.SceneState(rig=two, capture_dir=str(folder), capture_fingerprint="rig1")
     assert panel_state.capture_status(added).text == "Captured with 1 projector(s); the rig now has 2"
     assert panel_state.capture_blocker(added) == "The rig's projectors changed: capture again"
-    # the result preview modes of several: the result's camera-space images; Projection and Problem areas refused
+    # the preview modes of several: the same row as one projector's, every mode shown; Projection needs no result
     store = MultiStore(state, tmp_path)
-    assert panel_state.preview_blocker(store.read(), "TARGET") == "Generate a projector image first"
+    ungenerated = store.read()
+    assert panel_state.preview_blocker(ungenerated, "TARGET") == "Generate a projector image first"
+    assert panel_state.preview_blocker(ungenerated, "COMPENSABILITY") == "Generate a projector image first"
+    assert panel_state.preview_blocker(ungenerated, "PROJECTION") == ""  # each light's own image, or the line
     store.result = str(folder)
     generated = store.read()
-    assert [m for m in ("ORIGINAL", "TARGET", "SIMULATED", "RENDERED", "LUX", "CONTRAST")
-            if panel_state.preview_blocker(generated, m)] == []
-    assert panel_state.preview_blocker(generated, "PROJECTION").startswith("Projection casts one projector's image")
-    assert panel_state.preview_blocker(generated, "COMPENSABILITY").startswith("Problem areas are one projector's")
+    modes = ("ORIGINAL", "PROJECTION", "TARGET", "SIMULATED", "RENDERED", "COMPENSABILITY", "LUX", "CONTRAST")
+    assert [m for m in modes if panel_state.preview_blocker(generated, m)] == []
+    unplaced = dataclasses.replace(generated, rig=dataclasses.replace(generated.rig, camera=None))
+    assert panel_state.preview_blocker(unplaced, "PROJECTION") == "Add the projector and camera first"
 
 
 def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_write(multi, tmp_path):

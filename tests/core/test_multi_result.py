@@ -113,3 +113,30 @@ def test_the_look_is_jointly_compensated_and_each_projectors_frame_written(captu
                                                          "projector_2_nopsa"))
     images = projector_images(folder)
     assert [e["name"] for e, _ in images] == ["left", "right"] and images[1][1].shape == (36, 48, 3)
+
+
+def test_problem_areas_of_several_heat_where_the_joint_capture_falls_short_of_the_look(tmp_path):
+    """Problem areas of a result of several: the joint model's capture against the look, as a heat map over the
+    surface, made from the folder's own images without writing into it."""
+    from lapig.lapig_core.common.imageio import write_png
+    from lapig.lapig_core.multi.result_files import problem_areas
+
+    rng = np.random.default_rng(3)
+    look = rng.uniform(0.2, 0.8, (24, 32, 3)).astype(np.float32)
+    surface = np.full_like(look, 0.5)
+    predicted = look + 0.004  # the projectors reach the look almost everywhere ...
+    predicted[4:10, 20:28] -= 0.3  # ... but fall short here
+    for name, image in (("look", look), ("predicted", predicted), ("surface", surface)):
+        write_png(tmp_path / f"{name}.png", np.clip(image, 0, 1), bit_depth=16)
+    before = {p.name: p.stat().st_mtime_ns for p in tmp_path.iterdir()}
+    heat = problem_areas(tmp_path)
+    assert heat.shape == look.shape
+    short, fine = heat[4:10, 20:28], np.delete(heat, np.s_[2:12], axis=0)
+    assert short[..., 0].min() > 0.8 and short[..., 2].max() < 0.1  # red over the shortfall
+    gray = 0.5 * 0.6  # heat_overlay's dimmed surface
+    assert np.abs(fine - gray).max() < 0.02  # a miss of 0.4 % beside one of 30 % is the surface
+    assert {p.name: p.stat().st_mtime_ns for p in tmp_path.iterdir()} == before
+    # a result that misses by 0.4 % everywhere is not painted red by its own 99th percentile: the scale's floor
+    write_png(tmp_path / "predicted.png", np.clip(look + 0.004, 0, 1), bit_depth=16)
+    faint = problem_areas(tmp_path)
+    assert 0.03 < faint[..., 0].mean() - gray < 0.12 and faint[..., 2].max() < gray

@@ -21,7 +21,9 @@ class LAPIG_OT_preview_toggle(ReportsErrors, bpy.types.Operator):
             preview.disable_preview(target)
             self.report({"INFO"}, f"'{target.name}' shows its own materials again")
             return {"FINISHED"}
-        preview.enable_preview(target, projector, projector_nodes.projected_image(projector.data))
+        # every projector of the rig casts its own image (one projector: its image alone)
+        projectors = scene_state.rig_projectors(context.scene) or [projector]
+        preview.enable_casts(target, [(p, projector_nodes.projected_image(p.data)) for p in projectors])
         space = context.space_data
         if space is not None and space.type == "VIEW_3D" and space.shading.type == "SOLID":
             space.shading.color_type = "TEXTURE"  # Solid mode shows image textures only like this

@@ -208,17 +208,17 @@ def _remove_solid_mode_projection(obj):
 
 def enable_preview(obj, projector, image, appearance=False):
     """Show `image` cast from `projector` (a projector light, or the rig's camera: caster_model) on obj."""
-    if image is None:
-        raise ValueError("the projector has no image to preview")
     enable_casts(obj, [(projector, image)], appearance)
 
 
 def enable_casts(obj, casts, appearance=False):
     """Show every (caster, image) of `casts` on obj at once, their light added (a rig of several projectors'
     Projection); one cast is enable_preview's."""
-    casts = [(caster, image) for caster, image in casts if image is not None]
-    if not casts:
-        raise ValueError("the projectors have no image to preview: press Generate")
+    shown = [(caster, image) for caster, image in casts if image is not None]
+    if not shown:
+        raise ValueError("the projector has no image to preview" if len(casts) == 1
+                         else "the projectors have no image to preview: press Generate")
+    casts = shown
     if obj.type != "MESH":
         raise ValueError(f"'{obj.name}' is not a mesh: the preview needs one")
     if is_previewing(obj):

@@ -61,12 +61,13 @@ def test_the_blend_preview_lights_each_projectors_share_in_its_colour(lapig_regi
 @pytest.mark.blender
 @pytest.mark.torch
 def test_the_result_preview_modes_of_several_cast_the_camera_space_images_from_the_camera(lapig_registered, tmp_path):
-    """A result of two projectors lives in the camera's frame: Target casts its look from the rig's camera, so a
-    render from that camera shows the look where the camera saw it; Original puts the materials back as they were;
-    Projection and Problem areas are one projector's and say so in one line."""
-    from lapig.lapig_addon.blender import preview, result_preview, scene_state
+    """A result of two projectors lives in the camera's frame: Target and Problem areas cast their images from the
+    rig's camera, so a render from that camera shows each where the camera saw it; Projection casts both
+    projectors' images at once; Original puts the materials back as they were, and the result is untouched."""
+    from lapig.lapig_addon.blender import preview, projector_nodes, result_preview, scene_state
     from lapig.lapig_core.common.imageio import read_image, write_png
     from lapig.lapig_core.multi.first_look import load_joint_model
+    from lapig.lapig_core.multi.result_files import problem_areas
 
     scene, projector, camera, target = _statue_lit_from_the_front_left(tmp_path)
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "statue.blend"))
@@ -76,6 +77,7 @@ def test_the_result_preview_modes_of_several_cast_the_camera_space_images_from_t
     assert bpy.ops.lapig.generate() == {"FINISHED"}
     state = scene_state.read(scene)
     look = read_image(os.path.join(state.result_dir, "look.png"))
+    files = {name: os.stat(os.path.join(state.result_dir, name)).st_mtime_ns for name in os.listdir(state.result_dir)}
     reached = load_joint_model(state.capture_dir).reached.any(axis=0)
 
     reports = []
@@ -92,13 +94,43 @@ def test_the_result_preview_modes_of_several_cast_the_camera_space_images_from_t
     shifted = np.abs(np.roll(shown, 4, axis=1) - look)[inner].mean()
     assert shifted > error + 0.01
 
+    # Problem areas: the joint capture's shortfall from the look, cast from the camera as well
+    assert result_preview.apply_mode(scene, "COMPENSABILITY", lambda kind, text: reports.append(text)), reports
+    problems = problem_areas(state.result_dir)
+    seen = np.clip(_render(scene, camera, tmp_path / "problems.exr"), 0, 1)
+    write_png(str(tmp_path / "problems_preview.png"), np.concatenate([problems, seen], axis=1))
+    error = np.abs(seen - problems)[inner].mean()
+    print("problem areas preview against the map: mean abs", error)
+    assert error < 0.06 and np.abs(np.roll(seen, 4, axis=1) - problems)[inner].mean() > error + 0.005
+
     assert not result_preview.apply_mode(scene, "RENDERED", lambda kind, text: reports.append(text))
     assert reports[-1] == "Rendered: press Render Real Capture first"
-    assert not result_preview.apply_mode(scene, "PROJECTION", lambda kind, text: reports.append(text))
-    assert reports[-1].startswith("Projection casts one projector's image")
     assert preview.is_previewing(target)  # a refused mode leaves the preview as it was
-    assert result_preview.apply_mode(scene, "SIMULATED")
-    assert result_preview.apply_mode(scene, "ORIGINAL")
+    # Projection: each projector's light carries its own image (Generate set them), and the surface shows their sum
+    projectors = scene_state.rig_projectors(scene)
+    lights = [projector_nodes.projected_image(p.data) for p in projectors]
+    assert len(projectors) == 2 and None not in lights and lights[0] != lights[1]
+    assert result_preview.apply_mode(scene, "PROJECTION", lambda kind, text: reports.append(text)), reports
+    assert list(target["lapig_preview_casters"]) == [p.name for p in projectors]
+    for slot in target.material_slots:
+        nodes = slot.material.node_tree.nodes
+        cast = sorted((n for n in nodes if n.name.startswith("LAPIG projected image")), key=lambda n: n.name)
+        assert [n.image for n in cast] == lights
+        coords = [n.object for n in nodes if n.bl_idname == "ShaderNodeTexCoord"]
+        assert sorted(c.name for c in coords) == sorted(p.name for p in projectors)
+        adds = [n for n in nodes if n.bl_idname == "ShaderNodeMix" and n.blend_type == "ADD"]
+        assert len(adds) == 1 and {lk.from_node.image for lk in adds[0].inputs["A"].links} | \
+            {lk.from_node.image for lk in adds[0].inputs["B"].links} == set(lights)
+    # a capture borrows the real surface and gives the preview back with both casts
+    with preview.real_surface(target, projector):
+        assert not preview.is_previewing(target)
+    assert list(target["lapig_preview_images"]) == [i.name for i in lights]
+
+    for mode in ("SIMULATED", "TARGET", "ORIGINAL"):
+        assert result_preview.apply_mode(scene, mode)
     assert not preview.is_previewing(target)
     assert [slot.material.name if slot.material else "" for slot in target.material_slots] == originals
-    assert "lapig_preview_caster" not in target.keys()
+    assert not [k for k in target.keys() if k.startswith("lapig_preview")]
+    assert not [m.name for m in bpy.data.materials if m.name.startswith(preview.PREVIEW_PREFIX)]
+    assert preview.UV_NAME not in target.data.uv_layers and preview.UV_NAME not in target.modifiers
+    assert files == {n: os.stat(os.path.join(state.result_dir, n)).st_mtime_ns for n in os.listdir(state.result_dir)}

@@ -194,11 +194,12 @@ class LapigShowLook(bpy.types.PropertyGroup):
 
 PREVIEW_MODES = [
     ("ORIGINAL", "Original", "The object's own material"),
-    ("PROJECTION", "Projection", "The projector image cast on the object (its light times the surface)"),
+    ("PROJECTION", "Projection", "Each projector's image cast on the object (their light times the surface)"),
     ("TARGET", "Target", "The stylization the viewer should see"),
-    ("SIMULATED", "Simulated", "What PCNet predicts the camera sees"),
+    ("SIMULATED", "Simulated", "What the model predicts the camera sees (PCNet; the joint model with several)"),
     ("RENDERED", "Rendered", "The Cycles capture of the projection"),
-    ("COMPENSABILITY", "Problem areas", "Where the surface cannot show the target (L_ps + L_cs per pixel)"),
+    ("COMPENSABILITY", "Problem areas", "Where the surface cannot show the target (L_ps + L_cs per pixel; with "
+     "several projectors, where their joint capture falls short of the look)"),
     ("LUX", "Lux", "The look's illuminance on the object, log scale 1 to 10,000 lux (Light Report)"),
     ("CONTRAST", "Contrast", "Contrast against the room: red below 5:1, amber to 10:1, green above (Light Report)"),
 ]

@@ -61,8 +61,8 @@ def test_the_blend_preview_lights_each_projectors_share_in_its_colour(lapig_regi
 @pytest.mark.blender
 @pytest.mark.torch
 def test_the_result_preview_modes_of_several_cast_the_camera_space_images_from_the_camera(lapig_registered, tmp_path):
-    """A result of two projectors lives in the camera's frame: Target and Problem areas cast their images from the
-    rig's camera, so a render from that camera shows each where the camera saw it; Projection casts both
+    """A result of two projectors lives in the camera's frame: Target, Problem areas and Rendered (Lux and Contrast
+    too) cast their images from the rig's camera, so a render from that camera shows each where the camera saw it; Projection casts both
     projectors' images at once; Original puts the materials back as they were, and the result is untouched."""
     from lapig.lapig_addon.blender import preview, projector_nodes, result_preview, scene_state
     from lapig.lapig_core.common.imageio import read_image, write_png
@@ -125,6 +125,18 @@ def test_the_result_preview_modes_of_several_cast_the_camera_space_images_from_t
     with preview.real_surface(target, projector):
         assert not preview.is_previewing(target)
     assert list(target["lapig_preview_images"]) == [i.name for i in lights]
+
+    # Render Real Capture and the Light Report give Rendered, Lux and Contrast their camera-space images
+    assert bpy.ops.lapig.render_result() == {"FINISHED"} and bpy.ops.lapig.light_report() == {"FINISHED"}
+    rendered = read_image(os.path.join(state.result_dir, "rendered.png"))
+    assert result_preview.apply_mode(scene, "RENDERED", lambda kind, text: reports.append(text)), reports
+    seen = np.clip(_render(scene, camera, tmp_path / "rendered.exr"), 0, 1)
+    assert np.abs(seen - rendered)[inner].mean() < 0.06
+    for mode, name in (("LUX", "light_lux"), ("CONTRAST", "light_contrast")):
+        assert result_preview.apply_mode(scene, mode, lambda kind, text: reports.append(text)), reports
+        assert target["lapig_preview_caster"] == camera.name
+        assert target["lapig_preview_image"] == result_preview.IMAGE_PREFIX + "camera " + name
+    files = {name: os.stat(os.path.join(state.result_dir, name)).st_mtime_ns for name in os.listdir(state.result_dir)}
 
     for mode in ("SIMULATED", "TARGET", "ORIGINAL"):
         assert result_preview.apply_mode(scene, mode)

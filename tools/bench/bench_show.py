@@ -53,6 +53,7 @@ from ...lapig_core.show.model import Look, Motion, Show, Transition
 from ...lapig_core.show.schedule import schedule_of
 from ...lapig_core.show.morph import mix_linear
 from .device_fixture import CAMERA, FIXTURE, PROJECTOR
+from .show_flicker import affine_fitted, clipped, flicker_split, pair_sheet, resized
 
 LOOK_A = ("Make it a stained glass artwork", 0)
 LOOK_B = ("Make it a charcoal sketch", 1)
@@ -128,10 +129,18 @@ def _flicker(measured: dict, indices: list) -> float:
     return num / den if den > 0 else math.nan
 
 
-def quality(setup, models, capture_batch, size=None, optics_batch=None) -> dict:
+def _split(out: dict, name: str, measured: dict, morph_idx: list, moving_idx: list, reach) -> None:
+    """The flicker of `name` split by the reach (show_flicker.flicker_split), for the morph and the moving look."""
+    for seq, idx in (("morph", morph_idx), ("moving", moving_idx)):
+        out[f"split_{name}_{seq}"] = flicker_split(measured, idx, reach)
+
+
+def quality(setup, models, capture_batch, size=None, optics_batch=None, sheet_path=None) -> dict:
     """The quality figures of a morph into a moving look and of a dissolve, every projector frame captured
     by capture_batch(list of frames) -> list of (captured, valid) in the projector frame at `size` (None: the
-    working frame). optics_batch: the same rig on a white surface (the flicker's floor), or None."""
+    working frame). optics_batch: the same rig on a white surface (the flicker's floor), or None. The flicker
+    is also split by the classical model's reach (split_*: show_flicker); sheet_path: a PNG of two
+    consecutive moving frames (show_flicker.pair_sheet)."""
     a, b = _looks(Motion("drift", 0.6, 2.0))
     show = Show([a, b], [Transition("morph", 1.0)], fps=FPS)
     maker = FrameMaker(show, setup, size=size)
@@ -196,10 +205,22 @@ def quality(setup, models, capture_batch, size=None, optics_batch=None) -> dict:
     out["dissolve_check_db"] = out["dissolve_psnr_crossfade_db"] - out["dissolve_psnr_own_db"]
     out["dissolve_keyed_between_db"] = (masked_psnr(cap_kb, target_between, valid_kb)
                                         - masked_psnr(cap_ob, target_between, valid_ob))
+    shape = next(iter(targets.values())).shape[:2]
+    reach = tuple(resized(_image(t), shape) for t in (models.i_min, models.i_max))
+    _split(out, "captured", measured, morph_idx, moving_idx, reach)
+    _split(out, "unadapted", measured_plain, morph_idx, moving_idx, reach)
+    if sheet_path is not None:
+        middle = len(moving_idx) // 2
+        out["sheet"] = pair_sheet(measured, moving_idx[middle], moving_idx[middle + 1], reach, sheet_path)
     if optics_batch is not None:  # the floor: the targets themselves through the rig's resampling alone
         seen = optics_batch([targets[i] for i in used])
         floor = {i: (seen[k][0], targets[i], seen[k][1] & measured[i][2]) for k, i in enumerate(used)}
         out["temporal_flicker_optics_floor"] = max(_flicker(floor, morph_idx), _flicker(floor, moving_idx))
+        # the camera's gain and offset taken out (one affine per channel over every frame): the fair floor
+        # where the camera is not unit gain, as the show's compensation takes them out through its model
+        fitted = affine_fitted(floor)
+        out["temporal_flicker_optics_floor_fitted"] = max(_flicker(fitted, morph_idx), _flicker(fitted, moving_idx))
+        _split(out, "floor_fitted", fitted, morph_idx, moving_idx, reach)
     # and through the setup's own model at the working frame: no 8-bit steps, no resampling
     model_maker = FrameMaker(show, setup)
     measured_model = {}
@@ -210,6 +231,10 @@ def quality(setup, models, capture_batch, size=None, optics_batch=None) -> dict:
                 sim = models.simulate(torch.from_numpy(frame).permute(2, 0, 1)[None].to(models.device))
             measured_model[i] = (_image(sim), _image(model_maker.target_of(key)), np.ones(frame.shape[:2], bool))
     out["temporal_flicker_model"] = max(_flicker(measured_model, morph_idx), _flicker(measured_model, moving_idx))
+    working_reach = tuple(_image(t) for t in (models.i_min, models.i_max))
+    _split(out, "model", measured_model, morph_idx, moving_idx, working_reach)
+    # a perfect compensator limited to the reach: the targets clamped to [I-, I+]
+    _split(out, "clip", clipped(measured_model, working_reach), morph_idx, moving_idx, working_reach)
     return out
 
 
@@ -288,7 +313,33 @@ def rendered_quality(args, psa_iterations, out_dir) -> dict:
         captured = render_working_images(*rig, setup_dir, np.stack(frames).astype(np.float32))
         return [(np.asarray(c, np.float32), valid) for c in captured]
 
-    return quality(setup, models, capture_batch)
+    def optics_batch(frames):  # the same panel, white: after every show frame is rendered (a new scene)
+        white = build_surface_scene(np.ones((256, 256, 3), np.float32), os.path.join(out_dir, "textures"),
+                                    name="bench_white", projector=(320, 240), camera=(480, 360))
+        captured = render_on_capture(white, setup_dir, frames)
+        return [(np.asarray(c, np.float32), valid) for c in captured]
+
+    return quality(setup, models, capture_batch, optics_batch=optics_batch,
+                   sheet_path=os.path.join(out_dir, "sheet_flicker_rendered.png"))
+
+
+def render_on_capture(rig, setup_dir, frames, chunk: int = 8) -> list:
+    """Frames rendered on `rig` as setup_dir's capture recorded its rig (exposure, camera response, ambient,
+    samples) and registered by its registration: the capture's own rig with another object texture (the
+    floor's white panel, the same geometry), which projection.project_and_capture refuses as a changed rig."""
+    from ...lapig_addon.blender.cycles_factory import CyclesDeviceFactory
+    from ...lapig_core.capture import dataset as ds
+    from ...lapig_core.optics.projector_model import quantised_frame
+
+    meta = ds.read_setup_json(os.path.join(os.fspath(setup_dir), "setup.json"))
+    registration = Registration.load(os.path.join(os.fspath(setup_dir), ds.REGISTRATION_FILE))
+    out = []
+    with CyclesDeviceFactory(*rig).setup_device(meta, seed=0) as device:
+        width, height = device.describe().projector_size
+        for start in range(0, len(frames), chunk):
+            shown = [quantised_frame(np.asarray(f, np.float32), width, height, 8) for f in frames[start:start + chunk]]
+            out += [registration.warp(cap) for cap in device.capture(shown)]
+    return out
 
 
 def run(args) -> dict:
@@ -300,8 +351,11 @@ def run(args) -> dict:
     capture, optics = FakeRigCapture(setup_dir_of(cs)), OpticsOnly(setup_dir_of(cs))
     keyed_cache = {}
     setup = _setup(cs, models, psa_iterations, keyed_cache)
+    out_dir = getattr(args, "out", None) or "out/bench_show"
+    os.makedirs(out_dir, exist_ok=True)
     simulated = quality(setup, models, lambda frames: [capture(f) for f in frames], size=PROJECTOR,
-                        optics_batch=lambda frames: [optics(f) for f in frames])
+                        optics_batch=lambda frames: [optics(f) for f in frames],
+                        sheet_path=os.path.join(out_dir, "sheet_flicker_simulated.png"))
     fast = speed(cs, models, psa_iterations, keyed_cache, int(getattr(args, "show_frames", None) or 8))
     fast.update(sixty_seconds(cs, models, psa_iterations, keyed_cache, getattr(args, "out", None) or "out/bench_show"))
     rendered = None
@@ -309,6 +363,10 @@ def run(args) -> dict:
         rendered = rendered_quality(args, psa_iterations, getattr(args, "out", None) or "out/bench_show")
 
     def r(x, n=3):
+        if isinstance(x, str):
+            return x
+        if isinstance(x, dict):
+            return {k: r(v, n) for k, v in x.items()}
         if isinstance(x, list):
             return [r(v, n) for v in x]
         return None if x is None or not math.isfinite(x) else round(float(x), n)

@@ -27,9 +27,7 @@ MODE_IMAGES = {"TARGET": "target", "SIMULATED": "simulated", "RENDERED": "render
                "COMPENSABILITY": "compensability"}
 # a result of several projectors (lapig_core/multi/result_files): its camera-space images by preview mode
 SEVERAL_IMAGES = {"TARGET": "look", "SIMULATED": "predicted", "RENDERED": "rendered", **LIGHT_MAPS}
-SEVERAL_MISSING = {"RENDERED": "Rendered: press Render Real Capture first",
-                   "LUX": "no light maps for this result yet: press Light Report",
-                   "CONTRAST": "no light maps for this result yet: press Light Report"}
+SEVERAL_MISSING = {"RENDERED": "Rendered: press Render Real Capture first"}
 
 
 def frame_image(name: str, pixels: np.ndarray, non_color: bool = True) -> bpy.types.Image:
@@ -57,13 +55,18 @@ def _appearance_image(projector, result_dir: str, kind: str) -> bpy.types.Image:
     return frame_image(IMAGE_PREFIX + kind, frame_from_working_image(img, model.width, model.height))
 
 
-def _light_map_image(projector, result_dir: str, name: str) -> bpy.types.Image:
-    model = projector_model(projector)
+def _light_map(result_dir: str, name: str) -> np.ndarray:
+    """The Light Report's map `name` of a result as drawn (display, sRGB colours; the callers make them linear
+    after any resize, so the view transform shows them as drawn)."""
     path = os.path.join(result_dir, name + ".png")
     if not os.path.isfile(path):
         raise ValueError("no light maps for this result yet: press Light Report")
-    # the maps' colours are display (sRGB) values: made linear, the view transform shows them as drawn
-    colours = np.power(resize_image(to_float(read_image(path)), model.width, model.height), 2.2)
+    return to_float(read_image(path))
+
+
+def _light_map_image(projector, result_dir: str, name: str) -> bpy.types.Image:
+    model = projector_model(projector)
+    colours = np.power(resize_image(_light_map(result_dir, name), model.width, model.height), 2.2)
     return frame_image(IMAGE_PREFIX + name, colours)
 
 
@@ -71,12 +74,13 @@ def _several_image(result_dir: str, mode: str) -> bpy.types.Image:
     """A result of several projectors' camera-space image of `mode` (its look, the joint model's capture, the
     rendered capture, the light maps of its Light Report), as an image at the camera's size."""
     name = SEVERAL_IMAGES[mode]
-    path = os.path.join(result_dir, name + ".png")
-    if not os.path.isfile(path):
-        raise ValueError(SEVERAL_MISSING.get(mode, f"this result has no {name} image"))
-    pixels = to_float(read_image(path))
-    if mode in LIGHT_MAPS:  # the maps' colours are display (sRGB) values: made linear, shown as drawn
-        pixels = np.power(pixels, 2.2)
+    if mode in LIGHT_MAPS:  # camera-space maps: made linear at their own size
+        pixels = np.power(_light_map(result_dir, name), 2.2)
+    else:
+        path = os.path.join(result_dir, name + ".png")
+        if not os.path.isfile(path):
+            raise ValueError(SEVERAL_MISSING.get(mode, f"this result has no {name} image"))
+        pixels = to_float(read_image(path))
     return frame_image(IMAGE_PREFIX + "camera " + name, np.ascontiguousarray(pixels[..., :3], dtype=np.float32))
 
 

@@ -11,6 +11,7 @@ import pytest
 from lapig.lapig_core.common.imageio import read_image
 from lapig.lapig_core.optics.projector_model import ProjectorModel
 from lapig.lapig_core.rig.frame_lock import LockedWindows, SimulatedWindow
+from window_fakes import Recording
 
 ADDON = "lapig.lapig_addon"
 SIZES = [(64, 48), (80, 60)]
@@ -123,17 +124,6 @@ def test_export_crossfade_of_several_refuses_another_rig_and_leaves_no_folder(tm
     with pytest.raises(Exception, match="gamma"):
         export_result.export_crossfade(Failing(), str(out), _settings(), folder)
     assert os.listdir(out) == []
-
-
-class Recording(SimulatedWindow):
-    def __init__(self, size):
-        super().__init__(size, present_s=0.0005)
-        self.reds = []
-
-    def present(self):
-        t = super().present()
-        self.reds.append(float(self.shown[..., 0].mean()))
-        return t
 
 
 def test_play_crossfade_of_several_plays_each_projectors_crossfade_on_its_window_together(tmp_path):

@@ -7,6 +7,7 @@ import pytest
 
 from lapig.lapig_core.optics.projector_model import ProjectorModel
 from lapig.lapig_core.rig.frame_lock import LockedWindows, SimulatedWindow
+from window_fakes import Recording
 
 ADDON = "lapig.lapig_addon"
 SIZES = [(64, 48), (80, 60)]  # projectors of different sizes: a swap of frames would not fit
@@ -15,19 +16,6 @@ LEVELS = [(0.2, 0.7), (0.9, 0.4)]  # look i's level on projector k: LEVELS[i][k]
 
 def _module(name):
     return importlib.import_module(f"{ADDON}.{name}")
-
-
-class Recording(SimulatedWindow):
-    """A simulated window that keeps every presented frame's red mean."""
-
-    def __init__(self, size):
-        super().__init__(size, present_s=0.0005)
-        self.reds = []
-
-    def present(self):
-        t = super().present()
-        self.reds.append(float(self.shown[..., 0].mean()))
-        return t
 
 
 def _multi_result(folder, levels):

@@ -97,13 +97,12 @@ def quality_and_speed(setup, folders, rig, sheet_path=None) -> dict:
     capture = lambda frames: rig.capture(frames).astype(np.float32) / 255  # noqa: E731
     image = lambda t: t[0].permute(1, 2, 0).numpy()  # noqa: E731
 
-    def run(settings):
+    def make_frames(settings):
         maker = FrameMaker(show, setup, settings=settings)
         keys = list(dict.fromkeys(maker.schedule.at(i) for i in range(maker.schedule.total_frames)))
         morph = [k for k in keys if k[0] == "morph"]
         moving = [k for k in keys if k[0] == "moving"][:12]
         used = [k for k in keys if k[0] == "hold"] + morph + moving
-        t0 = time.perf_counter()
         for k in [k for k in keys if k[0] == "hold"] + morph:  # in show order: the warm start follows them
             maker.frame(k)
         t1 = time.perf_counter()
@@ -112,9 +111,9 @@ def quality_and_speed(setup, folders, rig, sheet_path=None) -> dict:
         moving_s = (time.perf_counter() - t1) / len(moving)
         frames = {k: maker.frame(k) for k in used}
         targets = {k: image(maker.target_of(k)) for k in used}
-        return maker, morph, moving, frames, targets, moving_s, t1 - t0
+        return maker, morph, moving, frames, targets, moving_s
 
-    maker, morph, moving, frames, targets, moving_s, _ = run(FrameSettings())
+    maker, morph, moving, frames, targets, moving_s = make_frames(FrameSettings())
     seen = {k: capture(f) for k, f in frames.items()}
     psnr = lambda k: masked_psnr(seen[k], targets[k], mask)  # noqa: E731
     holds = [("hold", 0, 0.0), ("hold", 1, 0.0)] if ("hold", 1, 0.0) in frames else [("hold", 0, 0.0)]
@@ -126,7 +125,7 @@ def quality_and_speed(setup, folders, rig, sheet_path=None) -> dict:
                for name, keys in (("morph", morph), ("moving", moving))}
     model_flicker = max(_flicker([setup.model.predict(frames[k]) for k in keys], [targets[k] for k in keys], mask)
                         for keys in (morph, moving))
-    _, morph0, moving0, frames0, targets0, _, _ = run(FrameSettings(field_steps=0))
+    _, morph0, moving0, frames0, targets0, _ = make_frames(FrameSettings(field_steps=0))
     unadapted = max(_flicker([capture(frames0[k]) for k in keys], [targets0[k] for k in keys], mask)
                     for keys in (morph0, moving0))
 

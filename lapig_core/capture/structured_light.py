@@ -161,6 +161,64 @@ def finest_bit_indices(proj_width: int, proj_height: int) -> list[int]:
     return [2 * nc - 2, 2 * nc - 1, 2 * (nc + nr) - 2, 2 * (nc + nr) - 1]
 
 
+@dataclass
+class PartialCode:
+    """What the Gray code says where it cannot say everything: per camera pixel and axis, which bits read
+    (``*_read``, a bit mask, most significant bit first as the patterns are) and their values (``*_gray``),
+    and whether the projector lights the pixel at all. Where a camera pixel spans more projector pixels
+    than the finest stripes are wide (a surface at grazing incidence) those bits read grey; where it
+    straddles a stripe edge, that one bit does. Gray code changes one bit per edge, so every other bit
+    still reads, and ``positions`` gives the projector pixels they allow."""
+
+    x_read: np.ndarray  # int32 (H, W)
+    x_gray: np.ndarray
+    y_read: np.ndarray
+    y_gray: np.ndarray
+    lit: np.ndarray  # bool (H, W): white - black above the black threshold
+    size: tuple[int, int]  # the projector's (width, height)
+
+    def positions(self, axis: str, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """(N, size) bool: the projector columns (axis "x") or rows ("y") whose Gray code agrees with every
+        bit read at the N camera pixels (rows, cols)."""
+        n = self.size[0] if axis == "x" else self.size[1]
+        read = (self.x_read if axis == "x" else self.y_read)[rows, cols].astype(np.int64)
+        gray = (self.x_gray if axis == "x" else self.y_gray)[rows, cols].astype(np.int64)
+        codes = np.arange(n, dtype=np.int64)
+        codes ^= codes >> 1
+        return ((codes[None, :] ^ gray[:, None]) & read[:, None]) == 0
+
+
+def decode_graycode_partial(
+    captures: Sequence[np.ndarray] | np.ndarray,
+    proj_width: int,
+    proj_height: int,
+    black_threshold: float = BLACK_THRESHOLD,
+    white_threshold: float = WHITE_THRESHOLD,
+) -> PartialCode:
+    """Every bit that reads (|pattern - complement| >= ``white_threshold``), per camera pixel and axis, with
+    the thresholds of ``decode_graycode``: where every bit reads, ``positions`` is the one pixel it decodes."""
+    w, h = _check_proj_size(proj_width, proj_height)
+    nc, nr = _bits(w), _bits(h)
+    caps = _checked_captures(captures, 2 * (nc + nr) + 2)
+    n = len(caps)
+    lit = (_gray_8bit(caps[-2], n - 2) - _gray_8bit(caps[-1], n - 1)) > black_threshold
+
+    def read(first: int, nbits: int):
+        mask = np.zeros(lit.shape, np.int32)
+        value = np.zeros(lit.shape, np.int32)
+        for k in range(nbits):
+            i = first + 2 * k
+            diff = _gray_8bit(caps[i], i) - _gray_8bit(caps[i + 1], i + 1)
+            bit = np.int32(1 << (nbits - 1 - k))
+            mask |= np.where(np.abs(diff) >= white_threshold, bit, 0).astype(np.int32)
+            value |= np.where(diff > 0, bit, 0).astype(np.int32)
+        return mask, value & mask
+
+    x_read, x_gray = read(0, nc)
+    y_read, y_gray = read(2 * nc, nr)
+    return PartialCode(x_read, x_gray, y_read, y_gray, lit, (w, h))
+
+
 def decode_agreement(first, second, indices, valid: np.ndarray) -> float:
     """The share of decoded camera pixels whose bits read the same in two captures of the same patterns
     (``first``: every Gray-code capture; ``second``: the captures of ``indices`` again, in pairs of a

@@ -21,6 +21,15 @@ from .masked_filter import masked_gaussian
 from .push_pull import push_pull
 
 
+# A projector's image carries its edge values this share of its frame's larger side past its footprint.
+# At the object's outline the camera sees the surface edge-on: one camera pixel gathers a long strip of it,
+# lit by projector pixels that no camera pixel centre lands on. Black there, the outline captured dark
+# (the bust of `bench multi`: 0.16 RMS on the reached outline against 0.02 inside; bleeds of 3, 8 and 20
+# of 800 pixels left 0.110, 0.051 and 0.029). The light past the footprint falls where the camera sees no
+# part of the object, the same light a white frame sends there.
+BLEED_SHARE = 0.02
+
+
 @dataclass(eq=False)
 class CameraMap:
     """map_x, map_y: (H,W) float32 projector coordinates of each camera pixel centre; valid: (H,W) bool,
@@ -125,10 +134,15 @@ class CameraMap:
         k = 2 * int(np.ceil(spacing)) + 1
         return cv2.morphologyEx(hit, cv2.MORPH_CLOSE, np.ones((k, k), np.uint8)).astype(bool)
 
-    def to_projector(self, values: np.ndarray, outside: float | None = 0.0) -> np.ndarray:
+    def bleed_pixels(self) -> int:
+        """How far past its footprint a projector's image carries its edge values (BLEED_SHARE of the frame)."""
+        return int(np.ceil(BLEED_SHARE * max(self.projector_size)))
+
+    def to_projector(self, values: np.ndarray, outside: float | None = 0.0, bleed: int = 0) -> np.ndarray:
         """Per-camera-pixel values (H,W[,C]) -> the projector frame (h,w[,C]) float32: the weighted mean of
         the camera pixels landing around each projector pixel, holes filled by push-pull. Projector
-        pixels off the footprint get `outside`, or with None the nearest values, extended (push-pull)."""
+        pixels more than `bleed` pixels off the footprint get `outside`, or with None the nearest values,
+        extended (push-pull); within `bleed` of it, the extended values."""
         sums, weight = self.splat(values)
         wt = weight if sums.ndim == 2 else weight[..., None]
         mean = np.where(wt > 0, sums / np.maximum(wt, 1e-12), 0.0)
@@ -136,6 +150,8 @@ class CameraMap:
         if outside is None:
             return filled
         on = self.footprint(weight)
+        if bleed > 0:
+            on = cv2.dilate(on.astype(np.uint8), np.ones((2 * bleed + 1, 2 * bleed + 1), np.uint8)).astype(bool)
         return np.where(on if filled.ndim == 2 else on[..., None], filled, np.float32(outside)).astype(np.float32)
 
 

@@ -25,9 +25,10 @@ import numpy as np
 from ..capture import dataset as ds
 from ..capture.settings import CaptureError, CaptureSettings
 from ..capture.staging import StagedCapture
-from ..capture.structured_light import decode_graycode, graycode_patterns
+from ..capture.structured_light import decode_graycode, decode_graycode_partial, graycode_patterns
 from ..common.imageio import write_png
 from . import capture_set as layout
+from .graycode_fill import fill_unread_bits
 from .camera_map import CameraMap
 from .coverage import coverage
 from .frames import smooth_frames
@@ -106,9 +107,11 @@ def reach_problem(name: str, camera_map: CameraMap, object_mask: np.ndarray) -> 
 
 
 def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: Sequence[str],
-                      extra_meta: dict | None = None, holder: str = "a LAPIG capture"):
+                      extra_meta: dict | None = None, holder: str = "a LAPIG capture", fill_blurred_bits: bool = True):
     """Capture every projector of ``device`` into settings.out_dir/setups/<setup_name>; ``names``: the
-    projectors' names, in the device's order. A generator; returns {"setup_dir", "meta"}."""
+    projectors' names, in the device's order. ``fill_blurred_bits``: register lit pixels whose finest Gray-code
+    bits blur (multi/graycode_fill; False: the strict decode only, for comparisons). A generator; returns
+    {"setup_dir", "meta"}."""
     t0 = time.perf_counter()
     info = device.describe()
     sizes = [tuple(int(v) for v in size) for size in info.projector_sizes]
@@ -124,7 +127,7 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
         whites = [_white(size) for size in sizes]
         device.lock_exposure(whites)
         mask = device.object_mask()
-        maps = []
+        maps, filled = [], []
         t = time.perf_counter()
         for k, (w, h) in enumerate(sizes):
             patterns = graycode_patterns(w, h)
@@ -134,7 +137,11 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
                 caps += device.capture([_alone(k, count, np.repeat(p[..., None], 3, axis=-1)) for p in chunk])
                 done = (k + len(caps) / len(patterns)) / count
                 yield 0.02 + 0.5 * done, f"{names[k]}: structured light {len(caps)}/{len(patterns)}"
-            decoded = decode_graycode(caps, w, h)
+            # grazing surfaces blur the finest stripes: their pixels get the position the coarse bits allow
+            fill = fill_unread_bits(decode_graycode(caps, w, h), decode_graycode_partial(caps, w, h),
+                                    max_unknown_bits=None if fill_blurred_bits else -1)
+            decoded = fill.decoded
+            filled.append(int(fill.filled.sum()))
             reserved = getattr(device, "reserved_rows", None)  # a real rig's frame code lit these rows
             top, bottom = reserved(k) if reserved is not None else (0, 0)
             if top or bottom:
@@ -187,6 +194,7 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
             "coverage": {"reached": cover.reached, "per_projector": list(cover.per_projector),
                          "overlap": cover.overlap, "object_pixels": cover.object_pixels},
             "valid_fraction": [float(m.valid.mean()) for m in maps],
+            "filled_pixels": filled,  # lit pixels whose finest bits blurred (multi/graycode_fill)
             "seed": s.seed,
             **(extra_meta or {}),
             "timings": {k: round(v, 4) for k, v in {**s.timings, **timings}.items() if isinstance(v, float)},

@@ -114,8 +114,9 @@ def _split_penalty(unit: np.ndarray) -> np.ndarray:
 
 def projector_frames(model: JointModel, drives: np.ndarray) -> list:
     """(K,H,W,3) linear drives per camera pixel -> one encoded (h_k,w_k,3) float32 image per projector:
-    resampled into its frame (averaged, holes filled; black off its footprint), then f_p,k^-1."""
-    return [np.power(np.clip(m.to_projector(q), 0.0, 1.0), np.float32(1.0 / gp)).astype(np.float32)
+    resampled into its frame (averaged, holes filled; the edge carried a bleed past its footprint, black
+    beyond: CameraMap.bleed_pixels), then f_p,k^-1."""
+    return [np.power(np.clip(m.to_projector(q, bleed=m.bleed_pixels()), 0.0, 1.0), np.float32(1.0 / gp)).astype(np.float32)
             for m, q, gp in zip(model.maps, drives, model.gamma_p)]
 
 

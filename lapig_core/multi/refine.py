@@ -11,7 +11,7 @@ damped Gauss-Newton step through the joint model's linearisation, per camera pix
 
 solved by the same joint box QP as the open-loop compensation (joint_solve.joint_drives_linear, box_qp):
 the projectors that reach a pixel share its correction, within each one's range. The change of each
-projector's drive goes back into its own frame (CameraMap.to_projector, 0 off its footprint, corrected a few
+projector's drive goes back into its own frame (CameraMap.to_projector, 0 past its footprint's bleed, corrected a few
 times for what the frame's resampling blurs) and is added to its linear light, so each image keeps its own
 detail; the next round's drives are the new light sampled
 into camera space. The rest is Refinement's: the target clamped to the joint reach [I-, I+]; per-pixel
@@ -166,11 +166,12 @@ class MultiRefinement:
         """A camera-space change of one projector's light -> the change of its frame whose sampling gives it back:
         to_projector (an average, which the sampling blurs again), then `back_projection` corrections of what
         the sampling misses (a Landweber iteration of sample . to_projector; a sharp look's edges gain ~1 dB)."""
-        light = camera_map.to_projector(change, outside=0.0)
+        bleed = camera_map.bleed_pixels()  # as the open loop's frames carry their edges (joint_solve.projector_frames)
+        light = camera_map.to_projector(change, outside=0.0, bleed=bleed)
         inside = self.valid[..., None]
         for _ in range(self.back_projection):
             missed = np.where(inside, change - camera_map.sample(light), 0.0).astype(np.float32)
-            light = light + camera_map.to_projector(missed, outside=0.0)
+            light = light + camera_map.to_projector(missed, outside=0.0, bleed=bleed)
         return light
 
     def _choose_repeats(self, mean) -> None:

@@ -132,6 +132,24 @@ def test_camera_map_sends_camera_values_back_into_the_projector_frame(size):
     assert np.all(extended[~cmap.footprint()] > 0)  # or the nearest values, extended
 
 
+def test_a_bleed_carries_the_edge_values_past_the_footprint_and_black_beyond():
+    rig = fake_rig.side_by_side_rig(camera_size=(128, 96), projector_size=(400, 300))
+    cmap = rig.camera_map(1)
+    image = fake_rig.smooth_frames((400, 300), 3, seed=3)[2]
+    values = cmap.sample(image)
+    bleed = cmap.bleed_pixels()
+    assert bleed == 8  # 2 % of 400
+    plain, bled = cmap.to_projector(values), cmap.to_projector(values, bleed=bleed)
+    foot = cmap.footprint()
+    assert np.array_equal(plain[foot], bled[foot])  # the footprint itself is the same image
+    ring = cv2.dilate(foot.astype(np.uint8), np.ones((2 * bleed + 1,) * 2, np.uint8)).astype(bool) & ~foot
+    assert ring.any() and np.all(plain[ring] == 0)
+    extended = cmap.to_projector(values, outside=None)
+    assert np.allclose(bled[ring], extended[ring])  # the nearest values, extended
+    far = ~cv2.dilate(foot.astype(np.uint8), np.ones((2 * bleed + 3,) * 2, np.uint8)).astype(bool)
+    assert far.any() and np.all(bled[far] == 0)  # black beyond the bleed
+
+
 def test_camera_map_averages_where_several_camera_pixels_land_on_one_projector_pixel():
     yy, xx = np.mgrid[0:40, 0:40].astype(np.float32)
     inside = (xx <= 36) & (yy <= 36)  # their 4 projector neighbours on the frame

@@ -37,6 +37,7 @@ CAMERA = (320, 240)
 PROMPT = "Make it a stained glass artwork"
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BENCHMARKS = os.path.join(ROOT, "benchmarks")
+FILL_BLURRED_BITS = True  # multi/graycode_fill; tools/research/multi_fill_compare.py turns it off for the old path
 
 
 def _r(v, n=3):
@@ -137,7 +138,7 @@ class Rig:
         settings = CaptureSettings(out_dir=folder, setup_name=name, train_count=train_count, test_count=0,
                                    working_size=64)
         t0 = time.perf_counter()
-        result = run_to_end(run_multi_capture(self.device, settings, self.names))
+        result = run_to_end(run_multi_capture(self.device, settings, self.names, fill_blurred_bits=FILL_BLURRED_BITS))
         ended = time.perf_counter()
         self.capture_s = ended - t0
         self.cs = load_multi_capture(result["setup_dir"])
@@ -202,6 +203,15 @@ def _sheet(path, tiles, title, columns=4):
     return os.path.relpath(path, ROOT)
 
 
+def _error_share(capture, look, obj, inner, reached):
+    """Where the squared error of a capture against the look lies on the object: shares of the whole
+    object's, from the pixels no projector reaches, the reached outline (2 px) and the reached inside."""
+    sq = ((capture - look) ** 2).mean(axis=-1)
+    total = float(sq[obj].sum()) or 1.0
+    parts = {"unreached": obj & ~reached, "outline_reached": obj & ~inner & reached, "inner_reached": inner & reached}
+    return {name: {"share": _r(float(sq[m].sum()) / total, 3), "pixels": int(m.sum())} for name, m in parts.items()}
+
+
 def _weights_colour(weights):
     colours = np.array([[1, 0.15, 0.15], [0.15, 1, 0.15], [0.2, 0.4, 1], [1, 1, 0.15]], np.float32)
     return np.einsum("khw,kc->hwc", weights, colours[:len(weights)]).clip(0, 1)
@@ -258,6 +268,7 @@ def _run_bust(out, projector_size, refine_iterations):
         inner_obj = cv2.erode(obj.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
         res["psnr_joint_inner"] = _r(psnr_on(cap_joint, look, inner_obj))
         res["psnr_singles_inner"] = [_r(psnr_on(c, look, inner_obj)) for c in caps]
+        res["error_share"] = _error_share(cap_joint, look, obj, inner_obj, model.reached.any(axis=0))
         res["joint_gain_db_inner"] = _r(res["psnr_joint_inner"] - max(res["psnr_singles_inner"]))
         # the MPCDI package, read back by the strict reader
         package = os.path.join(out, "bust.mpcdi")

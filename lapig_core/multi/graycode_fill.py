@@ -25,7 +25,8 @@ from .push_pull import push_pull
 
 # At most 64 projector pixels of doubt per axis. A camera pixel whose fine stripes read grey spans about as
 # much of the projector frame already, so the doubt is about the pixel's own footprint; the cap keeps out
-# pixels whose bits noise has spoiled. The bench's bust: BENCHMARKS, "Several projectors".
+# pixels whose bits noise has spoiled. On the bench's bust (BENCHMARKS, "Several projectors") caps of 4, 5,
+# 6 and 7 bits register 0.9845, 0.9848, 0.9848 and 0.9849 of the object (the strict decode 0.9681).
 MAX_UNKNOWN_BITS = 6
 _CHUNK = 4096  # camera pixels per block of the (pixels x projector size) agreement table
 

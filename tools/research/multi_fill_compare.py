@@ -1,6 +1,7 @@
 """The bust of `bench multi` in one run four ways: the strict Gray-code decode and projector images black off
 their footprint (the old path); the blurred bits filled (multi/graycode_fill); and both with the images' edges
-carried 2 % and 4 % of the frame past the footprint (camera_map.BLEED_SHARE). Coverage, the joint
+carried 2 % and 4 % of the frame past the footprint (camera_map.BLEED_SHARE); and the strict decode with the 2 %
+bleed. Coverage, the joint
 compensation's rendered PSNR, seams, refinement and where the error lies, side by side (BENCHMARKS "Several
 projectors"). Run: .venv/bin/python tools/research/multi_fill_compare.py [out_folder]  (about 5 minutes)"""
 import importlib.util, sys, os, pathlib, json
@@ -19,14 +20,16 @@ keys = ("coverage_single", "coverage_joint", "coverage_joint_inner", "psnr_joint
         "joint_gain_db", "joint_gain_db_inner", "seam_ratio", "seam_ratio_inner", "refine", "refine_gain_db_multi",
         "refine_inner", "refine_gain_db_multi_inner", "capture_s", "first_look_seconds", "error_share")
 result = {"machine": machine_speed()}
-for name, fill, bleed in (("strict", False, 0.0), ("filled", True, 0.0), ("filled_bleed_2pct", True, 0.02),
-                          ("filled_bleed_4pct", True, 0.04)):
+WAYS = (("strict", False, 0.0), ("filled", True, 0.0), ("filled_bleed_2pct", True, 0.02), ("filled_bleed_4pct", True, 0.04),
+        ("strict_bleed_2pct", False, 0.02))
+only = os.environ.get("WAYS")  # e.g. WAYS=strict_bleed_2pct: those ways only
+for name, fill, bleed in [w for w in WAYS if not only or w[0] in only.split(",")]:
     B.FILL_BLURRED_BITS = fill
     camera_map.BLEED_SHARE = bleed
     os.makedirs(os.path.join(out, name), exist_ok=True)
     B.BENCHMARKS = os.path.join(out, name)
     res = B._run_bust(os.path.join(out, name), (800, 600), refine_iterations=6)
     result[name] = {k: res.get(k) for k in keys}
-with open(os.path.join(out, "compare.json"), "w") as f:
+with open(os.path.join(out, "compare_" + (only or "all").replace(",", "_") + ".json"), "w") as f:
     json.dump(result, f, indent=1)
 print(json.dumps(result))

@@ -24,7 +24,7 @@ strict = np.any([np.load(f"/work/tmp/outline/decode_{k}.npz")["valid"] for k in 
 filled = rig.mask & ~strict
 print("filled px", filled.sum())
 cap_fn = device_capture(rig.device)
-for name, valid in (("all", rig.mask), ("without_filled", rig.mask & ~filled)):
+for name, valid in (("all", rig.mask), ("without_filled", rig.mask & ~filled), ("inner", rig.inner), ("inner_without_filled", rig.inner & ~filled)):
     start = joint_compensate(model, look, blend_weights(model.maps)).frames
     r = MultiRefinement(model, look, valid, start, RefineSettings(iterations=6, max_repeats=2))
     rounds = []

@@ -1,0 +1,27 @@
+"""`bench multi`'s wall (b) on a plain wall: the same two projectors side by side with 18 % overlap, the wall's wood
+texture replaced by an even light grey, so the captured white measures the blend and the light's fall-off, not the
+wood's stripes (BENCHMARKS "Several projectors", white_uniformity_pct).
+Run: .venv/bin/python tools/research/multi_plain_wall.py [out_folder]  (about a minute)"""
+import importlib.util, sys, os, pathlib, json
+import numpy as np
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+spec = importlib.util.spec_from_file_location("lapig", ROOT / "__init__.py", submodule_search_locations=[str(ROOT)])
+pkg = importlib.util.module_from_spec(spec); sys.modules["lapig"] = pkg; spec.loader.exec_module(pkg)
+from lapig.tools.bench import bench_multi as B
+from lapig.lapig_addon.cli import headless
+from lapig.lapig_addon.cli.commands import _ensure_registered
+
+_ensure_registered()
+out = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "/tmp/multi_plain_wall")
+os.makedirs(out, exist_ok=True)
+B.BENCHMARKS = out  # the sheet goes here, not over the bench's own
+grey = np.full((512, 512, 3), 0.8, np.float32)  # an even light grey albedo
+build = headless.build_demo_setup
+headless.build_demo_setup = lambda *a, **k: build(*a, **{**k, "texture": grey})
+res = B._run_wall(out, (400, 300))
+keys = [k for k in res if k.startswith("white") or k.startswith("flat") or k in ("psnr_joint", "psnr_halves_single",
+                                                                                  "wall_vs_single_db", "seam_ratio")]
+summary = {k: res[k] for k in keys}
+with open(os.path.join(out, "plain_wall.json"), "w") as f:
+    json.dump(summary, f, indent=1)
+print(json.dumps(summary))

@@ -28,10 +28,10 @@ from ..capture.staging import StagedCapture
 from ..capture.structured_light import decode_graycode, decode_graycode_partial, graycode_patterns
 from ..common.imageio import write_png
 from . import capture_set as layout
-from .graycode_fill import fill_unread_bits
 from .camera_map import CameraMap
 from .coverage import coverage
 from .frames import smooth_frames
+from .graycode_fill import fill_unread_bits
 
 MIN_REACH_PIXELS = 16  # camera pixels on the object: fewer and a projector reaches nothing we can model
 MIN_REACH_SHARE = 0.005  # of the object the camera sees

@@ -28,7 +28,7 @@ from .push_pull import push_pull
 # pixels whose bits noise has spoiled. On the bench's bust (BENCHMARKS, "Several projectors") caps of 4, 5,
 # 6 and 7 bits register 0.9845, 0.9848, 0.9848 and 0.9849 of the object (the strict decode 0.9681).
 MAX_UNKNOWN_BITS = 6
-_CHUNK = 4096  # camera pixels per block of the (pixels x projector size) agreement table
+_CHUNK = 1024  # camera pixels per block of the (pixels x projector size) tables: ~100 MB at a 4K projector
 
 
 @dataclass

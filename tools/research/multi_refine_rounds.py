@@ -1,7 +1,8 @@
 """Each round of the bust's refinement (bench multi (a)), on the whole object, inside and on the pixels only the
 blurred-bit fill registers, with those pixels compared and left out (BENCHMARKS "The outline of several
-projectors"). Needs tools/research/multi_outline.py's decodes in /work/tmp/outline (its out_folder argument).
-Run: .venv/bin/python tools/research/multi_outline.py /work/tmp/outline && .venv/bin/python tools/research/multi_refine_rounds.py"""
+projectors"). Needs tools/research/multi_outline.py's strict decodes (decode_0.npz, decode_1.npz in its out folder).
+Run: .venv/bin/python tools/research/multi_outline.py /tmp/multi_outline &&
+     .venv/bin/python tools/research/multi_refine_rounds.py [/tmp/multi_outline] [out_folder]"""
 import importlib.util, sys, os, pathlib, json
 import numpy as np, cv2
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -15,12 +16,13 @@ from lapig.lapig_core.multi.refine import MultiRefinement, device_capture
 from lapig.lapig_core.refine.loop import RefineSettings
 from lapig.lapig_core.common.psnr import masked_psnr
 _ensure_registered()
-out = "/work/tmp/rprobe"
+decodes = sys.argv[1] if len(sys.argv) > 1 else "/tmp/multi_outline"
+out = sys.argv[2] if len(sys.argv) > 2 else "/tmp/multi_refine_rounds"
 scene, projectors, camera, target = B._bust(os.path.join(out, "scene"), (800, 600))
 rig = B.Rig(scene, projectors, camera, target, os.path.join(out, "captures"), "bust")
 model = rig.model
 look = B._in_reach(B._look(model.shape, lo=0.0, hi=1.0), *reach(model))
-strict = np.any([np.load(f"/work/tmp/outline/decode_{k}.npz")["valid"] for k in range(2)], 0)
+strict = np.any([np.load(os.path.join(decodes, f"decode_{k}.npz"))["valid"] for k in range(2)], 0)
 filled = rig.mask & ~strict
 print("filled px", filled.sum())
 cap_fn = device_capture(rig.device)

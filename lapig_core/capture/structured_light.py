@@ -127,30 +127,7 @@ def decode_graycode(
     |pattern - complement| >= white_threshold, and the decoded (x, y) lies inside the projector.
     Bits are read as pattern > complement, exactly like ``GrayCodePattern.getProjPixel``.
     """
-    w, h = _check_proj_size(proj_width, proj_height)
-    nc, nr = _bits(w), _bits(h)
-    caps = _checked_captures(captures, 2 * (nc + nr) + 2)
-    n = len(caps)
-    valid = (_gray_8bit(caps[-2], n - 2) - _gray_8bit(caps[-1], n - 1)) > black_threshold
-
-    def read(first: int, nbits: int) -> np.ndarray:
-        value = np.zeros(valid.shape, np.int32)
-        binary = np.zeros(valid.shape, bool)
-        for k in range(nbits):  # loop over bits only; each step is whole-image numpy
-            i = first + 2 * k
-            diff = _gray_8bit(caps[i], i) - _gray_8bit(caps[i + 1], i + 1)
-            valid[...] &= np.abs(diff) >= white_threshold
-            binary ^= diff > 0  # Gray -> binary: b_k = b_{k-1} xor g_k
-            value <<= 1
-            value |= binary
-        return value
-
-    px = read(0, nc)
-    py = read(2 * nc, nr)
-    valid &= (px < w) & (py < h)  # non-power-of-two sizes leave unused codes
-    px[~valid] = -1
-    py[~valid] = -1
-    return DecodeResult(px, py, valid)
+    return decode_graycode_partial(captures, proj_width, proj_height, black_threshold, white_threshold).decoded()
 
 
 def finest_bit_indices(proj_width: int, proj_height: int) -> list[int]:
@@ -177,6 +154,14 @@ class PartialCode:
     lit: np.ndarray  # bool (H, W): white - black above the black threshold
     size: tuple[int, int]  # the projector's (width, height)
 
+    def decoded(self) -> DecodeResult:
+        """The strict decode: valid where the pixel is lit, every bit of both axes reads and the position lies
+        inside the projector (``decode_graycode``)."""
+        (w, h), (nc, nr) = self.size, (_bits(self.size[0]), _bits(self.size[1]))
+        px, py = _gray_to_binary(self.x_gray, nc), _gray_to_binary(self.y_gray, nr)
+        valid = self.lit & (self.x_read == (1 << nc) - 1) & (self.y_read == (1 << nr) - 1) & (px < w) & (py < h)
+        return DecodeResult(np.where(valid, px, -1).astype(np.int32), np.where(valid, py, -1).astype(np.int32), valid)
+
     def positions(self, axis: str, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """(N, size) bool: the projector columns (axis "x") or rows ("y") whose Gray code agrees with every
         bit read at the N camera pixels (rows, cols)."""
@@ -186,6 +171,16 @@ class PartialCode:
         codes = np.arange(n, dtype=np.int64)
         codes ^= codes >> 1
         return ((codes[None, :] ^ gray[:, None]) & read[:, None]) == 0
+
+
+def _gray_to_binary(gray: np.ndarray, nbits: int) -> np.ndarray:
+    """Gray code -> binary, bit by bit from the most significant: b_k = b_{k+1} xor g_k."""
+    binary = gray.astype(np.int32).copy()
+    shift = 1
+    while shift < nbits:
+        binary ^= binary >> shift
+        shift <<= 1
+    return binary
 
 
 def decode_graycode_partial(

@@ -25,7 +25,7 @@ import numpy as np
 from ..capture import dataset as ds
 from ..capture.settings import CaptureError, CaptureSettings
 from ..capture.staging import StagedCapture
-from ..capture.structured_light import decode_graycode, decode_graycode_partial, graycode_patterns
+from ..capture.structured_light import decode_graycode_partial, graycode_patterns
 from ..common.imageio import write_png
 from . import capture_set as layout
 from .camera_map import CameraMap
@@ -138,8 +138,8 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
                 done = (k + len(caps) / len(patterns)) / count
                 yield 0.02 + 0.5 * done, f"{names[k]}: structured light {len(caps)}/{len(patterns)}"
             # grazing surfaces blur the finest stripes: their pixels get the position the coarse bits allow
-            fill = fill_unread_bits(decode_graycode(caps, w, h), decode_graycode_partial(caps, w, h),
-                                    max_unknown_bits=None if fill_blurred_bits else -1)
+            partial = decode_graycode_partial(caps, w, h)  # the captures read once: the strict decode and the rest
+            fill = fill_unread_bits(partial.decoded(), partial, max_unknown_bits=None if fill_blurred_bits else -1)
             decoded = fill.decoded
             filled.append(int(fill.filled.sum()))
             reserved = getattr(device, "reserved_rows", None)  # a real rig's frame code lit these rows

@@ -22,7 +22,7 @@ def show_blend_preview(scene) -> str:
     model = load_joint_model(state.capture_dir) if state.capture_dir else None
     if model is None or model.count != len(names) or state.capture_fingerprint != state.rig.fingerprint:
         raise RuntimeError("capture the rig of several projectors first: the Blend preview shows its blend weights")
-    frames = share_frames(model.maps, blend_weights(model.maps), model.gamma_p)
+    frames = share_frames(model.maps, blend_weights(model.maps), model.alpha_gammas)
     projectors = scene_state.rig_projectors(scene)
     for k, (projector, frame) in enumerate(zip(projectors, frames)):
         light = projector_model(projector).emitted(frame)

@@ -51,7 +51,7 @@ def write_sl_package(store, path, model, names):
             raise ValueError(f"projector {name}: the capture was made at {alpha.shape[1]}x{alpha.shape[0]}, "
                              f"the projector is now {pm.width}x{pm.height}: capture again")
     return write_rig_mpcdi_sl(path, names, geometry["models"], geometry["matrices"], geometry["points"], alphas,
-                              gammas=model.gamma_p)
+                              gammas=model.alpha_gammas)
 
 
 def export_multi(store, settings: ExportSettings, result: str | None = None, mpcdi: str | None = None,

@@ -2,11 +2,14 @@
 """The capture of several projectors on one object: one capture set, one camera.
 
 Each projector in turn shows its Gray code and its training frames while the others show black; then
-all show black once and all show white once. That gives (capture_set.py holds the layout):
+all show black once, all show white once, and all show their blend's alpha maps once. That gives
+(capture_set.py holds the layout):
   - one CameraMap per projector (its registration per camera pixel, CameraMap.from_decoded);
   - each projector's captures alone, and the all-black one: what JointModel.fit takes;
   - the all-white capture: the object lit by every projector, the surface the look is made from, and
-    the check that the light of separately captured projectors adds up (JointModel.check).
+    the check that the light of separately captured projectors adds up (JointModel.check);
+  - the blend probe: the camera's view of the blend, from which the first look fits the gamma the alpha
+    maps are encoded with (blend_probe.py).
 A projector whose light reaches nothing the camera sees stops the capture with its name, before the
 next projector's patterns: the previous capture set stays as it was (the set is staged and swapped in
 whole at the end, as one projector's, capture/staging.py).
@@ -28,6 +31,7 @@ from ..capture.staging import StagedCapture
 from ..capture.structured_light import decode_graycode_partial, graycode_patterns
 from ..common.imageio import write_png
 from . import capture_set as layout
+from .blend_probe import probe_frames
 from .camera_map import CameraMap
 from .coverage import coverage
 from .frames import smooth_frames
@@ -168,7 +172,8 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
                 yield 0.52 + 0.4 * (k * s.train_count + len(caps)) / total, \
                     f"{names[k]}: captures alone {len(caps)}/{s.train_count}"
             alone.append(caps)
-        black, together = device.capture([[None] * count, whites])
+        probe = probe_frames(maps)
+        black, together, probed = device.capture([[None] * count, whites, probe])
         timings["patterns_s"] = time.perf_counter() - t
         if mask is None:  # a device that does not know the object: what some projector reaches
             mask = np.any([m.valid for m in maps], axis=0)
@@ -178,11 +183,13 @@ def run_multi_capture(device: MultiProjectorDevice, s: CaptureSettings, names: S
         layout.save_camera_maps(folder / layout.CAMERA_MAPS, maps)
         write_png(folder / layout.BLACK, black)
         write_png(folder / layout.TOGETHER, together)
+        write_png(folder / layout.BLEND_PROBE, probed)
         write_png(folder / layout.OBJECT_MASK, mask.astype(np.uint8) * 255)
         for k in range(count):
             for i, (frame, cap) in enumerate(zip(frames[k], alone[k]), start=1):
                 write_png(ds.DatasetLayout.image_path(layout.projector_dir(folder, k) / "prj", i), frame)
                 write_png(ds.DatasetLayout.image_path(layout.projector_dir(folder, k) / "cam", i), cap)
+            write_png(layout.projector_dir(folder, k) / layout.BLEND_PROBE_FRAME, probe[k])
         cover = coverage(maps, mask)
         described = device.describe()  # after the capture: with the exposure it locked
         meta = {

@@ -7,9 +7,11 @@ A setup folder (<root>/setups/<name>, as one projector's) holding:
     camera_maps.npz       one CameraMap per projector (map_xy, valid, projector_sizes)
     cam_black.png         every projector black
     cam_together.png      every projector white at once: the object as the look sees it
+    cam_blend_probe.png   every projector its blend's alpha map at once (blend_probe.py; older sets lack it)
     object_mask.png       where the camera sees the object
     projector_<k>/prj/img_NNNN.png   the frames projector k showed alone (native, 8-bit)
     projector_<k>/cam/img_NNNN.png   their captures
+    projector_<k>/blend_probe.png    the alpha map projector k showed for the blend probe
     models/joint_model.npz           the joint classical model, fitted after the capture
 
 One projector's data set (capture/dataset.py) is another layout; `is_multi` tells them apart by setup.json.
@@ -30,6 +32,8 @@ MULTI_KEY = "multi"
 CAMERA_MAPS = "camera_maps.npz"
 BLACK = "cam_black.png"
 TOGETHER = "cam_together.png"
+BLEND_PROBE = "cam_blend_probe.png"
+BLEND_PROBE_FRAME = "blend_probe.png"
 OBJECT_MASK = "object_mask.png"
 MODELS = "models"
 JOINT_MODEL = "joint_model.npz"
@@ -65,7 +69,9 @@ def load_camera_maps(path) -> list[CameraMap]:
 @dataclass(eq=False)
 class MultiCaptureSet:
     """A loaded capture of K projectors: names and sizes; maps; frames[k] (N,h,w,3) uint8 shown alone and
-    captures[k] (N,H,W,3) uint8 of them; black and together (H,W,3) uint8; object_mask (H,W) bool."""
+    captures[k] (N,H,W,3) uint8 of them; black and together (H,W,3) uint8; object_mask (H,W) bool;
+    probe_frames (one (h_k,w_k,3) uint8 per projector) and probe (H,W,3) uint8: the blend probe, None in a
+    set captured before it."""
 
     setup_dir: Path
     meta: dict
@@ -77,6 +83,8 @@ class MultiCaptureSet:
     black: np.ndarray
     together: np.ndarray
     object_mask: np.ndarray
+    probe_frames: list | None = None
+    probe: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -112,8 +120,13 @@ def load_multi_capture(folder, pairs: bool = True) -> MultiCaptureSet:
                 captures.append(np.stack([_uint8(p) for p in ds.list_images(folder_k / "cam")]))
         black, together = _uint8(setup_dir / BLACK), _uint8(setup_dir / TOGETHER)
         mask = read_image(setup_dir / OBJECT_MASK)[..., 0] > 0.5
+        probe_frames, probe = None, None
+        frame_paths = [projector_dir(setup_dir, k) / BLEND_PROBE_FRAME for k in range(len(names))]
+        if (setup_dir / BLEND_PROBE).is_file() and all(p.is_file() for p in frame_paths):
+            probe_frames, probe = [_uint8(p) for p in frame_paths], _uint8(setup_dir / BLEND_PROBE)
     except (KeyError, TypeError, ValueError, OSError) as exc:
         raise ds.DatasetError(f"the capture of several projectors in {setup_dir} is incomplete: {exc}") from None
     if len(maps) != len(names):
         raise ds.DatasetError(f"{setup_dir} holds {len(maps)} camera maps for {len(names)} projectors")
-    return MultiCaptureSet(setup_dir, meta, names, sizes, maps, frames, captures, black, together, mask)
+    return MultiCaptureSet(setup_dir, meta, names, sizes, maps, frames, captures, black, together, mask,
+                           probe_frames, probe)

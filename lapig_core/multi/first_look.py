@@ -16,6 +16,7 @@ import numpy as np
 from ..common.atomic import atomic_write_bytes
 from .black_level import BlackUplift, model_black_uplift
 from .blend import blend_weights
+from .blend_probe import BlendGammaFit, fit_blend_gammas
 from .capture_set import FIRST_LOOK, MODELS, MultiCaptureSet, joint_model_path
 from .coverage import Coverage, coverage
 from .additivity import additive_gamma
@@ -31,6 +32,7 @@ class JointFirstLook:
     uplift: BlackUplift
     names: tuple
     seconds: float
+    blend_fit: BlendGammaFit | None = None
 
     @property
     def coverage_single(self) -> float:
@@ -53,6 +55,7 @@ class JointFirstLook:
                 "overlap": self.coverage.overlap, "black_uplift": _finite(self.uplift.uplift),
                 "black_uplift_sentence": self.uplift.sentence(), "fit_residual": _finite(self.model.residual),
                 "together_rms": _finite(self.model.together_rms), "seconds": round(self.seconds, 3),
+                "blend_gamma": self.blend_fit.to_dict() if self.blend_fit is not None else None,
                 "line": self.status_line()}
 
 
@@ -81,15 +84,27 @@ def joint_gammas(cs: MultiCaptureSet):
     return gamma_c, [gp * gamma_c / searched_c for gp in searched_p]
 
 
+def probe_fit(cs: MultiCaptureSet, model: JointModel) -> BlendGammaFit | None:
+    """The alpha maps' gammas from the capture's blend probe (None: a set without one, no overlap to read)."""
+    if cs.probe is None or cs.probe_frames is None or not cs.captures:
+        return None
+    whites = [c[0] for c in cs.captures]  # each projector's first frame alone is full white
+    return fit_blend_gammas(cs.maps, model.gamma_p, model.gamma_c, cs.probe_frames, cs.probe, whites, cs.black,
+                            cs.object_mask)
+
+
 def fit_joint_first_look(cs: MultiCaptureSet) -> JointFirstLook:
     """Fit the joint model on the capture's alone and black captures (checked on the all-together one),
     save it and its summary in the capture's models folder."""
     t0 = time.perf_counter()
     model = JointModel.fit(cs.maps, cs.frames, cs.captures, cs.black, together=(cs.together_frames(), cs.together),
                            gammas=joint_gammas(cs))
+    blend_fit = probe_fit(cs, model)
+    if blend_fit is not None:
+        model.blend_gamma = blend_fit.gammas
     cover = coverage(cs.maps, cs.object_mask)
     uplift = model_black_uplift(model, contrasts_of(cs.meta, cs.count), blend_weights(cs.maps))
-    look = JointFirstLook(model, cover, uplift, cs.names, time.perf_counter() - t0)
+    look = JointFirstLook(model, cover, uplift, cs.names, time.perf_counter() - t0, blend_fit)
     model.save(joint_model_path(cs.setup_dir))
     record = {**look.to_dict(), "fingerprint": cs.meta.get("fingerprint")}
     atomic_write_bytes(cs.setup_dir / MODELS / FIRST_LOOK, json.dumps(record, indent=2).encode("utf-8"))

@@ -44,6 +44,7 @@ class JointModel:
     residual: float = float("nan")  # RMS of the fitted captures' prediction error, encoded units
     together_rms: float = float("nan")  # the same for the all-together check captures, if given
     fit_seconds: float = 0.0
+    blend_gamma: tuple[float, ...] | None = None  # the alpha maps' encoding, fitted by the blend probe
 
     def __post_init__(self):
         self.M = np.asarray(self.M, np.float32)
@@ -58,6 +59,16 @@ class JointModel:
                              f"{self.o.shape} and {len(self.gamma_p)}")
         if any(m.camera_shape != self.shape for m in self.maps):
             raise ValueError("every CameraMap must have the model's camera shape")
+        if self.blend_gamma is not None:
+            self.blend_gamma = tuple(float(g) for g in self.blend_gamma)
+            if len(self.blend_gamma) != k:
+                raise ValueError(f"one blend gamma per projector: {k}, got {len(self.blend_gamma)}")
+
+    @property
+    def alpha_gammas(self) -> tuple[float, ...]:
+        """The gamma each projector's alpha map is encoded with (blend.encode_alpha): the blend probe's where
+        the capture had one (blend_probe.py), else the fitted gamma_p."""
+        return self.blend_gamma if self.blend_gamma is not None else self.gamma_p
 
     @property
     def count(self) -> int:
@@ -168,13 +179,17 @@ class JointModel:
         """An .npz at exactly `path`, whole or not at all."""
         atomic_write_npz(path, dict(gamma_c=np.float64(self.gamma_c), gamma_p=np.array(self.gamma_p), M=self.M,
                                     o=self.o, **maps_to_arrays(self.maps), residual=np.float64(self.residual),
-                                    together_rms=np.float64(self.together_rms), format_version=np.int64(1)))
+                                    together_rms=np.float64(self.together_rms),
+                                    blend_gamma=np.array(self.blend_gamma or (), np.float64),
+                                    format_version=np.int64(1)))
 
     @classmethod
     def load(cls, path) -> "JointModel":
         with np.load(path, allow_pickle=False) as z:
             model = cls(float(z["gamma_c"]), tuple(z["gamma_p"]), z["M"], z["o"], maps_from_arrays(z))
             model.residual, model.together_rms = float(z["residual"]), float(z["together_rms"])
+            if "blend_gamma" in z.files and z["blend_gamma"].size == model.count:  # older files lack it
+                model.blend_gamma = tuple(float(g) for g in z["blend_gamma"])
         return model
 
 

@@ -8,7 +8,8 @@ with one region filling it:
   - warp: each projector pixel's normalised camera coordinates (x / W, y / H), the inverse of its CameraMap
     (CameraMap.to_projector of the camera's pixel grid); NaN off the footprint, where the camera saw none of
     its light (the spec's "unknown");
-  - alpha: blend.alpha_maps of blend.blend_weights, linear, written with the projector's gamma embedded;
+  - alpha: blend.alpha_maps of blend.blend_weights, linear, written with the blend probe's gamma embedded
+    (JointModel.alpha_gammas; the decode and encode gamma the same);
     in camera space the alphas of overlapping projectors sum to 1.
 The projector images LAPIG exports already carry their blend and compensation; the package is for other
 content the server plays across the same projectors.
@@ -54,7 +55,7 @@ def mpcdi_buffers(model: JointModel, names: Sequence[str], weights: np.ndarray |
         size = camera_map.projector_size
         region = MpcdiRegion(id=f"{ident} region", resolution=size, x=0.0, y=0.0, xsize=1.0, ysize=1.0,
                              warp=projector_warp(model, k), alpha=alpha.astype(np.float64),
-                             gamma=model.gamma_p[k], signal_gamma=model.gamma_p[k])
+                             gamma=model.alpha_gammas[k], signal_gamma=model.alpha_gammas[k])
         buffers.append(MpcdiBuffer(id=ident, resolution=size, regions=(region,)))
     return buffers
 

@@ -49,10 +49,10 @@ def test_the_capture_registers_each_projector_and_the_first_look_fits_them_joint
         assert both.sum() > 0.9 * truth.valid.sum()
         err = np.hypot(m.map_x - truth.map_x, m.map_y - truth.map_y)[both]
         assert np.median(err) < 0.5, np.median(err)
-    # frame sets: K x (Gray code + training) + black + together, no more
+    # frame sets: K x (Gray code + training) + black + together + the blend probe, no more
     from lapig.lapig_core.capture.structured_light import pattern_count
 
-    assert device.captured == 2 * (pattern_count(*PROJECTOR) + 8) + 2
+    assert device.captured == 2 * (pattern_count(*PROJECTOR) + 8) + 3
     meta = result["meta"]
     assert meta["coverage"]["reached"] > meta["coverage"]["per_projector"][0] + 0.15
 

@@ -11,7 +11,8 @@ captured with the exposure the capture locked.
   the whole camera-visible object), seam_ratio, refine_gain_db_multi (multi/refine), mpcdi_package.
 - (b) wall: a 3.6 x 1.4 m textured wall, two projectors side by side (about 18 % overlap of each footprint).
   wall_vs_single_db (joint against each projector alone on its half), seam_ratio, white_uniformity_pct (the
-  white through the blend's alpha maps: overlap against each side).
+  white through the blend's alpha maps, encoded with the blend probe's gammas (multi/blend_probe): overlap
+  against each side; white_uniformity_pct_gamma_p: encoded with the joint fit's gamma_p, the old path).
 - (c) stack: a dark textured panel (albedo x 0.3), two projectors at nearly one pose (3 cm apart).
   stack_psa_gain_db: PSA on the joint reach (multi/joint_psa via stylize_joint) rendered with both against one.
 
@@ -358,10 +359,18 @@ def _run_wall(out, projector_size):
         res["seam_ratio"] = _r(seam_ratio(err, model.reached, mask))
         res["seam_ratio_inner"] = _r(seam_ratio(err, model.reached, rig.inner))
         # white through the blend's alpha maps, and the plain white of both (no blend) for comparison
+        # (the alpha maps encoded with the blend probe's gammas, as the MPCDI package and the Blend preview;
+        # beside it the old path, encoded with the joint fit's gamma_p)
         alphas = alpha_maps(model.maps, weights)
-        white_frames = [np.repeat(encode_alpha(a, g)[..., None], 3, axis=-1) for a, g in zip(alphas, model.gamma_p)]
+        white_frames = [np.repeat(encode_alpha(a, g)[..., None], 3, axis=-1) for a, g in zip(alphas, model.alpha_gammas)]
         white = rig.render(white_frames)
         u = white_uniformity_pct(white, model.reached, mask, model.gamma_c)
+        old_frames = [np.repeat(encode_alpha(a, g)[..., None], 3, axis=-1) for a, g in zip(alphas, model.gamma_p)]
+        u_old = white_uniformity_pct(rig.render(old_frames), model.reached, mask, model.gamma_c)
+        res["white_uniformity_pct_gamma_p"] = _r(u_old["pct"], 2)
+        res["blend_gamma"] = rig.look.blend_fit.to_dict() if rig.look.blend_fit is not None else None
+        res["gamma_p"] = [_r(g, 3) for g in model.gamma_p]
+        res["gamma_c"] = _r(model.gamma_c, 3)
         plain = white_uniformity_pct(rig.cs.together.astype(np.float32) / 255, model.reached, mask, model.gamma_c)
         res["white_uniformity_pct"] = _r(u["pct"], 2)
         res["white_means_linear"] = {"overlap": _r(u["overlap"], 4), "sides": [_r(v, 4) for v in u["sides"]]}
@@ -496,6 +505,8 @@ def run(args) -> dict:
         "seam_ratio_inner": {"bust": bust["seam_ratio_inner"], "wall": wall["seam_ratio_inner"]},
         "joint_gain_db_inner": bust["joint_gain_db_inner"],
         "white_uniformity_pct": wall["white_uniformity_pct"],
+        "white_uniformity_pct_gamma_p": wall["white_uniformity_pct_gamma_p"],
+        "blend_gamma": wall["blend_gamma"],
         "white_uniformity_pct_adjacent": wall["white_uniformity_pct_adjacent"],
         "white_uniformity_pct_exact_blend": wall["white_uniformity_pct_exact_blend"],
         "coverage_joint_inner": bust["coverage_joint_inner"],

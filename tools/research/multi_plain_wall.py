@@ -1,8 +1,8 @@
 """`bench multi`'s wall (b) on a plain wall: the same two projectors side by side with 18 % overlap, the wall's wood
 texture replaced by an even light grey, so the captured white measures the blend and the light's fall-off, not the
 wood's stripes (BENCHMARKS "Several projectors", white_uniformity_pct).
-With --alpha-gamma G the alpha maps are encoded with G (the studio's projectors follow 2.2) instead of the joint
-fit's projector gammas: how much of the blend's error the fitted gammas make.
+With --alpha-gamma G the alpha maps are encoded with G (the studio's projectors follow 2.2) instead of the blend
+probe's gammas (and the joint fit's, the old path, beside them).
 Run: .venv/bin/python tools/research/multi_plain_wall.py [out_folder] [--alpha-gamma 2.2]  (about a minute)"""
 import importlib.util, sys, os, pathlib, json
 import numpy as np
@@ -29,7 +29,8 @@ build = headless.build_demo_setup
 headless.build_demo_setup = lambda *a, **k: build(*a, **{**k, "texture": grey})
 res = B._run_wall(out, (400, 300))
 keys = [k for k in res if k.startswith("white") or k.startswith("flat") or k in ("psnr_joint", "psnr_halves_single",
-                                                                                  "wall_vs_single_db", "seam_ratio")]
+                                                                                  "wall_vs_single_db", "seam_ratio", "blend_gamma",
+                                                                                  "gamma_p", "gamma_c")]
 summary = {k: res[k] for k in keys}
 summary["alpha_gamma"] = alpha_gamma or "fitted"
 with open(os.path.join(out, "plain_wall.json"), "w") as f:

@@ -127,7 +127,8 @@ def train_blocker(state: SceneState) -> str:
     """Why Train cannot run: models_blocker, or several projectors (their first look, the joint classical model,
     is fitted at the capture; there are no networks for them)."""
     if state.rig.projector_count > 1 and not models_blocker(state):
-        return "Several projectors use the joint model fitted at the capture: there is nothing to train"
+        return ("Several projectors use the joint model fitted at the capture: there is nothing to train; Refine on "
+                "the Rig corrects what it misses")
     return models_blocker(state)
 
 

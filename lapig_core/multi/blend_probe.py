@@ -18,7 +18,8 @@ s_k: the probe frame's value projector k shows at that camera pixel; gamma_k: it
 first finds one factor on the fit's gamma_p shared by all (the fit's error is mostly the camera's, which all
 projectors share) by bisection on the median relative residual over the overlap's mixed pixels, then each
 projector's own gamma from there by a robust Gauss-Newton (the overlap's ramps cross, so the pixels where
-one projector gives little light weigh the low end of its curve). The fit is self-referenced: where the projectors' whites are alike, the
+one projector gives little light weigh the low end of its curve), kept only where it explains the probe
+clearly better than the shared factor (OWN_CURVES_GAIN). The fit is self-referenced: where the projectors' whites are alike, the
 right factor makes the blended light equal to the light alone, whatever the camera's curve, so an error in
 gamma_c hardly moves it.
 """
@@ -35,6 +36,7 @@ from .camera_map import CameraMap
 PROBE_GAMMA = 2.2  # the alpha maps' encoding while capturing: no gamma is fitted yet
 SCALE_RANGE = (0.4, 2.5)  # the shared factor on gamma_p searched
 GAMMA_RANGE = (1.0, 4.0)  # a projector's own curve outside this: the shared factor stands
+OWN_CURVES_GAIN = 0.85  # each projector's own curve when it leaves at most this share of the shared fit's residual
 MIN_PIXELS = 50  # mixed overlap pixels below which the probe says nothing
 _MIXED = (0.05, 0.95)  # a pixel counts where no projector's share of the light is outside this range
 _CLIPPED = 0.99
@@ -123,10 +125,17 @@ def fit_blend_gammas(maps: Sequence[CameraMap], gamma_p: Sequence[float], gamma_
         else:
             hi = mid
     scale = 0.5 * (lo + hi)
-    gammas = _per_projector(gp[:, 0] * scale, d_, s_, p_, r_, norm)
-    shared = gammas is None
-    if shared:
-        gammas = gp[:, 0] * scale
+    common = gp[:, 0] * scale
+    own = _per_projector(common, d_, s_, p_, r_, norm)
+
+    def spread(exponents) -> float:  # the median absolute relative residual
+        predicted = np.where(r_, d_ * np.power(s_, exponents[:, None]), 0.0).sum(axis=0)
+        return float(np.median(np.abs(predicted - p_) / norm))
+
+    # each projector's own curve only where it explains the probe clearly better than the shared factor: where
+    # the overlap's light is uneven (a bust lit from the sides) the split between projectors is weakly determined
+    shared = own is None or spread(own) > OWN_CURVES_GAIN * spread(common)
+    gammas = common if shared else own
     alphas = np.power(s_, PROBE_GAMMA)  # the linear shares the probe asked for
     exact = np.where(r_, d_ * alphas, 0.0).sum(axis=0)
     # encoded with gamma_p, each projector's light would follow alpha ** (true gamma / gamma_p)

@@ -75,7 +75,7 @@ def test_the_capture_shows_the_blend_once_and_keeps_it(captured):
 def test_each_projectors_curve_comes_back_from_the_probe(captured):
     rig, cs = captured
     fit = _fit(cs, rig.camera_gamma, TRUE_GAMMAS)
-    assert fit is not None and not fit.shared and fit.pixels > 500
+    assert fit is not None and fit.pixels > 500
     assert fit.gammas == pytest.approx(TRUE_GAMMAS, abs=0.06)
     # the probe, encoded with 2.2 for projectors of 2.6 and 2.4, left the overlap too dark
     assert fit.probe_error < -0.04
@@ -85,10 +85,21 @@ def test_each_projectors_curve_comes_back_from_the_probe(captured):
         wrong = _fit(cs, gamma_c, gamma_p)
         assert wrong is not None and wrong.gammas == pytest.approx(TRUE_GAMMAS, abs=0.15), (gamma_c, wrong)
         assert abs(wrong.gamma_p_error) > 0.05  # the old encoding would have missed by more than 5 %
-    # gammas in the wrong order (what the joint fit of this rig gives): one shared factor cannot mend that, each
-    # projector's own fit does
+    # gammas in the wrong order (what the joint fit of this rig gives): curves this alike are not told apart by
+    # the overlap (each projector's own fit explains the probe no better), and a wrong split of them costs the
+    # blend little: within 1.5 % of the exact blend
     swapped = _fit(cs, rig.camera_gamma, (2.49, 2.65))
-    assert not swapped.shared and swapped.gammas == pytest.approx(TRUE_GAMMAS, abs=0.06), swapped
+    assert swapped.shared
+    assert abs(_overlap_error(rig, cs, swapped.gammas)) < 0.015
+
+
+def test_curves_far_apart_are_told_apart(tmp_path):
+    rig, cs = _capture(tmp_path, gammas=(2.8, 1.8))
+    for given in ((2.2, 2.2), (1.8, 2.8)):  # no ratio, the wrong ratio
+        fit = _fit(cs, rig.camera_gamma, given)
+        assert not fit.shared and fit.gammas == pytest.approx((2.8, 1.8), abs=0.06), (given, fit)
+    assert abs(_overlap_error(rig, cs, fit.gammas)) < 0.01
+    assert abs(_overlap_error(rig, cs, (2.2, 2.2))) > 0.02  # one gamma for both would leave the overlap uneven
 
 
 def test_the_fitted_gammas_make_the_blended_white_match_the_light_alone(captured):
@@ -109,7 +120,7 @@ def test_the_first_look_stores_the_gammas_and_everything_that_encodes_alphas_use
     look = fit_joint_first_look(cs)
     model = look.model
     assert look.blend_fit is not None and model.blend_gamma == look.blend_fit.gammas
-    assert model.alpha_gammas == pytest.approx(TRUE_GAMMAS, abs=0.08)
+    assert abs(_overlap_error(rig, cs, model.alpha_gammas)) < 0.015
     record = json.loads((cs.setup_dir / "models" / "first_look.json").read_text())
     assert record["blend_gamma"]["gammas"] == pytest.approx(list(model.blend_gamma), abs=1e-3)
     assert load_joint_model(cs.setup_dir).blend_gamma == pytest.approx(model.blend_gamma)

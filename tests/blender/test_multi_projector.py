@@ -102,7 +102,8 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     assert dict(state.capture_coverage)[names[0]] == pytest.approx(record["per_projector"][0], abs=1e-3)
     texts = [e[1] for e in draw_panels(bpy.context, []) if e[0] == "label"]
     assert any(t.startswith(f"1. {names[0]}: 64x48, ") and t.endswith("% of the object") for t in texts)
-    assert "Several projectors use the joint model fitted at the capture: there is nothing to train" in texts
+    assert ("Several projectors use the joint model fitted at the capture: there is nothing to train; Refine on the "
+            "Rig corrects what it misses") in texts
 
     assert bpy.ops.lapig.generate() == {"FINISHED"}
     result = scene_state.read(scene).result_dir

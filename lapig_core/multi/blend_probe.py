@@ -111,9 +111,11 @@ def fit_blend_gammas(maps: Sequence[CameraMap], gamma_p: Sequence[float], gamma_
     norm = d_.sum(axis=0) / r_.sum(axis=0)  # the light alone, per pixel: relative errors of it
     gp = np.asarray(gamma_p, np.float64)[:, None]
 
+    def residual(exponents) -> np.ndarray:  # (K,1) exponents -> the blended light's relative error per pixel
+        return (np.where(r_, d_ * np.power(s_, exponents), 0.0).sum(axis=0) - p_) / norm
+
     def error(exponents) -> float:
-        predicted = np.where(r_, d_ * np.power(s_, exponents), 0.0).sum(axis=0)
-        return float(np.median((predicted - p_) / norm))
+        return float(np.median(residual(exponents)))
 
     lo, hi = SCALE_RANGE
     if not (error(gp * lo) >= 0 >= error(gp * hi)):  # larger exponents: less light predicted
@@ -129,8 +131,7 @@ def fit_blend_gammas(maps: Sequence[CameraMap], gamma_p: Sequence[float], gamma_
     own = _per_projector(common, d_, s_, p_, r_, norm)
 
     def spread(exponents) -> float:  # the median absolute relative residual
-        predicted = np.where(r_, d_ * np.power(s_, exponents[:, None]), 0.0).sum(axis=0)
-        return float(np.median(np.abs(predicted - p_) / norm))
+        return float(np.median(np.abs(residual(exponents[:, None]))))
 
     # each projector's own curve only where it explains the probe clearly better than the shared factor: where
     # the overlap's light is uneven (a bust lit from the sides) the split between projectors is weakly determined

@@ -15,6 +15,7 @@ import numpy as np
 
 from ...lapig_core.common.imageio import to_uint8
 from ...lapig_core.rig import RigError
+from ..services.float_mode import flush_denormals_here
 from ..services.jobs import WorkerJob
 from ..services.ports import ProjectorFrame
 
@@ -170,6 +171,7 @@ def _ahead(frames, depth: int = 4):
 
     def produce():
         try:
+            flush_denormals_here()
             for frame in frames:
                 if not put(frame):
                     return

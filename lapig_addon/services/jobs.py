@@ -12,6 +12,7 @@ from typing import Callable, Iterator
 
 from ...lapig_core.common.locking import FolderBusy
 from .errors import one_line
+from .float_mode import flush_denormals_here
 
 
 
@@ -233,6 +234,7 @@ class WorkerJob(Job):
 
         def target():
             try:
+                flush_denormals_here()
                 box["output"] = self.work(inputs, report, self.cancel_event)
             except BaseException as exc:  # handed to the main thread, raised there
                 box["error"] = exc
@@ -351,6 +353,7 @@ class DeviceSteps:
         stop = self._stop = threading.Event()
 
         def target():
+            flush_denormals_here()
             steps = self.make_steps()
             try:
                 while True:

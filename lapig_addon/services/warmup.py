@@ -13,6 +13,7 @@ from __future__ import annotations
 import threading
 import time
 
+from .float_mode import flush_denormals_here
 from .jobs import THREAD_PREFIX
 
 _lock = threading.Lock()
@@ -48,6 +49,7 @@ def wait_for_warmup(timeout: float | None = None) -> bool:
 
 def _run(backend):
     try:
+        flush_denormals_here()
         warm(backend)
     except Exception as exc:  # a missing model or package: the first Generate reports it with its reason
         _state["error"] = f"{type(exc).__name__}: {exc}"

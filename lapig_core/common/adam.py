@@ -35,6 +35,10 @@ class Adam:
                 else:
                     p.grad.detach_().zero_()
 
+    def moments(self) -> list:
+        """The first and second moments of every parameter stepped so far."""
+        return [t for state in self.state.values() for t in (state["exp_avg"], state["exp_avg_sq"])]
+
     def reset_state(self) -> None:
         """Forget the moments (after the weights were set back, e.g. from a NaN)."""
         self.state.clear()

@@ -15,6 +15,7 @@ from pathlib import Path
 import torch
 
 from . import archs
+from ..common import denormals
 from ..common.atomic import atomic_write_bytes
 
 FORMAT = "lapig-checkpoint"
@@ -105,6 +106,7 @@ def load_checkpoint(path, arch: str | None = None, role: str | None = None, work
         model.load_state_dict(data["state_dict"])
     except RuntimeError as exc:
         raise CheckpointError(f"{name} does not fit the {h['arch']} network: {exc}") from None
+    denormals.scrub_module(model)  # subnormal weights slow some CPUs several times (common/denormals)
     model.eval()
     return model, h
 

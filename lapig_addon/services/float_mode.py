@@ -1,0 +1,20 @@
+"""Flush-to-zero on the add-on's worker threads, set before their first torch operation.
+
+Subnormal floats in the networks' weights and Adam's moments cost some CPUs (many Intel cores) a microcode assist
+on every vector instruction that meets one; lapig_core/common/denormals says why and how much. The CPU's mode is
+per thread, and torch's OpenMP team copies it from the thread that starts it, when it starts: so each worker
+thread sets it first thing. Blender's main thread keeps its own mode.
+"""
+from __future__ import annotations
+
+import importlib.util
+
+
+def flush_denormals_here() -> None:
+    """On a worker thread, before it runs anything: flush-to-zero for it and the torch threads it starts.
+    Nothing where torch is not installed (the add-on's torch-free tier)."""
+    if importlib.util.find_spec("torch") is None:
+        return
+    from ...lapig_core.common import denormals
+
+    denormals.flush_in_this_thread()

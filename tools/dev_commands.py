@@ -21,7 +21,8 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "train-step": "train_step", "light": "light", "finetune-length": "finetune_length",
               "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device",
               "show": "show", "show-live": "show_live", "video": "video", "multi": "multi",
-              "multi-live": "multi_live", "show-multi": "show_multi"}
+              "multi-live": "multi_live", "show-multi": "show_multi",
+              "denormals": "denormals"}
 
 
 def _ensure_registered():

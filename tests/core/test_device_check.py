@@ -56,3 +56,19 @@ def test_the_launcher_needs_no_blender():
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert run.returncode == 0, run.stderr
     assert "--paper-iterations" in run.stdout and "--write-cpu-figures" in run.stdout
+
+
+def test_the_subnormal_cost_check_runs_each_condition_on_its_own_thread(monkeypatch):
+    """bench denormals (part of the check), one step per condition: the shipped PCNet's subnormals are counted,
+    its Adam moments go subnormal without flush-to-zero and stay clean with it."""
+    from lapig.tools.bench import bench_denormals
+
+    monkeypatch.setattr(bench_denormals, "STEPS", 1)
+    monkeypatch.setattr(bench_denormals, "ROUNDS", 1)
+    out = bench_denormals.time_network(load_capture_set(FIXTURE), "PCNet", "simulation")
+    assert set(out["step_ms"]) == set(bench_denormals.CONDITIONS) and min(out["step_ms"].values()) > 0
+    moments = out["subnormal_moments_after_2_steps"]
+    assert moments["flush"] == moments["now"] == 0
+    if moments["before"] == 0:
+        pytest.skip("this CPU flushes subnormals already")
+    assert moments["scrubbed"] > 0  # scrubbing the weights alone leaves the moments' squares

@@ -20,7 +20,9 @@ Measured, in one process:
     tiled as the device's memory asks), up to the 8-bit frame on the host that a projector window shows;
   * gpu_parity_db: the PSA looks' simulated PSNR (as result.json's) minus the CPU's stored beside the fixture
     (device_check_cpu.json), the mean over MIXES; parity_db has Train's (CompenNeSt's held-back images in
-    PCNet's simulation) and the looks without PSA too, parity_ok whether each is within PARITY_DB.
+    PCNet's simulation) and the looks without PSA too, parity_ok whether each is within PARITY_DB;
+  * cpu_subnormal_cost: the host CPU's Train step with the shipped weights' subnormals against without
+    (bench_denormals; --no-denormals skips it): issue 37's Intel host, measured wherever the check runs.
 """
 from __future__ import annotations
 
@@ -173,7 +175,7 @@ def parity(rows: dict, choice: dict, cpu: dict | None) -> dict:
 
 def check(device_choice: str = "auto", paper_iterations: int | None = None, frames: int | None = None,
           cpu_figures: Path = CPU_FIGURES, fixture: Path = FIXTURE, iterations: int | None = None,
-          frame=FRAME_4K) -> dict:
+          frame=FRAME_4K, denormals_too: bool = False) -> dict:
     """The whole check on one device; the summary (the issue's keys first). iterations (per network of the app's
     recipe) and frame (the compensated frame's size) other than the defaults make a quick run whose figures
     are not the issue's (the tests')."""
@@ -191,6 +193,11 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
     frames = frames if frames is not None else (10 if device.type != "cpu" else 1)
     comp = time_compensate_4k(cs, train["trained"]["CompenNeSt"], device, frames, frame)
     cpu = json.loads(cpu_figures.read_text()) if cpu_figures.is_file() else None
+    subnormal = None
+    if denormals_too:  # the host's CPU, whatever the device: what subnormal weights cost its Train (bench denormals)
+        from .bench_denormals import measure
+
+        subnormal = measure()
     same = parity(looks["prompts"], train["train_choice"], cpu)
     summary = {"device": compute_device.describe(device),
                "gpu_train_seconds": train["gpu_train_seconds"],
@@ -207,6 +214,7 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
                "quick_run": iterations is not None or tuple(frame) != FRAME_4K,
                "torch": torch.__version__, "torch_threads": torch.get_num_threads(),
                "cudnn_tf32": bool(torch.backends.cudnn.allow_tf32) if device.type == "cuda" else None,
+               "cpu_subnormal_cost": subnormal,
                "loadavg_1m": round(os.getloadavg()[0], 2), "check_seconds": round(time.perf_counter() - t0, 1)}
     return summary
 
@@ -223,15 +231,17 @@ def run(args) -> dict:
     """`python -m lapig_addon bench device` (tools/dev_commands)."""
     return _run(getattr(args, "device", None) or "auto", getattr(args, "paper_iterations", None),
                 getattr(args, "frames", None), getattr(args, "write_cpu_figures", False),
-                getattr(args, "make_fixture", False), getattr(args, "note", ""))
+                getattr(args, "make_fixture", False), getattr(args, "note", ""),
+                not getattr(args, "no_denormals", False))
 
 
-def _run(device_choice, paper_iterations, frames, write_cpu_figures, make_fixture, note) -> dict:
+def _run(device_choice, paper_iterations, frames, write_cpu_figures, make_fixture, note,
+         denormals_too: bool = True) -> dict:
     if make_fixture:
         from .device_fixture import make_fixture as make
 
         make()
-    summary = check(device_choice, paper_iterations, frames)
+    summary = check(device_choice, paper_iterations, frames, denormals_too=denormals_too)
     if write_cpu_figures:
         if not summary["device"].startswith("CPU"):
             raise ValueError(f"--write-cpu-figures stores the CPU's figures; this ran on {summary['device']}")
@@ -265,13 +275,15 @@ def add_arguments(p) -> None:
     p.add_argument("--make-fixture", action="store_true",
                    help="device: capture the fixture again first (then store the CPU figures again)")
     p.add_argument("--note", default="", help="device: with --write-cpu-figures, how the machine was loaded")
+    p.add_argument("--no-denormals", action="store_true",
+                   help="device: skip the host CPU's subnormal-cost check (bench denormals, about 30 s)")
 
 
 def main(argv=None) -> int:
     """bpy-free entry (tools/device_check.py): the summary's lines, then the JSON as the last line."""
     args = parser().parse_args(argv)
     summary = _run(args.device, args.paper_iterations, args.frames, args.write_cpu_figures, args.make_fixture,
-                   args.note)
+                   args.note, not args.no_denormals)
     if not args.json:
         for key, value in summary.items():
             if not isinstance(value, dict):

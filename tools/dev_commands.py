@@ -150,6 +150,9 @@ def add_parsers(sub):
                        help="ui, preview: no warm-up before the first job (the session as it was before issue 28)")
     bench.add_argument("--lengths", default=None,
                        help="finetune-length: CompenNeSt fine-tune lengths in iterations (default 1000,500)")
+    bench.add_argument("--variants", default=None,
+                       help="finetune-length: also the recipes a GPU makes affordable, comma-separated: paper_whole "
+                            "(the paper's recipe, whole images, 8 pairs), app_whole (the app's, whole images)")
     bench.add_argument("--repeats", type=int, default=3, help="classical-fit: fits per path (default 3)")
     bench.add_argument("--capture", default=None,
                        help="train-step, classical-fit: the captured setup whose pairs Train fine-tunes on (e.g. the demo's)")

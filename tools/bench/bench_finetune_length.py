@@ -11,11 +11,18 @@ each length of --lengths with the recipe scaled to it (its lr step stays at 70 %
     capture decides (choice.choose_by_captures, as Train in Blender), and the chosen compensator's PSNR on the
     measured images is the figure a user gets.
 The classical images are rendered once and shared by every length. Seconds are the fine-tune's own.
+
+--variants adds the recipes a GPU makes affordable (issue 37), each beside the lengths, measured the same way:
+  * paper_whole: the paper's CompenNeSt recipe (training.PAPER_RECIPES: 800 iterations, the paper's l1 then
+    l1+SSIM loss, weight decay) on 8 pairs, on whole images instead of 64 px crops;
+  * app_whole: the app's recipe (camera-space loss, every pair, 1000 iterations) on whole images.
+A step on whole images is 12x the pixels of a 64 px crop: minutes per setup on a GPU-less machine.
 """
 from __future__ import annotations
 
 import os
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -23,8 +30,8 @@ from ...lapig_addon.blender.projection_render import render_working_images
 from ...lapig_core.capture.dataset import setup_dir_of
 from ...lapig_core.common import metrics
 from ...lapig_core.photometric import choice
-from ...lapig_core.photometric.finetune import cpu_recipe, finetune
-from ...lapig_core.photometric.training import predict
+from ...lapig_core.photometric.finetune import PAPER_COMPENSATION_PAIRS, cpu_recipe, finetune
+from ...lapig_core.photometric.training import PAPER_RECIPES, predict
 from ...lapig_core.photometric.training_data import to_numpy, to_tensor
 from .. import synthetic_setups as syn
 from .bench_transport import compensation_case, realistic_specs
@@ -41,6 +48,28 @@ def _lengths(args) -> list:
     return lengths
 
 
+VARIANTS = ("paper_whole", "app_whole")
+
+
+def _variants(args) -> list:
+    names = [t.strip() for t in (getattr(args, "variants", None) or "").split(",") if t.strip()]
+    unknown = [n for n in names if n not in VARIANTS]
+    if unknown:
+        raise ValueError(f"--variants: unknown {', '.join(unknown)}; choose from {', '.join(VARIANTS)}")
+    return names
+
+
+def recipe_of(key) -> tuple:
+    """(recipe, training pairs or None for all) of a length (the app's recipe) or a variant's name."""
+    if isinstance(key, int):
+        return cpu_recipe("CompenNeSt", "compensation", key), None
+    if key == "paper_whole":
+        return PAPER_RECIPES["CompenNeSt"], PAPER_COMPENSATION_PAIRS
+    if key == "app_whole":
+        return replace(cpu_recipe("CompenNeSt", "compensation"), crop=None), None
+    raise ValueError(f"unknown recipe {key!r}")
+
+
 def setup_row(args, data, spec, lengths) -> dict:
     cs, surf, mask, targets, classical = compensation_case(args, data, spec)
     count = len(targets)
@@ -54,7 +83,8 @@ def setup_row(args, data, spec, lengths) -> dict:
     verify_classical = None
     for n in lengths:
         t = time.perf_counter()
-        model, result = finetune(cs, "CompenNeSt", "compensation", recipe=cpu_recipe("CompenNeSt", "compensation", n),
+        recipe, count = recipe_of(n)
+        model, result = finetune(cs, "CompenNeSt", "compensation", count=count, recipe=recipe,
                                  weights_dir=getattr(args, "weights", None), classical=classical)
         seconds = time.perf_counter() - t
         learned = np.clip(to_numpy(predict(model, to_tensor(targets), surf.s)), 0.0, 1.0)
@@ -77,21 +107,24 @@ def run(args) -> dict:
     specs = realistic_specs(args)
     syn.render_synthetic_setups(specs, data, train=args.train_pairs, test=args.test_pairs, seed=600,
                                 skip_existing=True)
+    keys = lengths + _variants(args)
     per_setup = {}
     for spec in specs:
-        per_setup[spec.name] = row = setup_row(args, data, spec, lengths)
+        per_setup[spec.name] = row = setup_row(args, data, spec, keys)
         if not args.json:
             print(f"{spec.name}: {row}", flush=True)
     mean = lambda values: round(float(np.mean(values)), 4)  # noqa: E731
-    summary = {"benchmark": "finetune-length", "lengths": lengths, "per_setup": per_setup,
+    summary = {"benchmark": "finetune-length", "lengths": lengths, "variants": keys[len(lengths):],
+               "per_setup": per_setup,
                "classical_mean": mean([r["classical"] for r in per_setup.values()]),
                "train_pairs": args.train_pairs, "compensated_images": args.compensate}
     longest = max(lengths)
-    for n in lengths:
+    for n in keys:
         rows = [r[str(n)] for r in per_setup.values()]
         summary[f"compennest_mean_{n}"] = mean([r["compennest"] for r in rows])
         summary[f"chosen_mean_{n}"] = mean([r["chosen"] for r in rows])
         summary[f"finetune_seconds_mean_{n}"] = mean([r["finetune_seconds"] for r in rows])
+        summary[f"which_{n}"] = {name: r[str(n)]["which"] for name, r in per_setup.items()}
         if n != longest:
             summary[f"chosen_minus_{longest}_db_{n}"] = round(summary[f"chosen_mean_{n}"]
                                                               - summary[f"chosen_mean_{longest}"], 4)

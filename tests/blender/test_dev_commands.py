@@ -45,3 +45,18 @@ def test_bench_weights_option_reaches_the_parser():
     cli = importlib.import_module("lapig.lapig_addon.cli.main")
     args = cli._parser().parse_args(["bench", "transport", "--parts", "headroom", "--weights", "w"])
     assert args.weights == "w" and args.parts == "headroom"
+
+
+def test_finetune_length_variants_are_the_recipes_a_gpu_makes_affordable():
+    pytest.importorskip("torch")
+    from lapig.tools.bench import bench_finetune_length as ftl
+    from lapig.lapig_core.photometric.training import PAPER_RECIPES
+
+    paper, pairs = ftl.recipe_of("paper_whole")
+    assert paper == PAPER_RECIPES["CompenNeSt"] and paper.crop is None and pairs == 8
+    app_whole, pairs = ftl.recipe_of("app_whole")
+    app, _ = ftl.recipe_of(1000)
+    assert app_whole.crop is None and app.crop == 64 and pairs is None
+    assert app_whole.needs_camera_loss and app_whole.iterations == app.iterations == 1000
+    with pytest.raises(ValueError, match="unknown bogus"):
+        ftl._variants(type("Args", (), {"variants": "app_whole,bogus"})())

@@ -7,14 +7,20 @@ thread sets it first thing. Blender's main thread keeps its own mode.
 """
 from __future__ import annotations
 
-import importlib.util
+import sys
 
 
 def flush_denormals_here() -> None:
     """On a worker thread, before it runs anything: flush-to-zero for it and the torch threads it starts.
-    Nothing where torch is not installed (the add-on's torch-free tier)."""
-    if importlib.util.find_spec("torch") is None:
-        return
-    from ...lapig_core.common import denormals
 
-    denormals.flush_in_this_thread()
+    Only where torch is loaded already: the jobs that run torch load it with their module (pipeline_jobs imports
+    lapig_core.pipeline), on the main thread, before their worker starts; a job that needs no torch does not load
+    it here. Never fails: the mode only saves time (weights are scrubbed of subnormals anyway)."""
+    if "torch" not in sys.modules:
+        return
+    try:
+        from ...lapig_core.common import denormals
+
+        denormals.flush_in_this_thread()
+    except Exception:  # noqa: BLE001 (a torch that half-loaded: the work reports it, not this)
+        pass

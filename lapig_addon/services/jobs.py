@@ -353,7 +353,7 @@ class DeviceSteps:
         stop = self._stop = threading.Event()
 
         def target():
-            flush_denormals_here()
+            flush_denormals_here()  # never raises
             steps = self.make_steps()
             try:
                 while True:

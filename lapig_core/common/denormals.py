@@ -8,8 +8,8 @@ Many Intel cores take a microcode assist of 100-200 cycles on every vector instr
 operand or result; AMD's Zen cores take none (measured here: a 64-channel convolution costs the same with 0,
 0.2 or 20 % subnormal weights). One subnormal weight in a vector of 16 is enough, so a fraction of a percent
 of them can make a convolution several times slower on such a core, and a fresh network (the shared
-machine_speed workload) has none: that is how Train and PSA can cost 2.4x more reference steps on one host
-than on another.
+machine_speed workload) has none. That would explain why Train and PSA cost 2.4x more reference steps on an
+Intel host than on an AMD one (issue 37); it has not been measured on an Intel host yet (`bench denormals`).
 
 Two remedies, both used:
   * `scrub` sets the subnormal entries of a model's weights (and an optimiser's moments) to zero, at load and
@@ -30,13 +30,16 @@ def flush_in_this_thread() -> bool:
     return bool(torch.set_flush_denormal(True))
 
 
+SCRUBBED = (torch.float32, torch.float64)  # half precision's 'tiny' (6e-5 in float16) is a real value, not noise
+
+
 def _subnormal(t: torch.Tensor) -> torch.Tensor:
     return (t != 0) & (t.abs() < torch.finfo(t.dtype).tiny)
 
 
 def count(tensors) -> int:
-    """How many subnormal entries the floating-point tensors hold."""
-    return sum(int(_subnormal(t.detach()).sum()) for t in tensors if t.is_floating_point())
+    """How many subnormal entries the float32 and float64 tensors hold."""
+    return sum(int(_subnormal(t.detach()).sum()) for t in tensors if t.dtype in SCRUBBED)
 
 
 def module_tensors(module) -> list:
@@ -46,10 +49,10 @@ def module_tensors(module) -> list:
 
 @torch.no_grad()
 def scrub(tensors) -> int:
-    """Set the subnormal entries of the floating-point tensors to zero, in place; how many there were."""
+    """Set the subnormal entries of the float32 and float64 tensors to zero, in place; how many there were."""
     total = 0
     for t in tensors:
-        if not t.is_floating_point():
+        if t.dtype not in SCRUBBED:
             continue
         mask = _subnormal(t.detach())
         n = int(mask.sum())

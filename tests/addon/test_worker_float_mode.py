@@ -38,3 +38,30 @@ def test_the_warm_up_thread_sets_it_too(monkeypatch):
     assert warmup.wait_for_warmup(30)
     warmup._reset_for_tests()
     assert seen == [0.0]
+
+
+def test_a_job_that_needs_no_torch_does_not_load_it_and_a_broken_one_does_not_fail_the_job(monkeypatch):
+    import subprocess
+    import sys
+
+    root = __import__("pathlib").Path(__file__).resolve().parents[2]
+    code = ("import importlib.util, sys\n"
+            "spec = importlib.util.spec_from_file_location('lapig', 'lapig_addon/../__init__.py',"
+            " submodule_search_locations=['.'])\n"
+            "m = importlib.util.module_from_spec(spec); sys.modules['lapig'] = m; spec.loader.exec_module(m)\n"
+            "from lapig.lapig_addon.services.jobs import WorkerJob\n"
+            "class Plain(WorkerJob):\n"
+            "    poll_timeout = 0.01\n"
+            "    def work(self, inputs, report, cancel_event):\n"
+            "        return 'done'\n"
+            "print(Plain().run_to_completion(), 'torch' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, timeout=120)
+    assert out.stdout.split() == ["done", "False"], out.stderr[-2000:]
+
+    float_mode = importlib.import_module("lapig.lapig_addon.services.float_mode")
+    denormals = importlib.import_module("lapig.lapig_core.common.denormals")
+
+    def broken():
+        raise RuntimeError("no such mode")
+    monkeypatch.setattr(denormals, "flush_in_this_thread", broken)
+    float_mode.flush_denormals_here()  # says nothing, raises nothing: the work goes on

@@ -55,18 +55,19 @@ def _batch(cs, role: str):
     return (x[..., :CROP, :CROP].contiguous(), s[..., :CROP, :CROP].contiguous(), y[..., :CROP, :CROP].contiguous())
 
 
-def _time_block(start_model, batch, weight_decay: float, flush: bool) -> tuple[list, int]:
-    """In a new thread: (seconds of STEPS training steps after a warm-up one, subnormal moments after them)."""
+def _time_block(start_model, batch, weight_decay: float, flush: bool) -> tuple[list, int, bool]:
+    """In a new thread: (seconds of STEPS training steps after a warm-up one, subnormal moments after them,
+    whether the thread flushed)."""
     from ...lapig_core.common import denormals
     from ...lapig_core.common.adam import Adam
     from ...lapig_core.photometric.training import apply_model
 
-    out = {}
+    out = {}  # thread-local mode: set inside run()
 
     def run():
         try:
-            if flush:
-                denormals.flush_in_this_thread()
+            # both ways, explicitly: a new thread copies the mode of the thread that starts it
+            out["flushed"] = bool(torch.set_flush_denormal(flush)) and flush
             model = copy.deepcopy(start_model).train()
             opt = Adam(model.parameters(), lr=1e-4, weight_decay=weight_decay)
             x, s, y = batch
@@ -88,7 +89,7 @@ def _time_block(start_model, batch, weight_decay: float, flush: bool) -> tuple[l
     thread.join()
     if "error" in out:
         raise out["error"]
-    return out["times"], out["moments"]
+    return out["times"], out["moments"], out["flushed"]
 
 
 def time_network(cs, arch: str, role: str) -> dict:
@@ -102,17 +103,18 @@ def time_network(cs, arch: str, role: str) -> dict:
     decay = cpu_recipe(arch, role).weight_decay
     batch = _batch(cs, role)
     times = {c: [] for c in CONDITIONS}
-    moments = {}
+    moments, flushed = {}, {}
     for _ in range(ROUNDS):
         for condition in CONDITIONS:
-            t, m = _time_block(starts[condition], batch, decay, flush=condition in ("flush", "now"))
+            t, m, f = _time_block(starts[condition], batch, decay, flush=condition in ("flush", "now"))
             times[condition] += t
-            moments[condition] = m
+            moments[condition], flushed[condition] = m, f
     ms = {c: round(1000 * statistics.median(v), 1) for c, v in times.items()}
     return {"step_ms": ms, "before_over_now": round(ms["before"] / ms["now"], 3),
             "scrubbed_over_now": round(ms["scrubbed"] / ms["now"], 3),
             "flush_over_now": round(ms["flush"] / ms["now"], 3),
-            "subnormal_weights_shipped": scrubbed, "weights": sum(p.numel() for p in raw.parameters()),
+            "flush_supported": flushed["now"], "subnormal_weights_shipped": scrubbed,
+            "weights": sum(p.numel() for p in raw.parameters()),
             f"subnormal_moments_after_{STEPS + 1}_steps": moments, "weight_decay": decay}
 
 

@@ -185,6 +185,9 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
     from ...lapig_core.common import compute_device
 
     t0 = time.perf_counter()
+    from ...lapig_core.common import denormals
+
+    denormals.flush_in_this_thread()  # the add-on's worker threads run torch so (bench_denormals measures both)
     device = compute_device.resolve(device_choice)
     cs = load_capture_set(fixture)
     train = time_train(cs, device, iterations)

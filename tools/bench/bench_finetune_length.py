@@ -83,8 +83,8 @@ def setup_row(args, data, spec, lengths) -> dict:
     verify_classical = None
     for n in lengths:
         t = time.perf_counter()
-        recipe, count = recipe_of(n)
-        model, result = finetune(cs, "CompenNeSt", "compensation", count=count, recipe=recipe,
+        recipe, pairs = recipe_of(n)
+        model, result = finetune(cs, "CompenNeSt", "compensation", count=pairs, recipe=recipe,
                                  weights_dir=getattr(args, "weights", None), classical=classical)
         seconds = time.perf_counter() - t
         learned = np.clip(to_numpy(predict(model, to_tensor(targets), surf.s)), 0.0, 1.0)

@@ -114,6 +114,9 @@ def on_a_worker(jobs: dict) -> dict:
 
     def target():
         try:
+            from ...lapig_core.common import denormals
+
+            denormals.flush_in_this_thread()  # as the job engine's worker threads do
             for name, job in jobs.items():
                 out[name] = job()
         finally:

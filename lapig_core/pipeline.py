@@ -20,7 +20,7 @@ from .capture.dataset import CaptureSet, setup_dir_of
 from .photometric.classical import ClassicalModel
 from .photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator
 from .photometric.first_look import load_first_look
-from .photometric.finetune import cpu_recipe, finetune, load_setup_model, save_setup_model
+from .photometric.finetune import device_recipe, finetune, load_setup_model, save_setup_model
 from .lgst import DEFAULT_BACKEND, LGSTBackend, backend_class, prepared_backend
 from .native_output import NativeResult, native_output
 from .photometric.surface_models import SurfaceModels
@@ -33,7 +33,8 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
                  iterations: int | None = None, device=None) -> dict:
     """Fine-tune CompenNeSt and PCNet on all the captured training pairs, from the pretrained weights.
 
-    iterations: per network (default: the CPU recipe's); fewer give a rough, quick fine-tune.
+    iterations: per network (default: the recipe's); fewer give a rough, quick fine-tune. On a GPU the
+    compensation trains on whole images (finetune.device_recipe).
     device: where they train (None: the CPU); the networks are returned there, and out["device"] says which.
     """
     out, trained, t0 = {}, {}, time.perf_counter()
@@ -46,7 +47,8 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
             if on_progress:
                 on_progress((i + p) / 2, f"{arch}: {msg}")
 
-        model, result = finetune(cs, arch, role, recipe=cpu_recipe(arch, role, iterations), on_progress=progress,
+        model, result = finetune(cs, arch, role, recipe=device_recipe(arch, role, iterations, device),
+                                 on_progress=progress,
                                  cancel_event=cancel_event, classical=classical, device=device)
         if result.cancelled:
             raise InterruptedError("training cancelled")

@@ -155,3 +155,16 @@ def test_train_stylize_and_demo_take_device():
     bad = subprocess.run([sys.executable, "-c", PARSE.replace("ARGVS", repr([["train", "--device", "gpu"]]))],
                          capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode == 2 and "invalid choice: 'gpu'" in bad.stderr
+
+
+def test_train_recipe_on_a_gpu_takes_whole_images_for_the_compensation_alone():
+    """finetune.device_recipe: whole images won 0.4 dB rendered on the corner and the bust; PCNet and the CPU as before."""
+    from dataclasses import replace
+
+    from lapig.lapig_core.photometric.finetune import cpu_recipe, device_recipe
+
+    for device in (None, "cpu", torch.device("cpu")):
+        assert device_recipe("CompenNeSt", "compensation", device=device) == cpu_recipe("CompenNeSt", "compensation")
+    gpu = device_recipe("CompenNeSt", "compensation", 200, device=torch.device("cuda"))
+    assert gpu == replace(cpu_recipe("CompenNeSt", "compensation", 200), crop=None)
+    assert device_recipe("PCNet", "simulation", device="mps") == cpu_recipe("PCNet", "simulation")

@@ -8,7 +8,8 @@ simulated PSNRs against the CPU's, on the capture shipped in tools/bench/fixture
 
 Measured, in one process:
   * gpu_train_seconds: pipeline.train_models as Train runs it (the app's recipe: CompenNeSt 1000 and PCNet 300
-    iterations, batch 8, 64 px crops; the classical fit and the choice by PCNet included, nothing saved);
+    iterations, batch 8, 64 px crops; on a GPU the compensation on whole images, finetune.device_recipe; the
+    classical fit and the choice by PCNet included, nothing saved);
   * gpu_train_seconds_paper_recipe: the paper's recipes (training.PAPER_RECIPES: CompenNeSt 800 iterations on
     8 pairs, PCNet 1500 on all, batch 8, whole 256 x 256 images: the fixture's pairs resized), each network
     from the pretrained weights; --paper-iterations N runs N per network and scales the seconds up (the CPU's

@@ -10,6 +10,7 @@ Generate then loads what it needs, as before.
 """
 from __future__ import annotations
 
+import importlib.util
 import threading
 import time
 
@@ -49,8 +50,8 @@ def wait_for_warmup(timeout: float | None = None) -> bool:
 
 def _run(backend):
     try:
-        import torch  # noqa: F401  (warm() loads it anyway: first, so that the mode below reaches torch's threads)
-
+        if importlib.util.find_spec("torch") is not None:
+            import torch  # noqa: F401  (warm() loads it anyway: first, so that the mode reaches torch's threads)
         flush_denormals_here()
         warm(backend)
     except Exception as exc:  # a missing model or package: the first Generate reports it with its reason

@@ -83,8 +83,9 @@ def _first_sentence(exc: Exception) -> str:
 
 
 def load_checkpoint(path, arch: str | None = None, role: str | None = None, working_size: int | None = None,
-                    fingerprint: str | None = None):
-    """(model in eval mode, header); every given expectation must match the header."""
+                    fingerprint: str | None = None, scrub: bool = True):
+    """(model in eval mode, header); every given expectation must match the header. scrub=False keeps the
+    subnormal weights as the file holds them (bench denormals measures what they cost)."""
     data = _read(path)
     h = data["header"]
     name = Path(path).name
@@ -106,7 +107,8 @@ def load_checkpoint(path, arch: str | None = None, role: str | None = None, work
         model.load_state_dict(data["state_dict"])
     except RuntimeError as exc:
         raise CheckpointError(f"{name} does not fit the {h['arch']} network: {exc}") from None
-    denormals.scrub_module(model)  # subnormal weights slow some CPUs several times (common/denormals)
+    if scrub:
+        denormals.scrub_module(model)  # subnormal weights slow some CPUs several times (common/denormals)
     model.eval()
     return model, h
 

@@ -19,6 +19,7 @@ import torch
 from . import checkpoints
 from ..capture.dataset import CaptureSet
 from ..common.atomic import remove_partial_writes
+from ..common.compute_device import device_of
 from .classical import ClassicalModel
 from .losses import CameraSpaceLoss
 from .targets import reachable_mask
@@ -68,8 +69,7 @@ def device_recipe(arch: str, role: str, iterations: int | None = None, device=No
     seconds on a GPU. The paper's own recipe on whole images (8 pairs, its loss) was 2.2 and 3.1 dB behind and
     never chosen (BENCHMARKS, "The recipe a GPU affords")."""
     recipe = cpu_recipe(arch, role, iterations)
-    on_gpu = device is not None and torch.device(device).type != "cpu"
-    if on_gpu and role == "compensation" and recipe.needs_camera_loss:
+    if role == "compensation" and device_of(device).type != "cpu":
         recipe = replace(recipe, crop=None)
     return recipe
 

@@ -38,11 +38,9 @@ STEPS, ROUNDS, CROP, BATCH = 8, 3, 64, 8
 
 def _raw_model(arch: str, role: str):
     """The shipped pretrained network as its file holds it: load_checkpoint's scrub bypassed."""
-    from ...lapig_core.photometric import archs, checkpoints
+    from ...lapig_core.photometric import checkpoints
 
-    data = torch.load(checkpoints.pretrained_path(arch, role), map_location="cpu", weights_only=True)
-    model = archs.build(data["header"]["arch"])
-    model.load_state_dict(data["state_dict"])
+    model, _ = checkpoints.load_checkpoint(checkpoints.pretrained_path(arch, role), arch, role, scrub=False)
     return model
 
 
@@ -62,7 +60,7 @@ def _time_block(start_model, batch, weight_decay: float, flush: bool) -> tuple[l
     from ...lapig_core.common.adam import Adam
     from ...lapig_core.photometric.training import apply_model
 
-    out = {}  # thread-local mode: set inside run()
+    out = {}
 
     def run():
         try:

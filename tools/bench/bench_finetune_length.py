@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import replace
 
 import numpy as np
 
@@ -30,7 +29,7 @@ from ...lapig_addon.blender.projection_render import render_working_images
 from ...lapig_core.capture.dataset import setup_dir_of
 from ...lapig_core.common import metrics
 from ...lapig_core.photometric import choice
-from ...lapig_core.photometric.finetune import PAPER_COMPENSATION_PAIRS, cpu_recipe, finetune
+from ...lapig_core.photometric.finetune import PAPER_COMPENSATION_PAIRS, cpu_recipe, device_recipe, finetune
 from ...lapig_core.photometric.training import PAPER_RECIPES, predict
 from ...lapig_core.photometric.training_data import to_numpy, to_tensor
 from .. import synthetic_setups as syn
@@ -66,7 +65,7 @@ def recipe_of(key) -> tuple:
     if key == "paper_whole":
         return PAPER_RECIPES["CompenNeSt"], PAPER_COMPENSATION_PAIRS
     if key == "app_whole":
-        return replace(cpu_recipe("CompenNeSt", "compensation"), crop=None), None
+        return device_recipe("CompenNeSt", "compensation", device="cuda"), None  # what a GPU's Train takes
     raise ValueError(f"unknown recipe {key!r}")
 
 

@@ -16,6 +16,7 @@ import torch
 
 from .photometric import checkpoints, choice as compensator_choice
 from .common import compute_device, metrics
+from .common.phases import PhaseTimes
 from .capture.dataset import CaptureSet, setup_dir_of
 from .photometric.classical import ClassicalModel
 from .photometric.classical_compensator import ClassicalCompensator, ClassicalSimulator
@@ -38,34 +39,45 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
     device: where they train (None: the CPU); the networks are returned there, and out["device"] says which.
     """
     out, trained, t0 = {}, {}, time.perf_counter()
+    phases = PhaseTimes()
     # first: the compensation's camera-space loss measures its error through the classical model (the capture's
     # first look is that same fit, on the same pairs: reused where the capture has one)
-    look = load_first_look(setup_dir_of(cs), cs.meta.get("fingerprint"))
-    classical = look.classical if look is not None else ClassicalModel.fit(cs.prj_train, cs.cam_train)
+    with phases.timing("first_look_load"):
+        look = load_first_look(setup_dir_of(cs), cs.meta.get("fingerprint"))
+    with phases.timing("classical_fit"):
+        classical = look.classical if look is not None else ClassicalModel.fit(cs.prj_train, cs.cam_train)
     for i, (arch, role) in enumerate((("CompenNeSt", "compensation"), ("PCNet", "simulation"))):
         def progress(p, msg, i=i, arch=arch):
             if on_progress:
                 on_progress((i + p) / 2, f"{arch}: {msg}")
 
+        t = time.perf_counter()
         model, result = finetune(cs, arch, role, recipe=device_recipe(arch, role, iterations, device),
                                  on_progress=progress,
                                  cancel_event=cancel_event, classical=classical, device=device)
         if result.cancelled:
             raise InterruptedError("training cancelled")
+        # the iterations alone, and the rest of the fine-tune (the pairs, the pretrained weights, validation)
+        phases.add(f"{arch}_steps", result.seconds)
+        phases.add(f"{arch}_setup", time.perf_counter() - t - result.seconds)
         out[arch], trained[arch] = model, (role, result)
-    if save:  # both at once: a cancel while PCNet trains leaves the folder as it was
-        for arch, (role, result) in trained.items():
-            save_setup_model(setup_dir_of(cs), out[arch], role, cs, iterations=result.iterations,
-                             train_seconds=round(result.seconds, 2), device=compute_device.describe(device))
+    with phases.timing("save"):
+        if save:  # both at once: a cancel while PCNet trains leaves the folder as it was
+            for arch, (role, result) in trained.items():
+                save_setup_model(setup_dir_of(cs), out[arch], role, cs, iterations=result.iterations,
+                                 train_seconds=round(result.seconds, 2), device=compute_device.describe(device))
     # the learned and the classical compensation, validated on the held-back pairs: the better one is used
-    chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"], out["PCNet"], classical)
-    if save:
-        compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
+    with phases.timing("choice"):
+        chosen, classical = compensator_choice.fit_and_choose(cs, out["CompenNeSt"], out["PCNet"], classical)
+        if save:
+            compensator_choice.save_choice(setup_dir_of(cs) / "models", chosen, classical)
     out["choice"], out["classical"] = chosen, classical
     out["seconds"] = time.perf_counter() - t0
     out["steps_seconds"] = {arch: result.seconds for arch, (_, result) in trained.items()}  # the iterations alone
+    out["phases"] = phases
     out["device"] = compute_device.describe(device)
     return out
+
 
 
 @dataclass

@@ -151,8 +151,11 @@ class TrainModelsJob(WorkerJob):
                                device=device)
         # both compensations of the held-back images, here on the worker: CompenNeSt's forward pass would
         # otherwise hold Blender's main thread, where the rendered choice's steps run with Cycles
-        verification = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
+        phases = trained["phases"]
+        with phases.timing("verification"):
+            verification = compensator_choice.verification(cs, trained["CompenNeSt"], trained["classical"])
         return {"fingerprint": cs.meta.get("fingerprint", ""), "seconds": trained["seconds"], "folder": folder,
+                "phases": phases,
                 "choice": trained["choice"].line(), "capture_set": cs, "trained": trained,
                 "verification": verification, "had_first_look": had_first_look, "device": trained["device"],
                 "trained_on": compute_device.short_name(device)}
@@ -187,6 +190,7 @@ class TrainModelsJob(WorkerJob):
         t0 = time.perf_counter()
         chosen = yield from self._render_choice(out["capture_set"], out["trained"], out["folder"], out["verification"])
         out["seconds"] += time.perf_counter() - t0
+        out["phases"].add("rendered_choice", time.perf_counter() - t0)
         if chosen is not None:
             out["choice"] = chosen.line()
             self.seams.store.record_models(out["fingerprint"], self._models_line(out, chosen))

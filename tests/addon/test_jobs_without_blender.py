@@ -80,6 +80,12 @@ def test_capture_train_generate_render_and_export_without_blender(seams, tmp_pat
     assert store.recorded[-1] == "models" and store.models[0] == store.capture_fingerprint
     assert "held-back images" in store.models[1] and "PCNet's simulated captures" not in store.models[1]
     assert factory.opened == factory.closed == 2 and trained["folder"] == store.capture_dir
+    # where Train's seconds went, phase by phase, the rig's renders of the choice included: they add up
+    phases = trained["phases"]
+    assert {"CompenNeSt_steps", "PCNet_steps", "CompenNeSt_setup", "classical_fit", "choice", "verification",
+            "rendered_choice"} <= set(phases) and min(phases.values()) >= 0.0
+    assert phases["CompenNeSt_steps"] > 0 and phases["rendered_choice"] > 0
+    assert sum(phases.values()) <= trained["seconds"] + 0.05 and sum(phases.values()) > 0.8 * trained["seconds"]
 
     # Generate: the result is recorded and the sinks get the stored projector image, from memory
     request = store.generate_request(mix="charcoal_wash:1", psa=False)

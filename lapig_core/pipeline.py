@@ -31,13 +31,16 @@ from .photometric.training_data import SurfaceTensors
 
 
 def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
-                 iterations: int | None = None, device=None) -> dict:
+                 iterations: int | None = None, device=None, recipe_of=None) -> dict:
     """Fine-tune CompenNeSt and PCNet on all the captured training pairs, from the pretrained weights.
 
     iterations: per network (default: the recipe's); fewer give a rough, quick fine-tune. On a GPU the
     compensation trains on whole images (finetune.device_recipe).
     device: where they train (None: the CPU); the networks are returned there, and out["device"] says which.
+    recipe_of: the device whose recipe is followed (None: `device`'s). A parity check gives the CPU, so that a GPU
+    runs the very recipe the CPU's figures were made with.
     """
+    recipe_of = device if recipe_of is None else recipe_of
     out, trained, t0 = {}, {}, time.perf_counter()
     phases = PhaseTimes()
     # first: the compensation's camera-space loss measures its error through the classical model (the capture's
@@ -52,7 +55,7 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
                 on_progress((i + p) / 2, f"{arch}: {msg}")
 
         t = time.perf_counter()
-        model, result = finetune(cs, arch, role, recipe=device_recipe(arch, role, iterations, device),
+        model, result = finetune(cs, arch, role, recipe=device_recipe(arch, role, iterations, recipe_of),
                                  on_progress=progress,
                                  cancel_event=cancel_event, classical=classical, device=device)
         if result.cancelled:

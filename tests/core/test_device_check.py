@@ -72,3 +72,40 @@ def test_the_subnormal_cost_check_runs_each_condition_on_its_own_thread(monkeypa
         pytest.skip("this CPU has no flush-to-zero mode")
     assert moments["flush"] == moments["now"] == 0
     assert moments["scrubbed"] > 0  # scrubbing the weights alone leaves the moments' squares
+
+
+def test_on_a_gpu_the_parity_compares_the_cpus_recipe_and_train_is_timed_with_its_own(monkeypatch):
+    """On a GPU Train's compensation fine-tunes on whole images (finetune.device_recipe) while the CPU's stored
+    figures come from 64 px crops: the parity's models must come from a Train with the CPU's recipe."""
+    calls = []
+
+    def fake_time_train(cs, device, iterations=None, recipe_of=None):
+        calls.append((device.type, None if recipe_of is None else recipe_of.type))
+        return {"trained": "models", "train_choice": {"learned_psnr": 30.0}, "gpu_train_seconds": 1.0}
+
+    monkeypatch.setattr(bench_device, "time_train", fake_time_train)
+    own = {"trained": "own models"}
+    assert bench_device.train_for_parity(None, torch.device("cpu"), 2, own) is own and calls == []
+    same = bench_device.train_for_parity(None, torch.device("cuda"), 2, own)
+    assert calls == [("cuda", "cpu")] and same["trained"] == "models"
+
+
+def test_train_follows_the_recipe_of_the_device_it_is_given(monkeypatch):
+    """train_models(recipe_of=...): the GPU's recipe run on the CPU fine-tunes the compensation on whole images;
+    the CPU's, 64 px crops (the device code path, on a machine without a GPU)."""
+    from lapig.lapig_core import pipeline
+
+    cs = load_capture_set(FIXTURE)
+    crops, real = [], pipeline.finetune
+
+    def spy(cs, arch, role, recipe=None, **kw):
+        crops.append((arch, recipe.crop))
+        return real(cs, arch, role, recipe=recipe, **kw)
+
+    monkeypatch.setattr(pipeline, "finetune", spy)
+    gpu_recipe = pipeline.train_models(cs, save=False, iterations=2, recipe_of=torch.device("cuda"))
+    assert crops == [("CompenNeSt", None), ("PCNet", 64)]
+    assert gpu_recipe["device"].startswith("CPU: ")  # trained here, whatever recipe it followed
+    crops.clear()
+    pipeline.train_models(cs, save=False, iterations=2, recipe_of=torch.device("cpu"))
+    assert crops == [("CompenNeSt", 64), ("PCNet", 64)]

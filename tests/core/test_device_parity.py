@@ -103,7 +103,8 @@ def test_the_first_look_on_the_explicit_cpu_is_the_default(capture, no_gpu):
 
 
 def _simulated_psnrs(cs, device) -> dict:
-    out = train_models(cs, save=False, iterations=20, device=device)
+    # the CPU's recipe on both: on a GPU Train's own fine-tunes the compensation on whole images
+    out = train_models(cs, save=False, iterations=20, device=device, recipe_of=torch.device("cpu"))
     models = surface_models(cs, saved=SavedModels(out["CompenNeSt"], out["PCNet"], out["choice"], out["classical"]),
                             device=device)
     res = stylize(cs, models, "", mix="sepia_ink:1", settings=PSASettings(max_iterations=5))

@@ -9,7 +9,9 @@ simulated PSNRs against the CPU's, on the capture shipped in tools/bench/fixture
 Measured, in one process:
   * gpu_train_seconds: pipeline.train_models as Train runs it (the app's recipe: CompenNeSt 1000 and PCNet 300
     iterations, batch 8, 64 px crops; on a GPU the compensation on whole images, finetune.device_recipe; the
-    classical fit and the choice by PCNet included, nothing saved);
+    classical fit and the choice by PCNet included, nothing saved), with its phases (train_phases_seconds);
+    on a GPU a second Train follows the CPU's recipe (train_seconds_cpu_recipe), and the parity and the looks
+    use its models, so that both devices run the same computation;
   * gpu_train_seconds_paper_recipe: the paper's recipes (training.PAPER_RECIPES: CompenNeSt 800 iterations on
     8 pairs, PCNet 1500 on all, batch 8, whole 256 x 256 images: the fixture's pairs resized), each network
     from the pretrained weights; --paper-iterations N runs N per network and scales the seconds up (the CPU's
@@ -74,15 +76,29 @@ def resized_capture(cs, size: int):
                    cam_gray=r(cs.cam_gray), projector_valid=valid)
 
 
-def time_train(cs, device, iterations: int | None = None) -> dict:
+def time_train(cs, device, iterations: int | None = None, recipe_of=None) -> dict:
+    """Train as train_models runs it on `device`, with the recipe of `recipe_of` (None: the device's own)."""
     from ...lapig_core.pipeline import train_models
 
-    trained, seconds = _sync_time(device, lambda: train_models(cs, save=False, iterations=iterations, device=device))
+    trained, seconds = _sync_time(device, lambda: train_models(cs, save=False, iterations=iterations, device=device,
+                                                               recipe_of=recipe_of))
     choice = trained["choice"]
     return {"trained": trained, "gpu_train_seconds": round(seconds, 2),
             "train_steps_seconds": {k: round(v, 2) for k, v in trained["steps_seconds"].items()},
+            "train_phases_seconds": trained["phases"].rounded(),
             "train_choice": {"chosen": choice.chosen, "learned_psnr": choice.learned_psnr,
                              "classical_psnr": choice.classical_psnr}}
+
+
+def train_for_parity(cs, device, iterations: int | None, own: dict) -> dict:
+    """The Train whose models the parity compares with the CPU's: the CPU's recipe on `device`. On a GPU Train's own
+    recipe differs (the compensation on whole images, finetune.device_recipe), so this is a second Train there;
+    on the CPU it is the same one (`own`)."""
+    import torch
+
+    if device.type == "cpu":
+        return own
+    return time_train(cs, device, iterations, recipe_of=torch.device("cpu"))
 
 
 def time_paper_recipe(cs, device, iterations: int | None) -> dict:
@@ -191,9 +207,10 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
     denormals.flush_in_this_thread()  # the add-on's worker threads run torch so (bench_denormals measures both)
     device = compute_device.resolve(device_choice)
     cs = load_capture_set(fixture)
-    train = time_train(cs, device, iterations)
+    train = time_train(cs, device, iterations)  # Train's own recipe on this device: its seconds
+    same_recipe = train_for_parity(cs, device, iterations, train)  # the CPU's recipe: the parity's models
     paper = time_paper_recipe(cs, device, paper_iterations)
-    looks = time_stylize(cs, train["trained"], device)
+    looks = time_stylize(cs, same_recipe["trained"], device)
     frames = frames if frames is not None else (10 if device.type != "cpu" else 1)
     comp = time_compensate_4k(cs, train["trained"]["CompenNeSt"], device, frames, frame)
     cpu = json.loads(cpu_figures.read_text()) if cpu_figures.is_file() else None
@@ -202,13 +219,16 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
         from .bench_denormals import measure
 
         subnormal = measure()
-    same = parity(looks["prompts"], train["train_choice"], cpu)
+    same = parity(looks["prompts"], same_recipe["train_choice"], cpu)
     summary = {"device": compute_device.describe(device),
                "gpu_train_seconds": train["gpu_train_seconds"],
                "gpu_train_seconds_paper_recipe": paper["gpu_train_seconds_paper_recipe"],
                "gpu_psa_seconds": looks["gpu_psa_seconds"], "gpu_compensate_fps_4k": comp["gpu_compensate_fps_4k"],
                "gpu_parity_db": same["gpu_parity_db"], "gpu_stylize_seconds": looks["gpu_stylize_seconds"],
-               **{k: v for k, v in train.items() if k not in ("trained", "gpu_train_seconds")},
+               **{k: v for k, v in train.items() if k not in ("trained", "gpu_train_seconds", "train_choice")},
+               "train_choice": same_recipe["train_choice"],  # the CPU's recipe: what the parity compares
+               **({"train_choice_device_recipe": train["train_choice"],
+                   "train_seconds_cpu_recipe": same_recipe["gpu_train_seconds"]} if same_recipe is not train else {}),
                **{k: v for k, v in paper.items() if k != "gpu_train_seconds_paper_recipe"},
                "prompts": looks["prompts"],
                **{k: v for k, v in comp.items() if k != "gpu_compensate_fps_4k"},

@@ -23,6 +23,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from .layout import into, out_of
+
 
 class CompenNeSt(nn.Module):
     ARCH_NAME = "CompenNeSt"
@@ -57,6 +59,7 @@ class CompenNeSt(nn.Module):
     def encode(self, z: torch.Tensor, in_place: bool = False):
         """Shared encoder: returns (r1, r2, h3) for one input (in_place: see forward)."""
         relu = F.relu_ if in_place else F.relu
+        z = into(z)  # channels-last on the CPU (archs/layout)
         r1 = self.s1_c(relu(self.s1_b(relu(self.s1_a(z)))))
         h1 = relu(self.conv1(z))
         r2 = self.s2_b(relu(self.s2_a(h1)))
@@ -124,5 +127,5 @@ class CompenNeSt(nn.Module):
         h = relu(add(self.tconv1(h), sub(r2x, r2s)))
         h = relu(self.tconv2(h))
         raw = add(self.conv6(h), sub(r1x, r1s))
-        out = clamp(F.relu(raw) if return_raw else relu(raw), max=1.0)
-        return (out, raw) if return_raw else out
+        out = out_of(clamp(F.relu(raw) if return_raw else relu(raw), max=1.0))
+        return (out, out_of(raw)) if return_raw else out

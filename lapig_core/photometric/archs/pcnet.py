@@ -23,6 +23,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from .layout import into, out_of
+
 
 def _bound(v, like: torch.Tensor, default: float) -> torch.Tensor:
     """Scalar / tensor / None bound -> tensor broadcastable to `like`."""
@@ -71,6 +73,7 @@ class PCNet(nn.Module):
         white projection), broadcastable to (B, 3, H, W), or scalars; None
         means 0 / 1. The clamp keeps the simulation physically reachable.
         """
+        x, s = into(x), into(s)  # channels-last on the CPU (archs/layout)
         s_once = s  # the residual path on s alone runs once for a batch of one surface, then broadcasts
         s = s.expand_as(x) if s.shape[0] == 1 else s  # one surface for a batch
         b1 = self.sconv1(torch.cat([s, x * s], dim=1))
@@ -88,4 +91,4 @@ class PCNet(nn.Module):
         res = F.relu(self.res_c(F.relu(self.res_b(F.relu(self.res_a(s_once))))))
         y = F.relu(self.conv6(h7) + res)
         # minimum/maximum (not clamp) so tensor bounds broadcast per pixel.
-        return torch.minimum(torch.maximum(y, _bound(i_min, y, 0.0)), _bound(i_max, y, 1.0))
+        return out_of(torch.minimum(torch.maximum(y, _bound(i_min, y, 0.0)), _bound(i_max, y, 1.0)))

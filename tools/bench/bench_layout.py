@@ -12,7 +12,7 @@ flush-to-zero as the add-on's jobs run:
   * compensate_1080p: CompenNeSt's compensation of a 1920 x 1080 frame (native_output.compensate_frame, one tile),
     and the largest difference between the two layouts' frames.
 The capture is the device check's fixture (128 x 96) unless --capture names one (e.g. the demo's, 256 x 192). The
-layouts alternate, so a machine whose load changes shifts both alike; the figures are medians.
+layouts alternate in ABBA order, so a machine whose load drifts shifts both alike; the figures are medians.
 """
 from __future__ import annotations
 
@@ -27,9 +27,16 @@ from .device_fixture import FIXTURE
 
 NETWORKS = (("CompenNeSt", "compensation"), ("PCNet", "simulation"))
 LAYOUTS = ("nchw", "channels_last")
-BLOCK, TRAIN_ROUNDS, PSA_ROUNDS, FRAME_ROUNDS = 5, 4, 2, 3
+BLOCK, TRAIN_ROUNDS, PSA_ROUNDS, FRAME_ROUNDS = 5, 6, 4, 4
 MIX = "starry_blue_yellow:1"
 FRAME_1080P = (1920, 1080)
+
+
+def rounds(count: int):
+    """The layouts' order in each of `count` rounds: ABBA..., so that a drift over the run (the machine warming,
+    the allocator's pages) falls on both alike."""
+    for i in range(count):
+        yield LAYOUTS if i % 2 == 0 else LAYOUTS[::-1]
 
 
 def use_layout(name: str):
@@ -57,8 +64,8 @@ def time_train(cs, classical, arch: str, role: str) -> dict:
                               eval_every=10**9).steps()
         next(steps[name])  # warm-up: first-touch pages, kernel selection
     times = {name: [] for name in LAYOUTS}
-    for _ in range(TRAIN_ROUNDS):
-        for name in LAYOUTS:
+    for order in rounds(TRAIN_ROUNDS):
+        for name in order:
             use_layout(name)
             for _ in range(BLOCK):
                 t = time.perf_counter()
@@ -89,8 +96,8 @@ def time_psa(cs, classical) -> dict:
         models[name] = surface_models(cs, saved=saved)
         stylize(cs, models[name], "", mix=MIX, psa=False)  # loads the style net, caches the surface's features
     seconds, psnr, iterations = {n: [] for n in LAYOUTS}, {}, {}
-    for _ in range(PSA_ROUNDS):
-        for name in LAYOUTS:
+    for order in rounds(PSA_ROUNDS):
+        for name in order:
             use_layout(name)
             res = stylize(cs, models[name], "", mix=MIX, settings=capped, seed=0).with_psa
             seconds[name].append(res.seconds)
@@ -113,8 +120,8 @@ def time_compensate(cs, size=FRAME_1080P) -> dict:
     net = start_model("CompenNeSt", "compensation").eval()
     tile = max(width, height)
     frames, times = {}, {n: [] for n in LAYOUTS}
-    for _ in range(FRAME_ROUNDS):
-        for name in LAYOUTS:
+    for order in rounds(FRAME_ROUNDS):
+        for name in order:
             use_layout(name)
             net.clear_surface_cache()
             t = time.perf_counter()

@@ -68,12 +68,14 @@ def short_name(device) -> str:
 
 def memory_budget_mb(device) -> float | None:
     """The memory one frame's work may take on `device`, in MB: GPU_MEMORY_SHARE of a CUDA device's free
-    memory now; None elsewhere (the caller's budget for the computer's memory stands)."""
+    memory now; None elsewhere (the caller's budget for the computer's memory stands). Free counts the blocks
+    torch's caching allocator holds without using them (Train and PSA leave some): the driver counts them taken."""
     device = device_of(device)
     if device.type != "cuda":
         return None
     free, _ = torch.cuda.mem_get_info(device)
-    return GPU_MEMORY_SHARE * free / 2 ** 20
+    cached = max(0, torch.cuda.memory_reserved(device) - torch.cuda.memory_allocated(device))
+    return GPU_MEMORY_SHARE * (free + cached) / 2 ** 20
 
 
 def synchronize(device) -> None:

@@ -232,3 +232,12 @@ def test_compennest_graph_free_forward_equals_the_graph_one():
     with torch.no_grad():  # a batch of surfaces for one image still broadcasts, as the graph's forward does
         many = net(x[:1], s)
     torch.testing.assert_close(many, net(x[:1].expand_as(s), s).detach())
+
+
+def test_the_surface_cache_follows_the_weights_device():
+    """SurfaceModels caches the surface when it is built, before its .to(device): the learned compensator's weights
+    may be on a GPU already (train_models on CUDA) while the surface is still on the CPU. The meta device stands
+    in for the GPU here."""
+    net = CompenNeSt().to("meta")
+    net.cache_surface(torch.rand(1, 3, 32, 32))
+    assert all(f.device.type == "meta" for f in net._cache["feats"])

@@ -60,8 +60,14 @@ def test_the_one_line_says_which_device(monkeypatch):
 def test_a_4k_frame_is_one_tile_where_the_gpu_has_the_memory(monkeypatch):
     free = {"bytes": 100 * 2 ** 30}
     monkeypatch.setattr(torch.cuda, "mem_get_info", lambda device=None: (free["bytes"], 141 * 2 ** 30))
+    held = {"reserved": 0, "allocated": 0}  # torch's caching allocator: blocks it holds, and those in use
+    monkeypatch.setattr(torch.cuda, "memory_reserved", lambda device=None: held["reserved"])
+    monkeypatch.setattr(torch.cuda, "memory_allocated", lambda device=None: held["allocated"])
     cuda = torch.device("cuda")
     assert compute_device.memory_budget_mb(cuda) == pytest.approx(0.6 * 100 * 1024)
+    held.update(reserved=12 * 2 ** 30, allocated=2 * 2 ** 30)  # 10 GiB cached after PSA: free for the frame too
+    assert compute_device.memory_budget_mb(cuda) == pytest.approx(0.6 * 110 * 1024)
+    held.update(reserved=0, allocated=0)
     assert compute_device.memory_budget_mb(torch.device("cpu")) is None
     assert device_tile(3840, 2160, cuda) == 3840  # an H200's free memory: the whole frame at once
     free["bytes"] = 4 * 2 ** 30  # a card Cycles holds: tiles, as the budget asks

@@ -109,3 +109,26 @@ def test_train_follows_the_recipe_of_the_device_it_is_given(monkeypatch):
     crops.clear()
     pipeline.train_models(cs, save=False, iterations=2, recipe_of=torch.device("cpu"))
     assert crops == [("CompenNeSt", 64), ("PCNet", 64)]
+
+
+def test_a_gpu_machine_whose_torch_has_no_cuda_is_told_not_timed_on_the_cpu():
+    cpu = torch.device("cpu")
+    assert "has no CUDA" in bench_device.gpu_missed("auto", cpu, gpu_present=True)
+    assert "PYTHON=python3" in bench_device.gpu_missed("auto", cpu, gpu_present=True)
+    assert bench_device.gpu_missed("auto", cpu, gpu_present=False) == ""  # no GPU: the CPU is the device
+    assert bench_device.gpu_missed("cpu", cpu, gpu_present=True) == ""  # the CPU asked for
+    with bench_device.full_float32(cpu):  # nothing to change on the CPU
+        pass
+    assert bench_device.warm_up(None, cpu) is False
+
+
+def test_the_parity_runs_switch_tf32_off_and_back():
+    flags = torch.backends.cudnn, torch.backends.cuda.matmul  # torch's settings, also on a CPU build
+    saved = tuple(f.allow_tf32 for f in flags)
+    try:
+        flags[0].allow_tf32, flags[1].allow_tf32 = True, False  # torch's defaults
+        with bench_device.full_float32(torch.device("cuda")):
+            assert not flags[0].allow_tf32 and not flags[1].allow_tf32
+        assert flags[0].allow_tf32 and not flags[1].allow_tf32
+    finally:
+        flags[0].allow_tf32, flags[1].allow_tf32 = saved

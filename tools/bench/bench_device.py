@@ -11,14 +11,15 @@ Measured, in one process:
     iterations, batch 8, 64 px crops; on a GPU the compensation on whole images, finetune.device_recipe; the
     classical fit and the choice by PCNet included, nothing saved), with its phases (train_phases_seconds);
     on a GPU a second Train follows the CPU's recipe (train_seconds_cpu_recipe), and the parity and the looks
-    use its models, so that both devices run the same computation;
+    use its models, so that both devices run the same computation, in full float32 (no TF32); a few untimed
+    iterations warm the GPU up first;
   * gpu_train_seconds_paper_recipe: the paper's recipes (training.PAPER_RECIPES: CompenNeSt 800 iterations on
     8 pairs, PCNet 1500 on all, batch 8, whole 256 x 256 images: the fixture's pairs resized), each network
     from the pretrained weights; --paper-iterations N runs N per network and scales the seconds up (the CPU's
     figure: the whole recipe there takes an hour), which the JSON says;
   * gpu_psa_seconds: PSA per prompt (PSAResult.seconds), and gpu_stylize_seconds: the whole stylize (the look,
     PSA, the compensation, the simulation), the mean over MIXES (explicit style mixes: no text model needed),
-    after one stylize that loads the style net;
+    after one stylize that loads the style net; on a GPU in full float32, as the parity runs (full_float32);
   * gpu_compensate_fps_4k: CompenNeSt's compensation of a 3840 x 2160 frame (native_output.compensate_frame,
     tiled as the device's memory asks), up to the 8-bit frame on the host that a projector window shows;
   * gpu_parity_db: the PSA looks' simulated PSNR (as result.json's) minus the CPU's stored beside the fixture
@@ -30,6 +31,7 @@ Measured, in one process:
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -88,6 +90,51 @@ def time_train(cs, device, iterations: int | None = None, recipe_of=None) -> dic
             "train_phases_seconds": trained["phases"].rounded(),
             "train_choice": {"chosen": choice.chosen, "learned_psnr": choice.learned_psnr,
                              "classical_psnr": choice.classical_psnr}}
+
+
+@contextlib.contextmanager
+def full_float32(device):
+    """The parity's runs on a GPU in full float32: torch lets cuDNN's convolutions take TF32 by default, which
+    rounds to 10 bits of mantissa; over Train's 1,300 iterations and PSA's stop rule that can part the figures
+    from the CPU's by more than the 0.1 dB with no fault in the code path. Restored after (Train's timing and the
+    user's Train keep torch's default)."""
+    import torch
+
+    if device.type != "cuda":
+        yield
+        return
+    saved = torch.backends.cudnn.allow_tf32, torch.backends.cuda.matmul.allow_tf32
+    torch.backends.cudnn.allow_tf32 = torch.backends.cuda.matmul.allow_tf32 = False
+    try:
+        yield
+    finally:
+        torch.backends.cudnn.allow_tf32, torch.backends.cuda.matmul.allow_tf32 = saved
+
+
+def warm_up(cs, device) -> bool:
+    """A few untimed iterations of Train on a GPU first: cuDNN's set-up, the lazy loading of kernels and the
+    choice of an algorithm per convolution shape would otherwise fall inside the first timed Train."""
+    from ...lapig_core.pipeline import train_models
+
+    if device.type == "cpu":
+        return False
+    _sync_time(device, lambda: train_models(cs, save=False, iterations=3, device=device))
+    return True
+
+
+def gpu_missed(device_choice: str, device, gpu_present=None) -> str:
+    """Why a check that was to run on a GPU would run on the CPU ('' when it would not): an NVIDIA GPU is here
+    but the interpreter's torch has no CUDA, and its CPU run would spend the GPU machine's time."""
+    if device_choice != "auto" or device.type != "cpu":
+        return ""
+    from ...lapig_core.common import gpu_torch
+
+    present = gpu_torch.nvidia_gpu_present() if gpu_present is None else gpu_present
+    if not present:
+        return ""
+    return ("an NVIDIA GPU is here, but this Python's torch has no CUDA, so the check would run on the CPU: run "
+            "it with an interpreter whose torch has CUDA (PYTHON=python3 bash tools/device_check.sh), or say "
+            "--device cpu")
 
 
 def train_for_parity(cs, device, iterations: int | None, own: dict) -> dict:
@@ -206,11 +253,16 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
 
     denormals.flush_in_this_thread()  # the add-on's worker threads run torch so (bench_denormals measures both)
     device = compute_device.resolve(device_choice)
+    missed = gpu_missed(device_choice, device)
+    if missed:
+        raise ValueError(missed)
     cs = load_capture_set(fixture)
+    warmed = warm_up(cs, device)
     train = time_train(cs, device, iterations)  # Train's own recipe on this device: its seconds
-    same_recipe = train_for_parity(cs, device, iterations, train)  # the CPU's recipe: the parity's models
+    with full_float32(device):  # the parity's runs: the CPU's recipe, in the CPU's arithmetic
+        same_recipe = train_for_parity(cs, device, iterations, train)
+        looks = time_stylize(cs, same_recipe["trained"], device)
     paper = time_paper_recipe(cs, device, paper_iterations)
-    looks = time_stylize(cs, same_recipe["trained"], device)
     frames = frames if frames is not None else (10 if device.type != "cpu" else 1)
     comp = time_compensate_4k(cs, train["trained"]["CompenNeSt"], device, frames, frame)
     cpu = json.loads(cpu_figures.read_text()) if cpu_figures.is_file() else None
@@ -238,6 +290,8 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
                "quick_run": iterations is not None or tuple(frame) != FRAME_4K,
                "torch": torch.__version__, "torch_threads": torch.get_num_threads(),
                "cudnn_tf32": bool(torch.backends.cudnn.allow_tf32) if device.type == "cuda" else None,
+               "parity_runs_tf32": False if device.type == "cuda" else None,  # full_float32: PSA's seconds too
+               "warmed_up": warmed,
                "cpu_subnormal_cost": subnormal,
                "loadavg_1m": round(os.getloadavg()[0], 2), "check_seconds": round(time.perf_counter() - t0, 1)}
     return summary

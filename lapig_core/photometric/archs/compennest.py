@@ -74,8 +74,9 @@ class CompenNeSt(nn.Module):
         return tuple(p._version for p in self.parameters())
 
     def cache_surface(self, s: torch.Tensor) -> None:
-        """Precompute the surface features for a fixed setup (inference speed-up)."""
-        s = s.detach()
+        """Precompute the surface features for a fixed setup (inference speed-up), where the weights are: a
+        surface still on the CPU beside weights on a GPU (SurfaceModels before its .to) is moved, not refused."""
+        s = s.detach().to(self.conv1.weight.device)
         with torch.no_grad():
             feats = self.encode(s)
         self._cache = {"s": s, "feats": feats, "versions": self._param_versions()}

@@ -33,8 +33,17 @@ def flush_in_this_thread() -> bool:
 SCRUBBED = (torch.float32, torch.float64)  # half precision's 'tiny' (6e-5 in float16) is a real value, not noise
 
 
+# (exponent bits, mantissa bits) of each scrubbed dtype, and the integer type of its width
+_BITS = {torch.float32: (torch.int32, 0x7F800000, 0x007FFFFF),
+         torch.float64: (torch.int64, 0x7FF0000000000000, 0x000FFFFFFFFFFFFF)}
+
+
 def _subnormal(t: torch.Tensor) -> torch.Tensor:
-    return (t != 0) & (t.abs() < torch.finfo(t.dtype).tiny)
+    """Where t is subnormal, read from its bits: a zero exponent and a mantissa that is not. Float comparisons
+    would not do: on a thread with denormals-are-zero (the add-on's workers) a subnormal compares equal to 0."""
+    int_type, exponent, mantissa = _BITS[t.dtype]
+    bits = t.view(int_type)
+    return ((bits & exponent) == 0) & ((bits & mantissa) != 0)
 
 
 def count(tensors) -> int:

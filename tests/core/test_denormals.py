@@ -52,6 +52,33 @@ def test_count_and_scrub_touch_only_the_subnormal_entries():
     assert denormals.count([t]) == 0
 
 
+def test_count_and_scrub_see_subnormals_on_a_thread_that_treats_them_as_zero():
+    """The add-on's workers run with denormals-are-zero, where a subnormal compares equal to 0: a checkpoint loaded
+    there must still come out clean (and bench denormals, run inside the device check, counts them there)."""
+    out = {}
+    # made here, on a thread without the mode (made there, the float32 ones would be flushed as they are converted)
+    t = torch.tensor([0.0, 1e-40, -1e-41, 1.2e-38, 1.0], dtype=torch.float32)
+    d = torch.tensor([0.0, 1e-310, 2.3e-308, 1.0], dtype=torch.float64)  # 2.3e-308: the smallest normal's side
+
+    def run():
+        if not denormals.flush_in_this_thread():
+            out["skip"] = True
+            return
+        out["count"] = denormals.count([t, d])
+        out["scrubbed"] = denormals.scrub([t, d])
+        out["bits"] = t.view(torch.int32).tolist(), d.view(torch.int64).tolist()
+
+    worker = threading.Thread(target=run)
+    worker.start()
+    worker.join()
+    if out.get("skip"):
+        pytest.skip("this CPU has no flush-to-zero mode")
+    assert out["count"] == 3 and out["scrubbed"] == 3
+    floats, doubles = out["bits"]
+    assert floats[1] == floats[2] == 0 and floats[3] != 0 and doubles[1] == 0 and doubles[2] != 0
+    assert float(t[3]) == pytest.approx(1.2e-38) and float(t[4]) == 1.0  # the normal ones untouched
+
+
 def test_flush_mode_covers_the_threads_torch_starts_from_a_fresh_worker():
     if not _underflow_share_in_fresh_thread(False):
         pytest.skip("this CPU flushes subnormals already")

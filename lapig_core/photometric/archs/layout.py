@@ -2,10 +2,9 @@
 
 With NCHW tensors, torch's oneDNN convolutions reorder each layer's input into oneDNN's blocked layout and its
 output back: in a Train step at 64 px crops those reorders took 40 % of oneDNN's time. With NHWC activations they
-read and write the tensors as they are. Measured on 2 cores (BENCHMARKS "Channels-last activations on the CPU"):
-the same figures to float rounding, and a PSA-sized step and a 1080p compensation well under the NCHW time.
-Other devices keep NCHW (not measured there).
-"""
+read and write the tensors as they are. Measured on 2 AMD cores (BENCHMARKS "Channels-last activations on the
+CPU", `bench layout`): the same figures to float rounding, 4 % off Train's step and 7-9 % off PSA and a 1080p
+compensation. Other devices keep NCHW (not measured there)."""
 from __future__ import annotations
 
 import torch

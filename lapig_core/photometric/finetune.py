@@ -64,9 +64,9 @@ def cpu_recipe(arch: str, role: str, iterations: int | None = None, seed: int = 
 
 def device_recipe(arch: str, role: str, iterations: int | None = None, device=None) -> Recipe:
     """Train's recipe on `device`: the CPU recipe, except that on a GPU the compensation fine-tunes on whole images
-    instead of 64 px crops. Rendered on the corner, the bust, the niche and the vase, whole images were 0.41, 0.40,
-    0.32 and 0.26 dB ahead (the bust's chosen compensation 33.91 against 33.51 dB; the niche's 0.06 dB below the
-    classical one it displaced), for 12x the pixels a step: 15-50 minutes on 2 CPU cores,
+    instead of 64 px crops. Rendered on the five realistic setups, whole images were 0.21-0.41 dB ahead (the
+    bust's chosen compensation 33.91 against 33.51 dB; the niche's 0.06 dB below the classical one it displaced),
+    for 12x the pixels a step: 15-50 minutes on 2 CPU cores,
     seconds on a GPU. The paper's own recipe on whole images (8 pairs, its loss) was 2.2 and 3.1 dB behind and
     never chosen (BENCHMARKS, "The recipe a GPU affords")."""
     recipe = cpu_recipe(arch, role, iterations)

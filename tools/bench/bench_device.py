@@ -198,19 +198,28 @@ def time_stylize(cs, trained, device) -> dict:
             "gpu_stylize_seconds": round(statistics.mean(r["stylize_seconds"] for r in rows.values()), 3)}
 
 
-def time_compensate_4k(cs, compennest, device, frames: int, size=FRAME_4K) -> dict:
-    """CompenNeSt's compensation of a 4K frame (`size`), as the native output computes it, to an 8-bit host
-    frame."""
-    import torch
+def frame_inputs(cs, device, size) -> tuple:
+    """A desired image (the white-lit surface, dimmed into range) and the surface, upsampled to size (w, h) on
+    `device`: what a compensation of a frame that large is given."""
     import torch.nn.functional as F
 
-    from ...lapig_core.native_output import compensate_frame, device_tile
     from ...lapig_core.photometric.training_data import to_tensor
 
     width, height = size
     up = lambda a: F.interpolate(to_tensor(a).to(device), size=(height, width), mode="bilinear",  # noqa: E731
                                  align_corners=False)
-    target, s = up(cs.cam_white * 0.8 + 0.1), up(cs.cam_gray)
+    return up(cs.cam_white * 0.8 + 0.1), up(cs.cam_gray)
+
+
+def time_compensate_4k(cs, compennest, device, frames: int, size=FRAME_4K) -> dict:
+    """CompenNeSt's compensation of a 4K frame (`size`), as the native output computes it, to an 8-bit host
+    frame."""
+    import torch
+
+    from ...lapig_core.native_output import compensate_frame, device_tile
+
+    width, height = size
+    target, s = frame_inputs(cs, device, size)
     tile = device_tile(width, height, device)
     compennest.to(device).eval()
 

@@ -78,6 +78,7 @@ def train_models(cs: CaptureSet, on_progress=None, cancel_event=None, save=True,
     out["seconds"] = time.perf_counter() - t0
     out["steps_seconds"] = {arch: result.seconds for arch, (_, result) in trained.items()}  # the iterations alone
     out["phases"] = phases
+    out["threads"] = {arch: result.threads for arch, (_, result) in trained.items() if result.threads}  # the CPU's
     out["device"] = compute_device.describe(device)
     return out
 

@@ -81,7 +81,7 @@ def cmd_demo(args) -> int:
                "rendered_psnr_native": round(m.get("rendered_psnr_native", float("nan")), 3),
                "registration_error_px_median": meta["registration"].get("registration_error_px_median"),
                "train_device": trained["device"], "device": generated["summary"].get("device"), **timings,
-               "train_phases_s": trained["phases"].rounded()}
+               "train_phases_s": trained["phases"].rounded(), "train_threads": trained.get("threads", {})}
     print(f"Look at {sheet_path} and {summary['contact_sheet']}; open {blend_path} in Blender")
     print_json(summary)
     return 0
@@ -174,7 +174,7 @@ def cmd_train(args) -> int:
                          device=args.device).run_to_completion(on_progress=headless.print_progress)
     _save_if_asked(args)
     print_json({"capture": out["folder"], "train_s": round(out["seconds"], 2), "compensation": out["choice"],
-                "device": out["device"], "phases_s": out["phases"].rounded()})
+                "device": out["device"], "phases_s": out["phases"].rounded(), "threads": out.get("threads", {})})
     return 0
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 
 import torch
@@ -16,6 +17,7 @@ from . import losses
 from ..common import denormals, metrics
 from ..common.adam import Adam
 from ..common.compute_device import module_device, moved
+from ..common.thread_tuner import ThreadTuner
 from .training_data import PairSet
 
 
@@ -110,6 +112,7 @@ class TrainResult:
     history: list = field(default_factory=list)  # dicts: iteration, loss, [val psnr/rmse/ssim]
     nan_recoveries: int = 0
     cancelled: bool = False
+    threads: dict | None = None  # on the CPU: the thread counts the steps ran with (common/thread_tuner)
 
     @property
     def final(self) -> dict:
@@ -119,10 +122,12 @@ class TrainResult:
 class Trainer:
     def __init__(self, model, pairs: PairSet, recipe: Recipe, val_pairs: PairSet | None = None,
                  eval_every: int = 100, report_every: int = 10, cancel_event=None, max_nan_recoveries=3,
-                 camera_loss: losses.CameraSpaceLoss | None = None, device=None):
+                 camera_loss: losses.CameraSpaceLoss | None = None, device=None, tune_threads: bool = True):
         """camera_loss: the setup's camera-space loss, needed when the recipe's schedule names CAMERA_LOSS.
         device: where to train (None: where the model and the pairs are, the CPU); the model is moved there
-        and stays, the pairs and the loss are copied there once."""
+        and stays, the pairs and the loss are copied there once.
+        tune_threads: on the CPU, time the steps and keep the faster torch thread count (common/thread_tuner);
+        False keeps the count as it is (benchmarks that compare something else at a fixed count)."""
         if len(pairs) == 0:
             raise TrainingError("no training pairs")
         h, w = pairs.x.shape[-2:]
@@ -150,6 +155,7 @@ class Trainer:
         self.model, self.pairs, self.recipe, self.val_pairs = model, pairs, recipe, val_pairs
         self.eval_every, self.report_every = eval_every, report_every
         self.cancel_event, self.max_nan_recoveries = cancel_event, max_nan_recoveries
+        self.tune_threads = tune_threads
         self.result = TrainResult()
 
     def _sample(self, gen: torch.Generator):
@@ -182,6 +188,19 @@ class Trainer:
         if on_cpu:  # subnormal weights and moments slow some CPUs several times (common/denormals)
             denormals.scrub_module(self.model)
         good_state = copy.deepcopy(self.model.state_dict())
+        tuner = ThreadTuner() if on_cpu and self.tune_threads else None
+        try:
+            yield from self._loop(opt, gen, good_state, on_cpu, tuner)
+        finally:  # a cancel closes the generator: the worker thread gets its thread count back all the same
+            if tuner is not None:
+                tuner.restore()
+                res.threads = tuner.summary()
+        if on_cpu:
+            denormals.scrub_module(self.model)  # what is saved and used next is clean
+        self.model.eval()
+
+    def _loop(self, opt, gen, good_state, on_cpu: bool, tuner):
+        r, res = self.recipe, self.result
         t0 = time.perf_counter()
         eval_time = 0.0  # validation is bookkeeping: train_seconds leaves it out
         running = None
@@ -194,15 +213,18 @@ class Trainer:
             for group in opt.param_groups:
                 group["lr"] = lr
             self.model.train()
-            x, s, y, crop = self._sample(gen)
-            pred = apply_model(self.model, x, s, self._y_min, self._y_max)
-            loss = self._loss(r.loss_at(it), pred, y, crop)
-            if not torch.isfinite(loss):
+            with tuner.step() if tuner is not None else nullcontext():  # the step alone: no report, no yield
+                x, s, y, crop = self._sample(gen)
+                pred = apply_model(self.model, x, s, self._y_min, self._y_max)
+                loss = self._loss(r.loss_at(it), pred, y, crop)
+                finite = bool(torch.isfinite(loss))
+                if finite:
+                    opt.zero_grad(set_to_none=True)
+                    loss.backward()
+                    opt.step()
+            if not finite:
                 self._recover(opt, good_state, it)
                 continue
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
             it += 1
             value = float(loss.detach())
             running = value if running is None else 0.9 * running + 0.1 * value
@@ -226,9 +248,6 @@ class Trainer:
         if self._cancelled():  # asked during the last report (a job paused there): no loop top checks it
             res.cancelled = True
         res.iterations, res.seconds = it, time.perf_counter() - t0 - eval_time
-        if on_cpu:
-            denormals.scrub_module(self.model)  # what is saved and used next is clean
-        self.model.eval()
 
     def _recover(self, opt, good_state, it):
         """A NaN/inf loss: go back to the last good weights with half the learning rate."""

@@ -48,7 +48,8 @@ def test_training_lowers_loss_and_is_deterministic(capture_set, arch, role):
     for _ in range(2):
         model = checkpoints.new_model(arch, seed=3)
         before = evaluate_pairs(model, pairs)["psnr"]
-        result = Trainer(model, pairs, Recipe(30, batch_size=4, seed=1), report_every=10).run()
+        # at one thread count: the count changes float rounding, and the tuner's choice follows the machine's load
+        result = Trainer(model, pairs, Recipe(30, batch_size=4, seed=1), report_every=10, tune_threads=False).run()
         runs.append((before, evaluate_pairs(model, pairs)["psnr"], result.history[-1]["loss"]))
     assert runs[0] == runs[1]  # same seed, same numbers
     assert runs[0][1] > runs[0][0] + 1.0
@@ -83,6 +84,34 @@ def test_a_cancel_during_the_last_report_is_a_cancel(capture_set):
     model = checkpoints.new_model("PCNet")
     result = Trainer(model, pairs, _recipe(4, crop=16), report_every=2, cancel_event=cancel).run(on_progress)
     assert result.cancelled
+
+
+def test_cpu_training_times_its_steps_to_choose_threads_and_gives_the_count_back(capture_set):
+    """On the CPU the steps run under a ThreadTuner: the result says at which counts they ran, and the worker's
+    thread count is as before afterwards, a cancel included."""
+    pairs = pairs_from_capture_sets([capture_set], "simulation")
+    cancel = threading.Event()
+    results, seen = [], []
+
+    def worker():
+        before = torch.get_num_threads()
+        results.append(Trainer(checkpoints.new_model("PCNet"), pairs, _recipe(12, crop=16)).run())
+        # cancelled in the first trial (steps 5-7), where the tuner has set a count of its own
+        results.append(Trainer(checkpoints.new_model("PCNet"), pairs, _recipe(40, crop=16), report_every=1,
+                               cancel_event=cancel).run(lambda p, m: cancel.set() if p >= 6 / 40 else None))
+        results.append(Trainer(checkpoints.new_model("PCNet"), pairs, _recipe(6, crop=16), tune_threads=False).run())
+        seen.append((before, torch.get_num_threads()))
+
+    thread = threading.Thread(target=worker)
+    thread.start()
+    thread.join()
+    full, cancelled, fixed = results
+    assert seen[0][0] == seen[0][1]
+    assert sum(full.threads["steps_at"].values()) == 12 and full.threads["start"] == seen[0][0]
+    assert cancelled.cancelled and sum(cancelled.threads["steps_at"].values()) == 6
+    if seen[0][0] > 1:
+        assert cancelled.threads["trials"] == 0 and "1" in cancelled.threads["steps_at"]  # stopped mid-trial
+    assert fixed.threads is None
 
 
 def test_nan_guard_recovers_then_gives_up(capture_set):

@@ -88,7 +88,7 @@ def time_train(cs, device, iterations: int | None = None, recipe_of=None) -> dic
     choice = trained["choice"]
     return {"trained": trained, "gpu_train_seconds": round(seconds, 2),
             "train_steps_seconds": {k: round(v, 2) for k, v in trained["steps_seconds"].items()},
-            "train_phases_seconds": trained["phases"].rounded(),
+            "train_phases_seconds": trained["phases"].rounded(), "train_threads": trained.get("threads", {}),
             "train_choice": {"chosen": choice.chosen, "learned_psnr": choice.learned_psnr,
                              "classical_psnr": choice.classical_psnr}}
 

@@ -61,7 +61,7 @@ def time_train(cs, classical, arch: str, role: str) -> dict:
     for name in LAYOUTS:
         use_layout(name)
         steps[name] = Trainer(copy.deepcopy(start), pairs, recipe, camera_loss=camera, report_every=1,
-                              eval_every=10**9).steps()
+                              eval_every=10**9, tune_threads=False).steps()  # both layouts at the same count
         next(steps[name])  # warm-up: first-touch pages, kernel selection
     times = {name: [] for name in LAYOUTS}
     for order in rounds(TRAIN_ROUNDS):

@@ -81,7 +81,8 @@ def time_network(cs, classical, arch: str, role: str, iterations: int) -> dict:
     pairs = pairs_from_capture_sets([cs], role)
     recipe = cpu_recipe(arch, role, max(iterations * 4, 100))  # the loss of the recipe's start; lr steps unreached
     camera = camera_space_loss(cs, classical) if recipe.needs_camera_loss else None
-    trainer = Trainer(start_model(arch, role), pairs, recipe, camera_loss=camera, report_every=1, eval_every=10**9)
+    trainer = Trainer(start_model(arch, role), pairs, recipe, camera_loss=camera, report_every=1, eval_every=10**9,
+                      tune_threads=False)  # the app's loop against a bare step, both at the same thread count
     app_steps = trainer.steps()
     bare = _bare_step(start_model(arch, role), pairs, recipe.crop)
     next(app_steps), bare()  # warm-up: first-touch pages, kernel selection

@@ -1,0 +1,114 @@
+"""ThreadTuner: the torch thread count for Train's steps, chosen by timing them (fake clock and thread setter)."""
+import threading
+
+import pytest
+import torch
+
+from lapig.lapig_core.common.thread_tuner import ThreadTuner, busy_note
+
+
+class FakeMachine:
+    """A step's seconds by thread count, changed by the test as 'other work' comes and goes."""
+
+    def __init__(self, seconds_at: dict, start: int = 2):
+        self.seconds_at, self.threads, self.now, self.sets = dict(seconds_at), start, 0.0, []
+
+    def set_threads(self, n):
+        self.threads = n
+        self.sets.append(n)
+
+    def tuner(self, **kw):
+        return ThreadTuner(set_threads=self.set_threads, get_threads=lambda: self.threads, clock=lambda: self.now, **kw)
+
+    def run(self, tuner, steps: int) -> list[int]:
+        counts = []
+        for _ in range(steps):
+            with tuner.step():
+                counts.append(self.threads)  # the count this step runs at
+                self.now += self.seconds_at[self.threads]
+        return counts
+
+
+def test_an_idle_machine_keeps_all_its_threads_and_tries_one_ever_more_rarely():
+    machine = FakeMachine({2: 0.100, 1: 0.170})
+    tuner = machine.tuner()
+    counts = machine.run(tuner, 1300)  # a CPU Train's CompenNeSt and PCNet, 1000 + 300
+    assert tuner.current == 2 and tuner.switches == 0
+    # trials after 4, 50, 100, 200, 400, 400 steps: 6 trials of 3 steps at one thread
+    assert tuner.trials == 6 and counts.count(1) == 18
+    extra = sum(machine.seconds_at[c] for c in counts) / (1300 * 0.100) - 1
+    assert extra < 0.01  # under 1 % of Train for the trials
+    assert all(h["kept"] == 2 and h["tried"] == 1 for h in tuner.history)
+    tuner.restore()
+    assert machine.threads == 2
+
+
+def test_other_work_on_the_cores_moves_the_steps_to_one_thread_and_back_when_it_ends():
+    machine = FakeMachine({2: 0.400, 1: 0.170})  # a second process's Train holds the other core
+    tuner = machine.tuner()
+    counts = machine.run(tuner, 20)
+    assert tuner.current == 1 and tuner.switches == 1
+    assert counts[:4] == [2] * 4 and counts[7:] == [1] * 13  # 4 steps, 3 on trial, then one thread
+    machine.seconds_at = {2: 0.100, 1: 0.170}  # the other work ended
+    counts = machine.run(tuner, 60)
+    assert tuner.current == 2 and tuner.switches == 2
+    assert counts[-10:] == [2] * 10
+    summary = tuner.summary()
+    assert summary["start"] == 2 and summary["end"] == 2 and summary["switches"] == 2
+    assert set(summary["steps_at"]) == {"1", "2"} and sum(summary["steps_at"].values()) == 80
+    assert summary["ms_per_step_at"]["1"] == 170.0
+
+
+def test_a_small_difference_is_not_a_reason_to_switch():
+    machine = FakeMachine({2: 0.100, 1: 0.095})  # 5 %: inside the wander of step times
+    tuner = machine.tuner()
+    machine.run(tuner, 300)
+    assert tuner.current == 2 and tuner.switches == 0 and tuner.trials >= 3
+
+
+def test_restore_in_the_middle_of_a_trial_gives_the_starting_count_back():
+    machine = FakeMachine({2: 0.100, 1: 0.170})
+    tuner = machine.tuner()
+    machine.run(tuner, 5)  # the 5th step ran on trial at one thread
+    assert tuner.running_count == 1 and machine.threads == 1
+    tuner.restore()
+    assert machine.threads == 2
+
+
+def test_one_count_to_choose_from_only_times_the_steps():
+    machine = FakeMachine({1: 0.2}, start=1)
+    tuner = machine.tuner()
+    assert not tuner.active
+    machine.run(tuner, 100)
+    tuner.restore()
+    assert machine.sets == [] and tuner.summary()["steps_at"] == {"1": 100}
+
+
+def test_busy_note_speaks_only_when_most_steps_ran_on_fewer_threads():
+    idle = {"CompenNeSt": {"start": 2, "steps_at": {"1": 18, "2": 982}}}
+    busy = {"CompenNeSt": {"start": 2, "steps_at": {"1": 900, "2": 100}},
+            "PCNet": {"start": 2, "steps_at": {"1": 300}}}
+    assert busy_note(idle) == "" and busy_note({}) == ""
+    assert busy_note(busy) == " (92 % of the steps on fewer threads: other work held the cores)"
+
+
+def test_the_count_set_on_a_worker_thread_is_that_threads_alone():
+    """torch under OpenMP: a worker's set_num_threads does not change the main thread's count (the add-on's
+    Train runs on a worker beside Blender's main thread)."""
+    if torch.get_num_threads() < 2:
+        pytest.skip("one CPU thread: nothing to choose between")
+    before = torch.get_num_threads()
+    seen = {}
+
+    def worker():
+        tuner = ThreadTuner()
+        torch.set_num_threads(1)
+        seen["worker"] = torch.get_num_threads()
+        tuner.restore()
+        seen["after"] = torch.get_num_threads()
+
+    thread = threading.Thread(target=worker)
+    thread.start()
+    thread.join()
+    assert seen == {"worker": 1, "after": before}
+    assert torch.get_num_threads() == before

@@ -22,7 +22,7 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device",
               "show": "show", "show-live": "show_live", "video": "video", "multi": "multi",
               "multi-live": "multi_live", "show-multi": "show_multi",
-              "denormals": "denormals", "layout": "layout"}
+              "denormals": "denormals", "layout": "layout", "threads": "threads"}
 
 
 def _ensure_registered():
@@ -155,8 +155,8 @@ def add_parsers(sub):
                             "(the paper's recipe, whole images, 8 pairs), app_whole (the app's, whole images)")
     bench.add_argument("--repeats", type=int, default=3, help="classical-fit: fits per path (default 3)")
     bench.add_argument("--capture", default=None,
-                       help="train-step, classical-fit, layout: the captured setup whose pairs Train fine-tunes on (e.g. the "
-                            "demo's; layout: default the device check's fixture)")
+                       help="train-step, classical-fit, layout, threads: the captured setup whose pairs Train fine-tunes on "
+                            "(e.g. the demo's; layout, threads: default the device check's fixture)")
     bench.add_argument("--weights", default=None,
                        help="models, transport: folder of the pretrained weights the fine-tunes start from "
                             "(default: the shipped lapig_core/photometric/weights)")

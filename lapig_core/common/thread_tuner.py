@@ -6,7 +6,9 @@ threads wait for each other at every operation's barrier while one of them is de
 2-4x what one thread's step costs then (BENCHMARKS, "Train beside other work"). Which count is faster depends on
 what else runs, and that changes while Train runs, so it is measured, not guessed: every so often a few steps run
 with the other count, and the faster count is kept. The trial steps are real training steps; only their speed
-differs. On an idle machine the trials lose, and each losing trial doubles the wait before the next one.
+differs. On an idle machine the trials lose, and each losing trial doubles the wait before the next one. When the
+steps' time moves by more than CHANGE from what the last trial saw (other work started or ended), the next trial
+comes at once: a Train that ran alone for minutes answers a second Train within a few steps.
 
 torch.set_num_threads under OpenMP applies to the calling thread's parallel regions: the tuner is driven from
 the thread that runs the steps, and restore() gives that thread its count back.
@@ -22,6 +24,9 @@ TRIAL_STEPS = 3  # the median of 3 steps at each count is compared
 MARGIN = 0.10  # the other count must be this much faster to be taken: step times wander a few percent
 PERIOD = 50  # steps between trials after a switch
 MAX_PERIOD = 400  # the longest wait between trials, after trials that lost
+MAX_PERIOD_BELOW_START = 200  # the same on fewer threads than at the start: a second Train that ends does not
+                              # change a one-thread step's time, so only a trial finds the cores free again
+CHANGE = 0.3  # a step time this much above or below the last trial's: the machine's load changed, try again now
 
 
 class ThreadTuner:
@@ -33,7 +38,7 @@ class ThreadTuner:
 
     def __init__(self, counts=None, set_threads=None, get_threads=None, clock=time.perf_counter,
                  first_trial_after=FIRST_TRIAL_AFTER, trial_steps=TRIAL_STEPS, margin=MARGIN,
-                 period=PERIOD, max_period=MAX_PERIOD):
+                 period=PERIOD, max_period=MAX_PERIOD, change=CHANGE):
         if set_threads is None or get_threads is None:
             import torch
 
@@ -48,7 +53,8 @@ class ThreadTuner:
             self.counts = (self.start_count,) + self.counts
         self.current = self.start_count
         self.trial_steps, self.margin = trial_steps, margin
-        self.base_period, self.max_period = period, max_period
+        self.base_period, self.max_period, self.change = period, max_period, change
+        self._reference: float | None = None  # the kept count's median step at the last trial
         self._period = first_trial_after
         self._since_trial = 0
         self._recent: list[float] = []  # the last trial_steps step times at self.current
@@ -87,12 +93,20 @@ class ThreadTuner:
             return
         self._recent = (self._recent + [seconds])[-self.trial_steps:]
         self._since_trial += 1
-        if self._since_trial >= self._period and len(self._recent) >= self.trial_steps:
+        if len(self._recent) < self.trial_steps:
+            return
+        if self._since_trial >= self._period or self._load_changed():
             others = [c for c in self.counts if c != self.current]
             self._trial = others[self._next_trial % len(others)]
             self._next_trial += 1
             self._trial_times = []
             self._set(self._trial)
+
+    def _load_changed(self) -> bool:
+        if self._reference is None:
+            return False
+        ratio = statistics.median(self._recent) / self._reference
+        return ratio > 1 + self.change or ratio < 1 / (1 + self.change)
 
     def _decide(self):
         here, there = statistics.median(self._recent), statistics.median(self._trial_times)
@@ -101,13 +115,16 @@ class ThreadTuner:
         self.history.append({"kept": self._trial if won else self.current, "tried": self._trial,
                              "ms_at_current": round(1000 * here, 1), "ms_tried": round(1000 * there, 1),
                              "current": self.current})
+        self._reference = there if won else here
         if won:
             self.current, self._recent = self._trial, list(self._trial_times)
             self.switches += 1
             self._period = self.base_period
         else:
             self._set(self.current)
-            self._period = min(max(self._period * 2, self.base_period), self.max_period)
+            longest = self.max_period if self.current == self.start_count else min(self.max_period,
+                                                                                    MAX_PERIOD_BELOW_START)
+            self._period = min(max(self._period * 2, self.base_period), longest)
         self._trial, self._trial_times, self._since_trial = None, [], 0
 
     def restore(self):

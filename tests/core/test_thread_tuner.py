@@ -59,6 +59,26 @@ def test_other_work_on_the_cores_moves_the_steps_to_one_thread_and_back_when_it_
     assert summary["ms_per_step_at"]["1"] == 170.0
 
 
+def test_a_second_train_after_a_long_idle_run_is_answered_within_steps_not_hundreds():
+    """A Train alone for 1000 steps waits 400 steps between trials; when a second Train starts (both slow to
+    0.356 s a step at two threads, 0.145 s at one, as measured on two cores), its step time jumps and the next
+    trial comes at once."""
+    machine = FakeMachine({2: 0.079, 1: 0.143})
+    tuner = machine.tuner()
+    machine.run(tuner, 1000)
+    trials_alone = tuner.trials
+    machine.seconds_at = {2: 0.356, 1: 0.145}
+    counts = machine.run(tuner, 20)
+    assert tuner.current == 1 and counts[-10:] == [1] * 10
+    assert tuner.trials == trials_alone + 1
+    # the other Train ended: a step at one thread takes as long as before, so a periodic trial finds it, and on
+    # fewer threads than at the start those come at least every 200 steps
+    machine.run(tuner, 600)
+    machine.seconds_at = {2: 0.079, 1: 0.143}
+    counts = machine.run(tuner, 210)
+    assert tuner.current == 2 and counts[-5:] == [2] * 5
+
+
 def test_a_small_difference_is_not_a_reason_to_switch():
     machine = FakeMachine({2: 0.100, 1: 0.095})  # 5 %: inside the wander of step times
     tuner = machine.tuner()

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from ...lapig_core.common import compute_device, metrics, thread_tuner
+from ...lapig_core.common import compute_device, metrics
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
                                            resolve_setup, setup_dir_of)
@@ -179,8 +179,7 @@ class TrainModelsJob(WorkerJob):
     def _models_line(out, chosen) -> str:
         """The models step's line: how long, the choice, and what it means for the capture's first look."""
         on = f" on {out['trained_on']}" if out.get("trained_on") else ""
-        busy = thread_tuner.busy_note(out.get("threads") or {})
-        line = f"Fine-tuned in {out['seconds']:.0f} s{on}{busy}; {out['choice']}"
+        line = f"Fine-tuned in {out['seconds']:.0f} s{on}; {out['choice']}"
         note = first_look.after_train_note(chosen) if out.get("had_first_look") else ""
         return f"{line}; {note}" if note else line
 

@@ -6,7 +6,8 @@ threads wait for each other at every operation's barrier while one of them is de
 2-4x what one thread's step costs then (BENCHMARKS, "Train beside other work"). Which count is faster depends on
 what else runs, and that changes while Train runs, so it is measured, not guessed: every so often a few steps run
 with the other count, and the faster count is kept. The trial steps are real training steps; only their speed
-differs. On an idle machine the trials lose, and each losing trial doubles the wait before the next one. When the
+differs. On an idle machine the trials lose, and each losing trial doubles the wait before the next one (a Train of
+1300 steps on two cores runs 15 of them on one thread, about 1 % of its time). When the
 steps' time moves by more than CHANGE from what the last trial saw (other work started or ended), the next trial
 comes at once: a Train that ran alone for minutes answers a second Train within a few steps.
 
@@ -22,21 +23,23 @@ from contextlib import contextmanager
 FIRST_TRIAL_AFTER = 4  # steps: the first comparison comes early, while most of Train is still ahead
 TRIAL_STEPS = 3  # the median of 3 steps at each count is compared
 MARGIN = 0.10  # the other count must be this much faster to be taken: step times wander a few percent
-PERIOD = 50  # steps between trials after a switch
-MAX_PERIOD = 400  # the longest wait between trials, after trials that lost
-MAX_PERIOD_BELOW_START = 200  # the same on fewer threads than at the start: a second Train that ends does not
-                              # change a one-thread step's time, so only a trial finds the cores free again
+PERIOD = 50  # steps between trials after a switch; each trial that loses doubles it
+MAX_PERIOD = 1600  # the longest wait at the starting count: other work that starts slows the steps, and that
+                   # brings a trial at once (CHANGE), so trials by the clock matter little there
+MAX_PERIOD_BELOW_START = 200  # the longest wait on fewer threads: a second Train that ends does not change a
+                              # one-thread step's time, so only a trial finds the cores free again
 CHANGE = 0.3  # a step time this much above or below the last trial's: the machine's load changed, try again now
 
 
 class ThreadTuner:
     """Use as `with tuner.step(): <one step>` around each step of a loop, and restore() when the loop ends.
 
-    counts: the thread counts to choose between (default: the current count and 1); with one count there is
-    nothing to choose and the tuner only times. set_threads, get_threads, clock: torch's and time's (tests
-    give fakes)."""
+    A trial tries half the count in use, or twice it (never above the starting count), in turn: on two cores
+    that is 2 against 1; on sixteen, 16 against 8 first, so that a trial on an idle machine costs little.
+    A starting count of 1 leaves nothing to choose: the tuner only times. set_threads, get_threads, clock:
+    torch's and time's (tests give fakes)."""
 
-    def __init__(self, counts=None, set_threads=None, get_threads=None, clock=time.perf_counter,
+    def __init__(self, set_threads=None, get_threads=None, clock=time.perf_counter,
                  first_trial_after=FIRST_TRIAL_AFTER, trial_steps=TRIAL_STEPS, margin=MARGIN,
                  period=PERIOD, max_period=MAX_PERIOD, change=CHANGE):
         if set_threads is None or get_threads is None:
@@ -45,12 +48,7 @@ class ThreadTuner:
             set_threads = set_threads or torch.set_num_threads
             get_threads = get_threads or torch.get_num_threads
         self._set, self._clock = set_threads, clock
-        self.start_count = int(get_threads())
-        if counts is None:
-            counts = (self.start_count, 1)
-        self.counts = tuple(dict.fromkeys(int(c) for c in counts if int(c) >= 1))  # in order, once each
-        if self.start_count not in self.counts:
-            self.counts = (self.start_count,) + self.counts
+        self.start_count = max(1, int(get_threads()))
         self.current = self.start_count
         self.trial_steps, self.margin = trial_steps, margin
         self.base_period, self.max_period, self.change = period, max_period, change
@@ -60,7 +58,7 @@ class ThreadTuner:
         self._recent: list[float] = []  # the last trial_steps step times at self.current
         self._trial: int | None = None  # the count on trial, while one is
         self._trial_times: list[float] = []
-        self._next_trial = 0  # which other count is tried next, round robin
+        self._next_trial = 0  # which neighbour is tried next, in turn
         self.trials = self.switches = 0
         self.steps_at: dict[int, int] = {}
         self.seconds_at: dict[int, float] = {}
@@ -68,7 +66,11 @@ class ThreadTuner:
 
     @property
     def active(self) -> bool:
-        return len(self.counts) > 1
+        return self.start_count > 1
+
+    def _neighbours(self) -> list[int]:
+        return [c for c in dict.fromkeys((self.current // 2, min(self.current * 2, self.start_count)))
+                if 1 <= c != self.current]
 
     @property
     def running_count(self) -> int:
@@ -96,7 +98,7 @@ class ThreadTuner:
         if len(self._recent) < self.trial_steps:
             return
         if self._since_trial >= self._period or self._load_changed():
-            others = [c for c in self.counts if c != self.current]
+            others = self._neighbours()
             self._trial = others[self._next_trial % len(others)]
             self._next_trial += 1
             self._trial_times = []
@@ -139,15 +141,3 @@ class ThreadTuner:
                 "ms_per_step_at": {str(c): round(1000 * self.seconds_at[c] / n, 1)
                                    for c, n in sorted(self.steps_at.items()) if n}}
 
-
-def busy_note(threads: dict) -> str:
-    """', N % of the steps on fewer threads: other work held the cores' for Train's line, from each network's
-    summary(); '' when the steps ran at their starting count."""
-    fewer = total = 0
-    for summary in threads.values():
-        for count, n in summary.get("steps_at", {}).items():
-            total += n
-            fewer += n if int(count) < summary.get("start", 0) else 0
-    if not total or fewer / total < 0.25:  # the trials alone: nothing worth a word
-        return ""
-    return f" ({round(100 * fewer / total)} % of the steps on fewer threads: other work held the cores)"

@@ -136,3 +136,27 @@ def test_the_count_set_on_a_worker_thread_is_that_threads_alone():
     thread.join()
     assert seen == {"worker": 1, "after": before}
     assert torch.get_num_threads() == before
+
+
+@pytest.mark.torch
+def test_bench_threads_runs_train_beside_a_second_train_and_counts_its_steps():
+    """The benchmark's parts on the device check's fixture: Train's iterations on a worker, a second Train in its
+    own process counted through its file, the tuner's summary kept."""
+    from lapig.tools.bench import bench_threads
+    from lapig.tools.bench.device_fixture import FIXTURE
+
+    make = bench_threads.trainer_factory(str(FIXTURE / "setups" / "device_check"))
+    made = []
+
+    def trainer_of(tuned):
+        made.append(make(tuned, 8))
+        return made[-1]
+
+    idle = bench_threads.run_train(trainer_of, 6, tuned=False)
+    beside = bench_threads.run_train(trainer_of, 6, tuned=True, beside="train",
+                                     capture=str(FIXTURE / "setups" / "device_check"))
+    assert idle["s_per_iteration"] > 0 and "other_steps_per_s" not in idle
+    assert beside["other_steps_per_s"] > 0
+    assert made[0].result.threads is None and sum(made[1].result.threads["steps_at"].values()) == 7
+    figures = bench_threads._compare({"fixed": [idle], "tuned": [idle]}, [made[1].result.threads])
+    assert figures["tuned_over_fixed"] == 1.0 and figures["tuner"] == [made[1].result.threads]

@@ -131,7 +131,7 @@ class ThreadTuner:
 
     def restore(self):
         """Give the calling thread the count it had when the tuner was made."""
-        if self.active or self.running_count != self.start_count:
+        if self.active:  # an inactive tuner never set a count
             self._set(self.start_count)
 
     def summary(self) -> dict:

@@ -26,7 +26,8 @@ def test_a_failing_measurement_is_a_message_not_an_exception(monkeypatch):
     def broken(*a, **k):
         return subprocess.CompletedProcess(a, 1, stdout="", stderr="Traceback...\nImportError: no torch\n")
     monkeypatch.setattr(machine_figure.subprocess, "run", broken)
-    assert machine_figure.machine_speed() == {"torch_step_s": None, "machine_speed_error": "ImportError: no torch"}
+    out = machine_figure.machine_speed()
+    assert out["torch_step_s"] is None and out["machine_speed_error"] == "ImportError: no torch"
 
 
 def test_the_measurement_prints_one_json_line_with_the_step():
@@ -34,3 +35,34 @@ def test_the_measurement_prints_one_json_line_with_the_step():
     figures = json.loads(done.stdout.strip().splitlines()[-1])
     assert figures["torch_step_s"] is None or figures["torch_step_s"] > 0
     assert figures["numpy_matmul_s"] > 0
+
+
+def _fake_cpus(root, cores):
+    """sysfs' cpu folders for logical CPUs on (package, core) pairs, and a cpuinfo."""
+    for i, (package, core) in enumerate(cores):
+        topology = root / "cpu" / f"cpu{i}" / "topology"
+        topology.mkdir(parents=True)
+        (topology / "core_id").write_text(f"{core}\n")
+        (topology / "physical_package_id").write_text(f"{package}\n")
+    (root / "cpu" / "cpufreq").mkdir()  # not a CPU: left out
+    info = root / "cpuinfo"
+    info.write_text("".join(f"processor\t: {i}\nmodel name\t: Intel(R) Xeon(R) Platinum 8375C CPU @ 2.90GHz\n\n"
+                            for i in range(len(cores))))
+    return str(root / "cpu"), str(info)
+
+
+def test_the_topology_says_when_two_cpus_are_one_cores_two_hyperthreads(tmp_path):
+    one_core = machine_figure.cpu_topology(*_fake_cpus(tmp_path / "a", [(0, 0), (0, 0)]))
+    assert one_core == {"logical_cpus": 2, "physical_cores": 1, "threads_per_core": 2.0,
+                        "model": "Intel(R) Xeon(R) Platinum 8375C CPU @ 2.90GHz"}
+    two_cores = machine_figure.cpu_topology(*_fake_cpus(tmp_path / "b", [(0, 0), (0, 1)]))
+    assert two_cores["physical_cores"] == 2 and two_cores["threads_per_core"] == 1.0
+    assert machine_figure.cpu_topology(str(tmp_path / "none"), str(tmp_path / "none")) == {}
+
+
+def test_this_machines_topology_travels_with_the_speed(monkeypatch):
+    def fine(*a, **k):
+        return subprocess.CompletedProcess(a, 0, stdout='{"torch_step_s": 0.1}\n', stderr="")
+    monkeypatch.setattr(machine_figure.subprocess, "run", fine)
+    out = machine_figure.machine_speed()
+    assert out["torch_step_s"] == 0.1 and out["topology"] == machine_figure.cpu_topology()

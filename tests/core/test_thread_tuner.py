@@ -2,7 +2,6 @@
 import threading
 
 import pytest
-import torch
 
 from lapig.lapig_core.common.thread_tuner import ThreadTuner
 
@@ -116,9 +115,11 @@ def test_one_count_to_choose_from_only_times_the_steps():
     assert machine.sets == [] and tuner.summary()["steps_at"] == {"1": 100}
 
 
+@pytest.mark.torch
 def test_the_count_set_on_a_worker_thread_is_that_threads_alone():
     """torch under OpenMP: a worker's set_num_threads does not change the main thread's count (the add-on's
     Train runs on a worker beside Blender's main thread)."""
+    torch = pytest.importorskip("torch")
     if torch.get_num_threads() < 2:
         pytest.skip("one CPU thread: nothing to choose between")
     before = torch.get_num_threads()

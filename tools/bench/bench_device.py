@@ -285,6 +285,8 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
     frames = frames if frames is not None else (10 if device.type != "cpu" else 1)
     comp = time_compensate_4k(cs, train["trained"]["CompenNeSt"], device, frames, frame)
     cpu = json.loads(cpu_figures.read_text()) if cpu_figures.is_file() else None
+    from .machine_figure import cpu_topology
+
     subnormal = None
     if denormals_too:  # the host's CPU, whatever the device: what subnormal weights cost its Train (bench denormals)
         from .bench_denormals import measure
@@ -312,6 +314,7 @@ def check(device_choice: str = "auto", paper_iterations: int | None = None, fram
                "parity_runs_tf32": False if device.type == "cuda" else None,  # full_float32: PSA's seconds too
                "warmed_up": warmed,
                "cpu_subnormal_cost": subnormal,
+               "host_cpu": cpu_topology(),  # two vCPUs may be one core's hyperthreads: Train's threads gain little
                "loadavg_1m": round(os.getloadavg()[0], 2), "check_seconds": round(time.perf_counter() - t0, 1)}
     return summary
 

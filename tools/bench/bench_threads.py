@@ -23,6 +23,7 @@ import sys
 import tempfile
 import threading
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 import torch
@@ -96,7 +97,8 @@ def _cycles_scene():
 
 def run_train(trainer_of, iterations: int, tuned: bool, beside=None, capture: str = "") -> dict:
     """Train's iterations on a worker thread; the main thread polls, or renders Cycles when beside == 'cycles'.
-    Returns seconds per iteration, the tuner's summary, and the other party's work per second."""
+    Returns seconds per iteration and the other party's work per second (the tuner's summary is the trainer's
+    result.threads)."""
     from ...lapig_core.common import denormals
 
     out, done = {}, threading.Event()
@@ -117,11 +119,8 @@ def run_train(trainer_of, iterations: int, tuned: bool, beside=None, capture: st
             done.set()
 
     renders = 0
-    ctx = SecondTrain(capture, tuned) if beside == "train" else None
-    if ctx is not None:
-        ctx.__enter__()
-    try:
-        before = ctx.count() if ctx is not None else 0
+    with SecondTrain(capture, tuned) if beside == "train" else nullcontext() as other:
+        before = other.count() if other is not None else 0
         t0 = time.perf_counter()
         thread = threading.Thread(target=worker, name="LAPIG: bench threads", daemon=True)
         thread.start()
@@ -132,10 +131,7 @@ def run_train(trainer_of, iterations: int, tuned: bool, beside=None, capture: st
                 renders += 1
         done.wait()
         wall = time.perf_counter() - t0
-        after = ctx.count() if ctx is not None else 0
-    finally:
-        if ctx is not None:
-            ctx.__exit__(None, None, None)
+        after = other.count() if other is not None else 0
     thread.join()
     if "error" in out:
         raise out["error"]

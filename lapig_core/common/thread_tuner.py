@@ -140,4 +140,3 @@ class ThreadTuner:
                 "steps_at": {str(c): n for c, n in sorted(self.steps_at.items())},
                 "ms_per_step_at": {str(c): round(1000 * self.seconds_at[c] / n, 1)
                                    for c, n in sorted(self.steps_at.items()) if n}}
-

@@ -49,19 +49,18 @@ def use_layout(name: str):
 
 
 def time_train(cs, classical, arch: str, role: str) -> dict:
-    from ...lapig_core.photometric.finetune import camera_space_loss, cpu_recipe, start_model
-    from ...lapig_core.photometric.training import Trainer
+    from ...lapig_core.photometric.finetune import start_model
     from ...lapig_core.photometric.training_data import pairs_from_capture_sets
+    from .bench_train_step import app_trainer
 
     pairs = pairs_from_capture_sets([cs], role)
-    recipe = cpu_recipe(arch, role, BLOCK * TRAIN_ROUNDS * 4 + 10)  # its start's loss; lr steps unreached
-    camera = camera_space_loss(cs, classical) if recipe.needs_camera_loss else None
     start = start_model(arch, role)
     steps = {}
     for name in LAYOUTS:
         use_layout(name)
-        steps[name] = Trainer(copy.deepcopy(start), pairs, recipe, camera_loss=camera, report_every=1,
-                              eval_every=10**9, tune_threads=False).steps()  # both layouts at the same count
+        # both layouts from the same weights, at the same thread count
+        steps[name] = app_trainer(cs, classical, arch, role, BLOCK * TRAIN_ROUNDS * 4 + 10, pairs=pairs,
+                                  model=copy.deepcopy(start)).steps()
         next(steps[name])  # warm-up: first-touch pages, kernel selection
     times = {name: [] for name in LAYOUTS}
     for order in rounds(TRAIN_ROUNDS):

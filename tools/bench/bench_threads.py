@@ -148,18 +148,16 @@ def trainer_factory(folder: str):
     from the pretrained weights, reporting every iteration)."""
     from ...lapig_core.capture.dataset import load_capture_set
     from ...lapig_core.photometric.classical import ClassicalModel
-    from ...lapig_core.photometric.finetune import camera_space_loss, cpu_recipe, start_model
-    from ...lapig_core.photometric.training import Trainer
     from ...lapig_core.photometric.training_data import pairs_from_capture_sets
+    from .bench_train_step import app_trainer
 
     cs = load_capture_set(folder)
     pairs = pairs_from_capture_sets([cs], "compensation")
-    camera = camera_space_loss(cs, ClassicalModel.fit(cs.prj_train, cs.cam_train))
+    classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
 
     def make(tuned: bool, iterations: int):
-        recipe = cpu_recipe("CompenNeSt", "compensation", iterations + 10)  # its start's loss; lr steps unreached
-        return Trainer(start_model("CompenNeSt", "compensation"), pairs, recipe, camera_loss=camera,
-                       report_every=1, eval_every=10**9, tune_threads=tuned)
+        return app_trainer(cs, classical, "CompenNeSt", "compensation", iterations + 10, pairs=pairs,
+                           tune_threads=tuned)
     make.frame_size = cs.frame_size
     return make
 

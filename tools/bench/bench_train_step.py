@@ -30,6 +30,19 @@ NETWORKS = (("CompenNeSt", "compensation"), ("PCNet", "simulation"))
 BLOCK = 5
 
 
+def app_trainer(cs, classical, arch: str, role: str, iterations: int, pairs=None, model=None,
+                tune_threads: bool = False) -> Trainer:
+    """A Trainer of the app's iterations as Train runs them (the CPU recipe's start: its loss, no lr step reached
+    within `iterations`; the camera-space loss where the recipe asks for it), reporting every iteration and never
+    validating, for timing. pairs, model: the role's pairs and the start (default: built here, the pretrained
+    weights); tune_threads: False times at the thread count as it is."""
+    pairs = pairs if pairs is not None else pairs_from_capture_sets([cs], role)
+    recipe = cpu_recipe(arch, role, iterations)
+    camera = camera_space_loss(cs, classical) if recipe.needs_camera_loss else None
+    return Trainer(model if model is not None else start_model(arch, role), pairs, recipe, camera_loss=camera,
+                   report_every=1, eval_every=10**9, tune_threads=tune_threads)
+
+
 def _bare_step(model, pairs, crop: int):
     """One bare training step's closure: fixed batch 8 of crop-px crops, l1, Adam."""
     model.train()
@@ -79,10 +92,9 @@ def phase_profile(trainer, iterations: int = 10) -> dict:
 
 def time_network(cs, classical, arch: str, role: str, iterations: int) -> dict:
     pairs = pairs_from_capture_sets([cs], role)
-    recipe = cpu_recipe(arch, role, max(iterations * 4, 100))  # the loss of the recipe's start; lr steps unreached
-    camera = camera_space_loss(cs, classical) if recipe.needs_camera_loss else None
-    trainer = Trainer(start_model(arch, role), pairs, recipe, camera_loss=camera, report_every=1, eval_every=10**9,
-                      tune_threads=False)  # the app's loop against a bare step, both at the same thread count
+    # the app's loop against a bare step, both at the same thread count
+    trainer = app_trainer(cs, classical, arch, role, max(iterations * 4, 100), pairs=pairs)
+    recipe, camera = trainer.recipe, trainer.camera_loss
     app_steps = trainer.steps()
     bare = _bare_step(start_model(arch, role), pairs, recipe.crop)
     next(app_steps), bare()  # warm-up: first-touch pages, kernel selection

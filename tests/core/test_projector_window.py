@@ -136,9 +136,21 @@ def _writers():
     return [t for t in threading.enumerate() if t.name == "lapig-window-requests"]
 
 
+# The helper's Python imports this first (PYTHONPATH leads to it): the system's library search finds no SDL2, as on
+# a machine without it. An empty PYSDL2_DLL_PATH alone is not enough: PySDL2 then asks ctypes.util.find_library,
+# which finds a system libSDL2 where one is installed (ffmpeg brings it).
+NO_SYSTEM_SDL2 = """
+import ctypes.util
+_find_library = ctypes.util.find_library
+ctypes.util.find_library = lambda name: None if name.lower().startswith("sdl2") else _find_library(name)
+"""
+
+
 @pytest.mark.skipif(importlib.util.find_spec("sdl2") is None, reason="needs PySDL2 (pip install pysdl2 pysdl2-dll)")
 def test_a_helper_without_sdl2_says_what_to_install(tmp_path):
-    env = dict(os.environ, PYSDL2_DLL_PATH=str(tmp_path))  # no SDL2 library there
+    (tmp_path / "sitecustomize.py").write_text(NO_SYSTEM_SDL2)
+    env = dict(os.environ, PYSDL2_DLL_PATH=str(tmp_path),  # no SDL2 library there, so pysdl2-dll's is not used
+               PYTHONPATH=os.pathsep.join(filter(None, [str(tmp_path), os.environ.get("PYTHONPATH")])))
     with pytest.raises(RigError, match=r"did not open on display '1': PySDL2 or its SDL2 library is missing .*"
                                        r"pysdl2 and pysdl2-dll"):
         ProjectorWindow(1, env=env)

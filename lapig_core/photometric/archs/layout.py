@@ -4,7 +4,13 @@ With NCHW tensors, torch's oneDNN convolutions reorder each layer's input into o
 output back: in a Train step at 64 px crops those reorders took 40 % of oneDNN's time. With NHWC activations they
 read and write the tensors as they are. Measured on 2 AMD cores (BENCHMARKS "Channels-last activations on the
 CPU", `bench layout`): the same figures to float rounding, 4 % off Train's step and 7-9 % off PSA and a 1080p
-compensation. Other devices keep NCHW (not measured there)."""
+compensation. Other devices keep NCHW (not measured there).
+
+Both layouts are right on every CPU: in float64 they agree to 1e-15, and in float32 each stays within float rounding
+of a float64 run. Where they differ more (PCNet's image gradient by 4.9e-4 of its norm with oneDNN's AVX2 kernels
+in NCHW, on CPUs without AVX-512), a pre-activation within rounding of 0 fell on the other side of a ReLU's kink:
+a tie broken differently, which moved PSA's simulated PSNR by 0.0015 dB (BENCHMARKS, "Layouts on CPUs without
+AVX-512"). Channels-last stays because it is the faster one."""
 from __future__ import annotations
 
 import torch

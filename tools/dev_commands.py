@@ -22,7 +22,7 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device",
               "show": "show", "show-live": "show_live", "video": "video", "multi": "multi",
               "multi-live": "multi_live", "show-multi": "show_multi",
-              "denormals": "denormals", "layout": "layout", "threads": "threads"}
+              "denormals": "denormals", "layout": "layout", "threads": "threads", "looks": "looks"}
 
 
 def _ensure_registered():
@@ -191,6 +191,9 @@ def add_parsers(sub):
                                                 "480x360, the captures'; its reference takes minutes)")
     bench.add_argument("--reference-samples", type=int, default=1024,
                        help="transport: samples of the converged inter-reflection reference (default 1024)")
+    bench.add_argument("--unseen", action="store_true",
+                       help="looks: add the suite's held-back prompts (tools/bench/looks_suite.toml)")
+    bench.add_argument("--prompts-like", default=None, help="looks: only the suite's prompts containing this text")
     from .bench.bench_device import add_arguments as device_arguments
 
     device_arguments(bench)  # device: --device, --paper-iterations, --frames, --write-cpu-figures, ...

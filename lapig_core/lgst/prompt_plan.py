@@ -78,6 +78,9 @@ class PromptPlan:
     entry_colours: list[NamedColour] = field(default_factory=list)   # its palette (with the works' colours)
     entry_medium_from: str | None = None           # a craft named beside it that gives the medium
     also_named: list[str] = field(default_factory=list)     # other entries the prompt names
+    world: object | None = None                    # a world composition (world/compose.Composition)
+    world_colours: list[NamedColour] = field(default_factory=list)   # the named colours that recolour it
+    world_colour_layers: dict = field(default_factory=dict)  # {layer index: [rgb]}: which material each recolours
 
     def palette_colours(self) -> list[NamedColour]:
         """The colours the look is mapped to: those the prompt names, else the named entry's."""
@@ -92,7 +95,9 @@ class PromptPlan:
             medium = {"kind": "style", "styles": [[n, round(w, 3)] for n, w in self.styles]}
         elif self.medium_kind == "look":
             medium = {"kind": "look", "look": self.look}
-        if medium is not None:
+        elif self.medium_kind == "world":
+            medium = {"kind": "world", "world": self.world.to_dict(), "line": self.world.line()}
+        if medium is not None and self.medium_score is not None:
             medium["score"] = round(self.medium_score, 3)
             medium["runners_up"] = [[n, round(s, 3)] for n, s in self.runners_up]
         entry = None
@@ -118,6 +123,8 @@ class PromptPlan:
             parts.append(" + ".join(f"{n} {w:.2f}" for n, w in self.styles[:2]))
         elif self.medium_kind == "look":
             parts.append(self.look)
+        elif self.medium_kind == "world":
+            parts.append(self.world.line())
         if self.colours and self.entry is None:
             parts.append("colours " + ", ".join(c.name for c in self.colours))
         if self.mood:
@@ -201,6 +208,11 @@ def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = 
     if note:
         plan.notes.append(note)
     without_names = _take_names(plan, text, glossed, embedder)
+    if _world_names_a_material(plan, text):
+        plan.notes.append(f"'{plan.entry_written}' read as the material, not as {plan.entry.name}")
+        plan.entry, plan.entry_how, plan.entry_written, plan.entry_works = None, "", "", []
+        plan.entry_colours, plan.also_named, plan.entry_medium_from, plan.medium_score = [], [], None, None
+        without_names = text
     if plan.entry is not None:  # a glossed word inside a name ("retro" of "retro pixel art") is the name's
         glossed = [(w, e) for w, e in glossed if art_lexicon.fold(w) in art_lexicon.fold(without_names)]
         plan.glossed, english = glossed, " ".join(e for _, e in glossed)
@@ -226,6 +238,8 @@ def plan_prompt(prompt: str, k: int = pm.DEFAULT_K, temperature: float | None = 
         # the name is what the look is about: the other words add to it (colours, a mood, a texture)
         _entry_medium(plan)
         _report_unknown_names(plan, text, words, embedder)
+        return plan
+    if _world_medium(plan, without_names, medium_text):
         return plan
     if not words:
         return plan  # only colours / a mood: they apply to the surface itself
@@ -402,3 +416,85 @@ def _report_unmatched(plan: PromptPlan, words: list[str], candidates, embedder) 
             else:
                 plan.unmatched.append(f"'{word}' matched no look; closest: {candidates[i].name} "
                                       f"({float(scores[i]):.2f})")
+
+
+def _world_medium(plan: PromptPlan, text: str, medium_text: str) -> bool:
+    """The prompt names materials of the world (world/materials.toml): their composition is the medium. True when
+    the plan took it.
+
+    An art medium named by its tag leads ("a mosaic of autumn leaves"), unless that tag is itself a word of the
+    world ("glowing embers", "floor tiles"). A material word that is a colour the prompt names is the colour when it
+    describes a noun after it ("gold veins", "emerald crystals"), is listed with another colour ("in blue and
+    gold") or follows "in"; otherwise the material ("blue denim", "hammered gold")."""
+    from .world.compose import compose, find_materials, modifier_words, tokens
+
+    world_words = {w for m in _world_materials() for word in m.words for w in word.split()} | modifier_words()
+    tag_look, tag = _find_tag(medium_text, MEDIA)
+    if tag_look is not None and not set(tag.lower().split()) <= world_words:
+        return False
+    colour_words = {w for c in plan.colours for w in c.words.lower().split()}
+    toks = [t for t, _ in tokens(text)]
+
+    def as_colour(a, b):
+        if not all(t in colour_words for t in toks[a:b]):
+            return False
+        listed = (b < len(toks) - 1 and toks[b] in ("and", "or") and toks[b + 1] in colour_words) or \
+                 (a >= 2 and toks[a - 1] in ("and", "or") and toks[a - 2] in colour_words)
+        return b in starts or listed or (a >= 1 and toks[a - 1] == "in")
+
+    found = find_materials(text)
+    starts = {a for a, _, _ in found}
+    dropped = {k for a, b, _ in found if as_colour(a, b) for k in range(a, b)}
+    comp = compose(" ".join(t for k, t in enumerate(toks) if k not in dropped))
+    if comp is None:
+        return False
+    used = {w for written, _ in comp.words for w in written.split()}
+    plan.medium_kind, plan.world, plan.medium_score, plan.runners_up = "world", comp, None, []
+    plan.world_colours = [c for c in plan.colours if not set(c.words.lower().split()) <= used]
+    plan.world_colour_layers = _colours_by_layer(comp, plan.world_colours, " ".join(
+        t for k, t in enumerate(toks) if k not in dropped))
+    ignore = modifier_words() | _common_words() | {"make", "turn", "it", "its", "like", "looks", "look", "made"}
+    left = [w for w in content_words(medium_text) if w.lower() not in used and art_lexicon.fold(w) not in ignore
+            and w.lower() not in colour_words]
+    for w in dict.fromkeys(left):
+        plan.unmatched.append(f"'{w}' was not used: the look is {comp.line()}")
+    return True
+
+
+def _world_materials():
+    from .world.catalog import materials
+
+    return materials()
+
+
+def _world_names_a_material(plan: PromptPlan, text: str) -> bool:
+    """An entry found only by a spelling or a meaning ("river" read as Rivera) whose words name a material of the
+    world: the material was meant."""
+    from .world.compose import find_materials
+
+    return plan.entry is not None and plan.entry_how in ("spelling", "meaning") and \
+        bool(find_materials(plan.entry_written or ""))
+
+
+def _colours_by_layer(comp, colours: list[NamedColour], text: str) -> dict:
+    """Each named colour recolours the material it stands before ("yellow lichen on rock": the lichen); a colour
+    before no material recolours the base."""
+    from .world.compose import find_materials, tokens
+
+    toks = [t for t, _ in tokens(text)]
+    layers = comp.materials()
+    starts = {a: m for a, _, m in find_materials(text)}
+    out: dict = {}
+    for c in colours:
+        first = c.words.lower().split()[0]
+        index = 0
+        for k, t in enumerate(toks):
+            if t == first:
+                for ahead in range(k + 1, min(k + 4, len(toks) + 1)):
+                    m = starts.get(ahead)
+                    if m is not None and m in layers:
+                        index = layers.index(m)
+                        break
+                break
+        out.setdefault(index, []).append(c.rgb)
+    return out

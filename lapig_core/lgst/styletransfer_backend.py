@@ -131,7 +131,7 @@ class StyleTransferBackend(ThetaBackend):
         gen = torch.Generator().manual_seed(int(seed))
         if plan.medium_kind == "style":
             self._prepare_style_net(plan.styles, gen)
-        self._stages = self._build_stages(plan)
+        self._stages = self._build_stages(plan, seed)
         for stage in self._stages:
             for key, value, scale in stage.tensors():
                 self._add_theta(value.to(self.surface.device), gen, scale)
@@ -169,7 +169,7 @@ class StyleTransferBackend(ThetaBackend):
                 self._add_theta(t, gen, None)  # CIN tensors: relative distance (None)
 
     @staticmethod
-    def _build_stages(plan) -> list:
+    def _build_stages(plan, seed: int = 0) -> list:
         """The look chain after the medium: the look medium, the named colours, the texture, the mood."""
         from .looks import BY_NAME, palette_stage
 
@@ -184,6 +184,11 @@ class StyleTransferBackend(ThetaBackend):
                 strength = 0.7
             rgb = [c.rgb for c in plan.entry_colours] if strength > 0 else None
         stages = []
+        if plan.medium_kind == "world":  # the world composition makes its own colours (the named ones recolour it)
+            from .world.stage import world_stage
+
+            stages.append(world_stage(plan.world, plan.world_colour_layers or None, seed=seed))
+            rgb = None
         medium = BY_NAME.get(plan.look) if plan.medium_kind == "look" else None
         if medium is not None:
             stage = medium.make(rgb)
@@ -197,6 +202,8 @@ class StyleTransferBackend(ThetaBackend):
         mood = plan.mood or (entry.mood if entry is not None else None)
         if texture:
             stages.append(BY_NAME[texture].make(None))
+        if mood in ("night", "dark_moody") and plan.medium_kind == "world" and plan.world.base.family == "fire":
+            mood = None  # a fire at night is its own light: the night is around it, not over it
         if mood:
             stages.append(BY_NAME[mood].make(None))
         if not stages and plan.medium_kind is None:

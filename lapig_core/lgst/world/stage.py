@@ -1,0 +1,151 @@
+"""A world composition as a look Stage: the base material through its colour ramp and relief, a second base mixed in
+by a ragged mask, the overlays laid where their pattern covers, then the weathering (dirt gathering where the base
+is low: joints, cracks, crevices; wet: darker, deeper colour, glints; glow: light of its own).
+
+theta (what PSA moves, each with its typical size): every layer's colour stops, contrast and relief, each overlay's
+coverage, the dirt, and an exposure. The scale and the seed are not theta: PSA changes how the look is lit and
+coloured, not where its stones are."""
+from __future__ import annotations
+
+import torch
+
+from ..looks.stage import Stage, tensor
+from . import cells, noise, shapes
+from .catalog import Material
+from .compose import Composition
+from .patterns import PATTERNS, _smooth, _u01
+from .ramps import blackbody_colours, ramp
+
+
+def coordinates(h: int, w: int, device=None) -> tuple[torch.Tensor, torch.Tensor]:
+    """u, v: pixel centres as shares of the longer side (v downwards)."""
+    long_side = float(max(h, w))
+    v = (torch.arange(h, dtype=torch.float32, device=device) + 0.5) / long_side
+    u = (torch.arange(w, dtype=torch.float32, device=device) + 0.5) / long_side
+    return u.view(1, -1).expand(h, w), v.view(-1, 1).expand(h, w)
+
+
+def stops(material: Material) -> list:
+    return blackbody_colours() if material.ramp == "blackbody" else [list(c) for c in material.colours]
+
+
+def already_has(material: Material, rgb) -> bool:
+    """Whether the material's own ramp holds this colour: a chromatic one within 40 degrees of hue of a saturated
+    stop, a grey one within 0.2 of lightness of a stop ("red roses", "blue denim" and "white marble" keep their
+    own shades)."""
+    import colorsys
+
+    h, l, s = colorsys.rgb_to_hls(*rgb)
+    for stop in stops(material):
+        sh, sl, ss = colorsys.rgb_to_hls(*stop)
+        if s < 0.25 and abs(l - sl) < 0.2 and (ss < 0.35 or l > 0.85):
+            return True
+        if s >= 0.25 and ss >= 0.25 and min(abs(h - sh), 1 - abs(h - sh)) * 360 < 40 and abs(l - sl) < 0.35:
+            return True
+    return False
+
+
+def named_stops(material: Material, colours: list) -> list:
+    """The ramp in the prompt's colours: the first named colour at the material's dominant end, the others towards
+    the other end, each stop keeping the lightness step of the material's own ramp (the structure stays)."""
+    own = torch.tensor(stops(material), dtype=torch.float32)
+    n = own.shape[0]
+    lum = own @ torch.tensor([0.299, 0.587, 0.114])
+    rel = (lum / lum.mean().clamp_min(1e-3)).clamp(0.3, 1.8) ** 0.5
+    named = torch.tensor([list(c) for c in colours], dtype=torch.float32)
+    if material.dominant == "high":
+        named = named.flip(0)  # the first named ends at t = 1
+    pos = torch.linspace(0, 1, n) * (named.shape[0] - 1)
+    lo = pos.floor().long().clamp(max=named.shape[0] - 1)
+    hi = (lo + 1).clamp(max=named.shape[0] - 1)
+    f = (pos - lo.float()).unsqueeze(1)
+    base = named[lo] * (1 - f) + named[hi] * f
+    if named.shape[0] == 1:
+        base = base * rel.unsqueeze(1)
+    return base.clamp(0, 1).tolist()
+
+
+def _layer(material: Material, u, v, seed: int, scale: float, density: float, p: dict, key: str):
+    options = dict(material.options)
+    if "density" in options or material.pattern in ("leaves", "flowers", "drops", "snowflakes"):
+        options["density"] = max(0.1, min(1.0, options.get("density", 0.8) + density))
+    if "threshold" in options:  # denser: the pattern's patches grow
+        options["threshold"] = options["threshold"] - 0.4 * density
+    f = PATTERNS[material.pattern](u, v, material.scale * scale, seed, options)
+    t = f["t"]
+    detail = options.get("detail", 0.18)
+    if detail:  # the material's own fine detail, in its own colours (pores, fibres, grains, flicker)
+        fine_scale = max(material.scale * scale * 8, 90.0)
+        t = t + detail * noise.fbm(u * fine_scale, v * fine_scale, seed + 97, 3) * (0.4 + t)
+    t = (0.5 + (t - 0.5) * p[f"{key}_contrast"]).clamp(0, 1)
+    rgb = ramp(t, p[f"{key}_colours"].clamp(0, 1))
+    light = 1 + p[f"{key}_relief"] * (f["light"] - 1)
+    return rgb * light, f, t
+
+
+def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=None) -> torch.Tensor:
+    """The composition at h x w, (1, 3, h, w) in 0..1."""
+    u, v = coordinates(h, w, device)
+    out, base_f, base_t = _layer(comp.base, u, v, seed, comp.scale, comp.density, p, "base")
+    if comp.second is not None:
+        second, _, _ = _layer(comp.second, u, v, seed + 7, comp.scale, comp.density, p, "second")
+        mask = _smooth(0.42, 0.58, _u01(noise.fbm(u * 4, v * 4, seed + 61, 5, gain=0.6)))
+        out = out * (1 - mask) + second * mask
+    for i, overlay in enumerate(comp.overlays):
+        rgb, f, _ = _layer(overlay, u, v, seed + 11 + i, comp.scale, comp.density, p, f"overlay{i}")
+        cover = f["cover"]
+        if comp.base.pattern in ("masonry", "stones", "hex_tiles", "checker", "cracks") and overlay.pattern in (
+                "leaves", "clouds", "reaction", "grass"):
+            # growth follows the joints: what grows on a wall starts in its mortar and spreads from there
+            joint = _smooth(0.35, 0.0, base_t)
+            cover = (cover * (0.45 + 0.9 * joint)).clamp(0, 1)
+        amount = (cover * p[f"overlay{i}_coverage"]).clamp(0, 1)
+        out = out * (1 - amount) + rgb * amount
+    grain = comp.base.options.get("grain", 0.35)
+    if grain:  # grains, pores and fibres a few pixels across: cells of their own shade, not smooth noise
+        fine = cells.worley(u * 150, v * 150, seed + 91, jitter=1.0).cell_id - 0.5
+        out = out * (1 + p["grain"] * grain * fine)
+    if "dirt" in comp.weathering:
+        grime = _u01(noise.fbm(u * 6, v * 6, seed + 71, 5))
+        crevice = _smooth(0.4, 0.0, base_t)
+        out = out * (1 - p["dirt"] * (0.5 * grime + 0.6 * crevice)).clamp(0.2, 1)
+    if "wet" in comp.weathering:
+        glints = _smooth(0.82, 0.95, _u01(noise.fbm(u * 40, v * 40, seed + 81, 3)))
+        out = (out.clamp(0, 1) ** 1.35) * 0.85 + 0.5 * glints
+    if "glow" in comp.weathering:
+        out = out * 1.25 + 0.1 * out ** 2
+    return (out * p["exposure"]).clamp(0, 1).unsqueeze(0)
+
+
+def world_stage(comp: Composition, colours: list | None = None, seed: int = 0) -> Stage:
+    """The look Stage of a composition (named colours, if any, recolour the base)."""
+    params, scales = {}, {}
+
+    def layer(key, material, named=None):
+        params[f"{key}_colours"] = tensor(named_stops(material, named) if named else stops(material))
+        params[f"{key}_contrast"], params[f"{key}_relief"] = tensor(1.0), tensor(0.6)
+        scales.update({f"{key}_colours": 0.2, f"{key}_contrast": 0.3, f"{key}_relief": 0.3})
+
+    # colours the prompt names: a dict {layer index: [rgb]} (0 the base, 1 the second, 2... the overlays), or a
+    # list for the base; a material that already holds every one of them keeps its own shades
+    per_layer = colours if isinstance(colours, dict) else {0: colours or []}
+    layers = comp.materials()
+    named = {i: (list(c) if c and not all(already_has(layers[i], rgb) for rgb in c) else None)
+             for i, c in per_layer.items() if i < len(layers)}
+    colours = named.get(0)
+    layer("base", comp.base, colours)
+    if comp.second is not None:
+        layer("second", comp.second, named.get(1))
+    first_overlay = 2 if comp.second is not None else 1
+    for i, overlay in enumerate(comp.overlays):
+        layer(f"overlay{i}", overlay, named.get(first_overlay + i))
+        params[f"overlay{i}_coverage"], scales[f"overlay{i}_coverage"] = tensor(1.0 + comp.density), 0.25
+    params["dirt"], scales["dirt"] = tensor(0.5), 0.2
+    params["grain"], scales["grain"] = tensor(1.0), 0.3
+    params["exposure"], scales["exposure"] = tensor(1.0), 0.2
+
+    def fn(x, p, surface=None):
+        h, w = x.shape[-2:]
+        return render(comp, p, h, w, seed=seed, device=x.device)
+
+    return Stage("world", "medium", fn, params, scales, note=comp.line())

@@ -144,3 +144,11 @@ def test_the_suite_is_read_with_its_checks_and_its_held_back_prompts():
     assert checks["hues"]["pass"] and checks["sat"]["pass"] and checks["lum"]["pass"]
     grey = np.full((240, 320, 3), 0.5, np.float32)
     assert not bench_looks.checks(case, grey)["hues"]["pass"]
+
+
+def test_the_docs_page_lists_every_material():
+    import pathlib
+
+    page = (pathlib.Path(__file__).resolve().parents[2] / "docs" / "looks-of-the-world.md").read_text()
+    missing = [m.name for m in catalog.materials() if f"`{m.name}`" not in page]
+    assert not missing, f"docs/looks-of-the-world.md lacks {missing} (regenerate its table from materials.toml)"

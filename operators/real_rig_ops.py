@@ -79,7 +79,7 @@ class LAPIG_OT_check_rig(JobRunnerMixin, bpy.types.Operator):
         seams = scene_seams(context.scene)
         rig = seams.store.read().rig
         if rig.kind != "REAL":
-            raise ValueError("Check the Rig checks a real projector and camera: set Rig to Real projector and camera")
+            raise ValueError("Check the Rig checks a real projector and camera: set Rig to Real rig")
         blocker = panel_state.device_blocker(rig)
         if blocker:
             raise ValueError(blocker)

@@ -2,9 +2,9 @@
 the timeline), Export Show and Play Show."""
 import bpy
 
-from ..lapig_addon.blender import scene_state, show_timeline
+from ..lapig_addon.blender import scene_state, show_timeline, ui_text
 from ..lapig_addon.rigs import live_output
-from .main_panel import LapigPanel, _blocked, _job_running, _progress
+from .main_panel import LapigPanel, _blocked, _job_running, _lines, _progress
 
 
 class LAPIG_UL_show_looks(bpy.types.UIList):
@@ -26,6 +26,7 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         scene = context.scene
         s = scene.lapig
         row = layout.row()
@@ -52,15 +53,15 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
                 row.prop(item, "motion_period_s")
         plan = scene_state.read_show(scene)
         if plan.looks and plan.fps > 0:
-            layout.label(text=f"{plan.frame_count()} frames, {plan.seconds():.1f} s at {plan.fps:g} fps "
-                              f"(the scene's frame rate)")
-        blocked = _blocked(layout, show_timeline.blocker(scene))
+            _lines(layout, fit, [(f"{plan.frame_count()} frames, {plan.seconds():.1f} s at {plan.fps:g} fps "
+                                  f"(the scene's frame rate)", True)])
+        blocked = _blocked(layout, show_timeline.blocker(scene), fit)
         text, ok = show_timeline.previz_status(scene)
-        layout.label(text=text, icon="CHECKMARK" if ok else "ERROR" if ok is False else "DOT")
+        _lines(layout, fit, [(text, True)], icon="CHECKMARK" if ok else "ERROR" if ok is False else "DOT")
         row = layout.row()
         row.enabled = not blocked and not _job_running()
         row.operator("lapig.bake_show", icon="RENDER_ANIMATION")
-        _progress(layout, "LAPIG bake show")
+        _progress(layout, "LAPIG bake show", fit=fit)
         layout.separator()
         col = layout.column()
         col.enabled = not blocked and not _job_running()
@@ -68,11 +69,11 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
         col.prop(s, "export_bit_depth", expand=True)
         col.prop(s, "show_export_dir")
         col.operator("lapig.export_show", icon="EXPORT")
-        _progress(layout, "LAPIG export show")
+        _progress(layout, "LAPIG export show", fit=fit)
         row = layout.row()
         row.enabled = not blocked and not _job_running() and bool(live_output.open_sinks())
         row.operator("lapig.play_show", icon="PLAY")
-        _progress(layout, "LAPIG play show")
+        _progress(layout, "LAPIG play show", fit=fit)
 
 
 CLASSES = (LAPIG_UL_show_looks, LAPIG_PT_show)

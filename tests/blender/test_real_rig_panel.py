@@ -182,7 +182,7 @@ def test_an_incomplete_real_rig_is_refused_in_one_line(small_setup, op, said):
 
 @pytest.mark.parametrize("op", ["check_rig", "camera_view", "show_on_projector"])
 def test_the_real_rigs_tools_say_so_on_a_virtual_rig(small_setup, op):
-    with pytest.raises(RuntimeError, match="set Rig to Real projector and camera"):
+    with pytest.raises(RuntimeError, match="set Rig to Real rig"):
         getattr(bpy.ops.lapig, op)()
 
 

@@ -94,7 +94,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
 
             on = is_previewing(s.target)
             layout.operator("lapig.preview_toggle", icon="HIDE_OFF" if on else "HIDE_ON",
-                            text="Hide Projection Preview" if on else "Preview Projection in Viewport")
+                            text="Hide Projection Preview" if on else "Preview Projection")
 
 
 def _projectors(layout, scene, real: bool, fit):

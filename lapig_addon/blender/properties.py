@@ -106,7 +106,7 @@ class LapigRealRigSettings(bpy.types.PropertyGroup):
                                                         "of its name (Find Displays and Cameras lists them)")
     camera_source: EnumProperty(name="Camera", items=[
         ("DEVICE", "Camera", "A camera index, a stream URL or a video file, read through OpenCV"),
-        ("TETHERED", "Tethered folder", "A folder a tethering program (a DSLR's, gphoto2) saves each picture into")],
+        ("TETHERED", "Tethered", "A tethered folder: a folder a tethering program (a DSLR's, gphoto2) saves each picture into")],
         default="DEVICE")
     camera: StringProperty(name="Camera", description="A camera index (0, 1, ...), a stream URL (rtsp://, http://) "
                                                       "or a video file")

@@ -95,3 +95,30 @@ def test_the_style_image_property_reaches_the_generate_request(lapig_registered,
     assert ("prop", "style_image") in log and ("prop", "style_prompt_weight") in log
     scene_state.write_stylize_settings(scene, scene_state.generate_request(scene, style_images=()))
     assert s.style_image == ""
+
+
+@pytest.mark.blender
+def test_no_line_of_any_panel_is_cut_at_250_350_and_500_px(lapig_registered, tmp_path):
+    """bench ui's cut_lines: every LAPIG panel in each scene state (fresh, rigged, captured, unsaved, with a result,
+    without torch, a real rig), measured with Blender's font at UI scale 1."""
+    from lapig.tools.bench.panel_cuts import cut_lines
+
+    figures = cut_lines(str(tmp_path), pictures=False)
+    assert figures["cut_lines"] == 0, figures["cut_lines_listed"]
+    assert figures["panel_lines_measured"] > 1000
+    assert not bpy.data.filepath  # the states' saved file is closed again
+
+
+@pytest.mark.blender
+def test_without_torch_capture_is_on_and_what_waits_for_torch_says_so(lapig_registered, tmp_path):
+    from lapig.tools.bench import panel_cuts
+
+    scene = dict((name, make) for name, make, _ in panel_cuts.states(str(tmp_path)))["captured"]()
+    with panel_cuts._without_torch():
+        lines = [entry["line"] for entry in panel_cuts.draw(scene, 250, 1.0, panel_cuts.measure_for(1.0))]
+    buttons = {line.text: line.enabled for line in lines if line.kind == "operator"}
+    assert buttons["Capture"] and buttons["Import Capture Folder"] and buttons["Preview Projection"]
+    assert not buttons["Train Models"] and not buttons["Generate"]
+    said = " ".join(line.text for line in lines if line.kind == "label")
+    assert said.count("Install torch (see the add-on preferences)") >= 2  # above Train and above Generate
+    bpy.ops.wm.read_factory_settings(use_empty=True)

@@ -214,6 +214,9 @@ def cut_lines(out: str | None = None, pictures: bool = True) -> dict:
                         path = picture(lines, width, scale, os.path.join(folder, f"panel_{name}_{width}.png"))
                         if path:
                             written.append(path)
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)  # the states' saved file closed: a fresh one, as before
     main = {w: counts[(1.0, w)] for w in WIDTHS}
     return {"cut_lines": sum(main.values()),
             "cut_lines_by_width": main,
@@ -260,9 +263,13 @@ def picture(lines, width, scale, path):
         colour = (200, 60, 60) if line.cut else ((90, 90, 90) if line.kind != "header" else (70, 70, 110))
         pen.rectangle([x0, y0 + 1, x1, y0 + row_h - 2], outline=colour, fill=(60, 60, 60) if line.enabled
                       else (52, 52, 52))
-        if line.text:
-            tx = x0 + scale * (text_fit.ICON if line.icon else 0) + scale * 4
-            pen.text((tx, y0 + 3), line.text, fill=(255, 120, 120) if line.cut else (
-                (220, 220, 220) if line.enabled else (140, 140, 140)), font=font)
+        if line.text:  # drawn in another font, squeezed or stretched to the width blf measured
+            tx = x0 + scale * ((text_fit.ICON if line.icon else 0) + text_fit.TEXT_PADDING)
+            colour = (255, 120, 120) if line.cut else ((220, 220, 220) if line.enabled else (140, 140, 140))
+            box = pen.textbbox((0, 0), line.text, font=font)
+            word = Image.new("RGB", (max(1, box[2]), row_h), (60, 60, 60) if line.enabled else (52, 52, 52))
+            ImageDraw.Draw(word).text((0, 3), line.text, fill=colour, font=font)
+            word = word.resize((max(1, int(round(line.text_px))), row_h))
+            image.paste(word, (int(tx), int(y0)))
     image.save(path)
     return path

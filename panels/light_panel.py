@@ -42,8 +42,8 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
         problem = plan.problem()
         if problem:
             _lines(layout, fit, [(problem, False)])
-        _progress(layout, LightReportJob.title, fit=fit)
-        _progress(layout, DoseCapJob.title, fit=fit)
+        _progress(layout, LightReportJob.title)
+        _progress(layout, DoseCapJob.title)
         # one foreground job at a time (JobSlots queues none): the tooltips say why the buttons are off meanwhile
         col = layout.column(align=True)
         col.enabled = not problem and not _job_running()

@@ -134,15 +134,14 @@ def _projectors(layout, scene, real: bool, fit):
 
 def _lines(layout, fit, lines, icon=None):
     """(text, ok) lines: ok True plain, False with a warning icon, None greyed; each wrapped at the width the
-    panel has (fit: blender/ui_text.fit_for), its next lines indented under its first. `icon`: the first line's
-    icon instead of ok's."""
+    panel has (fit: blender/ui_text.fit_for), its next lines indented an icon's width (BLANK1: the tests join
+    them again). `icon`: the first line's icon instead of ok's."""
     for text, ok in lines:
         first = icon or LINE_ICONS[ok]
-        indent = first != "NONE"
-        for i, part in enumerate(fit.wrap(text, icon=indent)):
+        for i, part in enumerate(fit.wrap(text, icon=True, first_icon=first != "NONE")):
             row = layout.row()
             row.enabled = ok is not None
-            row.label(text=part, icon=first if i == 0 else ("BLANK1" if indent else "NONE"))
+            row.label(text=part, icon=first if i == 0 else "BLANK1")
 
 
 class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
@@ -198,7 +197,7 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
 
         box = layout.box()
         inner = fit.boxed()
-        _progress(box, other_than=live_output.OpenWindowJob.title, fit=inner)
+        _progress(box, other_than=live_output.OpenWindowJob.title)
         row = box.row()
         row.enabled = not blocked and not busy
         row.operator("lapig.check_rig", icon="CHECKMARK")
@@ -219,15 +218,15 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
 
         box = layout.box()
         showing = bool(live_output.open_sinks())
-        _progress(box, live_output.OpenWindowJob.title, fit=inner)  # its helper takes seconds to start
+        _progress(box, live_output.OpenWindowJob.title)  # its helper takes seconds to start
         row = box.row()
         row.enabled = showing or not busy
         row.operator("lapig.show_on_projector", icon="WINDOW", depress=showing,
                      text="Close Projector Window" if showing else "Show on Projector")
         _lines(box, inner, live_output.status_lines())
-        row = box.row(align=True)
-        row.prop(scene.lapig, "crossfade_frames", text="Frames")
-        row.prop(scene.lapig, "crossfade_fps", text="FPS")
+        col = box.column(align=True)
+        col.prop(scene.lapig, "crossfade_frames")
+        col.prop(scene.lapig, "crossfade_fps")
         row = box.row()
         row.enabled = showing and not busy and not panel_state.result_blocker(state)
         row.operator("lapig.play_crossfade", icon="PLAY")
@@ -265,7 +264,7 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
             layout.label(text=fit.tail("Data: " + folder, keep="Data: "), icon="FILE_FOLDER")
         job = active_job()
         if job is not None and not job.finished:
-            layout.progress(factor=job.progress, text=fit.tail(f"{job.message} (Esc to cancel)", icon=False))
+            layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
         row = layout.row()
         # numpy and OpenCV, not torch (the operator's poll says so in the tooltip); then the rig
         blocked = panel_state.capture_button_blocker(state)
@@ -280,14 +279,13 @@ def _job_running() -> bool:
     return job is not None and not job.finished
 
 
-def _progress(layout, title=None, other_than=None, fit=None):
+def _progress(layout, title=None, other_than=None):
     """The running job's progress bar; with `title`, only that job's (the panel beside its button); with
-    `other_than`, any job's but that one's (it has its own bar). `fit`: its text's room (the message's end is
-    what changes)."""
+    `other_than`, any job's but that one's (it has its own bar). A bar is one line, which a narrow sidebar clips:
+    the status bar has the whole message too (modal_runner)."""
     job = active_job()
     if job is not None and not job.finished and (title is None or job.title == title) and job.title != other_than:
-        text = f"{job.message} (Esc to cancel)"
-        layout.progress(factor=job.progress, text=fit.tail(text, icon=False) if fit is not None else text)
+        layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
 
 
 def _blocked(layout, reason, fit):
@@ -360,7 +358,7 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         layout.prop(s, "style_seed")
         layout.prop(s, "dark_outside")
         layout.prop(s, "output_size")
-        _progress(layout, fit=fit)
+        _progress(layout)
         blocked = panel_state.generate_blocker(state, request)
         _blocked(layout, blocked, fit)
         row = layout.row()
@@ -408,7 +406,7 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         col.prop(s, "refine_steps")
         if refine_blocked and render_blocked != refine_blocked:
             _blocked(layout, refine_blocked, fit)
-        _progress(layout, "LAPIG refine on the rig", fit=fit)
+        _progress(layout, "LAPIG refine on the rig")
         row = layout.row()
         row.enabled = has_result
         row.operator("lapig.show_comparison", icon="IMAGE_REFERENCE")

@@ -61,7 +61,7 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
         row = layout.row()
         row.enabled = not blocked and not _job_running()
         row.operator("lapig.bake_show", icon="RENDER_ANIMATION")
-        _progress(layout, "LAPIG bake show", fit=fit)
+        _progress(layout, "LAPIG bake show")
         layout.separator()
         col = layout.column()
         col.enabled = not blocked and not _job_running()
@@ -69,11 +69,11 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
         col.prop(s, "export_bit_depth", expand=True)
         col.prop(s, "show_export_dir")
         col.operator("lapig.export_show", icon="EXPORT")
-        _progress(layout, "LAPIG export show", fit=fit)
+        _progress(layout, "LAPIG export show")
         row = layout.row()
         row.enabled = not blocked and not _job_running() and bool(live_output.open_sinks())
         row.operator("lapig.play_show", icon="PLAY")
-        _progress(layout, "LAPIG play show", fit=fit)
+        _progress(layout, "LAPIG play show")
 
 
 CLASSES = (LAPIG_UL_show_looks, LAPIG_PT_show)

@@ -333,7 +333,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     # export
     export_bit_depth: EnumProperty(name="Bit depth", items=[("8", "8 bit", ""), ("16", "16 bit", "")], default="8",
                                    update=_export_bit_depth_changed)
-    export_path: StringProperty(name="Export to", subtype="FILE_PATH", default="//projector_image.png")
+    export_path: StringProperty(name="File", subtype="FILE_PATH", default="//projector_image.png",
+                                description="Export to: the projector image's file (a sidecar .json beside it)")
     crossfade_frames: IntProperty(name="Crossfade frames", default=60, **LIMITS["crossfade_frames"].bounds())
     crossfade_fps: FloatProperty(name="Frame rate", default=30.0, **LIMITS["crossfade_fps"].bounds(),
                                  description="Frames per second of the crossfade played on the projector")
@@ -349,8 +350,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
         ("prores4444", "ProRes 4444", ""), ("lossless", "Lossless", "A lossless video"),
         ("hap", "HAP", "Where the installed FFmpeg has it"), ("png", "PNG sequence", "A folder of PNGs per projector")],
         default="h264", description="What Export Show writes")
-    show_export_dir: StringProperty(name="Export to", subtype="DIR_PATH", default="//show_export",
-                                    description="The folder Export Show writes the show into")
+    show_export_dir: StringProperty(name="Folder", subtype="DIR_PATH", default="//show_export",
+                                    description="Export to: the folder Export Show writes the show into")
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
     job_message: StringProperty(name="Status")
 

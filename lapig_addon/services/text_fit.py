@@ -74,20 +74,23 @@ class TextFit:
     def fits(self, text: str, icon: bool = True) -> bool:
         return self.measure(text) <= self.room(icon)
 
-    def wrap(self, text: str, icon: bool = True) -> list[str]:
-        """`text` in lines that fit a label (each with an icon, or each without one), broken between words;
-        a word wider than a line (a path, a long name) keeps its tail. Blank text: one blank line."""
-        room = self.room(icon)
+    def wrap(self, text: str, icon: bool = True, first_icon: bool | None = None) -> list[str]:
+        """`text` in lines that fit a label each (with an icon, or without one; the first line's own: `first_icon`,
+        as `icon` by default), broken between words; a word wider than a line (a path, a long name) keeps its
+        tail. Blank text: one blank line."""
+        first_icon = icon if first_icon is None else first_icon
         lines: list[str] = []
         line = ""
         for word in text.split():
+            with_icon = first_icon if not lines else icon
             candidate = f"{line} {word}" if line else word
-            if self.measure(candidate) <= room:
+            if self.measure(candidate) <= self.room(with_icon):
                 line = candidate
                 continue
             if line:
                 lines.append(line)
-            line = word if self.measure(word) <= room else self.tail(word, icon)
+                with_icon = icon
+            line = word if self.measure(word) <= self.room(with_icon) else self.tail(word, with_icon)
         lines.append(line)
         return lines
 

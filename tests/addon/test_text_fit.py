@@ -34,6 +34,10 @@ def test_wrapped_lines_fit_and_keep_every_word(text_fit, width, scale):
         assert all(fit.fits(line, icon=icon) for line in lines)
         assert " ".join(lines) == text
     assert len(fit_at(text_fit, 220).wrap(text)) > len(fit_at(text_fit, 500).wrap(text))  # narrower: more lines
+    # a first line without an icon, the next ones indented an icon's width
+    lines = fit.wrap(text, icon=True, first_icon=False)
+    assert fit.fits(lines[0], icon=False) and all(fit.fits(line, icon=True) for line in lines[1:])
+    assert " ".join(lines) == text
 
 
 def test_a_word_wider_than_the_line_keeps_its_tail(text_fit):

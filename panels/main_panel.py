@@ -115,15 +115,16 @@ def _projectors(layout, scene, real: bool, fit):
     displays = {item.projector.name: item for item in s.extra_projectors if item.projector is not None}
     for k, (name, (w, h)) in enumerate(zip(state.rig.projectors, state.rig.projector_sizes)):
         row = box.row(align=True)
-        share = f", {shares[name]:.0%}" if name in shares else ""  # its share of the object
         line = inner
         if k and name in displays:  # Remove beside it (a unit), and a real rig's display field (half the rest)
             line = inner.beside(1).share(2 if real else 1)
-        row.label(text=line.tail(f"{k + 1}. {name}: {w}x{h}{share}", icon=False))
+        row.label(text=line.head(f"{k + 1}. {name}:", icon=False))
         if k and name in displays:
             if real:
                 row.prop(displays[name], "display", text="")
             row.operator("lapig.remove_projector", text="", icon="X").name = name
+        share = f", {shares[name]:.0%} of the object" if name in shares else ""
+        _lines(box, inner, [(f"{w}x{h}{share}", True)], icon="BLANK1")  # under its name: its size and share
     if shares and state.capture_reach is not None:
         _lines(box, inner, [(f"All together: {state.capture_reach:.0%} of the object", True)])
     _blocked(box, panel_state.projectors_blocker(state.rig), inner)
@@ -421,9 +422,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
             col.operator("lapig.export_crossfade", icon="SEQUENCE")
         else:  # one image per projector (<name>_1.png, ...), and the rig's warps and blends for a media server
             col.operator("lapig.export_image", icon="EXPORT", text="Export Projector Images")
-            row = col.row(align=True)  # the MPCDI profile: '2d' (default) or 'sl' (shader lamp)
-            row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Export MPCDI 2D").profile = "2d"
-            row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Shader Lamp").profile = "sl"
+            sub = col.column(align=True)  # the MPCDI profile: '2d' (default) or 'sl' (shader lamp)
+            sub.operator("lapig.export_mpcdi", icon="PACKAGE", text="Export MPCDI 2D").profile = "2d"
+            sub.operator("lapig.export_mpcdi", icon="PACKAGE", text="Export MPCDI Shader Lamp").profile = "sl"
             col.prop(s, "crossfade_frames")  # a folder per projector, each in its own gamma
             col.operator("lapig.export_crossfade", icon="SEQUENCE")
 

@@ -41,8 +41,8 @@ def blf_measure(points: float):
 
 
 def fit_for(context) -> text_fit.TextFit:
-    """The lines of the panel being drawn: the region's width (the sidebar as first opened when there is none)
-    at the UI scale, measured with Blender's font."""
+    """The lines of the panel being drawn: the region's width (a wide sidebar when there is none: a script's or
+    a test's context) at the UI scale, measured with Blender's font."""
     scale = ui_scale(context)
     region = getattr(context, "region", None)
     width = getattr(region, "width", None) if region is not None else None

@@ -28,6 +28,7 @@ CLIP_MARGIN = 0.25 * UNIT  # Blender clips text that comes closer than this to t
 ICON = 1.0 * UNIT  # an icon and its padding
 UI_POINTS = 11.0  # the theme's widget font size (preferences.ui_styles[0].widget.points)
 SIDEBAR_WIDTH = 220.0  # UI_SIDEBAR_PANEL_WIDTH: the sidebar's width when first opened, at scale 1
+NO_REGION_WIDTH = 500.0  # a panel drawn without a region (a script, a test): no sidebar to fit, a wide one
 ELLIPSIS = "\u2026"
 AVERAGE_CHAR = 0.55  # an average character's width in font sizes, where no font metrics are at hand
 
@@ -94,6 +95,18 @@ class TextFit:
         lines.append(line)
         return lines
 
+    def head(self, text: str, icon: bool = True) -> str:
+        """`text` whole where it fits, else its start and an ellipsis ("2. Projector.0..."): a name on a row
+        of its buttons."""
+        room = self.room(icon)
+        if self.measure(text) <= room:
+            return text
+        for end in range(len(text) - 1, 0, -1):
+            candidate = text[:end].rstrip() + ELLIPSIS
+            if self.measure(candidate) <= room:
+                return candidate
+        return ELLIPSIS
+
     def tail(self, text: str, icon: bool = True, keep: str = "", sep: str = "/\\") -> str:
         """`text` whole where it fits, else its end after an ellipsis: a path from a folder boundary on
         ("…/captures/wall_lapig"), else its last characters. `keep`: a start of `text` that stays ("Data: ")."""
@@ -115,9 +128,9 @@ class TextFit:
 
 def fit_for(region_width: float | None, scale: float, measure: Callable[[str], float] | None = None,
             points: float = UI_POINTS) -> TextFit:
-    """The lines of a sidebar panel: `region_width` pixels (None: the sidebar as first opened) at UI scale
+    """The lines of a sidebar panel: `region_width` pixels (None: no region, a wide sidebar) at UI scale
     `scale`, measured with `measure` (None: the average character's width)."""
     scale = scale if scale and scale > 0 else 1.0
     if region_width is None or region_width <= 0:
-        region_width = SIDEBAR_WIDTH * scale
+        region_width = NO_REGION_WIDTH * scale
     return TextFit(content_width(region_width, scale), scale, measure or average_measure(points * scale))

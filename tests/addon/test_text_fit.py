@@ -21,8 +21,8 @@ def test_the_layout_width_is_the_region_less_the_tabs_and_margins_at_the_ui_scal
     assert fit_at(text_fit, 250).room(icon=True) == 198 - 8 - 5 - 20  # text padding, clip margin, icon
     assert fit_at(text_fit, 250).boxed().width == 198 - 10
     assert fit_at(text_fit, 250).beside(1).width == 198 - 20
-    # no region (a script's context): the sidebar as Blender first opens it
-    assert text_fit.fit_for(None, 1.0).width == text_fit.content_width(text_fit.SIDEBAR_WIDTH, 1.0)
+    # no region (a script's context): no sidebar to fit, a wide one
+    assert text_fit.fit_for(None, 1.0).width == text_fit.content_width(text_fit.NO_REGION_WIDTH, 1.0)
 
 
 @pytest.mark.parametrize("width, scale", [(220, 1.0), (250, 1.0), (350, 1.0), (500, 1.0), (250, 1.25), (500, 2.0)])
@@ -64,3 +64,10 @@ def test_without_font_metrics_the_average_character_is_a_little_wide(text_fit):
     fit = text_fit.fit_for(250, 1.0)  # no measure: the average character's width
     assert fit.measure("abcd") == pytest.approx(4 * 11 * text_fit.AVERAGE_CHAR)
     assert all(fit.fits(line) for line in fit.wrap("Install torch (see the add-on preferences) " * 3))
+
+
+def test_a_name_beside_buttons_keeps_its_start(text_fit):
+    fit = fit_at(text_fit, 250).beside(1)
+    assert fit.head("2. Projector") == "2. Projector"
+    name = fit.head("2. " + "Projector " * 10)
+    assert name.startswith("2. Projector") and name.endswith("\u2026") and fit.fits(name)

@@ -42,6 +42,18 @@ class RecordingLayout:
         self.log.append(("separator", None))
 
 
+def sentences(log):
+    """The labels' texts, a wrapped sentence whole again (the panels draw its next lines with the BLANK1 icon)."""
+    texts = []
+    for entry in log:
+        if entry[0] == "label":
+            if entry[2] == "BLANK1" and texts:
+                texts[-1] += " " + entry[1]
+            else:
+                texts.append(entry[1])
+    return texts
+
+
 def draw_panels(context, log):
     """Every panel as Blender draws it: those whose poll() says no are left out."""
     from lapig.panels.main_panel import CLASSES

@@ -1,7 +1,9 @@
-"""`bench ui --parts panel`: the LAPIG panels drawn in several scene states at sidebar widths of 250, 350 and
+"""`bench ui --parts panel`: the LAPIG panels drawn in 10 scene states (fresh, rigged, captured in a saved file or
+unsaved, with a result, without torch, a real rig, two projectors) at sidebar widths of 250, 350 and
 500 px (UI scale 1, and 1.25 apart; Blender's 220 px first width apart too) through panel_layout's measuring
 layout; `cut_lines` counts the lines Blender would clip (an object's name in its field, the artist's to choose, is
-counted apart: `cut_names_by_width`). With `--out`, pictures of a few states
+counted apart: `cut_names_by_width`; the lines the panel shortened itself, a path to its tail or a name to its
+start with an ellipsis: `shortened_lines_by_width`). With `--out`, pictures of a few states
 (panel_<state>_<width>.png: each button's box at its width, its text, cut ones in red).
 """
 from __future__ import annotations
@@ -16,7 +18,8 @@ from .panel_layout import MeasuringLayout, RNAChecks
 WIDTHS = (250, 350, 500)
 SCALES = (1.0, 1.25)
 FIRST_WIDTH = int(text_fit.SIDEBAR_WIDTH)  # the sidebar as Blender first opens it, at scale 1
-PICTURES = (("rig", 250), ("captured", 250), ("no_torch", 250), ("result", 350), ("real_rig", 250))
+PICTURES = (("rig", 250), ("captured", 250), ("no_torch", 250), ("result", 350), ("real_rig", 250),
+            ("two_projectors", 250))
 FIRST_LOOK = "First look: classical model (fitted in 0.1 s); Train for the networks"
 
 
@@ -113,6 +116,19 @@ def _with_result(scene):
     return scene
 
 
+def _two_projectors(scene):
+    """A second projector, captured with the first: the Projectors box with each one's share of the object."""
+    import bpy
+
+    from ...lapig_addon.blender import multi_rig, scene_state
+
+    multi_rig.add_projector(bpy.context)
+    _captured(scene)
+    names = scene_state.read_rig(scene).projectors
+    scene_state.record_coverage(scene, names, [0.62, 0.55][:len(names)], 0.91)
+    return scene
+
+
 def _real(scene):
     s = scene.lapig
     s.rig_kind, s.real.display, s.real.camera, s.real.camera_source = "REAL", "1", "0", "DEVICE"
@@ -174,7 +190,9 @@ def states(folder):
                                                                contextlib.nullcontext),
             ("result", result, contextlib.nullcontext), ("no_torch", captured, _without_torch),
             ("no_torch_result", result, _without_torch), ("real_rig", lambda: _real(captured()),
-                                                          contextlib.nullcontext)]
+                                                          contextlib.nullcontext),
+            ("two_projectors", lambda: _two_projectors(captured()), contextlib.nullcontext),
+            ("real_two_projectors", lambda: _real(_two_projectors(captured())), contextlib.nullcontext)]
 
 
 def measure_for(scale):
@@ -189,6 +207,7 @@ def cut_lines(out: str | None = None, pictures: bool = True) -> dict:
     os.makedirs(folder, exist_ok=True)
     counts = {}  # (scale, width) -> cut lines
     name_counts = {}  # (scale, width) -> objects' names cut in their fields
+    shortened = {}  # (scale, width) -> lines the panel itself shortened to fit (a path's tail, a name's start)
     listed = []
     drawn = 0
     written = []
@@ -201,6 +220,8 @@ def cut_lines(out: str | None = None, pictures: bool = True) -> dict:
                         continue
                     lines = draw(scene, width, scale, measure_for(scale))
                     drawn += len(lines)
+                    shortened[(scale, width)] = shortened.get((scale, width), 0) + sum(
+                        text_fit.ELLIPSIS in entry["line"].text for entry in lines)
                     cut = [entry for entry in lines if entry["line"].cut]
                     names = [entry for entry in cut if getattr(entry["line"], "user_name", False)]
                     counts[(scale, width)] = counts.get((scale, width), 0) + len(cut) - len(names)
@@ -223,6 +244,7 @@ def cut_lines(out: str | None = None, pictures: bool = True) -> dict:
             "cut_lines_ui_scale_1_25": {w: counts[(1.25, w)] for w in WIDTHS},
             "cut_lines_first_width_220": counts[(1.0, FIRST_WIDTH)],
             "cut_names_by_width": {w: name_counts[(1.0, w)] for w in WIDTHS},
+            "shortened_lines_by_width": {w: shortened[(1.0, w)] for w in WIDTHS},
             "cut_lines_listed": [e for e in listed if not e["name"] and e["scale"] == 1.0 and e["width"] in WIDTHS],
             "cut_lines_listed_other": [e for e in listed if e["name"] or not (e["scale"] == 1.0
                                                                               and e["width"] in WIDTHS)],

@@ -152,6 +152,12 @@ class LAPIG_OT_play_crossfade(JobRunnerMixin, bpy.types.Operator):
     bl_idname = "lapig.play_crossfade"
     bl_label = "Play Crossfade"
 
+    @classmethod
+    def waits_for(cls, context):
+        if not live_output.open_sinks():
+            return "Show on Projector first: the crossfade plays in the projector window"
+        return panel_state.result_blocker(scene_state.read(context.scene))
+
     def make_job(self, context):
         scene = context.scene
         sinks = live_output.open_sinks()

@@ -134,3 +134,16 @@ def test_without_torch_capture_is_on_and_what_waits_for_torch_says_so(lapig_regi
     said = " ".join(line.text for line in lines if line.kind == "label")
     assert said.count("Install torch (see the add-on preferences)") >= 2  # above Train and above Generate
     bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+@pytest.mark.blender
+def test_a_play_button_off_until_the_projector_window_opens_says_so_in_its_tooltip(lapig_registered, small_setup):
+    from lapig.lapig_addon.rigs import live_output
+    from lapig.operators.real_rig_ops import LAPIG_OT_play_crossfade
+    from lapig.operators.show_ops import LAPIG_OT_play_show
+
+    assert not live_output.open_sinks()
+    assert LAPIG_OT_play_show.description(bpy.context, None).endswith(
+        ".\nShow on Projector first: the show plays in the projector window")
+    assert LAPIG_OT_play_crossfade.description(bpy.context, None).endswith(
+        ".\nShow on Projector first: the crossfade plays in the projector window")

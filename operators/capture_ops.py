@@ -2,11 +2,12 @@ import bpy
 
 from ..lapig_addon.blender import scene_state, storage
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin, cancel_background
-from ..lapig_addon.blender.operator_boundary import AsksForFolder
+from ..lapig_addon.blender.operator_boundary import AsksForFolder, poll_reason
 from ..lapig_addon.blender.scene_store import scene_seams
 from ..lapig_addon.services.background_jobs import train_after_capture
 from ..lapig_addon.services.capture_job import CaptureJob, check_rig
 from ..lapig_addon.services.multi_capture_job import MultiCaptureJob
+from ..lapig_addon.services.panel_state import capture_deps_blocker
 from ..lapig_core.capture.dataset import load_capture_set, setup_dir_of, summarize
 from ..lapig_core.optics.working_frame import check_aspect
 from ..lapig_core.common.deps import require
@@ -17,6 +18,10 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
     bl_idname = "lapig.capture"
     bl_label = "Capture"
     replaces_models = True  # a Train in the background is cancelled first
+
+    @classmethod
+    def poll(cls, context):  # numpy and OpenCV, not torch: the classical first look is fitted without it
+        return poll_reason(cls, capture_deps_blocker())
 
     def make_job(self, context):
         require("numpy", "cv2")

@@ -5,11 +5,20 @@ import bpy
 
 from ..lapig_addon.blender import live_devices, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import BackgroundJobRunner, JobRunnerMixin, cancel_background
-from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, report_notes
+from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, poll_reason, report_notes
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
 from ..lapig_addon.services import panel_state
 from ..lapig_core.common.deps import require
+
+
+class NeedsTorch:
+    """Mix into the operators that run the networks: without torch Blender greys their buttons out and the
+    tooltip says what to install (Capture, the preview and the exports need no torch)."""
+
+    @classmethod
+    def poll(cls, context):
+        return poll_reason(cls, panel_state.torch_blocker())
 
 
 def _pipeline_jobs():
@@ -20,7 +29,7 @@ def _pipeline_jobs():
     return pipeline_jobs
 
 
-class LAPIG_OT_train_models(JobRunnerMixin, bpy.types.Operator):
+class LAPIG_OT_train_models(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     """Fine-tune the networks on this capture (about two minutes), then render both compensations, keep the better"""
     bl_idname = "lapig.train_models"
     bl_label = "Train Models"
@@ -74,7 +83,7 @@ class LAPIG_OT_cancel_background_train(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
+class LAPIG_OT_generate(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     """Turn the prompt into a look for this surface and compute the projector image that shows it"""
     bl_idname = "lapig.generate"
     bl_label = "Generate"
@@ -102,7 +111,7 @@ class LAPIG_OT_generate(JobRunnerMixin, bpy.types.Operator):
             self.report({"INFO"}, "Generated: " + job.result["summary_line"])
 
 
-class LAPIG_OT_render_result(JobRunnerMixin, bpy.types.Operator):
+class LAPIG_OT_render_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     """Project the generated image with Cycles and capture it, to see the real result"""
     bl_idname = "lapig.render_result"
     bl_label = "Render Real Capture"
@@ -115,7 +124,7 @@ class LAPIG_OT_render_result(JobRunnerMixin, bpy.types.Operator):
         self.report({"INFO"}, f"Rendered capture: {m.get('rendered_psnr', float('nan')):.1f} dB against the target")
 
 
-class LAPIG_OT_refine_result(JobRunnerMixin, bpy.types.Operator):
+class LAPIG_OT_refine_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     """Refine the projector image on the rig: project it, capture it, correct it where the capture misses the
     target, until a step gains less than 0.05 dB or Refine steps is reached (Esc cancels and keeps the result)"""
     bl_idname = "lapig.refine_result"
@@ -149,7 +158,7 @@ class LAPIG_OT_preview_mode(ReportsErrors, bpy.types.Operator):
 class LAPIG_OT_show_comparison(ReportsErrors, bpy.types.Operator):
     """Open the with/without PSA comparison sheet in an Image Editor"""
     bl_idname = "lapig.show_comparison"
-    bl_label = "Compare With and Without PSA"
+    bl_label = "Show PSA Comparison"
 
     def execute(self, context):
         folder = scene_state.read(context.scene).result_dir

@@ -79,7 +79,7 @@ class LAPIG_OT_check_rig(JobRunnerMixin, bpy.types.Operator):
         seams = scene_seams(context.scene)
         rig = seams.store.read().rig
         if rig.kind != "REAL":
-            raise ValueError("Check the Rig checks a real projector and camera: set Rig to Real projector and camera")
+            raise ValueError("Check the Rig checks a real projector and camera: set Rig to Real rig")
         blocker = panel_state.device_blocker(rig)
         if blocker:
             raise ValueError(blocker)
@@ -151,6 +151,12 @@ class LAPIG_OT_play_crossfade(JobRunnerMixin, bpy.types.Operator):
     """Play the crossfade from the look without PSA to the look with it on the projector window"""
     bl_idname = "lapig.play_crossfade"
     bl_label = "Play Crossfade"
+
+    @classmethod
+    def waits_for(cls, context):
+        if not live_output.open_sinks():
+            return "Show on Projector first: the crossfade plays in the projector window"
+        return panel_state.result_blocker(scene_state.read(context.scene))
 
     def make_job(self, context):
         scene = context.scene

@@ -96,6 +96,10 @@ class LAPIG_OT_play_show(JobRunnerMixin, bpy.types.Operator):
     bl_idname = "lapig.play_show"
     bl_label = "Play Show"
 
+    @classmethod
+    def waits_for(cls, context):
+        return "" if live_output.open_sinks() else "Show on Projector first: the show plays in the projector window"
+
     def make_job(self, context):
         sinks = live_output.open_sinks()
         if not sinks:

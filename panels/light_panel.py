@@ -1,14 +1,12 @@
 """The Light sub-panel: a real projector model, the room's lux, the object's conservation category; the
 Light Report's figures (from the result's light_report.json) and its warnings."""
-import textwrap
-
 import bpy
 
-from ..lapig_addon.blender import scene_state
+from ..lapig_addon.blender import scene_state, ui_text
 from ..lapig_addon.services import light_report
 from ..lapig_addon.services.dose_cap import DoseCapJob
 from ..lapig_addon.services.light_report_job import LightReportJob
-from .main_panel import LapigPanel, _job_running, _progress
+from .main_panel import LapigPanel, _job_running, _lines, _progress
 
 
 class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
@@ -18,6 +16,7 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         s = context.scene.lapig_light
         layout.prop(s, "preset")
         if s.preset == "NONE":
@@ -42,41 +41,42 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
         plan = scene_state.light_plan(context.scene)
         problem = plan.problem()
         if problem:
-            for i, line in enumerate(textwrap.wrap(problem, 60)):
-                layout.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+            _lines(layout, fit, [(problem, False)])
         _progress(layout, LightReportJob.title)
         _progress(layout, DoseCapJob.title)
-        row = layout.row()
         # one foreground job at a time (JobSlots queues none): the tooltips say why the buttons are off meanwhile
-        row.enabled = not problem and not _job_running()
-        row.operator("lapig.light_report", icon="LIGHT_SPOT")
+        col = layout.column(align=True)
+        col.enabled = not problem and not _job_running()
+        col.operator("lapig.light_report", icon="LIGHT_SPOT")
         if s.category != "NONE":
-            row.operator("lapig.light_cap", icon="LIGHT_SUN")
+            col.operator("lapig.light_cap", icon="LIGHT_SUN")
         folder = scene_state.read(context.scene).result_dir
         report = light_report.read_report(folder) if folder else None
         if not report:
             return
         box = layout.box()
-        box.label(text=f"{report['lumens']:,.0f} lm = {report['light_power_w']:,.1f} W of Blender light"
-                       + (" (all projectors)" if report.get("projectors") else ""))
+        inner = fit.boxed()
+        _lines(box, inner, [(f"{report['lumens']:,.0f} lm = {report['light_power_w']:,.1f} W of Blender light"
+                             + (" (all projectors)" if report.get("projectors") else ""), True)])
         for p in report.get("projectors") or []:  # several: each one's lumens and share of the light
-            box.label(text=f"{p['name']}: {p['lumens']:,.0f} lm, {p['share']:.0%} of the light", icon="LIGHT_SPOT")
-        box.label(text=f"Look: {report['look_lux']['mean']} lux mean, {report['look_lux']['max']} max")
-        box.label(text=f"Luminance: {report['luminance_cd_m2']['mean']} cd/m2 mean")
-        box.label(text=f"Contrast against the room: {report['contrast_ratio']['median']}:1 (median)",
-                  icon="ERROR" if report["warning"] else "CHECKMARK")
-        for i, line in enumerate(textwrap.wrap(report["warning"], 60)):
-            box.label(text=line, icon="BLANK1")
+            _lines(box, inner, [(f"{p['name']}: {p['lumens']:,.0f} lm, {p['share']:.0%} of the light", True)],
+                   icon="LIGHT_SPOT")
+        _lines(box, inner, [(f"Look: {report['look_lux']['mean']} lux mean, {report['look_lux']['max']} max", True),
+                            (f"Luminance: {report['luminance_cd_m2']['mean']} cd/m2 mean", True)])
+        # the contrast, and under it why it is too low (the warning's lines indented under its icon)
+        _lines(box, inner, [(f"Contrast against the room: {report['contrast_ratio']['median']}:1 (median)"
+                             + (f". {report['warning']}" if report["warning"] else ""), True)],
+               icon="ERROR" if report["warning"] else "CHECKMARK")
         dose = report.get("dose")
         if dose:
             ok = dose["within_limit"] and dose["within_yearly_budget"]
-            box.label(text=f"Dose: {dose['max_lux']} lux max, {dose['mean_lux']} mean (limit {dose['limit_lux']:g})",
-                      icon="CHECKMARK" if ok else "ERROR")
-            box.label(text=f"{dose['lux_hours_per_year_max']:,} lux.h a year at the brightest point "
-                           f"(budget {dose['yearly_budget_lux_hours']:,})")
+            _lines(box, inner, [(f"Dose: {dose['max_lux']} lux max, {dose['mean_lux']} mean (limit "
+                                 f"{dose['limit_lux']:g})", True)], icon="CHECKMARK" if ok else "ERROR")
+            _lines(box, inner, [(f"{dose['lux_hours_per_year_max']:,} lux.h a year at the brightest point "
+                                 f"(budget {dose['yearly_budget_lux_hours']:,})", True)])
             if dose.get("lumens_within_limit") is not None:
-                box.label(text=f"This look keeps the limit at {dose['lumens_within_limit']:,} lumens or fewer",
-                          icon="INFO")
+                _lines(box, inner, [(f"This look keeps the limit at {dose['lumens_within_limit']:,} lumens or "
+                                     f"fewer", True)], icon="INFO")
 
 
 CLASSES = (LAPIG_PT_light,)

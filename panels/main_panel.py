@@ -1,8 +1,6 @@
-import textwrap
-
 import bpy
 
-from ..lapig_addon.blender import live_devices, scene_state, storage, warm_start
+from ..lapig_addon.blender import live_devices, scene_state, storage, ui_text, warm_start
 from ..lapig_addon.blender.modal_runner import SLOTS, active_job
 from ..lapig_addon.rigs import camera_view, device_list, live_output
 from ..lapig_addon.services import panel_state
@@ -11,6 +9,7 @@ from ..lapig_addon.services.rig_check import last_check
 from ..lapig_core.common.deps import missing_required
 
 STATE_ICONS = {"DONE": "CHECKMARK", "STALE": "ERROR", "MISSING": "DOT"}
+LINE_ICONS = {True: "NONE", False: "ERROR", None: "NONE"}  # _lines: fine, a problem, greyed
 
 
 class LapigPanel:
@@ -25,22 +24,24 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         s = context.scene.lapig
         warm_start.on_first_use()  # the add-on is used: the text and style models load in the background
         missing = missing_required()
         if missing:
-            layout.label(text="Missing: " + ", ".join(d.package for d in missing), icon="ERROR")
-            layout.label(text="See the add-on preferences")
-        layout.prop(s, "rig_kind")
+            _lines(layout, fit, [("Missing: " + ", ".join(d.package for d in missing), False),
+                                 ("See the add-on preferences", True)])
+        layout.prop(s, "rig_kind", expand=True)
         real = s.rig_kind == "REAL"
         layout.prop(s, "target")
         layout.operator("lapig.add_rig", icon="OUTLINER_OB_LIGHT")
         layout.prop(s, "projector")
         layout.prop(s, "camera")
-        _projectors(layout, context.scene, real)
+        _projectors(layout, context.scene, real, fit)
         if s.projector:
             p = s.projector.lapig_projector
             col = layout.column(align=True)
+            col.label(text="Projector", icon="LIGHT_SPOT")  # its size, lens and light; the camera's below
             row = col.row(align=True)
             row.prop(p, "resolution_x")
             row.prop(p, "resolution_y")
@@ -76,6 +77,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
         if s.camera and not real:
             c = s.camera.lapig_camera
             col = layout.column(align=True)
+            col.label(text="Camera", icon="CAMERA_DATA")
             row = col.row(align=True)
             row.prop(c, "resolution_x")
             row.prop(c, "resolution_y")
@@ -92,10 +94,10 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
 
             on = is_previewing(s.target)
             layout.operator("lapig.preview_toggle", icon="HIDE_OFF" if on else "HIDE_ON",
-                            text="Hide Projection Preview" if on else "Preview Projection in Viewport")
+                            text="Hide Projection Preview" if on else "Preview Projection")
 
 
-def _projectors(layout, scene, real: bool):
+def _projectors(layout, scene, real: bool, fit):
     """The rig's projectors (name, resolution and, once captured, each one's share of the object) and Add
     Projector; a rig of one projector shows the button alone, as it read before."""
     s = scene.lapig
@@ -108,32 +110,39 @@ def _projectors(layout, scene, real: bool):
     captured = panel_state.capture_status(state).state == "DONE"
     shares = dict(state.capture_coverage) if captured else {}
     box = layout.box()
+    inner = fit.boxed()
     box.label(text=f"Projectors ({state.rig.projector_count})", icon="LIGHT_SPOT")
     displays = {item.projector.name: item for item in s.extra_projectors if item.projector is not None}
     for k, (name, (w, h)) in enumerate(zip(state.rig.projectors, state.rig.projector_sizes)):
         row = box.row(align=True)
-        share = f", {shares[name]:.0%} of the object" if name in shares else ""
-        row.label(text=f"{k + 1}. {name}: {w}x{h}{share}")
+        line = inner
+        if k and name in displays:  # Remove beside it (a unit), and a real rig's display field (half the rest)
+            line = inner.beside(1).share(2 if real else 1)
+        row.label(text=line.head(f"{k + 1}. {name}:", icon=False))
         if k and name in displays:
             if real:
                 row.prop(displays[name], "display", text="")
             row.operator("lapig.remove_projector", text="", icon="X").name = name
+        share = f", {shares[name]:.0%} of the object" if name in shares else ""
+        _lines(box, inner, [(f"{w}x{h}{share}", True)], icon="BLANK1")  # under its name: its size and share
     if shares and state.capture_reach is not None:
-        box.label(text=f"All together: {state.capture_reach:.0%} of the object")
-    _blocked(box, panel_state.projectors_blocker(state.rig))
+        _lines(box, inner, [(f"All together: {state.capture_reach:.0%} of the object", True)])
+    _blocked(box, panel_state.projectors_blocker(state.rig), inner)
     if shares:  # a capture of this rig: its blend weights to show
         box.operator("lapig.blend_preview", icon="COLOR")
     box.operator("lapig.add_projector", icon="ADD")
 
 
-def _lines(layout, lines, wrap=60):
-    """(text, ok) lines: ok True plain, False with a warning icon, None greyed; long ones wrapped."""
+def _lines(layout, fit, lines, icon=None):
+    """(text, ok) lines: ok True plain, False with a warning icon, None greyed; each wrapped at the width the
+    panel has (fit: blender/ui_text.fit_for), its next lines indented an icon's width (BLANK1: the tests join
+    them again). `icon`: the first line's icon instead of ok's."""
     for text, ok in lines:
-        for i, part in enumerate(textwrap.wrap(text, wrap, break_on_hyphens=False) or [""]):
-            icon = ("ERROR" if ok is False else "NONE") if i == 0 else "BLANK1"
+        first = icon or LINE_ICONS[ok]
+        for i, part in enumerate(fit.wrap(text, icon=True, first_icon=first != "NONE")):
             row = layout.row()
             row.enabled = ok is not None
-            row.label(text=part, icon=icon)
+            row.label(text=part, icon=first if i == 0 else "BLANK1")
 
 
 class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
@@ -147,6 +156,7 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         scene = context.scene
         r = scene.lapig.real
         state = scene_state.read(scene)
@@ -156,11 +166,11 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
         row.enabled = not busy
         row.operator("lapig.find_devices", icon="VIEWZOOM")
         if found is not None:
-            _lines(layout, [(found.summary(), True)] + [(problem, False) for problem in found.problems])
+            _lines(layout, fit, [(found.summary(), True)] + [(problem, False) for problem in found.problems])
         row = layout.row(align=True)
         row.prop(r, "display")
         row.operator_menu_enum("lapig.choose_display", "display", text="", icon="DOWNARROW_HLT")
-        _lines(layout, device_list.display_note(found, r.display, state.rig.projector_size))
+        _lines(layout, fit, device_list.display_note(found, r.display, state.rig.projector_size))
         layout.prop(r, "camera_source", expand=True)
         if r.camera_source == "DEVICE":
             row = layout.row(align=True)
@@ -168,6 +178,7 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
             row.operator_menu_enum("lapig.choose_camera", "camera", text="", icon="DOWNARROW_HLT")
             layout.prop(r, "camera_backend")
             col = layout.column(align=True)
+            col.label(text="Picture size (0: the camera's)")
             row = col.row(align=True)
             row.prop(r, "camera_width")
             row.prop(r, "camera_height")
@@ -180,19 +191,20 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
         else:
             layout.prop(r, "tethered_folder")
         layout.prop(r, "name")
-        row = layout.row(align=True)
-        row.prop(r, "frame_code")
-        row.prop(r, "health_checks")
-        blocked = _blocked(layout, state.rig.devices_problem)
+        col = layout.column(align=True)
+        col.prop(r, "frame_code")
+        col.prop(r, "health_checks")
+        blocked = _blocked(layout, state.rig.devices_problem, fit)
 
         box = layout.box()
+        inner = fit.boxed()
         _progress(box, other_than=live_output.OpenWindowJob.title)
         row = box.row()
         row.enabled = not blocked and not busy
         row.operator("lapig.check_rig", icon="CHECKMARK")
         check = last_check(state.rig.fingerprint)
         if check is not None:
-            _lines(box, [(line.label(), line.ok) for line in check.lines] + [(p, False) for p in check.problems])
+            _lines(box, inner, [(line.label(), line.ok) for line in check.lines] + [(p, False) for p in check.problems])
 
         box = layout.box()
         viewing = live_devices.camera_view_running()
@@ -203,7 +215,7 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
                      text="Stop Camera View" if viewing else "Camera View")
         line = camera_view.status()
         if line is not None:
-            _lines(box, [line])
+            _lines(box, inner, [line])
 
         box = layout.box()
         showing = bool(live_output.open_sinks())
@@ -212,10 +224,10 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
         row.enabled = showing or not busy
         row.operator("lapig.show_on_projector", icon="WINDOW", depress=showing,
                      text="Close Projector Window" if showing else "Show on Projector")
-        _lines(box, live_output.status_lines())
-        row = box.row(align=True)
-        row.prop(scene.lapig, "crossfade_frames")
-        row.prop(scene.lapig, "crossfade_fps")
+        _lines(box, inner, live_output.status_lines())
+        col = box.column(align=True)
+        col.prop(scene.lapig, "crossfade_frames")
+        col.prop(scene.lapig, "crossfade_fps")
         row = box.row()
         row.enabled = showing and not busy and not panel_state.result_blocker(state)
         row.operator("lapig.play_crossfade", icon="PLAY")
@@ -227,12 +239,16 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         s = context.scene.lapig
         state = scene_state.read(context.scene)
         status = panel_state.capture_status(state)
-        layout.label(text=status.text, icon=STATE_ICONS[status.state])
+        if status.state == "DONE":  # the capture's folder: its tail ("…/Wall/capture_0001")
+            layout.label(text=fit.tail(status.text), icon=STATE_ICONS[status.state])
+        else:
+            _lines(layout, fit, [(status.text, True)], icon=STATE_ICONS[status.state])
         if state.capture_dir and state.capture_transport:
-            layout.label(text="Light: " + state.capture_transport, icon="LIGHT_SPOT")
+            _lines(layout, fit, [("Light: " + state.capture_transport, True)], icon="LIGHT_SPOT")
         col = layout.column(align=True)
         col.prop(s, "train_count")
         col.prop(s, "test_count")
@@ -243,15 +259,19 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
         if s.pattern_source == "FOLDER":
             layout.prop(s, "pattern_folder")
         folder, temporary = storage.data_root()
-        layout.label(text=storage.location_message(), icon="ERROR" if temporary else "FILE_FOLDER")
+        if temporary:
+            _lines(layout, fit, [(storage.location_message(), False)])
+        else:  # where the data goes: the folder's tail
+            layout.label(text=fit.tail("Data: " + folder, keep="Data: "), icon="FILE_FOLDER")
         job = active_job()
         if job is not None and not job.finished:
             layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
         row = layout.row()
-        blocked = panel_state.device_blocker(state.rig)
-        row.enabled = not blocked and not missing_required() and (job is None or job.finished)
+        # numpy and OpenCV, not torch (the operator's poll says so in the tooltip); then the rig
+        blocked = panel_state.capture_button_blocker(state)
+        row.enabled = not blocked and (job is None or job.finished)
         row.operator("lapig.capture", icon="RENDER_STILL")
-        _blocked(layout, blocked)
+        _blocked(layout, blocked, fit)
         layout.operator("lapig.import_capture", icon="IMPORT")
 
 
@@ -262,16 +282,17 @@ def _job_running() -> bool:
 
 def _progress(layout, title=None, other_than=None):
     """The running job's progress bar; with `title`, only that job's (the panel beside its button); with
-    `other_than`, any job's but that one's (it has its own bar)."""
+    `other_than`, any job's but that one's (it has its own bar). A bar is one line, which a narrow sidebar clips:
+    the status bar has the whole message too (modal_runner)."""
     job = active_job()
     if job is not None and not job.finished and (title is None or job.title == title) and job.title != other_than:
         layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
 
 
-def _blocked(layout, reason):
-    """Show why the step below cannot run yet; returns True when it cannot."""
+def _blocked(layout, reason, fit):
+    """Show why the step below cannot run yet (wrapped at the panel's width); returns True when it cannot."""
     if reason:
-        layout.label(text=reason, icon="INFO")
+        _lines(layout, fit, [(reason, True)], icon="INFO")
     return bool(reason)
 
 
@@ -281,21 +302,22 @@ class LAPIG_PT_models(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         state = scene_state.read(context.scene)
         status = panel_state.models_status(state)
-        layout.label(text=status.text, icon=STATE_ICONS[status.state])
+        _lines(layout, fit, [(status.text, True)], icon=STATE_ICONS[status.state])
         layout.prop(context.scene.lapig, "finetune_iterations")
         blocked = panel_state.train_blocker(state)
-        _blocked(layout, blocked)
+        _blocked(layout, blocked, fit)
         row = layout.row()
         row.enabled = not blocked and not _job_running()
         row.operator("lapig.train_models", icon="SHADERFX",
                      text="Fine-tune Again" if status.state == "DONE" else "Train Models")
         layout.prop(context.scene.lapig, "train_in_background")
-        _background(layout)
+        _background(layout, fit)
 
 
-def _background(layout):
+def _background(layout, fit):
     """The Train in the background: its progress and its own Cancel (Esc is the foreground job's), or how it
     failed."""
     line = background_line(SLOTS)
@@ -306,7 +328,7 @@ def _background(layout):
         row = layout.row(align=True)
         row.progress(factor=SLOTS.background.progress, text=f"{SLOTS.background.progress:.0%}")
         row.operator("lapig.cancel_background_train", icon="CANCEL", text="Cancel")
-    _lines(layout, [(text, ok)])
+    _lines(layout, fit, [(text, ok)])
 
 
 class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
@@ -315,20 +337,21 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         s = context.scene.lapig
         state, request = scene_state.read(context.scene), scene_state.generate_request(context.scene)
         status = panel_state.result_status(state)
-        layout.label(text=status.text, icon=STATE_ICONS[status.state])
+        _lines(layout, fit, [(status.text, True)], icon=STATE_ICONS[status.state])
         layout.prop(s, "prompt", text="")
         layout.prop(s, "backend")
         warning = panel_state.backend_warning(request)
         if warning:
-            layout.label(text="Falls back to 'styletransfer': " + warning[:80], icon="ERROR")
+            _lines(layout, fit, [("Falls back to 'styletransfer': " + warning[:160], False)])
         layout.prop(s, "style_override")
         layout.prop(s, "style_image")
         if s.style_image.strip():
             layout.prop(s, "style_prompt_weight")
-        row = layout.row(align=True)
+        row = layout.split(factor=0.35, align=True)  # the check box's short name, the slider's value
         row.prop(s, "use_psa")
         sub = row.row()
         sub.enabled = s.use_psa
@@ -338,7 +361,7 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         layout.prop(s, "output_size")
         _progress(layout)
         blocked = panel_state.generate_blocker(state, request)
-        _blocked(layout, blocked)
+        _blocked(layout, blocked, fit)
         row = layout.row()
         row.scale_y = 1.4
         row.enabled = not blocked and not _job_running()
@@ -351,33 +374,39 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         s = context.scene.lapig
         state = scene_state.read(context.scene)
         blocked = panel_state.result_blocker(state)
         has_result = not blocked
-        _blocked(layout, blocked)
+        _blocked(layout, blocked, fit)
         if s.result_summary:
-            # "what the prompt was read as | which word matched nothing": one label each
+            # "what the prompt was read as | which word matched nothing": one line each
             for i, part in enumerate(s.result_summary.split(" | ")):
-                layout.label(text=part, icon="INFO" if i else "NONE")
+                _lines(layout, fit, [(part, True)], icon="INFO" if i else None)
         if s.result_reach_message:  # most of the look is out of the surface's reach: say so plainly
-            for i, line in enumerate(textwrap.wrap(s.result_reach_message, 60)):
-                layout.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+            _lines(layout, fit, [(s.result_reach_message, False)])
         col = layout.column()
         col.enabled = not panel_state.rig_blocker(state.rig)
         col.prop(s, "preview_mode", expand=True)
         single = not panel_state.one_projector_blocker(state.rig)  # several: an image each, MPCDI
-        row = layout.row()
         # rendering also needs torch and the capture the result was made on; several projectors render together
-        row.enabled = (has_result and not panel_state.render_blocker(state) and not panel_state.models_blocker(state)
-                       and not _job_running())
+        render_blocked = has_result and (panel_state.render_blocker(state) or panel_state.models_blocker(state))
+        refine_blocked = has_result and (panel_state.refine_blocker(state) or panel_state.models_blocker(state))
+        if render_blocked and render_blocked == refine_blocked:  # the result is there: say why these two wait
+            _blocked(layout, render_blocked, fit)
+        row = layout.row()
+        row.enabled = has_result and not render_blocked and not _job_running()
         row.operator("lapig.render_result", icon="RENDER_RESULT")
-        row = layout.row(align=True)  # closed loop: the rig's captures correct the image (progress; Esc cancels)
+        if render_blocked and render_blocked != refine_blocked:
+            _blocked(layout, render_blocked, fit)
+        col = layout.column(align=True)  # closed loop: the rig's captures correct the image (progress; Esc cancels)
         # several projectors are refined together (their joint model): refine_blocker says when
-        row.enabled = (has_result and not panel_state.refine_blocker(state) and not panel_state.models_blocker(state)
-                       and not _job_running())
-        row.operator("lapig.refine_result", icon="FILE_REFRESH")
-        row.prop(s, "refine_steps", text="Steps")
+        col.enabled = has_result and not refine_blocked and not _job_running()
+        col.operator("lapig.refine_result", icon="FILE_REFRESH")
+        col.prop(s, "refine_steps")
+        if refine_blocked and render_blocked != refine_blocked:
+            _blocked(layout, refine_blocked, fit)
         _progress(layout, "LAPIG refine on the rig")
         row = layout.row()
         row.enabled = has_result
@@ -393,9 +422,9 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
             col.operator("lapig.export_crossfade", icon="SEQUENCE")
         else:  # one image per projector (<name>_1.png, ...), and the rig's warps and blends for a media server
             col.operator("lapig.export_image", icon="EXPORT", text="Export Projector Images")
-            row = col.row(align=True)  # the MPCDI profile: '2d' (default) or 'sl' (shader lamp)
-            row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Export MPCDI 2D").profile = "2d"
-            row.operator("lapig.export_mpcdi", icon="PACKAGE", text="Shader Lamp").profile = "sl"
+            sub = col.column(align=True)  # the MPCDI profile: '2d' (default) or 'sl' (shader lamp)
+            sub.operator("lapig.export_mpcdi", icon="PACKAGE", text="Export MPCDI 2D").profile = "2d"
+            sub.operator("lapig.export_mpcdi", icon="PACKAGE", text="Export MPCDI Shader Lamp").profile = "sl"
             col.prop(s, "crossfade_frames")  # a folder per projector, each in its own gamma
             col.operator("lapig.export_crossfade", icon="SEQUENCE")
 

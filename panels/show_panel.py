@@ -2,9 +2,9 @@
 the timeline), Export Show and Play Show."""
 import bpy
 
-from ..lapig_addon.blender import scene_state, show_timeline
+from ..lapig_addon.blender import scene_state, show_timeline, ui_text
 from ..lapig_addon.rigs import live_output
-from .main_panel import LapigPanel, _blocked, _job_running, _progress
+from .main_panel import LapigPanel, _blocked, _job_running, _lines, _progress
 
 
 class LAPIG_UL_show_looks(bpy.types.UIList):
@@ -26,6 +26,7 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         scene = context.scene
         s = scene.lapig
         row = layout.row()
@@ -52,11 +53,11 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
                 row.prop(item, "motion_period_s")
         plan = scene_state.read_show(scene)
         if plan.looks and plan.fps > 0:
-            layout.label(text=f"{plan.frame_count()} frames, {plan.seconds():.1f} s at {plan.fps:g} fps "
-                              f"(the scene's frame rate)")
-        blocked = _blocked(layout, show_timeline.blocker(scene))
+            _lines(layout, fit, [(f"{plan.frame_count()} frames, {plan.seconds():.1f} s at {plan.fps:g} fps "
+                                  f"(the scene's frame rate)", True)])
+        blocked = _blocked(layout, show_timeline.blocker(scene), fit)
         text, ok = show_timeline.previz_status(scene)
-        layout.label(text=text, icon="CHECKMARK" if ok else "ERROR" if ok is False else "DOT")
+        _lines(layout, fit, [(text, True)], icon="CHECKMARK" if ok else "ERROR" if ok is False else "DOT")
         row = layout.row()
         row.enabled = not blocked and not _job_running()
         row.operator("lapig.bake_show", icon="RENDER_ANIMATION")

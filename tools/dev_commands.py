@@ -162,7 +162,7 @@ def add_parsers(sub):
                             "(default: the shipped lapig_core/photometric/weights)")
     bench.add_argument("--parts", default="",
                        help="transport: comma-separated parts (look, defocus, interreflection, noise, speed, compensation, "
-                            "pcnet, headroom; default: all but pcnet and headroom); ui: psa, window (default: both)")
+                            "pcnet, headroom; default: all but pcnet and headroom); ui: psa, window, panel (default: all three)")
     bench.add_argument("--transport-data", default="out/transport_data",
                        help="transport: data set root of the realistic setups (rendered when missing)")
     bench.add_argument("--realistic-setups", type=lambda t: [n.strip() for n in t.split(",") if n.strip()],
@@ -203,7 +203,8 @@ def add_parsers(sub):
 
 
 def cmd_bench(args) -> int:
-    if args.what in ("psa", "ui", "prompts"):
+    ui_psa = args.what == "ui" and "psa" in (args.parts or "psa")  # bench ui --parts panel needs no backend
+    if args.what in ("psa", "prompts") or ui_psa:
         from ..lapig_core.lgst import backend_class
 
         backend_class(args.backend)  # an unknown name is refused before any setup is rendered

@@ -20,8 +20,9 @@ def preset_items(self, context):
 
 
 class LapigLightSettings(bpy.types.PropertyGroup):
-    preset: EnumProperty(name="Projector model", items=preset_items,
-                         description="A real projector model: its lumens and contrast (projector_presets.toml)")
+    preset: EnumProperty(name="Model", items=preset_items,
+                         description="Projector model: a real projector's lumens and contrast "
+                                     "(projector_presets.toml)")
     lumens: FloatProperty(name="Lumens", default=3000.0, min=0.0, soft_max=50000.0,
                           description="The projector's ANSI lumens (used when no model is chosen)")
     ambient_lux: FloatProperty(name="Room light (lux)", default=50.0, min=0.0, soft_max=2000.0,
@@ -30,11 +31,12 @@ class LapigLightSettings(bpy.types.PropertyGroup):
                            description="The room's light comes from one lamp (else from every direction)")
     lamp_direction: FloatVectorProperty(name="Lamp direction", size=3, default=(0.0, 0.5, -1.0), subtype="DIRECTION",
                                         description="The way the room's lamp shines")
-    category: EnumProperty(name="Conservation", items=[
+    category: EnumProperty(name="Guard", items=[
         ("NONE", "None", "No light-dose guard"),
-        ("HIGH", "Highly sensitive (50 lux)", "Works on paper, textiles, watercolours: 50 lux, 150,000 lux.h a year"),
-        ("MODERATE", "Moderately sensitive (200 lux)", "Oil paint, wood, horn: 200 lux, 600,000 lux.h a year"),
-        ("CUSTOM", "Custom limit", "A lux limit of your own")], default="NONE")
+        ("HIGH", "50 lux", "Highly sensitive: works on paper, textiles, watercolours: 50 lux, 150,000 lux.h a year"),
+        ("MODERATE", "200 lux", "Moderately sensitive: oil paint, wood, horn: 200 lux, 600,000 lux.h a year"),
+        ("CUSTOM", "Custom limit", "A lux limit of your own")], default="NONE",
+        description="Conservation: the light-dose guard of a sensitive object (a museum's category)")
     limit_lux: FloatProperty(name="Limit (lux)", default=50.0, min=0.0, soft_max=1000.0)
     hours_per_day: FloatProperty(name="Hours a day", default=8.0, min=0.0, max=24.0)
     days_per_year: FloatProperty(name="Days a year", default=300.0, min=0.0, max=366.0)

@@ -28,7 +28,7 @@ _seen = {"frames": -1, "window_open": False}
 def _real_spec(scene, what: str):
     spec = scene_state.real_rig_spec(scene)
     if spec is None:
-        raise ValueError(f"{what} needs a real rig: set Rig to Real projector and camera")
+        raise ValueError(f"{what} needs a real rig: set Rig to Real rig")
     return spec
 
 

@@ -77,11 +77,17 @@ class JobRunnerMixin(ReportsErrors):
         pass
 
     @classmethod
+    def waits_for(cls, context) -> str:
+        """Why the panel has turned this button off, besides a running job ('' when it has not): its tooltip
+        says it (an operator whose refusal scripts read keeps it out of poll)."""
+        return ""
+
+    @classmethod
     def description(cls, context, properties):
         """The tooltip: the operator's own, and while a foreground job runs (the panels turn the job buttons
-        off) why: JobSlots queues no second job."""
+        off) why: JobSlots queues no second job; or why else the button is off (waits_for)."""
         text = getattr(cls, "bl_description", "") or " ".join((cls.__doc__ or "").split())
-        note = SLOTS.busy_note()
+        note = SLOTS.busy_note() or cls.waits_for(context)
         return f"{text}.\n{note}" if note else text
 
     def _give_way(self):

@@ -66,3 +66,12 @@ def report_notes(operator, notes):
     """Notes about a result (a cut prompt, a weak match, a fallback) as warnings the user sees."""
     for note in notes:
         operator.report({"WARNING"}, note)
+
+
+def poll_reason(cls, reason: str) -> bool:
+    """An operator's poll(): True when `reason` is '' ; else Blender greys the button out and its tooltip (and a
+    script's error) says `reason` (poll_message_set: Blender 3.0 and later)."""
+    if reason:
+        cls.poll_message_set(reason)
+        return False
+    return True

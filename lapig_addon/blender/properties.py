@@ -22,30 +22,30 @@ def _rebuild_projector(self, context):
 class LapigProjectorSettings(bpy.types.PropertyGroup):
     is_projector: BoolProperty(name="Is LAPIG projector", default=False)
     resolution_x: IntProperty(name="Width", default=800, min=16, max=8192, update=_rebuild_projector,
-                              description="Native horizontal resolution of the projector")
+                              description="The projector's native width in pixels")
     resolution_y: IntProperty(name="Height", default=600, min=16, max=8192, update=_rebuild_projector,
-                              description="Native vertical resolution of the projector")
+                              description="The projector's native height in pixels")
     throw_ratio: FloatProperty(name="Throw ratio", default=1.5, min=0.1, max=10.0,
                                update=_rebuild_projector,
                                description="Projection distance divided by image width")
-    shift_x: FloatProperty(name="Lens shift X", default=0.0, min=-2.0, max=2.0, update=_rebuild_projector,
-                           description="Horizontal lens shift, in image widths")
-    shift_y: FloatProperty(name="Lens shift Y", default=0.0, min=-2.0, max=2.0, update=_rebuild_projector,
-                           description="Vertical lens shift, in image heights")
+    shift_x: FloatProperty(name="Shift X", default=0.0, min=-2.0, max=2.0, update=_rebuild_projector,
+                           description="The lens's horizontal shift, in image widths")
+    shift_y: FloatProperty(name="Shift Y", default=0.0, min=-2.0, max=2.0, update=_rebuild_projector,
+                           description="The lens's vertical shift, in image heights")
     brightness: FloatProperty(name="Brightness", default=1000.0, min=0.0, soft_max=100000.0, unit="POWER",
                               update=_rebuild_projector,
                               description="Light power of full white; the camera's exposure keeps "
                                           "white from clipping")
     black_level: FloatProperty(name="Black level", default=0.002, min=0.0, max=0.5, precision=4,
                                description="Light leaked by a black input, relative to white")
-    gamma: FloatProperty(name="Projector gamma", default=2.2, min=0.3, max=4.0,
-                         description="Input value to light output exponent")
+    gamma: FloatProperty(name="Gamma", default=2.2, min=0.3, max=4.0,
+                         description="The projector's gamma: the exponent from input value to light output")
     # light transport (lapig_core.optics.transport): how the captures render the room and the lenses
-    transport_mode: EnumProperty(name="Light transport", items=[
+    transport_mode: EnumProperty(name="Light", items=[
         ("REALISTIC", "Realistic", "Bounce light, the projector's and the camera's lenses, vignetting: what a "
                                    "real room and real lenses show"),
         ("FAST", "Fast", "Direct light through pinhole lenses: quick, but what only the classical model assumes")],
-        default="REALISTIC", description="How light travels in the captures")
+        default="REALISTIC", description="Light transport: how light travels in the captures")
     bounces: IntProperty(name="Bounces", default=3, min=0, max=16,
                          description="Light bounces of the indirect pass (0: no inter-reflection)")
     indirect_samples: IntProperty(name="Indirect samples", default=16, min=1, max=4096,
@@ -62,9 +62,9 @@ class LapigProjectorSettings(bpy.types.PropertyGroup):
 
 class LapigCameraSettings(bpy.types.PropertyGroup):
     resolution_x: IntProperty(name="Width", default=480, min=16, max=8192,
-                              description="Capture width in pixels")
+                              description="The camera's capture width in pixels")
     resolution_y: IntProperty(name="Height", default=360, min=16, max=8192,
-                              description="Capture height in pixels")
+                              description="The camera's capture height in pixels")
     auto_exposure: BoolProperty(name="Auto exposure", default=True,
                                 description="Set the exposure from the white capture so it does not clip")
     exposure: FloatProperty(name="Exposure", default=0.0, min=-20.0, max=20.0, unit="NONE",
@@ -106,7 +106,7 @@ class LapigRealRigSettings(bpy.types.PropertyGroup):
                                                         "of its name (Find Displays and Cameras lists them)")
     camera_source: EnumProperty(name="Camera", items=[
         ("DEVICE", "Camera", "A camera index, a stream URL or a video file, read through OpenCV"),
-        ("TETHERED", "Tethered folder", "A folder a tethering program (a DSLR's, gphoto2) saves each picture into")],
+        ("TETHERED", "Tethered", "A tethered folder: a folder a tethering program (a DSLR's, gphoto2) saves each picture into")],
         default="DEVICE")
     camera: StringProperty(name="Camera", description="A camera index (0, 1, ...), a stream URL (rtsp://, http://) "
                                                       "or a video file")
@@ -241,12 +241,14 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     # the rig's other projectors, in order (projector 2, 3, ...); read and written by blender/scene_state only
     extra_projectors: CollectionProperty(type=LapigExtraProjector, name="More projectors")
     camera: PointerProperty(name="Camera", type=bpy.types.Object, poll=lambda self, obj: obj.type == "CAMERA")
-    target: PointerProperty(name="Surface object", type=bpy.types.Object,
-                            poll=lambda self, obj: obj.type == "MESH")
+    target: PointerProperty(name="Surface", type=bpy.types.Object, poll=lambda self, obj: obj.type == "MESH",
+                            description="The surface object: the mesh the projector lights")
     rig_kind: EnumProperty(name="Rig", items=[
-        ("VIRTUAL", "Virtual", "Capture, judge and preview with the Cycles studio of the projector and camera objects"),
-        ("REAL", "Real projector and camera", "Capture through a real projector (a window on a display) and "
-                                               "camera; looks play live on the projector")], default="VIRTUAL")
+        ("VIRTUAL", "Virtual rig", "Capture, judge and preview with the Cycles studio of the projector and camera "
+                                   "objects"),
+        ("REAL", "Real rig", "A real projector and camera: capture through a real projector (a window on a "
+                             "display) and camera; looks play live on the projector")], default="VIRTUAL",
+        description="Which projector and camera capture the surface: Blender's (virtual) or real ones")
     real: PointerProperty(type=LapigRealRigSettings, name="Real rig")
     ambient: FloatProperty(name="Ambient light", default=0.03, min=0.0, max=1.0, subtype="FACTOR",
                            description="Room light on the object, as a fraction of the projector's white")
@@ -279,8 +281,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     finetune_iterations: IntProperty(name="Iterations", default=0, **LIMITS["finetune_iterations"].bounds(),
                                      description="Fine-tuning iterations per network; 0 for the standard "
                                                  "recipe, fewer for a rough but quick fine-tune")
-    train_in_background: BoolProperty(name="Train in the Background after Capture", default=True,
-                                      description="After a Capture, fine-tune the networks and make the rendered "
+    train_in_background: BoolProperty(name="Train in the background", default=True,
+                                      description="After each Capture, fine-tune the networks and make the rendered "
                                                   "choice while you work; Generate uses the first look until then")
     models_fingerprint: StringProperty(name="Rig fingerprint the models were trained for")
     models_status: StringProperty(name="Models")
@@ -289,18 +291,20 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
                            description="What the object should look like under the projection")
     backend: EnumProperty(name="Backend", items=_backend_items,
                           description="Language-guided style transfer that turns the prompt into a look")
-    style_override: StringProperty(name="Style mix",
-                                   description="Optional explicit mix instead of the prompt's, "
+    style_override: StringProperty(name="Mix",
+                                   description="Style mix: an optional explicit mix instead of the prompt's, "
                                                "e.g. 'black_ink_cells:0.7, teal_red_mosaic:0.3'")
-    style_image: StringProperty(name="Style image", subtype="FILE_PATH", options=RELATIVE_PATH_OPTIONS,
-                                description="Optional painting or photo of a material whose style the look "
+    style_image: StringProperty(name="Image", subtype="FILE_PATH", options=RELATIVE_PATH_OPTIONS,
+                                description="Style image: an optional painting or photo of a material whose style "
+                                            "the look "
                                             "takes (the 'arbitrary' backend); empty for the prompt's look")
     style_prompt_weight: FloatProperty(name="Prompt share", default=0.0, subtype="FACTOR",
                                        **LIMITS["style_prompt_weight"].bounds(),
                                        description="How much of the prompt's own look is mixed into the "
                                                    "style image's (0: the image only)")
-    use_psa: BoolProperty(name="Surface adaptation (PSA)", default=True,
-                          description="Adapt the look to what this surface and projector can show")
+    use_psa: BoolProperty(name="PSA", default=True,
+                          description="Surface adaptation (PSA): adapt the look to what this surface and projector "
+                                      "can show")
     psa_adaptation: FloatProperty(name="Adaptation", default=0.5, subtype="FACTOR",
                                   **LIMITS["psa_adaptation"].bounds(),
                                   description="0: keep my look (its brightness and colour too); 1: whatever this "
@@ -329,7 +333,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     # export
     export_bit_depth: EnumProperty(name="Bit depth", items=[("8", "8 bit", ""), ("16", "16 bit", "")], default="8",
                                    update=_export_bit_depth_changed)
-    export_path: StringProperty(name="Export to", subtype="FILE_PATH", default="//projector_image.png")
+    export_path: StringProperty(name="File", subtype="FILE_PATH", default="//projector_image.png",
+                                description="Export to: the projector image's file (a sidecar .json beside it)")
     crossfade_frames: IntProperty(name="Crossfade frames", default=60, **LIMITS["crossfade_frames"].bounds())
     crossfade_fps: FloatProperty(name="Frame rate", default=30.0, **LIMITS["crossfade_fps"].bounds(),
                                  description="Frames per second of the crossfade played on the projector")
@@ -345,7 +350,8 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
         ("prores4444", "ProRes 4444", ""), ("lossless", "Lossless", "A lossless video"),
         ("hap", "HAP", "Where the installed FFmpeg has it"), ("png", "PNG sequence", "A folder of PNGs per projector")],
         default="h264", description="What Export Show writes")
-    show_export_dir: StringProperty(name="Export show to", subtype="DIR_PATH", default="//show_export")
+    show_export_dir: StringProperty(name="Folder", subtype="DIR_PATH", default="//show_export",
+                                    description="Export to: the folder Export Show writes the show into")
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
     job_message: StringProperty(name="Status")
 

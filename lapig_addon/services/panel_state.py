@@ -117,10 +117,29 @@ def capture_blocker(state: SceneState) -> str:
     return ""
 
 
-def models_blocker(state: SceneState) -> str:
+def torch_blocker() -> str:
+    """Why the steps that run the networks (Train, Generate, Render Real Capture, Refine) cannot run here ('' when
+    torch imports); Capture, the preview and the exports need no torch."""
     if any(d.package == "torch" for d in missing_required()):
         return "Install torch (see the add-on preferences)"
-    return capture_blocker(state)
+    return ""
+
+
+def capture_deps_blocker() -> str:
+    """Why Capture cannot run here ('' when it can): it needs numpy and OpenCV, not torch."""
+    missing = [d.package for d in missing_required() if d.package != "torch"]  # numpy, OpenCV
+    if missing:
+        return f"Install {', '.join(missing)} (see the add-on preferences)"
+    return ""
+
+
+def capture_button_blocker(state: SceneState) -> str:
+    """Why the Capture button is off ('' when it is on): its packages, then the rig."""
+    return capture_deps_blocker() or device_blocker(state.rig)
+
+
+def models_blocker(state: SceneState) -> str:
+    return torch_blocker() or capture_blocker(state)
 
 
 def train_blocker(state: SceneState) -> str:

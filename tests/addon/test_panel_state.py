@@ -129,3 +129,16 @@ def test_preview_modes_need_a_rig_and_the_result_views_a_result(state, panel_sta
     assert panel_state.preview_blocker(no_result, "PROJECTION") == ""
     assert panel_state.preview_blocker(no_result, "TARGET") == "Generate a projector image first"
     assert panel_state.preview_blocker(state.SceneState(), "ORIGINAL") == "Add the projector and camera first"
+
+
+def test_capture_waits_for_numpy_and_opencv_not_for_torch(state, panel_state, captured, monkeypatch):
+    dep = lambda package: type("Dep", (), {"package": package})()  # noqa: E731
+    monkeypatch.setattr(panel_state, "missing_required", lambda: [dep("torch")])
+    assert panel_state.capture_deps_blocker() == ""  # the classical first look is fitted without torch
+    assert panel_state.capture_button_blocker(captured) == ""
+    assert panel_state.torch_blocker() == "Install torch (see the add-on preferences)"
+    monkeypatch.setattr(panel_state, "missing_required", lambda: [dep("opencv-contrib-python-headless"), dep("torch")])
+    assert panel_state.capture_button_blocker(captured) == \
+        "Install opencv-contrib-python-headless (see the add-on preferences)"
+    monkeypatch.setattr(panel_state, "missing_required", lambda: [])
+    assert panel_state.capture_button_blocker(state.SceneState(rig=state.Rig())) == "Add the projector and camera first"

@@ -31,7 +31,7 @@ def test_a_background_train_pauses_between_cycles_renders_and_finishes_the_rende
     from lapig.lapig_core.capture.dataset import resolve_setup
     from lapig.lapig_core.common.locking import FolderLock
     from lapig.lapig_core.photometric import choice
-    from test_panels import draw_panels
+    from test_panels import draw_panels, sentences
 
     scene = captured_with_tests
     assert SLOTS.background is None  # a Capture run from a script does not chain Train
@@ -52,7 +52,7 @@ def test_a_background_train_pauses_between_cycles_renders_and_finishes_the_rende
         FolderLock(resolve_setup(scene_state.read(scene).capture_dir).root, "LAPIG generate").acquire().release()
         log = draw_panels(bpy.context, [])
         assert ("operator", "lapig.cancel_background_train") in log
-        assert any(e[0] == "label" and e[1].startswith("Training in the background: paused") for e in log)
+        assert any(t.startswith("Training in the background: paused") for t in sentences(log))
         SLOTS.end_foreground(SLOTS.foreground)
         while SLOTS.step_background():
             assert STUDIO_NAME not in bpy.data.scenes

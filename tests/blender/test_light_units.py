@@ -110,7 +110,7 @@ def test_a_vertex_group_marks_its_faces_and_an_empty_one_is_refused(lapig_regist
 
 
 def test_the_light_panel_draws_the_plan_and_says_what_is_wrong(lapig_registered, small_setup):
-    from test_panels import RecordingLayout
+    from test_panels import RecordingLayout, sentences
 
     from lapig.panels.light_panel import LAPIG_PT_light
 
@@ -136,7 +136,7 @@ def test_the_light_panel_draws_the_plan_and_says_what_is_wrong(lapig_registered,
     s.preset, s.lumens = "NONE", 0.0
     log = []
     LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
-    assert any("brightness in lumens" in e[1] for e in log if e[0] == "label")
+    assert any("brightness in lumens" in t for t in sentences(log))
 
 
 def test_the_maps_see_the_real_surface_while_the_object_shows_a_preview(lapig_registered):

@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 import pytest
 
-from test_panels import draw_panels
+from test_panels import draw_panels, sentences
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -70,7 +70,7 @@ def test_add_projector_puts_the_second_on_the_other_side_and_the_panel_lists_bot
     two = scene_state.read_rig(scene)
     assert two.projectors == (projector.name, added.name) and two.projector_sizes == ((64, 48), (64, 48))
     assert two.fingerprint != one.fingerprint  # moving either projector makes the capture stale
-    texts = [e[1] for e in draw_panels(bpy.context, []) if e[0] == "label"]
+    texts = sentences(draw_panels(bpy.context, []))
     assert f"1. {projector.name}: 64x48" in texts and f"2. {added.name}: 64x48" in texts
     # taken off the rig again, the scene reads exactly as a one-projector scene did
     assert bpy.ops.lapig.remove_projector(name=added.name) == {"FINISHED"}
@@ -100,7 +100,7 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     assert state.models_status.startswith("First look (joint classical model of 2 projectors)")
     assert "contrast falls" in state.models_status
     assert dict(state.capture_coverage)[names[0]] == pytest.approx(record["per_projector"][0], abs=1e-3)
-    texts = [e[1] for e in draw_panels(bpy.context, []) if e[0] == "label"]
+    texts = sentences(draw_panels(bpy.context, []))
     assert any(t.startswith(f"1. {names[0]}: 64x48, ") and t.endswith("% of the object") for t in texts)
     assert ("Several projectors use the joint model fitted at the capture: there is nothing to train; Refine on the "
             "Rig corrects what it misses") in texts
@@ -134,7 +134,7 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
         assert own.sum() > 20 and rendered[own].mean() > 0.05, k
     assert np.isfinite(m["rendered_psnr"]) and abs(m["rendered_psnr"] - m["simulated_psnr"]) < 5.0
     assert m["rendered_vs_predicted_psnr"] > 20.0
-    texts = [e[1] for e in draw_panels(bpy.context, []) if e[0] == "label"]  # the result's line says it
+    texts = sentences(draw_panels(bpy.context, []))  # the result's line says it
     assert any(f"rendered in Cycles {m['rendered_psnr']:.1f} dB against the look" in t for t in texts), texts
 
     # Light in real units: every projector's light together, each one's share; the dose cap one factor for all
@@ -159,7 +159,7 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
 
     log = []
     LAPIG_PT_light.draw(type("P", (), {"layout": Layout(log)})(), bpy.context)
-    texts = [e[1] for e in log if e[0] == "label"]
+    texts = sentences(log)
     assert any(t.startswith(f"{names[1]}: 2,000 lm, ") for t in texts), texts
     assert bpy.ops.lapig.light_cap() == {"FINISHED"}
     capped = scene_state.read(scene).result_dir

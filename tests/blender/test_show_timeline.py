@@ -328,7 +328,7 @@ def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(ca
 
 
 def test_the_show_panel_draws_the_list_the_blocker_and_the_buttons(show_scene):
-    from test_panels import RecordingLayout
+    from test_panels import RecordingLayout, sentences
 
     from lapig.panels.show_panel import LAPIG_PT_show
 
@@ -347,7 +347,7 @@ def test_the_show_panel_draws_the_list_the_blocker_and_the_buttons(show_scene):
         return log
 
     log = draw()
-    texts = [entry[1] for entry in log if entry[0] == "label"]
+    texts = sentences(log)
     assert ("list", "show_looks") in log and ("prop", "hold_s") in log and ("prop", "motion") in log
     assert "3 frames, 0.3 s at 10 fps (the scene's frame rate)" in texts
     assert "The show's looks need the scene's capture: capture the surface first" in texts
@@ -359,6 +359,6 @@ def test_the_show_panel_draws_the_list_the_blocker_and_the_buttons(show_scene):
     scene = bpy.context.scene
     while scene.lapig.show_looks:
         assert bpy.ops.lapig.show_remove_look() == {"FINISHED"}
-    texts = [entry[1] for entry in draw() if entry[0] == "label"]
+    texts = sentences(draw())
     assert "The show has no looks: add a result to it (Add Look)" in texts  # a scene without a show reads so
     assert bpy.ops.lapig.show_remove_look() == {"CANCELLED"}

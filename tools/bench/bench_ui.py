@@ -11,6 +11,9 @@ with a real rig and a result at the display's size, stepped through the job slot
 the window is a real helper process (lapig_core/rig/projector_window) on SDL's dummy video driver (no display
 here: the helper starts, opens and shows as on the projector's computer, drawing nowhere). Then the panel's
 Close. Beside it, the old path: the window opened and closed on the main thread (live_output.open_live).
+
+The panels (`--parts panel`, no timing, no torch needed): `cut_lines`, the lines Blender would clip when the
+LAPIG panels are drawn in several scene states at sidebar widths of 250, 350 and 500 px (tools/bench/panel_cuts).
 """
 from __future__ import annotations
 
@@ -21,15 +24,10 @@ import time
 from types import SimpleNamespace
 
 import numpy as np
-import torch
 
-from ...lapig_core.photometric import checkpoints
-from ...lapig_core.lgst import get_backend
-from ...lapig_core.photometric.surface_models import SurfaceModels
-from ...lapig_core.psa.adaptation import PSASettings, run_psa
-from ...lapig_core.photometric.training_data import SurfaceTensors
-from .. import synthetic_setups as syn
 from ...lapig_addon.services.jobs import WorkerJob
+
+PARTS = ("psa", "window", "panel")
 
 
 class WarmupWatch:
@@ -57,6 +55,12 @@ class PSAJob(WorkerJob):
         self.cs, self.prompt, self.backend, self.seed = cs, prompt, backend, seed
 
     def work(self, inputs, report, cancel_event):
+        from ...lapig_core.lgst import get_backend
+        from ...lapig_core.photometric import checkpoints
+        from ...lapig_core.photometric.surface_models import SurfaceModels
+        from ...lapig_core.photometric.training_data import SurfaceTensors
+        from ...lapig_core.psa.adaptation import PSASettings, run_psa
+
         surf = SurfaceTensors.from_capture_set(self.cs)
         comp, _ = checkpoints.load_pretrained("CompenNeSt", "compensation")
         sim, _ = checkpoints.load_pretrained("PCNet", "simulation")
@@ -92,20 +96,28 @@ def drive_like_blender(job, tick=0.010, timer=0.050) -> dict:
 
 def run(args) -> dict:
     t0 = time.perf_counter()
-    parts = [p.strip() for p in (getattr(args, "parts", "") or "psa,window").split(",") if p.strip()]
-    unknown = sorted(set(parts) - {"psa", "window"})
+    parts = [p.strip() for p in (getattr(args, "parts", "") or ",".join(PARTS)).split(",") if p.strip()]
+    unknown = sorted(set(parts) - set(PARTS))
     if unknown:
-        raise ValueError(f"bench ui --parts: unknown {', '.join(unknown)}: use psa, window")
+        raise ValueError(f"bench ui --parts: unknown {', '.join(unknown)}: use {', '.join(PARTS)}")
     summary = psa_stalls(args) if "psa" in parts else {}
     if "window" in parts:
         window = projector_window_stalls(os.path.abspath(args.out))
         summary["max_main_thread_stall_ms_projector_window"] = window["max_main_thread_stall_ms"]
         summary["projector_window"] = window
+    if "panel" in parts:
+        from .panel_cuts import cut_lines
+
+        summary.update(cut_lines(os.path.abspath(args.out)))
     return {**summary, "bench_total_s": round(time.perf_counter() - t0, 1), "loadavg": list(os.getloadavg()),
             "machine": platform.processor() or platform.machine()}
 
 
 def psa_stalls(args) -> dict:
+    import torch
+
+    from .. import synthetic_setups as syn
+
     spec = syn.BENCH_SETUPS[0]
     data = os.path.abspath(args.data)
     syn.render_synthetic_setups([spec], data, train=125, test=30, seed=500, skip_existing=True)

@@ -194,6 +194,7 @@ def add_parsers(sub):
     bench.add_argument("--unseen", action="store_true",
                        help="looks: add the suite's held-back prompts (tools/bench/looks_suite.toml)")
     bench.add_argument("--prompts-like", default=None, help="looks: only the suite's prompts containing this text")
+    bench.add_argument("--psa", action="store_true", help="looks: also PSA's gain per family (the device check capture)")
     from .bench.bench_device import add_arguments as device_arguments
 
     device_arguments(bench)  # device: --device, --paper-iterations, --frames, --write-cpu-figures, ...

@@ -16,6 +16,12 @@ level of 0.02), at 320 x 240.
   look_seconds_800x600: the median seconds of one look made from its parameters at 800 x 600 (render_at on the
       white-lit surface at that size), over the prompts.
 Sheet: out/bench_looks/sheet.png (every prompt's target, its structure and its checks).
+
+--psa: also `psa_gain_db` per family: on the device check's capture (tools/bench/fixtures/device_check, the fake
+rig's, 128 x 96) with the pretrained networks and the per-pixel model's choice, as the app's first Generate,
+every prompt stylized without PSA and with it (the app's settings, the iteration cap at 20), and the gain of the
+simulated capture's PSNR against its own target; beside them the same for NEURAL_MIXES (the 26-style network's
+looks). Sheet: out/bench_looks/psa_sheet.png (target and simulated capture, without and with PSA).
 """
 from __future__ import annotations
 
@@ -38,6 +44,8 @@ SAME_LOOK_BELOW = 0.05
 HIGH_PASS_SIGMA = 12.0
 COLOURED_SATURATION, COLOURED_AT_LEAST = 0.15, 0.2
 SCALES = {"fine": (0.0, 14.0), "medium": (8.0, 48.0), "coarse": (24.0, float("inf"))}  # wavelength in px
+NEURAL_MIXES = ("starry_blue_yellow:1", "rust_woodgrain:1", "teal_red_mosaic:1")
+PSA_ITERATIONS = 20
 
 
 @dataclass(frozen=True)
@@ -236,6 +244,59 @@ def sheet(rendered: list[Rendered], path: str) -> str:
     return path
 
 
+def psa_gains(cases: list[Case], out: str) -> dict:
+    """Simulated PSNR without and with PSA per prompt, their gain per family, and the neural mixes' beside them."""
+    from ...lapig_core.capture.dataset import load_capture_set
+    from ...lapig_core.common import metrics
+    from ...lapig_core.common.imageio import write_png
+    from ...lapig_core.common.sheets import labelled_grid
+    from ...lapig_core.photometric import choice as compensator_choice
+    from ...lapig_core.photometric.classical import ClassicalModel
+    from ...lapig_core.photometric.finetune import start_model
+    from ...lapig_core.pipeline import SavedModels, as_image, stylize, surface_models
+    from ...lapig_core.psa.adaptation import PSASettings
+    from .device_fixture import FIXTURE
+
+    cs = load_capture_set(str(FIXTURE))
+    classical = ClassicalModel.fit(cs.prj_train, cs.cam_train)
+    comp, sim = start_model("CompenNeSt", "compensation"), start_model("PCNet", "simulation")
+    chosen, _ = compensator_choice.fit_and_choose(cs, comp, sim, classical)  # handed over: nothing saved
+    models = surface_models(cs, saved=SavedModels(comp, sim, chosen, classical))
+    settings = PSASettings(seed=0, max_iterations=PSA_ITERATIONS)
+
+    def one(prompt, mix=None):
+        res = stylize(cs, models, prompt, mix=mix, settings=settings, seed=0)
+        without = metrics.psnr(as_image(res.without.simulated), as_image(res.without.target))
+        adapted = metrics.psnr(as_image(res.with_psa.simulated), as_image(res.with_psa.target))
+        return without, adapted, res
+
+    rows, tiles, labels = [], [], []
+    for case in cases:
+        without, adapted, res = one(case.text)
+        rows.append({"prompt": case.text, "family": case.family, "without_db": round(without, 3),
+                     "with_psa_db": round(adapted, 3), "gain_db": round(adapted - without, 3),
+                     "retention": res.style_retention()})
+        if len(tiles) < 64:
+            tiles += [as_image(res.without.target), as_image(res.without.simulated), as_image(res.with_psa.target),
+                      as_image(res.with_psa.simulated)]
+            labels += [case.text[:22], f"sim {without:.1f} dB", "with PSA", f"sim {adapted:.1f} dB"]
+    neural = []
+    for mix in NEURAL_MIXES:
+        without, adapted, _ = one("", mix=mix)
+        neural.append({"mix": mix, "without_db": round(without, 3), "with_psa_db": round(adapted, 3),
+                       "gain_db": round(adapted - without, 3)})
+    families = {}
+    for row in rows:
+        families.setdefault(row["family"], []).append(row["gain_db"])
+    write_png(os.path.join(out, "psa_sheet.png"), labelled_grid(tiles, labels, columns=8, cell=180,
+              title="bench looks --psa: target and simulated capture, without and with PSA (device check capture)"))
+    return {"psa_gain_db": {f: round(statistics.mean(g), 3) for f, g in sorted(families.items())},
+            "psa_gain_db_all": round(statistics.mean(r["gain_db"] for r in rows), 3),
+            "psa_gain_db_neural": round(statistics.mean(r["gain_db"] for r in neural), 3),
+            "psa_rows": rows, "psa_neural": neural, "psa_capture": str(FIXTURE),
+            "psa_iterations_cap": PSA_ITERATIONS}
+
+
 def run(args) -> dict:
     import torch
 
@@ -262,7 +323,14 @@ def run(args) -> dict:
         f["tints"] += r.structure < TINT_BELOW
         f["checks_pass"] += all(v["pass"] for v in r.checks.values())
     out = os.path.abspath(getattr(args, "out", None) or "out/bench_looks")
-    per_prompt = [{"prompt": r.case.text, "family": r.case.family, "look": r.described,
+    psa = psa_gains(cases, out) if getattr(args, "psa", False) else {}
+    held_back = [r for r in rendered if r.case.unseen]
+    unseen = {} if not held_back else {
+        "unseen_prompts": len(held_back),
+        "unseen_tint_share": round(sum(r.structure < TINT_BELOW for r in held_back) / len(held_back), 3),
+        "unseen_checks_pass_share": round(sum(all(v["pass"] for v in r.checks.values()) for r in held_back)
+                                          / len(held_back), 3)}
+    per_prompt = [{"prompt": r.case.text, "family": r.case.family, "look": r.described, "unseen": r.case.unseen,
                    "structure": round(r.structure, 4), "checks": r.checks, "unmatched": r.unmatched}
                   for r in rendered]
     return {"benchmark": "looks", "prompts": len(rendered), "unseen_included": bool(getattr(args, "unseen", False)),
@@ -275,4 +343,4 @@ def run(args) -> dict:
             if rendered else None,
             "families": families, "per_prompt": per_prompt, "wall_self_structure": round(wall_structure, 4),
             "sheet": sheet(rendered, os.path.join(out, "sheet.png")),
-            "bench_total_s": round(time.perf_counter() - t0, 1), "machine": platform.processor() or platform.machine()}
+            **unseen, **psa, "bench_total_s": round(time.perf_counter() - t0, 1), "machine": platform.processor() or platform.machine()}

@@ -18,7 +18,7 @@ import contextlib
 
 import bpy
 
-from . import preview_weight, projector_nodes
+from . import preview_weight, projector_nodes, solid_reach
 from .compat import material_node_tree
 from ...lapig_core.optics.projector_model import ProjectorModel
 from .scene_state import projector_model
@@ -198,6 +198,7 @@ def _add_solid_mode_projection(obj, projector, model):
 
 
 def _remove_solid_mode_projection(obj):
+    solid_reach.remove_reach_modifier(obj)
     mod = obj.modifiers.get(UV_NAME)
     if mod is not None:
         obj.modifiers.remove(mod)
@@ -235,6 +236,7 @@ def enable_casts(obj, casts, appearance=False):
         disable_preview(obj)
     modelled = [(caster, image, caster_model(caster, image)) for caster, image in casts]
     _add_solid_mode_projection(obj, modelled[0][0], modelled[0][2])
+    solid_reach.add_reach_modifier(obj, [caster for caster, _ in casts])  # dark where no caster reaches
     if len(obj.material_slots) == 0:
         obj.data.materials.append(None)
         obj["lapig_preview_added_slot"] = True

@@ -78,6 +78,17 @@ def _show_the_weight(material):
     tree.links.new(emission.outputs[0], output.inputs["Surface"])
 
 
+def _face_materials(obj):
+    """The evaluated mesh's material name on the face through each axis direction: what Solid mode draws."""
+    mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    names = {}
+    for polygon in mesh.polygons:
+        axis = tuple(int(round(c)) for c in polygon.normal)
+        material = mesh.materials[polygon.material_index]
+        names[axis] = material.name if material else ""
+    return names
+
+
 def _light_weight(projector_location, point, normal, focus):
     to_projector = np.asarray(projector_location, float) - np.asarray(point, float)
     distance = np.linalg.norm(to_projector)
@@ -87,7 +98,7 @@ def _light_weight(projector_location, point, normal, focus):
 @pytest.mark.blender
 @pytest.mark.parametrize("height", [0.0, 0.9])  # level with the cube's centre; above its top (grazing there)
 def test_the_preview_lights_what_the_projector_reaches_as_its_light_would(lapig_registered, tmp_path, height):
-    from lapig.lapig_addon.blender import demo_scene, preview
+    from lapig.lapig_addon.blender import demo_scene, preview, solid_reach
 
     scene = demo_scene.new_empty_scene()
     bpy.ops.mesh.primitive_cube_add(size=1.0)
@@ -120,19 +131,57 @@ def test_the_preview_lights_what_the_projector_reaches_as_its_light_would(lapig_
     else:
         assert 0.03 < seen["top"] < 0.2  # grazing: dim, not the full image stretched over it
 
+    # Solid mode draws the projected UV map's image on every face it is given: the faces the projector cannot
+    # reach get the black 'not reached' material instead, the others keep the preview's
+    shown = cube.material_slots[0].material.name
+    faces = _face_materials(cube)
+    assert faces[(0, -1, 0)] == shown and faces[(1, 0, 0)] == faces[(0, 1, 0)] == solid_reach.UNREACHED_MATERIAL
+    assert faces[(0, 0, 1)] == (shown if height > 0.5 else solid_reach.UNREACHED_MATERIAL)
+
     # the preview follows the projector: moved to the cube's right, the right side is lit and the front is not
     projector.location, projector.rotation_euler = (3.0, 0.0, 0.0), (math.pi / 2, 0.0, math.pi / 2)
     bpy.context.view_layer.update()
     moved = _at(_render(scene, camera, tmp_path / f"moved_{height}.exr"), scene, camera,
                 [samples["front centre"][0], samples["right side"][0]])
     assert moved[0] < 0.01 and moved[1] > 0.5
+    faces = _face_materials(cube)
+    assert faces[(1, 0, 0)] == shown and faces[(0, -1, 0)] == solid_reach.UNREACHED_MATERIAL
 
     # Original: the user's material is back exactly as it was, no preview material (nor its drivers) is left
     preview.disable_preview(cube)
     assert cube.material_slots[0].material == surface and not surface.use_fake_user
     assert sorted((n.bl_idname, n.name) for n in surface.node_tree.nodes) == nodes_before
     assert len(surface.node_tree.links) == links_before and surface.node_tree.animation_data is None
-    assert [m.name for m in bpy.data.materials] == ["grey surface"]
+    assert [m.name for m in bpy.data.materials] == ["grey surface"] and not cube.modifiers
+    assert not bpy.data.node_groups and set(_face_materials(cube).values()) == {"grey surface"}
+
+
+@pytest.mark.blender
+def test_with_several_projectors_a_face_any_of_them_reaches_keeps_the_preview(lapig_registered, tmp_path):
+    from lapig.lapig_addon.blender import demo_scene, preview, solid_reach
+
+    scene = demo_scene.new_empty_scene()
+    bpy.ops.mesh.primitive_cube_add(size=1.0)
+    cube = bpy.context.active_object
+    front = _projector(scene, (0.0, -3.0, 0.0))
+    right = _projector(scene, (3.0, 0.0, 0.0))
+    right.rotation_euler = (math.pi / 2, 0.0, math.pi / 2)
+    front.lapig_projector.focus_distance = right.lapig_projector.focus_distance = 2.5
+    bpy.context.view_layer.update()
+    preview.enable_casts(cube, [(front, bpy.data.images["white"]), (right, bpy.data.images["white"])])
+    faces = _face_materials(cube)
+    shown = cube.material_slots[0].material.name
+    assert faces[(0, -1, 0)] == faces[(1, 0, 0)] == shown
+    assert faces[(0, 0, 1)] == faces[(-1, 0, 0)] == faces[(0, 1, 0)] == solid_reach.UNREACHED_MATERIAL
+    # Material Preview: each face lit by its own projector's weight, the two added
+    _show_the_weight(cube.material_slots[0].material)
+    front.hide_render = right.hide_render = True
+    camera = _camera(scene, (2.2, -3.2, 2.4))
+    points = [(0.1, -0.5, 0.1), (0.5, -0.2, 0.1)]
+    seen = _at(_render(scene, camera, tmp_path / "two.exr"), scene, camera, points)
+    expected = [_light_weight(front.location, points[0], (0, -1, 0), 2.5),
+                _light_weight(right.location, points[1], (1, 0, 0), 2.5)]
+    assert seen == pytest.approx(expected, abs=0.03)
 
 
 @pytest.mark.blender

@@ -45,5 +45,6 @@ def add_projector(context):
     new.matrix_world = Matrix(matrix.tolist())
     context.view_layer.update()
     new.lapig_projector.focus_distance = max(rig.axial_distance(new, centre), 0.01)
+    rig.draw_cone_to(new, target)
     scene_state.add_extra_projector(scene, new)
     return new, placed.sentence(new.name, target.name)

@@ -2,12 +2,14 @@
 
 Cycles shows the projection through the projector light itself; Solid and Material Preview modes
 ignore light node trees, so the preview swaps each material slot for a copy whose base colour is
-multiplied by the image, projected from the projector object (Texture Coordinate 'Object'), and
+multiplied by the image, projected from the projector object (Texture Coordinate 'Object') and weighted
+as the projector's light falls on the surface (preview_weight: nothing where it does not reach), and
 adds a projected UV map for Solid mode, which draws image textures through the active UV map.
 The originals get a fake user while swapped, so saving the file can never lose them.
 
 A rig of several projectors casts every projector's image at once (enable_casts): the copy's base colour is
-multiplied by the sum of their projected images, as their lights add on the surface. Solid mode's UV map
+multiplied by the sum of their projected images, each weighted by its own projector's reach, as their lights
+add on the surface. Solid mode's UV map
 follows the first caster only (one UV map, one image).
 """
 from __future__ import annotations
@@ -16,7 +18,7 @@ import contextlib
 
 import bpy
 
-from . import projector_nodes
+from . import preview_weight, projector_nodes, solid_reach
 from .compat import material_node_tree
 from ...lapig_core.optics.projector_model import ProjectorModel
 from .scene_state import projector_model
@@ -83,7 +85,7 @@ def _projection_nodes(tree, projector, image, model, row=0):
         user = tex.image_user
         user.frame_duration, user.frame_start = int(image["lapig_show_frames"]), int(image["lapig_show_start"])
         user.frame_offset, user.use_auto_refresh, user.use_cyclic = 0, True, False
-    return tex
+    return tex, split.outputs["Z"]  # the image node and the point's Z in the caster's space
 
 
 def _colour(tree, tex):
@@ -98,13 +100,21 @@ def _colour(tree, tex):
     return gamma.outputs["Color"]
 
 
-def _summed_colour(tree, casts):
-    """The colour of every cast added up (lights add on the surface) and the first image node; one cast is its
-    colour alone, so one projector's material is as it always was."""
+def _cast_weight(tree, caster, local_z, appearance):
+    """preview_weight's factor for one cast: a projector's light by incidence and distance, normalised at its
+    focus distance; an appearance, or an image cast from the camera, by visibility alone."""
+    as_light = not appearance and caster.type == "LIGHT"
+    reference = caster.lapig_projector.focus_distance if as_light else 1.0
+    return preview_weight.weight(tree, caster, local_z, reference, as_light)
+
+
+def _summed_colour(tree, casts, appearance=False):
+    """The colour of every cast, each weighted by what its caster reaches (preview_weight), added up (lights
+    add on the surface), and the first image node."""
     first, total = None, None
     for i, (caster, image, model) in enumerate(casts):
-        tex = _projection_nodes(tree, caster, image, model, row=i)
-        colour = _colour(tree, tex)
+        tex, local_z = _projection_nodes(tree, caster, image, model, row=i)
+        colour = preview_weight.weighted(tree, _colour(tree, tex), _cast_weight(tree, caster, local_z, appearance))
         if total is None:
             first, total = tex, colour
             continue
@@ -125,7 +135,7 @@ def _preview_material(original, casts, appearance=False):
     else:
         mat = bpy.data.materials.new(PREVIEW_PREFIX + "(no material)")
     tree = material_node_tree(mat)
-    tex, colour = _summed_colour(tree, casts)
+    tex, colour = _summed_colour(tree, casts, appearance)
     bsdf = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"), None)
     if appearance:
         # an appearance (target, simulated or rendered capture) already includes the surface: show it
@@ -188,6 +198,7 @@ def _add_solid_mode_projection(obj, projector, model):
 
 
 def _remove_solid_mode_projection(obj):
+    solid_reach.remove_reach_modifier(obj)
     mod = obj.modifiers.get(UV_NAME)
     if mod is not None:
         obj.modifiers.remove(mod)
@@ -225,6 +236,7 @@ def enable_casts(obj, casts, appearance=False):
         disable_preview(obj)
     modelled = [(caster, image, caster_model(caster, image)) for caster, image in casts]
     _add_solid_mode_projection(obj, modelled[0][0], modelled[0][2])
+    solid_reach.add_reach_modifier(obj, [caster for caster, _ in casts])  # dark where no caster reaches
     if len(obj.material_slots) == 0:
         obj.data.materials.append(None)
         obj["lapig_preview_added_slot"] = True

@@ -6,10 +6,9 @@ closest-pixel so structured-light patterns stay pixel exact). See lapig_core.pro
 """
 from __future__ import annotations
 
-import math
-
 import bpy
 
+from ...lapig_core.optics import projector_cone
 from .compat import light_local_direction, light_node_tree
 
 NODE_PREFIX = "LAPIG "
@@ -31,7 +30,8 @@ def _math(nodes, links, op, a, b, name):
 def build_light_tree(light: bpy.types.SpotLight, model, image=None):
     """(Re)build the projection nodes of a spot light from a ProjectorModel; idempotent."""
     tree = light_node_tree(light)
-    light.spot_size = math.pi * 0.999  # the image texture, not the cone, bounds the frame
+    # the image texture bounds the frame; the cone only has to hold it (a wider one draws across the viewport)
+    light.spot_size = projector_cone.spot_size(model)
     light.spot_blend = 0.0
     light.shadow_soft_size = 0.0  # pinhole: sharp pixels, noise-free direct light
     if hasattr(light, "use_soft_falloff"):

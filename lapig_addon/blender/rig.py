@@ -6,6 +6,7 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 from ...lapig_core.optics.placement import place_rig
+from ...lapig_core.optics.projector_cone import reach
 from . import projector_nodes
 from . import scene_state
 from .scene_state import camera_settings, projector_model
@@ -110,6 +111,7 @@ def add_rig(context, target=None, projector=None, camera=None):
     camera.data.clip_end = max(camera.data.clip_end, placement.distance * 4)
     bpy.context.view_layer.update()
     focus_on_object(projector, camera, target)
+    draw_cone_to(projector, target)
     scene_state.record_rig(scene, projector, camera, target)
     return projector, camera, placement
 
@@ -119,6 +121,13 @@ def axial_distance(obj, point) -> float:
     m = np.array(obj.matrix_world)
     axis = -m[:3, 2] / np.linalg.norm(m[:3, 2])
     return float((np.asarray(point, float) - m[:3, 3]) @ axis)
+
+
+def draw_cone_to(projector, target) -> None:
+    """The viewport draws the spot's cone as far as the light's custom distance (40 m by default): end it just
+    past the target. use_custom_distance stays off, so neither Cycles nor EEVEE cuts the light there."""
+    corners = [tuple(target.matrix_world @ Vector(c)) for c in target.bound_box]
+    projector.data.cutoff_distance = max(reach(tuple(projector.matrix_world.translation), corners), 0.01)
 
 
 def object_centre(obj) -> np.ndarray:

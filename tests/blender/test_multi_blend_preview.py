@@ -10,6 +10,17 @@ import pytest
 from test_multi_projector import _statue_lit_from_the_front_left
 
 
+def _images_upstream(socket) -> set:
+    """The images of every image node that feeds `socket`, through any nodes between."""
+    images, todo = set(), [link.from_node for link in socket.links]
+    while todo:
+        node = todo.pop()
+        if node.bl_idname == "ShaderNodeTexImage":
+            images.add(node.image)
+        todo.extend(link.from_node for sock in node.inputs for link in sock.links)
+    return images
+
+
 def _render(scene, camera, path, size=(80, 60)):
     scene.camera = camera
     r = scene.render
@@ -119,8 +130,9 @@ def test_the_result_preview_modes_of_several_cast_the_camera_space_images_from_t
         coords = [n.object for n in nodes if n.bl_idname == "ShaderNodeTexCoord"]
         assert sorted(c.name for c in coords) == sorted(p.name for p in projectors)
         adds = [n for n in nodes if n.bl_idname == "ShaderNodeMix" and n.blend_type == "ADD"]
-        assert len(adds) == 1 and {lk.from_node.image for lk in adds[0].inputs["A"].links} | \
-            {lk.from_node.image for lk in adds[0].inputs["B"].links} == set(lights)
+        # each side of the sum is one projector's image, weighted by its light's reach
+        assert len(adds) == 1 and _images_upstream(adds[0].inputs["A"]) | _images_upstream(adds[0].inputs["B"]) \
+            == set(lights) and all(len(_images_upstream(adds[0].inputs[side])) == 1 for side in "AB")
     # a capture borrows the real surface and gives the preview back with both casts
     with preview.real_surface(target, projector):
         assert not preview.is_previewing(target)

@@ -31,6 +31,20 @@ def read_bundle(path: str = BUNDLE_FILE) -> dict | None:
     return info if isinstance(info, dict) else None
 
 
+# the zips there are, by the Python they are for (tools/bundle.py's PYTHON_LINES)
+ZIP_PYTHONS = ("3.11", "3.13")
+
+
+def right_zip(python_version: tuple) -> str:
+    """Which zip fits a Blender that runs this Python: named by Python, since a distribution's Blender 4.x
+    may run Python 3.13 and official 4.2 to 5.0 run 3.11."""
+    here = "%d.%d" % python_version[:2]
+    if here in ZIP_PYTHONS:
+        return f"install the zip for Python {here} (lapig-<version>-<platform>-py{here.replace('.', '')}.zip)"
+    return (f"no zip is built for Python {here} (there are zips for Python {' and '.join(ZIP_PYTHONS)}): "
+            f"install the zip without wheels and its packages into Blender's Python")
+
+
 def bundle_lines(info: dict | None, python_version: tuple = sys.version_info[:2]) -> list[StatusLine]:
     if info is None:
         return [StatusLine("INFO", "No bundled wheels (a source checkout or the zip without them): "
@@ -42,8 +56,7 @@ def bundle_lines(info: dict | None, python_version: tuple = sys.version_info[:2]
         lines.append(StatusLine("INFO", f"Its wheels need {info['minimum_os']} or later"))
     if info.get("python") and info["python"] != here:
         lines.append(StatusLine("ERROR", f"This Blender runs Python {here}, so Blender skipped those wheels: "
-                                         f"install the zip for Python {here} (Blender 4.2 to 5.0: py311, "
-                                         f"5.1 and later: py313)"))
+                                         f"{right_zip(python_version)}"))
     for missing in info.get("not_bundled", []):
         lines.append(StatusLine("ERROR", f"{missing.get('package')} is not in this zip: {missing.get('reason')}"))
         lines.append(StatusLine("BLANK1", f"Next: {missing.get('next_step')}"))

@@ -57,11 +57,12 @@ class PythonLine:
 
 
 PYTHON_LINES = {
-    # numpy 1.26 (official 4.2 to 5.0): OpenCV 4.11 is the last built for numpy 1
-    "py311": PythonLine("py311", "3.11", "numpy>=1.26,<2", "4.11.0.86", "official Blender 4.2 to 5.0"),
-    # numpy 2 (official 5.1 to 5.3: 2.2 and later; Debian trixie's system numpy 2.2.4): OpenCV 4.12 is the
-    # first built for numpy 2 and asks for numpy >=2,<2.3
-    "py313": PythonLine("py313", "3.13", "numpy>=2,<2.3", "4.12.0.88",
+    # official 4.2 to 5.0 bring numpy 1.26.4; OpenCV 4.11 is the last that declares numpy 1 (>= 1.23.5 here)
+    "py311": PythonLine("py311", "3.11", "numpy>=1.26", "4.11.0.86", "official Blender 4.2 to 5.0"),
+    # official 5.1 to 5.3 bring numpy 2 (bpy 5.3.0: >= 2.2), Debian trixie's Blender 4.3.2 the system's 2.2.4:
+    # OpenCV 4.12 is the first built for numpy 2. It declares numpy < 2.3, but its cv2 runs on 2.3.5 (remap
+    # and findHomography checked with Python 3.13), so the zip asks for numpy 2 only
+    "py313": PythonLine("py313", "3.13", "numpy>=2", "4.12.0.88",
                         "official Blender 5.1 and later; distributions' 4.2 to 4.5 built with Python 3.13"),
 }
 

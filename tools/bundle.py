@@ -2,9 +2,13 @@
 extension must not install packages at run time, so it ships unmodified wheels from the package index,
 listed in the manifest's `wheels`; Blender unpacks the ones for its platform and Python on install).
 
-One zip per platform and Python, because Blender 4.2 to 5.0 embed Python 3.11 (numpy 1.26) and 5.1 to 5.3
-Python 3.13 (numpy 2): each zip's manifest claims only the Blender releases whose Python its wheels fit, so
-a user downloads one file and uses Install from Disk.
+One zip per platform and Python: official Blender 4.2 to 5.0 embed Python 3.11 (numpy 1.26), 5.1 to 5.3
+Python 3.13 (numpy 2), and distributions build 4.2 to 4.5 against their own Python 3.13 and numpy 2 (Debian
+trixie's Blender 4.3.2). So a zip is for a Python, not for Blender releases: every zip's manifest keeps the
+repository's Blender range (4.2, the first release with extensions and wheels, up to the last one tested),
+and Blender itself derives the zip's Python from its wheels' tags (bl_pkg's `python_versions_from_wheels`,
+the same code in 4.2.23, 5.0.1 and 5.3.0) and refuses the other zip with "This Python version (3.13) isn't
+compatible with (3.11)".
 
 The pins are `requirements-bundle.txt` (written by `lock_from_environment` from the development venv,
 so the zips carry what the tests ran with); numpy is never bundled: Blender ships its own, and its
@@ -44,17 +48,22 @@ PLATFORM_TAGS = {
 
 @dataclass(frozen=True)
 class PythonLine:
-    """The Blender releases that embed one Python, and what differs for it."""
+    """One Python that Blender runs, and what differs for it (its numpy, so its OpenCV)."""
     tag: str  # py311
     version: str  # 3.11
-    blender_min: str  # inclusive
-    blender_max: str  # exclusive, as the manifest's blender_version_max
+    numpy: str  # the numpy the Blenders of this Python bring, as a requirement
     opencv: str
+    blenders: str  # which Blenders run this Python, for people
 
 
 PYTHON_LINES = {
-    "py311": PythonLine("py311", "3.11", "4.2.0", "5.1.0", "4.11.0.86"),  # numpy 1.26: OpenCV 4.11
-    "py313": PythonLine("py313", "3.13", "5.1.0", "5.4.0", "4.12.0.88"),  # numpy 2: OpenCV 4.12 is the first
+    # official 4.2 to 5.0 bring numpy 1.26.4; OpenCV 4.11 is the last that declares numpy 1 (>= 1.23.5 here)
+    "py311": PythonLine("py311", "3.11", "numpy>=1.26", "4.11.0.86", "official Blender 4.2 to 5.0"),
+    # official 5.1 to 5.3 bring numpy 2 (bpy 5.3.0: >= 2.2), Debian trixie's Blender 4.3.2 the system's 2.2.4:
+    # OpenCV 4.12 is the first built for numpy 2. It declares numpy < 2.3, but its cv2 runs on 2.3.5 (remap
+    # and findHomography checked with Python 3.13), so the zip asks for numpy 2 only
+    "py313": PythonLine("py313", "3.13", "numpy>=2", "4.12.0.88",
+                        "official Blender 5.1 and later; distributions' 4.2 to 4.5 built with Python 3.13"),
 }
 
 # the roots of what the add-on imports at run time; requirements-bundle.txt pins them and what they need.
@@ -240,10 +249,16 @@ def download_wheels(bundle: BundlePlan, cache_root: str) -> list[str]:
     return wheels
 
 
+def blender_range(text: str) -> tuple[str, str | None]:
+    """The repository manifest's blender_version_min and (exclusive) blender_version_max: every zip keeps
+    them, its Python comes from its wheels."""
+    found = dict(re.findall(r'(?m)^(blender_version_m(?:in|ax)) = "(.*)"$', text))
+    return found["blender_version_min"], found.get("blender_version_max")
+
+
 def _manifest_for(text: str, bundle: BundlePlan, wheel_names: list[str]) -> str:
-    """The repository's manifest with this zip's platform, wheels and Blender range."""
-    text = re.sub(r'(?m)^blender_version_min = ".*"$', f'blender_version_min = "{bundle.python.blender_min}"', text)
-    text = re.sub(r'(?m)^blender_version_max = ".*"$', f'blender_version_max = "{bundle.python.blender_max}"', text)
+    """The repository's manifest with this zip's platform and wheels (its Blender range unchanged: Blender
+    refuses a zip whose wheels' Python is not its own, by the wheels' tags)."""
     wheels = ",\n".join(f'  "./wheels/{n}"' for n in wheel_names)
     extra = (f'\n# this zip: Python {bundle.python.version} wheels for {bundle.platform} (tools/bundle.py)\n'
              f'platforms = ["{bundle.platform}"]\nwheels = [\n{wheels},\n]\n')
@@ -252,7 +267,7 @@ def _manifest_for(text: str, bundle: BundlePlan, wheel_names: list[str]) -> str:
     return text[:cut] + extra.lstrip("\n") + "\n" + text[cut:]
 
 
-def bundle_info(bundle: BundlePlan, wheel_paths: list[str]) -> dict:
+def bundle_info(bundle: BundlePlan, wheel_paths: list[str], blender: tuple = ("4.2.0", None)) -> dict:
     def dist(path):
         name, version = os.path.basename(path).split("-")[:2]
         return {"name": _normal(name), "version": version}
@@ -261,7 +276,7 @@ def bundle_info(bundle: BundlePlan, wheel_paths: list[str]) -> dict:
              for m in [re.search(r"macosx_(\d+)_(\d+)_", os.path.basename(p))] if m]
     return {"platform": bundle.platform, "python": bundle.python.version,
             "minimum_os": "macOS %d.%d" % max(macos) if macos else None,
-            "blender": [bundle.python.blender_min, bundle.python.blender_max],
+            "blender": list(blender), "blenders": bundle.python.blenders, "numpy": bundle.python.numpy,
             "bundled": [dist(p) for p in wheel_paths],
             "not_bundled": [vars(n) for n in bundle.not_bundled]}
 
@@ -269,8 +284,12 @@ def bundle_info(bundle: BundlePlan, wheel_paths: list[str]) -> dict:
 def build_platform_zip(platform: str, python_tag: str, out_dir: str, cache_root: str | None = None) -> dict:
     """Build and validate lapig-<version>-<platform>-<python>.zip; returns {path, bytes, wheels, ...}."""
     bundle = plan(platform, python_tag)
-    cache_root = cache_root or os.path.join(ROOT, "build", "wheels")
-    wheels = download_wheels(bundle, cache_root)
+    wheels = download_wheels(bundle, cache_root or os.path.join(ROOT, "build", "wheels"))
+    return assemble_zip(bundle, wheels, out_dir)
+
+
+def assemble_zip(bundle: BundlePlan, wheels: list[str], out_dir: str) -> dict:
+    """The extension zip of the tracked files plus these wheel files, built and validated by Blender's CLI."""
     os.makedirs(out_dir, exist_ok=True)
     cli = blender_ext_cli()
     with tempfile.TemporaryDirectory(prefix="lapig_bundle_") as staging:
@@ -283,18 +302,20 @@ def build_platform_zip(platform: str, python_tag: str, out_dir: str, cache_root:
             text = f.read()
         with open(manifest, "w") as f:
             f.write(_manifest_for(text, bundle, [os.path.basename(w) for w in wheels]))
+        info = bundle_info(bundle, wheels, blender_range(text))
         with open(os.path.join(staging, BUNDLE_INFO), "w") as f:
-            json.dump(bundle_info(bundle, wheels), f, indent=1)
+            json.dump(info, f, indent=1)
         version = re.search(r'(?m)^version = "(.*)"$', text).group(1)
-        path = os.path.join(out_dir, f"lapig-{version}-{platform}-{python_tag}.zip")
+        path = os.path.join(out_dir, f"lapig-{version}-{bundle.platform}-{bundle.python.tag}.zip")
         proc = subprocess.run([sys.executable, cli, "build", "--source-dir", staging, "--output-filepath", path],
                               capture_output=True, text=True)
         if proc.returncode != 0 or not os.path.isfile(path):
             raise OSError(f"the extension build failed for {bundle.name}: {(proc.stdout + proc.stderr)[-1500:]}")
     validate_zip(path)
     digest = hashlib.sha256(open(path, "rb").read()).hexdigest()
-    return {"path": path, "platform": platform, "python": bundle.python.version,
-            "blender": f"{bundle.python.blender_min} to <{bundle.python.blender_max}",
+    low, high = info["blender"]
+    return {"path": path, "platform": bundle.platform, "python": bundle.python.version,
+            "blender": f"Python {bundle.python.version} Blenders from {low}" + (f" to <{high}" if high else ""),
             "bytes": os.path.getsize(path), "mb": round(os.path.getsize(path) / 2**20, 1), "sha256": digest,
             "wheels": len(wheels), "not_bundled": [n.package for n in bundle.not_bundled],
-            "minimum_os": bundle_info(bundle, wheels)["minimum_os"]}
+            "minimum_os": info["minimum_os"]}

@@ -95,7 +95,9 @@ def add_parsers(sub):
                        help="also build the zip that carries its Python wheels for this platform: linux-x64, "
                             "windows-x64, macos-arm64 or all (repeatable); without it, the zip without wheels")
     build.add_argument("--python", choices=["py311", "py313", "all"], default="all",
-                       help="with --platform: py311 (Blender 4.2 to 5.0), py313 (5.1 to 5.3) or all (default)")
+                       help="with --platform: the zip for Blender's Python: py311 (official Blender 4.2 to 5.0), "
+                            "py313 (official 5.1 and later, and distributions' builds on Python 3.13) or all "
+                            "(default)")
     build.add_argument("--lock", action="store_true",
                        help="rewrite requirements-bundle.txt from this environment first")
 
@@ -295,7 +297,7 @@ def cmd_build(args) -> int:
             built = bundle.build_platform_zip(platform, python, os.path.abspath(args.out))
             missing = f"; not bundled: {', '.join(built['not_bundled'])}" if built["not_bundled"] else ""
             print(f"built and validated {built['path']}: {built['mb']} MB, {built['wheels']} wheels, "
-                  f"Blender {built['blender']}{missing}", flush=True)
+                  f"for {built['blender']}{missing}", flush=True)
             zips.append(built)
     print_json({"zips": zips})
     return 0

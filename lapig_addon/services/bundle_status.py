@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import sys
 from dataclasses import dataclass
 
@@ -31,7 +32,46 @@ def read_bundle(path: str = BUNDLE_FILE) -> dict | None:
     return info if isinstance(info, dict) else None
 
 
-def bundle_lines(info: dict | None, python_version: tuple = sys.version_info[:2]) -> list[StatusLine]:
+# the zips there are, by the Python they are for (tools/bundle.py's PYTHON_LINES)
+ZIP_PYTHONS = ("3.11", "3.13")
+
+
+def right_zip(python_version: tuple) -> str:
+    """Which zip fits a Blender that runs this Python: named by Python, since a distribution's Blender 4.x
+    may run Python 3.13 and official 4.2 to 5.0 run 3.11."""
+    here = "%d.%d" % python_version[:2]
+    if here in ZIP_PYTHONS:
+        return f"install the zip for Python {here} (lapig-<version>-<platform>-py{here.replace('.', '')}.zip)"
+    return (f"no zip is built for Python {here} (there are zips for Python {' and '.join(ZIP_PYTHONS)}): "
+            f"install the zip without wheels and its packages into Blender's Python")
+
+
+def running_numpy() -> str | None:
+    """The numpy of the Python that Blender runs (Blender's own, or a distribution's system numpy)."""
+    try:
+        import numpy
+    except ImportError:
+        return None
+    return numpy.__version__
+
+
+def _release(text: str) -> tuple:
+    """'2.2.4' -> (2, 2, 4); '2' -> (2, 0, 0)."""
+    parts = [int(part) for part in re.findall(r"\d+", text.split("+")[0])[:3]]
+    return tuple(parts + [0] * (3 - len(parts)))
+
+
+def numpy_fits(requirement: str, version: str) -> bool:
+    """Whether numpy `version` meets a requirement such as 'numpy>=2,<2.3' (bundle.json's; >= and < only)."""
+    have = _release(version)
+    for op, bound in re.findall(r"(>=|<)\s*([\d.]+)", requirement):
+        if (have < _release(bound)) if op == ">=" else (have >= _release(bound)):
+            return False
+    return True
+
+
+def bundle_lines(info: dict | None, python_version: tuple = sys.version_info[:2],
+                 numpy_version: str | None = None) -> list[StatusLine]:
     if info is None:
         return [StatusLine("INFO", "No bundled wheels (a source checkout or the zip without them): "
                                    "the packages come from Blender's Python")]
@@ -42,8 +82,15 @@ def bundle_lines(info: dict | None, python_version: tuple = sys.version_info[:2]
         lines.append(StatusLine("INFO", f"Its wheels need {info['minimum_os']} or later"))
     if info.get("python") and info["python"] != here:
         lines.append(StatusLine("ERROR", f"This Blender runs Python {here}, so Blender skipped those wheels: "
-                                         f"install the zip for Python {here} (Blender 4.2 to 5.0: py311, "
-                                         f"5.1 and later: py313)"))
+                                         f"{right_zip(python_version)}"))
+    numpy_version = numpy_version or running_numpy()
+    if info.get("numpy") and numpy_version and not numpy_fits(info["numpy"], numpy_version):
+        # a distribution's Blender brings its system numpy: OpenCV's compiled module needs the numpy it was
+        # built for (numpy 1 for the py311 zip, numpy 2 below 2.3 for the py313 zip)
+        lines.append(StatusLine("ERROR", f"This Blender's numpy is {numpy_version}, and this zip's OpenCV needs "
+                                         f"{info['numpy']}, so it will not load: install an OpenCV built for "
+                                         f"numpy {numpy_version} (opencv-contrib-python-headless) into "
+                                         f"Blender's Python"))
     for missing in info.get("not_bundled", []):
         lines.append(StatusLine("ERROR", f"{missing.get('package')} is not in this zip: {missing.get('reason')}"))
         lines.append(StatusLine("BLANK1", f"Next: {missing.get('next_step')}"))

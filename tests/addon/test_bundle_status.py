@@ -28,4 +28,13 @@ def test_a_zip_that_lacks_torch_names_the_reason_and_the_next_step(tmp_path):
 
 def test_a_zip_for_another_python_says_which_zip_to_install():
     lines = _status().bundle_lines({"platform": "linux-x64", "python": "3.11", "bundled": []}, (3, 13))
-    assert "install the zip for Python 3.13" in lines[1].text and lines[1].icon == "ERROR"
+    assert "install the zip for Python 3.13 (lapig-<version>-<platform>-py313.zip)" in lines[1].text
+    assert lines[1].icon == "ERROR" and "Blender 5" not in lines[1].text  # by Python, not by Blender release
+
+
+def test_a_python_313_blender_with_numpy_1_is_told_the_zips_opencv_will_not_load():
+    info = {"platform": "linux-x64", "python": "3.13", "numpy": "numpy>=2", "bundled": []}
+    lines = _status().bundle_lines(info, (3, 13), numpy_version="1.26.4")
+    assert [line.icon for line in lines] == ["PACKAGE", "ERROR"]
+    assert "numpy is 1.26.4, and this zip's OpenCV needs numpy>=2" in lines[1].text
+    assert len(_status().bundle_lines(info, (3, 13), numpy_version="2.2.4")) == 1  # Debian trixie's numpy fits

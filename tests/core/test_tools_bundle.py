@@ -35,12 +35,13 @@ def test_unknown_platforms_and_pythons_are_refused_with_the_known_ones():
         bundle.plan("linux-x64", "py27", lock=[])
 
 
-def test_the_zip_manifest_claims_only_the_releases_of_its_python_and_lists_its_wheels():
+def test_the_zip_manifest_keeps_the_blender_range_and_lists_its_platform_and_wheels():
     with open(bundle.ROOT + "/blender_manifest.toml") as f:
         text = f.read()
     plan = bundle.plan("macos-arm64", "py313", lock=LOCK[1:])
     manifest = tomllib.loads(bundle._manifest_for(text, plan, ["onnx-1.23.2-cp313-cp313-macosx_13_0_universal2.whl"]))
-    assert (manifest["blender_version_min"], manifest["blender_version_max"]) == ("5.1.0", "5.4.0")
+    # a zip is for a Python (its wheels say which), not for Blender releases: tests/core/test_zip_compatibility.py
+    assert (manifest["blender_version_min"], manifest["blender_version_max"]) == ("4.2.0", "5.4.0")
     assert manifest["platforms"] == ["macos-arm64"]
     assert manifest["wheels"] == ["./wheels/onnx-1.23.2-cp313-cp313-macosx_13_0_universal2.whl"]
     assert manifest["permissions"] == tomllib.loads(text)["permissions"]  # the tables after it are intact

@@ -44,7 +44,7 @@ def bare_blender_python(folder) -> str:
 
 @pytest.mark.skipif(os.environ.get("LAPIG_SKIP_BUNDLE") == "1", reason="LAPIG_SKIP_BUNDLE=1")
 @pytest.mark.skipif(not sys.platform.startswith("linux") or sys.version_info[:2] != (3, 11),
-                    reason="the Linux zip for Python 3.11 (Blender 4.2 to 5.0) is the one tested here")
+                    reason="the Linux zip for Python 3.11 (official Blender 4.2 to 5.0) is the one tested here")
 def test_the_linux_zip_alone_gives_a_working_generate(tmp_path):
     from lapig.tools.bundle import build_platform_zip
 

@@ -1,5 +1,5 @@
 """Refine on the rig for a result of several projectors (issue 36): every projector's image projected at once,
-one camera capture per round, all images corrected together (lapig_core/multi/refine).
+one camera capture per round, all images corrected together (lapig_core/refine/joint).
 
 RefineResultJob takes this path when the scene's rig has more than one projector (the Refine button, `stylize
 --refine N`): the steps below run inside that job. As for one projector, nothing is written until the loop has
@@ -44,11 +44,11 @@ def multi_refine_inputs(seams, doing: str = "refinement") -> tuple[str, str]:
 
 
 def prepared_multi_refinement(folder: str, capture: str, settings: RefineSettings):
-    """Steps whose value is (the result's summary, the MultiRefinement of its projector images against its look
+    """Steps whose value is (the result's summary, the JointRefinement of its projector images against its look
     on the capture's joint model)."""
     from ...lapig_core.multi.capture_set import load_multi_capture
     from ...lapig_core.multi.first_look import fit_joint_first_look, load_joint_model
-    from ...lapig_core.multi.refine import MultiRefinement
+    from ...lapig_core.refine.joint import JointRefinement
     from ...lapig_core.multi.result_files import projector_images
 
     yield 0.02, "reading the result and the joint model"
@@ -63,14 +63,14 @@ def prepared_multi_refinement(folder: str, capture: str, settings: RefineSetting
     target = read_result_image(folder, "look")
     start = [image for _, image in projector_images(folder)]
     try:
-        return summary, MultiRefinement(model, target, model.reached.any(axis=0) & cs.object_mask, start, settings)
+        return summary, JointRefinement(model, target, model.reached.any(axis=0) & cs.object_mask, start, settings)
     except RefineError as exc:
         raise PipelineError(str(exc)) from None
 
 
 def multi_refine_rounds(device, refinement):
     """A generator of (progress, message) that runs `refinement` on an open MultiProjectorDevice."""
-    from ...lapig_core.multi.refine import device_capture
+    from ...lapig_core.refine.joint import device_capture
 
     capture = device_capture(device)
     # the camera's exposure as the capture fixed it: every projector white together

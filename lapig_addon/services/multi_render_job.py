@@ -18,7 +18,7 @@ import numpy as np
 
 from ...lapig_core.capture.settings import CaptureError
 from ...lapig_core.export.result_files import read_summary
-from .multi_refine_job import multi_refine_inputs
+from .refine_joint import multi_refine_inputs
 from .pipeline_errors import PipelineError, hold_capture
 
 

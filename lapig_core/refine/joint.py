@@ -2,8 +2,9 @@
 """Closed-loop refinement in camera space, for a rig of any number K of projectors (issue 36): project all K
 images, capture once, correct every image jointly; numpy and OpenCV only.
 
-The rounds are refine/loop.RefinementLoop's, as for one projector in projector space (loop.Refinement); each round projects every projector's image
-at once and takes one registered camera capture (camera space, the only frame the K share). The step is a
+The rounds are refine/loop.RefinementLoop's, as for one projector in projector space (loop.Refinement); each
+round projects every projector's image at once and takes one registered camera capture (camera space, the only
+frame the K share). The step is a
 damped Gauss-Newton step through the joint model's linearisation, per camera pixel in linear units
 
     q_{n+1} = argmin_{0<=q_k<=1} || W (sum_k M_k q_k + o - (sum_k M_k q_n,k + o + alpha (y_target - y_n))) ||^2

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One command from a fresh clone: set up the environment, then run every test.
 # Then the newest Blender release's torch-free tier in a venv of its own (scripts/test_blender_versions.sh
-# --newest): LAPIG_MATRIX=all runs all eight releases instead, =none none (see README, "Blender releases").
+# --newest): LAPIG_MATRIX=all runs all eight releases instead, =none none (see docs/development.md, "Blender releases").
 # With arguments, they go to pytest in .venv only (e.g. bash run_tests.sh tests/core -k gray).
 set -euo pipefail
 cd "$(dirname "$0")"

@@ -6,7 +6,7 @@ import sys
 
 import bpy
 
-from ...lapig_core.common.deps import check_dependencies, install_command
+from ...lapig_core.common.deps import INSTALL_DOC, check_dependencies, install_command
 from ...lapig_core.common.gpu_torch import gpu_advice, installed_torch, nvidia_gpu_present
 from ..services.bundle_status import bundle_lines, read_bundle
 from .operator_boundary import ReportsErrors
@@ -89,7 +89,7 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
             target = bpy.utils.user_resource("SCRIPTS", path="modules", create=False)
             box.label(text=install_command(sys.executable, target))
             box.operator(LAPIG_OT_copy_install_command.bl_idname, icon="COPYDOWN")
-            box.label(text="README.md, 'Installing the Python dependencies into Blender', explains each step.")
+            box.label(text=f"{INSTALL_DOC} explains each step.")
 
 
 def compute_device() -> str:

@@ -59,9 +59,12 @@ def install_command(python_executable: str, target: str | None = None) -> str:
     return f'"{python_executable}" -m pip install{where}{cpu_torch} {packages}'
 
 
+# the manual's page and section that explain the install (tests/core/test_documents.py checks it resolves)
+INSTALL_DOC = "docs/installing.md#installing-the-python-dependencies-into-blender"
+
+
 def needs_message(packages: list[str]) -> str:
-    return (f"LAPIG needs {', '.join(packages)}: see the add-on preferences or the README "
-            f"('Installing the Python dependencies into Blender')")
+    return (f"LAPIG needs {', '.join(packages)}: see the add-on preferences or {INSTALL_DOC}")
 
 
 def require(*modules: str):

@@ -31,11 +31,24 @@ sys.path[:] = [p for p in sys.path if pathlib.Path(p or ".").resolve() != ROOT]
 _load_extension_package()
 
 from package_names import TopLevelNamesRefused, files_loaded_twice  # noqa: E402 (tests/ is the conftest's folder)
+import source_tree_guard  # noqa: E402
 
 sys.meta_path.insert(0, TopLevelNamesRefused())
 
 
+_tree_before = {}
+
+
+def pytest_sessionstart(session):
+    _tree_before.update(source_tree_guard.snapshot(ROOT))
+
+
 def pytest_sessionfinish(session, exitstatus):
+    written = source_tree_guard.changes(_tree_before, source_tree_guard.snapshot(ROOT))
+    if written and not session.config.getoption("collectonly"):
+        print("\nerror: the run wrote into the source tree (tests write into tmp_path):\n  " + "\n  ".join(written[:40]),
+              file=sys.stderr)
+        session.exitstatus = 1
     twice = files_loaded_twice()
     if twice:
         lines = [f"{path}: {', '.join(names)}" for path, names in sorted(twice.items())]

@@ -281,10 +281,19 @@ def bundle_info(bundle: BundlePlan, wheel_paths: list[str], blender: tuple = ("4
             "not_bundled": [vars(n) for n in bundle.not_bundled]}
 
 
+def wheel_cache_root() -> str:
+    """Where downloaded wheels are kept between builds: $LAPIG_WHEEL_CACHE, else the user's cache folder
+    (outside the checkout, so that a build, or a test that builds, leaves the source tree as it was)."""
+    if os.environ.get("LAPIG_WHEEL_CACHE"):
+        return os.environ["LAPIG_WHEEL_CACHE"]
+    cache = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(cache, "lapig", "wheels")
+
+
 def build_platform_zip(platform: str, python_tag: str, out_dir: str, cache_root: str | None = None) -> dict:
     """Build and validate lapig-<version>-<platform>-<python>.zip; returns {path, bytes, wheels, ...}."""
     bundle = plan(platform, python_tag)
-    wheels = download_wheels(bundle, cache_root or os.path.join(ROOT, "build", "wheels"))
+    wheels = download_wheels(bundle, cache_root or wheel_cache_root())
     return assemble_zip(bundle, wheels, out_dir)
 
 

@@ -22,7 +22,8 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "classical-fit": "classical_fit", "rig-faults": "rig_faults", "device": "device",
               "show": "show", "show-live": "show_live", "video": "video", "multi": "multi",
               "multi-live": "multi_live", "show-multi": "show_multi",
-              "denormals": "denormals", "layout": "layout", "threads": "threads", "looks": "looks"}
+              "denormals": "denormals", "layout": "layout", "threads": "threads", "looks": "looks",
+              "machine": "machine"}
 
 
 def _ensure_registered():
@@ -293,7 +294,8 @@ def cmd_build(args) -> int:
     zips = []
     for platform in platforms:
         for python in pythons:
-            print(f"building {platform} {python} (downloading its wheels once into build/wheels/)", flush=True)
+            print(f"building {platform} {python} (downloading its wheels once into {bundle.wheel_cache_root()})",
+                  flush=True)
             built = bundle.build_platform_zip(platform, python, os.path.abspath(args.out))
             missing = f"; not bundled: {', '.join(built['not_bundled'])}" if built["not_bundled"] else ""
             print(f"built and validated {built['path']}: {built['mb']} MB, {built['wheels']} wheels, "

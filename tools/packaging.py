@@ -34,22 +34,22 @@ def tracked_files(root: str = ROOT) -> list[str]:
     return [n for n in names if os.path.isfile(os.path.join(root, n))]  # deleted but not committed: skip
 
 
-def copy_tracked_files(staging: str) -> None:
+def copy_tracked_files(staging: str, root: str = ROOT) -> None:
     """The git-tracked files of the checkout, copied into staging as they are in the working tree."""
-    for name in tracked_files():
+    for name in tracked_files(root):
         target = os.path.join(staging, name)
         os.makedirs(os.path.dirname(target), exist_ok=True)
-        shutil.copy2(os.path.join(ROOT, name), target)
+        shutil.copy2(os.path.join(root, name), target)
 
 
-def build_extension(out_dir: str) -> str:
+def build_extension(out_dir: str, root: str = ROOT) -> str:
     """Build the zip from the git-tracked files into out_dir, validate it, return its path.
 
     The manifest's [build] paths_exclude_pattern still applies (tests, tools, benchmark weights)."""
     os.makedirs(out_dir, exist_ok=True)
     cli = blender_ext_cli()
     with tempfile.TemporaryDirectory(prefix="lapig_build_") as staging:
-        copy_tracked_files(staging)
+        copy_tracked_files(staging, root)
         subprocess.run([sys.executable, cli, "build", "--source-dir", staging, "--output-dir", out_dir],
                        check=True, capture_output=True, text=True)
     zips = sorted(glob.glob(os.path.join(out_dir, "lapig-*.zip")), key=os.path.getmtime)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...lapig_core.capture.settings import CaptureError
 from ...lapig_core.export.result_files import read_summary
-from .multi_refine_job import multi_refine_inputs
+from .refine_joint import multi_refine_inputs
 from .pipeline_errors import PipelineError, hold_capture
 
 
@@ -37,7 +37,7 @@ def render_valid(capture: str) -> np.ndarray:
 def render_rounds(device, image_sets: list) -> "list[np.ndarray]":
     """A generator over an open MultiProjectorDevice: each set of K images shown together and captured once,
     at the exposure the capture fixed (every projector white together); its value is the float captures."""
-    from ...lapig_core.multi.refine import device_capture
+    from ...lapig_core.refine.joint import device_capture
 
     capture = device_capture(device)
     device.lock_exposure([np.ones((m.shape[0], m.shape[1], 3), np.uint8) * 255 for m in image_sets[0]])
@@ -77,7 +77,7 @@ def multi_render_steps(job):
     yield 0.9, "comparing with the look"
     rendered = dict(zip(sets, captured))
     summary.setdefault("metrics", {}).update(rendered_metrics(rendered, folder, render_valid(capture)))
-    summary["rendered_bit_depth"] = 8  # the device's frames: multi/refine.device_capture's contract
+    summary["rendered_bit_depth"] = 8  # the device's frames: refine/joint.device_capture's contract
     summary["summary_line"] = with_rendered(summary.get("summary_line") or summary.get("prompt") or "result",
                                             summary["metrics"]["rendered_psnr"])
     write_rendered(folder, rendered, summary)

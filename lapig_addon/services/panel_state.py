@@ -167,7 +167,7 @@ def render_blocker(state: SceneState) -> str:
 
 def refine_blocker(state: SceneState) -> str:
     """Why Refine on the Rig cannot run ('' when it can): one projector's result as single_result_blocker says;
-    a rig of several refines all its projectors together (services/multi_refine_job): the virtual rig, or a real
+    a rig of several refines all its projectors together (services/refine_joint): the virtual rig, or a real
     one with a window on each projector's own display (projectors_blocker)."""
     if state.rig.projector_count > 1:
         return result_blocker(state) or projectors_blocker(state.rig)

@@ -1,7 +1,8 @@
 """Refine on the rig: the scene's result projected, captured and corrected until the captures stop
 improving (lapig_core.refine), through the device factory every job uses (Cycles, a real or a simulated
-rig alike). A rig of several projectors takes services/multi_refine_job's steps (one capture of all of them
-per round, every image corrected together).
+rig alike). The way is chosen once, by the rig: one projector is refined in projector space (ProjectorRefineWay,
+below: the paper's frame), several together in camera space (services/refine_joint: one capture of all of them
+per round, every image corrected together); the job's steps are the same for both.
 
 Nothing is written until the loop has finished: the refined projector images (working frame and native)
 go into the result folder under names of their own, then result.json, written last and whole, names them
@@ -66,46 +67,73 @@ class RefineResultJob(Job):
         self.seams = seams
         self.settings = settings or RefineSettings(iterations=iterations)
 
-    def _inputs(self):
+    def steps(self):
+        way = refine_way(self.seams)
+        folder, capture = way.inputs(self.seams)
+        # reading the images and fitting the model take seconds: a worker step, since with Cycles this
+        # generator runs on Blender's main thread
+        summary, refinement = yield from self.drive(lambda: way.prepared(folder, capture, self.settings), False)
+        devices, rig_settings = self.seams.devices, way.rig_settings(self.seams.store)  # the store reads bpy: here
+        held = hold_capture(capture, self.title)  # no capture may replace the setup while the rig refines
+        try:  # the lock goes once the rig is closed, on the camera's thread after a cancel
+            yield from self.drive(lambda: way.rounds(devices, capture, refinement, rig_settings), devices.main_thread,
+                                  holding=held)
+        except (CaptureError, RegistrationCheckError, RefineError) as exc:
+            raise PipelineError(str(exc)) from None
+        written = yield from self.drive(lambda: way.write(folder, summary, refinement), False)
+        self.result = way.record(self.seams, folder, *written)
+
+
+def refine_way(seams):
+    """The one place the refinement's way is chosen: several projectors are refined together in camera space."""
+    if seams.store.read().rig.projector_count > 1:
+        from .refine_joint import JointRefineWay
+
+        return JointRefineWay
+    return ProjectorRefineWay
+
+
+class ProjectorRefineWay:
+    """RefineResultJob's steps for one projector, in projector space: inputs(seams) -> (result folder, capture)
+    on the main thread; prepared(folder, capture, settings), rounds(seams, capture, refinement) and
+    rounds(devices, capture, refinement, rig_settings(store)) and write(folder, summary, refinement) ->
+    (summary, record, image) are step generators; record(seams, folder, summary, record, image) puts the
+    refined result into the scene on the main thread."""
+
+    @staticmethod
+    def inputs(seams):
         """The result folder and the capture, from the scene (the main thread: the store reads bpy)."""
-        store = self.seams.store
-        state = store.read()
+        state = seams.store.read()
         blocker = panel_state.single_result_blocker(state)
         if blocker:
             raise PipelineError(blocker)
-        if self.seams.devices is None:
+        if seams.devices is None:
             raise PipelineError("refinement needs a rig to project on and capture with")
         return state.result_dir, current_capture(state)
 
-    def steps(self):
-        if self.seams.store.read().rig.projector_count > 1:  # several projectors: all refined together
-            from .multi_refine_job import multi_refine_steps
+    @staticmethod
+    def prepared(folder, capture, settings):
+        return prepared_refinement(folder, capture, settings)
 
-            self.result = yield from multi_refine_steps(self)
-            return
-        folder, capture = self._inputs()
-        # reading the images and fitting the classical model take seconds: a worker step, since with Cycles
-        # this generator runs on Blender's main thread
-        summary, refinement = yield from self.drive(lambda: prepared_refinement(folder, capture, self.settings), False)
-        devices = self.seams.devices
-        held = hold_capture(capture, self.title)  # no capture may replace the setup while the rig refines
+    @staticmethod
+    def rig_settings(store):
+        return store.export_settings().bit_depth  # the images are shown at the depth Export writes
 
-        def loop():
-            return (yield from refine_rounds(devices, capture, refinement, self.seams.store.export_settings().bit_depth))
+    @staticmethod
+    def rounds(devices, capture, refinement, bit_depth):
+        return refine_rounds(devices, capture, refinement, bit_depth)
 
-        try:  # the lock goes once the rig is closed, on the camera's thread after a cancel
-            yield from self.drive(loop, devices.main_thread, holding=held)
-        except (CaptureError, RegistrationCheckError, RefineError) as exc:
-            raise PipelineError(str(exc)) from None
-        written = yield from self.drive(lambda: write_refined(folder, summary, refinement), False)
-        self.result = self._record(folder, *written)
+    @staticmethod
+    def write(folder, summary, refinement):
+        return write_refined(folder, summary, refinement)
 
-    def _record(self, folder, summary, record, image):
+    @staticmethod
+    def record(seams, folder, summary, record, image):
         """The refined result into the scene (the main thread): its line, the light, the preview and the live window."""
-        store = self.seams.store
+        store = seams.store
         store.record_result(folder, summary["summary_line"], (summary.get("surface_reach") or {}).get("message", ""))
         # the preview and the live sinks show the refined image, as Export will write it
-        self.seams.show(result_frame(store, folder, store.export_settings().bit_depth, image=image, summary=summary))
+        seams.show(result_frame(store, folder, store.export_settings().bit_depth, image=image, summary=summary))
         return {"folder": folder, "refine": record, "line": refine_line(record).lstrip("; ")}
 
 

@@ -1,5 +1,5 @@
 """What a refinement adds to its result's summary (the line's figures, the record, the metrics), for one
-projector's refinement (refine_job) and several's (multi_refine_job) alike."""
+projector's refinement (refine_job) and several's (refine_joint) alike."""
 from __future__ import annotations
 
 

@@ -13,10 +13,6 @@ Entry points for the benchmarks (`bench multi`):
     stylize.stylize_joint(model, surface, prompt, backend, ..., psa=True, psa_settings=None) -> JointLook
         (.target, .frames, .without: the look without PSA, .psa: what PSA did);
     joint_psa.simulated_psnr(model, look, mask) and joint_psa.joint_surface_models(model, shape, on_object).
-- Refinement of all projectors on the rig (refine, numpy):
-    refine.refine_gain_db_multi(model: JointModel, device: MultiProjectorDevice, target (H,W,3), valid=None,
-        settings: refine.loop.RefineSettings = None) -> (RefineRecord, MultiRefinement);
-        record.refined_psnr - record.open_loop_psnr is `refine_gain_db_multi`;
-    refine.MultiRefinement(model, target, valid, start_frames, settings) with request()/take(), and
-    refine.run_multi(refinement, capture(frames, repeats) -> (repeats,H,W,3)), refine.device_capture(device).
+- Refinement of all projectors on the rig: refine/joint (JointRefinement, in camera space; the rounds are
+  refine/loop's, shared with one projector's projector-space Refinement).
 """

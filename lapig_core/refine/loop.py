@@ -123,8 +123,77 @@ def repeats_for(err: float, noise_var: float, repeats: int, settings: RefineSett
     return min(r, settings.max_repeats)
 
 
-class Refinement:
-    """The loop's state for N target images at the working frame.
+class RefinementLoop:
+    """The rounds every refinement shares, whatever its model: capture (the first round twice), measure
+    against the reachable target on the valid pixels, keep the best, step or stop. A subclass says what a
+    round's images are and how the captures come (`images`, `_rounds`), what the model predicts for the first
+    capture (`_predicted`), the step (`_step`), and how its state is kept (`_state`, `_restore`).
+    Its target is (N,H,W,3) or (H,W,3) for one image; `valid` (H,W)."""
+
+    def _begin(self, settings: RefineSettings) -> None:
+        self.settings = settings
+        self.repeats = 2  # the first round: the noise pair
+        self.noise_var = None
+        self.record = RefineRecord()
+        self.best = (-math.inf, self._state())
+        self.previous_err = None
+        self.done = False
+        self._t0 = None
+
+    # -- the images to capture and the captures back
+    def request(self):
+        """(images, repeats): capture the images `repeats` times (the layout take() wants: `_rounds`)."""
+        if self.done:
+            raise RefineError("the refinement is finished")
+        if self._t0 is None:
+            self._t0 = time.perf_counter()
+        return self.images, self.repeats
+
+    def take(self, captures) -> None:
+        """The registered captures of request()'s images, in [0,1]: measure, then step or stop."""
+        captures = np.asarray(captures, np.float32)
+        rounds = self._rounds(captures)  # (N, repeats, H, W, 3)
+        rec = self.record
+        rec.captures += len(captures)
+        if self.noise_var is None:
+            self._first(rounds)
+        mean = rounds.mean(axis=1)
+        psnr = masked_psnr(rounds[:, 0], self.target, self.valid)
+        if psnr > self.best[0]:
+            self.best = (psnr, self._state())
+        stop = round_stop(rec, psnr, self.repeats, self.settings)
+        if stop:
+            return self._finish(stop)
+        self._step(mean)
+
+    def _first(self, rounds) -> None:
+        rec = self.record
+        a, b = rounds[:, 0], rounds[:, 1]
+        rec.noise_floor_psnr = masked_psnr(a, b, self.valid)
+        rec.open_loop_psnr = masked_psnr(a, self.target, self.valid)
+        diff = (a.astype(np.float64) - b)[:, self.valid]
+        self.noise_var = float((diff ** 2).mean() / 2)  # one capture's noise variance (encoded units)
+        if self.settings.check_registration:
+            problem = registration_problem(a, self._predicted(), self.valid)
+            if problem:
+                raise RegistrationCheckError(problem)
+
+    def _choose_repeats(self, mean) -> None:
+        """Average more captures once the error left is mostly the captures' own noise."""
+        err = float(((mean.astype(np.float64) - self.target) ** 2).mean(-1)[:, self.valid].mean())
+        self.repeats = repeats_for(err, self.noise_var, self.repeats, self.settings)
+
+    def _finish(self, why: str) -> None:
+        psnr, state = self.best
+        self._restore(state)
+        self.record.refined_psnr = psnr
+        self.record.stopped = why
+        self.record.seconds = time.perf_counter() - (self._t0 or time.perf_counter())
+        self.done = True
+
+
+class Refinement(RefinementLoop):
+    """The loop's state for N target images at the working frame, in projector space (one projector).
 
     model: the setup's classical model (its M is the step's Jacobian); targets (N,H,W,3) encoded desired
     captures (PSA's adapted target); black, white (H,W,3) I- and I+; valid (H,W) the pixels compared
@@ -150,7 +219,7 @@ class Refinement:
         valid = np.asarray(valid, bool)
         if not valid.any():
             raise RefineError("the projector reaches no pixel of the object in this capture: nothing to refine")
-        self.model, self.settings, self.valid = model, settings, valid
+        self.model, self.valid = model, valid
         self.target = np.clip(targets, np.asarray(black, np.float32), np.asarray(white, np.float32))  # reachable
         self.y_target = np.power(self.target.astype(np.float64), model.gamma_c)
         self.weights = response_weights(self.y_target, model.gamma_c)
@@ -167,13 +236,7 @@ class Refinement:
         self.x = np.power(np.clip(start.astype(np.float64), 0, 1), model.gamma_p)
         self.x_start = self.x.copy()
         self.alpha = np.full(targets.shape[:3], settings.damping)  # per pixel
-        self.repeats = 2  # the first round: the noise pair
-        self.noise_var = None
-        self.record = RefineRecord()
-        self.best = (-math.inf, self._state())
-        self.previous_err = None
-        self.done = False
-        self._t0 = None
+        self._begin(settings)
 
     # -- the images to capture and the captures back
     @property
@@ -195,46 +258,18 @@ class Refinement:
     def _state(self):
         return (self.x.copy(), None if self.native is None else self.native.copy())
 
-    def request(self) -> tuple[np.ndarray, int]:
-        """(images, repeats): capture each image `repeats` times; take() wants them image-major
-        (image 0 repeat 0, image 0 repeat 1, ...)."""
-        if self.done:
-            raise RefineError("the refinement is finished")
-        if self._t0 is None:
-            self._t0 = time.perf_counter()
-        return self.images, self.repeats
+    def _restore(self, state) -> None:
+        self.x, self.native = state
 
-    def take(self, captures) -> None:
-        """The registered captures of request()'s images (N*repeats,H,W,3) in [0,1]: measure, then step or stop."""
+    def _rounds(self, captures):
+        """request()'s images captured image-major (image 0 repeat 0, image 0 repeat 1, ...) -> (N, repeats, ...)."""
         n = len(self.x)
-        captures = np.asarray(captures, np.float32)
         if captures.shape != (n * self.repeats,) + self.x.shape[1:]:
             raise RefineError(f"expected {n * self.repeats} captures shaped {self.x.shape[1:]}, got {captures.shape}")
-        rounds = captures.reshape((n, self.repeats) + self.x.shape[1:])
-        rec = self.record
-        rec.captures += len(captures)
-        if self.noise_var is None:
-            self._first(rounds)
-        mean = rounds.mean(axis=1)
-        psnr = masked_psnr(rounds[:, 0], self.target, self.valid)
-        if psnr > self.best[0]:
-            self.best = (psnr, self._state())
-        stop = round_stop(rec, psnr, self.repeats, self.settings)
-        if stop:
-            return self._finish(stop)
-        self._step(mean)
+        return captures.reshape((n, self.repeats) + self.x.shape[1:])
 
-    def _first(self, rounds) -> None:
-        rec = self.record
-        a, b = rounds[:, 0], rounds[:, 1]
-        rec.noise_floor_psnr = masked_psnr(a, b, self.valid)
-        rec.open_loop_psnr = masked_psnr(a, self.target, self.valid)
-        diff = (a.astype(np.float64) - b)[:, self.valid]
-        self.noise_var = float((diff ** 2).mean() / 2)  # one capture's noise variance (encoded units)
-        if self.settings.check_registration:
-            problem = registration_problem(a, self.model.simulate(self.working_images), self.valid)
-            if problem:
-                raise RegistrationCheckError(problem)
+    def _predicted(self):
+        return self.model.simulate(self.working_images)
 
     def _step(self, mean) -> None:
         m = self.model
@@ -257,27 +292,15 @@ class Refinement:
         self.record.iterations += 1
         self._choose_repeats(mean)
 
-    def _choose_repeats(self, mean) -> None:
-        """Average more captures once the error left is mostly the captures' own noise."""
-        err = float(((mean.astype(np.float64) - self.target) ** 2).mean(-1)[:, self.valid].mean())
-        self.repeats = repeats_for(err, self.noise_var, self.repeats, self.settings)
-
-    def _finish(self, why: str) -> None:
-        psnr, (x, native) = self.best
-        self.x, self.native = x, native
-        self.record.refined_psnr = psnr
-        self.record.stopped = why
-        self.record.seconds = time.perf_counter() - (self._t0 or time.perf_counter())
-        self.done = True
-
     # -- the correction, for another frame (the native output)
     def linear_correction(self) -> np.ndarray:
         """x_refined - x_start (N,H,W,3): the light the loop added per projector pixel, linear units."""
         return self.x - self.x_start
 
 
-def run(refinement: Refinement, capture, cancel=None) -> RefineRecord:
-    """Drive the loop with capture(images (N,H,W,3), repeats) -> registered (N*repeats,H,W,3), image-major.
+def run(refinement: RefinementLoop, capture, cancel=None) -> RefineRecord:
+    """Drive the loop with capture(images, repeats) -> the registered captures: for a Refinement, images
+    (N,H,W,3) -> (N*repeats,H,W,3) image-major; for a JointRefinement (refine/joint), K frames -> (repeats,H,W,3).
     cancel(): True stops before the next round (the record says so and the image is the best so far)."""
     while not refinement.done:
         if cancel is not None and cancel():

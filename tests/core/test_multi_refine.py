@@ -8,7 +8,7 @@ import pytest
 from lapig.lapig_core.multi import fake_rig
 from lapig.lapig_core.multi.joint_model import JointModel
 from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
-from lapig.lapig_core.multi.refine import MultiRefinement, device_capture, refine_gain_db_multi, run_multi
+from lapig.lapig_core.refine.joint import JointRefinement, device_capture, refine_gain_db_multi, run
 from lapig.lapig_core.refine.check import RegistrationCheckError
 from lapig.lapig_core.refine.loop import RefineError, RefineSettings
 
@@ -68,21 +68,21 @@ def test_a_bumped_camera_is_refused_on_the_first_capture():
     texture = cv2.GaussianBlur(np.random.default_rng(3).random((48, 64, 3)).astype(np.float32), (0, 0), 1.0)
     rig = fake_rig.side_by_side_rig(noise=0.002, albedo=0.3 + 0.65 * (texture - texture.min()) / np.ptp(texture))
     model = _fit(rig)
-    refinement = MultiRefinement(model, look(model), rig.object_mask, joint_compensate(model, look(model)).frames)
+    refinement = JointRefinement(model, look(model), rig.object_mask, joint_compensate(model, look(model)).frames)
     capture = device_capture(fake_rig.FakeRigDevice(rig))
     with pytest.raises(RegistrationCheckError, match="moved"):
-        run_multi(refinement, lambda images, repeats: np.roll(capture(images, repeats), 2, axis=2))
+        run(refinement, lambda images, repeats: np.roll(capture(images, repeats), 2, axis=2))
 
 
 def test_wrong_inputs_are_one_line_each():
     rig, model = perturbed()
     start = joint_compensate(model, look(model)).frames
     with pytest.raises(RefineError, match="one start image per projector"):
-        MultiRefinement(model, look(model), rig.object_mask, start[:1])
+        JointRefinement(model, look(model), rig.object_mask, start[:1])
     with pytest.raises(RefineError, match="generate again"):
-        MultiRefinement(model, look(model)[:10], rig.object_mask, start)
+        JointRefinement(model, look(model)[:10], rig.object_mask, start)
     with pytest.raises(RefineError, match="nothing to refine"):
-        MultiRefinement(model, look(model), np.zeros(model.shape, bool), start)
+        JointRefinement(model, look(model), np.zeros(model.shape, bool), start)
 
 
 def test_a_sharp_look_on_a_dark_stack_is_refined_and_the_back_projection_helps():
@@ -96,7 +96,7 @@ def test_a_sharp_look_on_a_dark_stack_is_refined_and_the_back_projection_helps()
     start = joint_compensate(model, target).frames
     refined = {}
     for back in (0, 3):
-        refinement = MultiRefinement(model, target, true.object_mask, start, back_projection=back)
-        refined[back] = run_multi(refinement, device_capture(fake_rig.FakeRigDevice(true)))
+        refinement = JointRefinement(model, target, true.object_mask, start, back_projection=back)
+        refined[back] = run(refinement, device_capture(fake_rig.FakeRigDevice(true)))
     assert refined[3].refined_psnr - refined[3].open_loop_psnr > 8.0, refined[3].to_dict()
     assert refined[3].refined_psnr > refined[0].refined_psnr + 0.4, (refined[0].to_dict(), refined[3].to_dict())

@@ -2,8 +2,8 @@
 bpy and what the bpy wheel itself needs (numpy, requests, zstandard, cython: what Blender ships), then the
 artist's whole path: Capture, Train, Generate, preview, export, disable.
 
-Building the zip downloads its wheels once into build/wheels/ (torch's CPU build comes from this machine's
-disk where pip finds it there); LAPIG_SKIP_BUNDLE=1 skips the test on a machine without the package index.
+Building the zip downloads its wheels once into the user's cache (tools/bundle.py, wheel_cache_root; torch's
+CPU build comes from this machine's disk where pip finds it there); LAPIG_SKIP_BUNDLE=1 skips the test on a machine without the package index.
 """
 import importlib.util
 import json

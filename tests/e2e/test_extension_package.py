@@ -30,19 +30,17 @@ def test_extension_builds_installs_enables_runs_and_disables(tmp_path):
 
 
 def test_zip_holds_only_tracked_files_of_the_extension(tmp_path):
-    """Stray files in the checkout, tests, tools and benchmark-only weights stay out of the zip."""
+    """Stray files in the checkout, tests, tools and benchmark-only weights stay out of the zip (the stray file
+    goes into a clone of the checkout: a test never writes into the source tree)."""
     import zipfile
 
     from lapig.tools.packaging import ROOT, build_extension, tracked_files
 
-    stray = os.path.join(ROOT, "lapig_core", "stray_untracked_test_file.py")
-    with open(stray, "w") as f:
-        f.write("# not tracked by git\n")
-    try:
-        assert "lapig_core/stray_untracked_test_file.py" not in tracked_files()
-        names = zipfile.ZipFile(build_extension(str(tmp_path / "dist"))).namelist()
-    finally:
-        os.remove(stray)
+    checkout = tmp_path / "checkout"
+    subprocess.run(["git", "clone", "-q", "--local", ROOT, str(checkout)], check=True, capture_output=True)
+    (checkout / "lapig_core" / "stray_untracked_test_file.py").write_text("# not tracked by git\n")
+    assert "lapig_core/stray_untracked_test_file.py" not in tracked_files(str(checkout))
+    names = zipfile.ZipFile(build_extension(str(tmp_path / "dist"), str(checkout))).namelist()
     assert "blender_manifest.toml" in names and "lapig_core/photometric/weights/pcnet_pretrained.pt" in names
     left_out = ("tests/", "tools/", "benchmarks/", "scripts/", "docs/architecture/")
     assert not [n for n in names if n.startswith(left_out)]

@@ -8,7 +8,7 @@ captured with the exposure the capture locked.
 - (a) bust: the demo statue, its projector swung 40 degrees to the camera's left, Add Projector's second one
   on the right (multi/placement); projectors 800x600 (the first look's timing), camera 320x240.
   coverage_single / coverage_joint, joint_gain_db (the joint compensation against the best single one's, on
-  the whole camera-visible object), seam_ratio, refine_gain_db_multi (multi/refine), mpcdi_package.
+  the whole camera-visible object), seam_ratio, refine_gain_db_multi (refine/joint), mpcdi_package.
 - (b) wall: a 3.6 x 1.4 m textured wall, two projectors side by side (about 18 % overlap of each footprint).
   wall_vs_single_db (joint against each projector alone on its half), seam_ratio, white_uniformity_pct (the
   white through the blend's alpha maps, encoded with the blend probe's gammas (multi/blend_probe): overlap
@@ -281,7 +281,7 @@ def _run_bust(out, projector_size, refine_iterations):
                               "bytes": os.path.getsize(package)}
         # refinement of both projectors on the studio
         try:
-            from ...lapig_core.multi.refine import refine_gain_db_multi
+            from ...lapig_core.refine.joint import refine_gain_db_multi
             from ...lapig_core.refine.loop import RefineSettings
         except ImportError:
             res["refine_gain_db_multi"], res["refine_reason"] = None, "multi refinement not built"

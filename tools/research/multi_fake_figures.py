@@ -5,7 +5,7 @@ against none) and the refinement of all projectors together against the open loo
     .venv/bin/python tools/research/multi_fake_figures.py [--sheet /tmp/multi_psa_refine.png]
 
 Prints one JSON object: `stack_psa_gain_db` (lapig_core/multi/stack_gain.stack_psa_gain) per prompt and surface,
-`refine_gain_db_multi` (lapig_core/multi/refine.refine_gain_db_multi) per rig. The Cycles-rendered figures are
+`refine_gain_db_multi` (lapig_core/refine/joint.refine_gain_db_multi) per rig. The Cycles-rendered figures are
 `bench multi`'s; these need no Blender and run in seconds.
 """
 from __future__ import annotations
@@ -63,7 +63,7 @@ def run(sheet_path: str | None) -> dict:
     from lapig.lapig_core.multi import fake_rig
     from lapig.lapig_core.multi.stack_gain import stack_psa_gain
     from lapig.lapig_core.multi.joint_solve import reach
-    from lapig.lapig_core.multi.refine import refine_gain_db_multi
+    from lapig.lapig_core.refine.joint import refine_gain_db_multi
 
     camera, projector = (96, 72), (192, 144)
     out = {"camera": camera, "projector": projector, "psa": {}, "refine": {}}

@@ -11,7 +11,7 @@ from lapig.tools.bench import bench_multi as B
 from lapig.lapig_addon.cli.commands import _ensure_registered
 from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
 from lapig.lapig_core.multi.blend import blend_weights
-from lapig.lapig_core.multi.refine import MultiRefinement, device_capture
+from lapig.lapig_core.refine.joint import JointRefinement, device_capture
 from lapig.lapig_core.refine.loop import RefineSettings
 _ensure_registered()
 out = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "/tmp/multi_refine_response")
@@ -22,7 +22,7 @@ model = rig.model
 look = B._in_reach(B._look(model.shape, lo=0.0, hi=1.0), *reach(model))
 valid = rig.inner
 start = joint_compensate(model, look, blend_weights(model.maps)).frames
-ref = MultiRefinement(model, look, valid, start, RefineSettings(iterations=3, max_repeats=2, stop_gain_db=-100.0))
+ref = JointRefinement(model, look, valid, start, RefineSettings(iterations=3, max_repeats=2, stop_gain_db=-100.0))
 capture = device_capture(rig.device)
 ys, preds, qs = [], [], []
 M = model.M.astype(np.float64)

@@ -12,7 +12,7 @@ from lapig.tools.bench import bench_multi as B
 from lapig.lapig_addon.cli.commands import _ensure_registered
 from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
 from lapig.lapig_core.multi.blend import blend_weights
-from lapig.lapig_core.multi.refine import MultiRefinement, device_capture
+from lapig.lapig_core.refine.joint import JointRefinement, device_capture
 from lapig.lapig_core.refine.loop import RefineSettings
 from lapig.lapig_core.common.psnr import masked_psnr
 _ensure_registered()
@@ -28,7 +28,7 @@ print("filled px", filled.sum())
 cap_fn = device_capture(rig.device)
 for name, valid in (("all", rig.mask), ("without_filled", rig.mask & ~filled), ("inner", rig.inner), ("inner_without_filled", rig.inner & ~filled)):
     start = joint_compensate(model, look, blend_weights(model.maps)).frames
-    r = MultiRefinement(model, look, valid, start, RefineSettings(iterations=6, max_repeats=2))
+    r = JointRefinement(model, look, valid, start, RefineSettings(iterations=6, max_repeats=2))
     rounds = []
     while not r.done:
         frames, reps = r.request()

@@ -11,7 +11,7 @@ from lapig.tools.bench import bench_multi as B
 from lapig.lapig_addon.cli.commands import _ensure_registered
 from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
 from lapig.lapig_core.multi.blend import blend_weights
-from lapig.lapig_core.multi.refine import MultiRefinement, device_capture, run_multi
+from lapig.lapig_core.refine.joint import JointRefinement, device_capture, run
 from lapig.lapig_core.refine.loop import RefineSettings
 _ensure_registered()
 out = sys.argv[1] if len(sys.argv) > 1 else "/tmp/multi_refine_weights"
@@ -34,7 +34,7 @@ w_mix = w_mix / np.maximum(w_mix.sum(0, keepdims=True), 1e-6)
 for name, valid, w in (("default", rig.inner, w_f), ("strict_weights", rig.inner, w_mix),
                        ("no_filled_valid", rig.inner & ~filled, w_f), ("no_filled_strict_weights", rig.inner & ~filled, w_mix)):
     start = joint_compensate(model, look, w).frames
-    r = MultiRefinement(model, look, valid, start, RefineSettings(iterations=6, max_repeats=2), weights=w)
-    rec = run_multi(r, cap)
+    r = JointRefinement(model, look, valid, start, RefineSettings(iterations=6, max_repeats=2), weights=w)
+    rec = run(r, cap)
     print(name, [round(h, 2) for h in rec.history], flush=True)
 rig.close()

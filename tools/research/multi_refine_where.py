@@ -14,7 +14,7 @@ from lapig.tools.bench import bench_multi as B
 from lapig.lapig_addon.cli.commands import _ensure_registered
 from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
 from lapig.lapig_core.multi.blend import blend_weights
-from lapig.lapig_core.multi.refine import MultiRefinement, device_capture
+from lapig.lapig_core.refine.joint import JointRefinement, device_capture
 from lapig.lapig_core.multi.seams import near_edges
 from lapig.lapig_core.refine.loop import RefineSettings
 from lapig.lapig_core.common.psnr import masked_psnr
@@ -31,7 +31,7 @@ try:
     look = B._in_reach(B._look(model.shape, lo=0.0, hi=1.0), *reach(model))
     valid = rig.inner
     start = joint_compensate(model, look, blend_weights(model.maps)).frames
-    ref = MultiRefinement(model, look, valid, start, RefineSettings(iterations=rounds, max_repeats=2,
+    ref = JointRefinement(model, look, valid, start, RefineSettings(iterations=rounds, max_repeats=2,
                                                                     stop_gain_db=-100.0))
     capture = device_capture(rig.device)
     errors, psnrs = [], []

@@ -1,9 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Closed-loop refinement of K projectors together (issue 36): project all K images, capture once, correct
-every image jointly; numpy and OpenCV only.
+"""Closed-loop refinement in camera space, for a rig of any number K of projectors (issue 36): project all K
+images, capture once, correct every image jointly; numpy and OpenCV only.
 
-refine/loop.Refinement's loop for one projector, generalised: each round projects every projector's image
-at once and takes one registered camera capture (camera space, the only frame the K share). The step is a
+The rounds are refine/loop.RefinementLoop's, as for one projector in projector space (loop.Refinement); each
+round projects every projector's image at once and takes one registered camera capture (camera space, the only
+frame the K share). The step is a
 damped Gauss-Newton step through the joint model's linearisation, per camera pixel in linear units
 
     q_{n+1} = argmin_{0<=q_k<=1} || W (sum_k M_k q_k + o - (sum_k M_k q_n,k + o + alpha (y_target - y_n))) ||^2
@@ -21,35 +22,31 @@ averaged once the error left is about their noise; stop when a round gains less 
 (0.05 dB) or at the cap, keeping the images whose capture came nearest the target.
 
 Entry points (the benchmark `bench multi` and the add-on's Refine call them):
-- MultiRefinement(model, target, valid, start_frames, settings=RefineSettings(), back_projection=3):
+- JointRefinement(model, target, valid, start_frames, settings=RefineSettings(), back_projection=3):
   request() -> (frames, repeats), take(captures (repeats,H,W,3)); .images, .record (refine/loop.RefineRecord),
   .done;
-- run_multi(refinement, capture(frames, repeats) -> (repeats,H,W,3) in [0,1], cancel=None) -> RefineRecord;
+- loop.run(refinement, capture(frames, repeats) -> (repeats,H,W,3) in [0,1], cancel=None) -> RefineRecord;
 - device_capture(device): such a capture function over a MultiProjectorDevice (fake_rig.FakeRigDevice, Cycles);
 - refine_gain_db_multi(model, device, target, valid=None, settings=None) -> (RefineRecord, MultiRefinement):
   open-loop joint compensation of `target` with `model`, refined on `device`; record.refined_psnr -
-  record.open_loop_psnr is the gain.
+  record.open_loop_psnr is the gain (bench multi's figure of that name).
 """
 from __future__ import annotations
 
-import math
-import time
 from typing import Sequence
 
 import numpy as np
 
-from ..common.psnr import masked_psnr
+from ..multi.blend import blend_weights
+from ..multi.joint_model import JointModel
+from ..multi.joint_solve import DEFAULT_SPLIT_WEIGHT, joint_compensate, joint_drives_linear, reach
 from ..photometric.box_solve import response_weights
-from ..refine.check import RegistrationCheckError, registration_problem
-from ..refine.loop import RefineError, RefineRecord, RefineSettings, damping, repeats_for, round_stop
-from .blend import blend_weights
-from .joint_model import JointModel
-from .joint_solve import DEFAULT_SPLIT_WEIGHT, joint_compensate, joint_drives_linear, reach
+from .loop import RefineError, RefinementLoop, RefineRecord, RefineSettings, damping, run
 
 BACK_PROJECTION = 3  # corrections of each step's change as the projector frame resamples it (_into_frame)
 
 
-class MultiRefinement:
+class JointRefinement(RefinementLoop):
     """The loop's state for one target of K projectors, in camera space.
 
     model: the rig's JointModel (its M_k are the step's Jacobian); target (H,W,3) encoded desired capture (the
@@ -71,7 +68,7 @@ class MultiRefinement:
         valid = np.asarray(valid, bool) & model.reached.any(axis=0)
         if not valid.any():
             raise RefineError("no projector reaches a pixel of the object in this capture: nothing to refine")
-        self.model, self.settings, self.valid = model, settings, valid
+        self.model, self.valid = model, valid
         self.split_weight, self.back_projection = split_weight, int(back_projection)
         self.weights = blend_weights(model.maps) if weights is None else np.asarray(weights)
         lo, hi = reach(model)
@@ -88,13 +85,7 @@ class MultiRefinement:
         self.light_start = [lt.copy() for lt in self.light]
         self.q = self._drives()
         self.alpha = np.full(model.shape, settings.damping)
-        self.repeats = 2  # the first round: the noise pair
-        self.noise_var = None
-        self.record = RefineRecord()
-        self.best = (-math.inf, [lt.copy() for lt in self.light])
-        self.previous_err = None
-        self.done = False
-        self._t0 = None
+        self._begin(settings)
 
     # -- the images to capture and the captures back
     @property
@@ -107,46 +98,25 @@ class MultiRefinement:
         return np.stack([m.sample(lt.astype(np.float32)) for m, lt in zip(self.model.maps, self.light)]).astype(
             np.float64)
 
-    def request(self) -> tuple[list, int]:
-        """(images, repeats): project all the images together and capture `repeats` times."""
-        if self.done:
-            raise RefineError("the refinement is finished")
-        if self._t0 is None:
-            self._t0 = time.perf_counter()
-        return self.images, self.repeats
+    def _state(self):
+        return [lt.copy() for lt in self.light]
 
-    def take(self, captures) -> None:
-        """The registered camera captures of request()'s images ((repeats,H,W,3) in [0,1]): measure, step or stop."""
-        captures = np.asarray(captures, np.float32)
+    def _restore(self, light) -> None:
+        self.light = light
+        self.q = self._drives()
+
+    def _rounds(self, captures):
+        """request()'s images projected together and captured `repeats` times (repeats,H,W,3) -> (1, repeats, ...)."""
         if captures.shape != (self.repeats,) + self.model.shape + (3,):
             raise RefineError(f"expected {self.repeats} captures shaped {self.model.shape + (3,)}, got "
                               f"{captures.shape}")
-        rec = self.record
-        rec.captures += len(captures)
-        if self.noise_var is None:
-            self._first(captures)
-        mean = captures.mean(axis=0)
-        psnr = masked_psnr(captures[0], self.target, self.valid)
-        if psnr > self.best[0]:
-            self.best = (psnr, [lt.copy() for lt in self.light])
-        stop = round_stop(rec, psnr, self.repeats, self.settings)
-        if stop:
-            return self._finish(stop)
-        self._step(mean)
+        return captures[None]
 
-    def _first(self, captures) -> None:
-        rec = self.record
-        a, b = captures[0], captures[1]
-        rec.noise_floor_psnr = masked_psnr(a, b, self.valid)
-        rec.open_loop_psnr = masked_psnr(a, self.target, self.valid)
-        diff = (a.astype(np.float64) - b)[self.valid]
-        self.noise_var = float((diff ** 2).mean() / 2)
-        if self.settings.check_registration:
-            problem = registration_problem(a[None], self.model.predict(self.images)[None], self.valid)
-            if problem:
-                raise RegistrationCheckError(problem)
+    def _predicted(self):
+        return self.model.predict(self.images)[None]
 
     def _step(self, mean) -> None:
+        mean = mean[0]  # the one camera view
         model = self.model
         y = np.power(np.clip(mean.astype(np.float64), 0, 1), model.gamma_c)
         err_pix = ((self.response * (self.y_target - y)) ** 2).sum(-1)
@@ -160,7 +130,7 @@ class MultiRefinement:
             self.light[k] = np.clip(self.light[k] + self._into_frame(m, change), 0.0, 1.0)
         self.q = self._drives()
         self.record.iterations += 1
-        self._choose_repeats(mean)
+        self._choose_repeats(mean[None])
 
     def _into_frame(self, camera_map, change: np.ndarray) -> np.ndarray:
         """A camera-space change of one projector's light -> the change of its frame whose sampling gives it back:
@@ -174,35 +144,9 @@ class MultiRefinement:
             light = light + camera_map.to_projector(missed, outside=0.0, bleed=bleed)
         return light
 
-    def _choose_repeats(self, mean) -> None:
-        """Average more captures once the error left is mostly the captures' own noise (Refinement's rule)."""
-        err = float(((mean.astype(np.float64) - self.target) ** 2).mean(-1)[self.valid].mean())
-        self.repeats = repeats_for(err, self.noise_var, self.repeats, self.settings)
-
-    def _finish(self, why: str) -> None:
-        psnr, light = self.best
-        self.light = light
-        self.q = self._drives()
-        self.record.refined_psnr = psnr
-        self.record.stopped = why
-        self.record.seconds = time.perf_counter() - (self._t0 or time.perf_counter())
-        self.done = True
-
     def linear_correction(self) -> list:
         """Per projector, the light the loop added (h_k,w_k,3), linear units."""
         return [lt - st for lt, st in zip(self.light, self.light_start)]
-
-
-def run_multi(refinement: MultiRefinement, capture, cancel=None) -> RefineRecord:
-    """Drive the loop with capture(images (K frames), repeats) -> (repeats,H,W,3) in [0,1].
-    cancel(): True stops before the next round (the images are the best so far)."""
-    while not refinement.done:
-        if cancel is not None and cancel():
-            refinement._finish("cancelled")
-            break
-        images, repeats = refinement.request()
-        refinement.take(capture(images, repeats))
-    return refinement.record
 
 
 def device_capture(device):
@@ -217,11 +161,11 @@ def device_capture(device):
 
 
 def refine_gain_db_multi(model: JointModel, device, target: np.ndarray, valid: np.ndarray | None = None,
-                         settings: RefineSettings | None = None) -> tuple[RefineRecord, MultiRefinement]:
+                         settings: RefineSettings | None = None) -> tuple[RefineRecord, JointRefinement]:
     """Open loop (model's joint compensation of `target`) against refined on `device` (a MultiProjectorDevice
     whose camera is the model's): the record's refined_psnr - open_loop_psnr is `refine_gain_db_multi`.
     valid: the pixels compared (None: where some projector reaches)."""
     valid = model.reached.any(axis=0) if valid is None else np.asarray(valid, bool)
     start = joint_compensate(model, target).frames
-    refinement = MultiRefinement(model, target, valid, start, settings or RefineSettings())
-    return run_multi(refinement, device_capture(device)), refinement
+    refinement = JointRefinement(model, target, valid, start, settings or RefineSettings())
+    return run(refinement, device_capture(device)), refinement

@@ -1,8 +1,8 @@
-"""Refine on the rig for a result of several projectors (issue 36): every projector's image projected at once,
-one camera capture per round, all images corrected together (lapig_core/multi/refine).
+"""Refine on the rig in camera space, for a result of several projectors (issue 36): every projector's image
+projected at once, one camera capture per round, all images corrected together (lapig_core/refine/joint).
 
-RefineResultJob takes this path when the scene's rig has more than one projector (the Refine button, `stylize
---refine N`): the steps below run inside that job. As for one projector, nothing is written until the loop has
+RefineResultJob (services/refine_job) takes this way when the scene's rig has more than one projector (the Refine
+button, `stylize --refine N`). As for one projector, nothing is written until the loop has
 finished: the refined images go in as projector_1_refined.png .., then result.json (written last) points each
 projector's entry at its refined image (`image`, the open-loop one kept as `image_open_loop`), which Export, the
 lights and MPCDI read through multi/result_files.projector_images.
@@ -11,13 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...lapig_core.capture.settings import CaptureError
 from ...lapig_core.export.result_files import read_result_image, read_summary, write_result
-from ...lapig_core.refine.check import RegistrationCheckError
 from ...lapig_core.refine.loop import RefineError, RefineSettings
 from . import panel_state
 from .multi_generate_job import MultiPipelineError, multi_capture
-from .pipeline_errors import PipelineError, hold_capture
+from .pipeline_errors import PipelineError
 from .refine_lines import record_refinement, refine_line
 
 REFINED_SUFFIX = "_refined"
@@ -44,11 +42,11 @@ def multi_refine_inputs(seams, doing: str = "refinement") -> tuple[str, str]:
 
 
 def prepared_multi_refinement(folder: str, capture: str, settings: RefineSettings):
-    """Steps whose value is (the result's summary, the MultiRefinement of its projector images against its look
+    """Steps whose value is (the result's summary, the JointRefinement of its projector images against its look
     on the capture's joint model)."""
     from ...lapig_core.multi.capture_set import load_multi_capture
     from ...lapig_core.multi.first_look import fit_joint_first_look, load_joint_model
-    from ...lapig_core.multi.refine import MultiRefinement
+    from ...lapig_core.refine.joint import JointRefinement
     from ...lapig_core.multi.result_files import projector_images
 
     yield 0.02, "reading the result and the joint model"
@@ -63,14 +61,14 @@ def prepared_multi_refinement(folder: str, capture: str, settings: RefineSetting
     target = read_result_image(folder, "look")
     start = [image for _, image in projector_images(folder)]
     try:
-        return summary, MultiRefinement(model, target, model.reached.any(axis=0) & cs.object_mask, start, settings)
+        return summary, JointRefinement(model, target, model.reached.any(axis=0) & cs.object_mask, start, settings)
     except RefineError as exc:
         raise PipelineError(str(exc)) from None
 
 
 def multi_refine_rounds(device, refinement):
     """A generator of (progress, message) that runs `refinement` on an open MultiProjectorDevice."""
-    from ...lapig_core.multi.refine import device_capture
+    from ...lapig_core.refine.joint import device_capture
 
     capture = device_capture(device)
     # the camera's exposure as the capture fixed it: every projector white together
@@ -113,25 +111,29 @@ def write_multi_refined(folder: str, summary: dict, refinement):
     return summary, record
 
 
-def multi_refine_steps(job):
-    """The steps of RefineResultJob for a rig of several projectors; their value is the job's result."""
-    folder, capture = multi_refine_inputs(job.seams)
-    settings = job.settings
-    summary, refinement = yield from job.drive(lambda: prepared_multi_refinement(folder, capture, settings), False)
-    devices = job.seams.devices
-    capture_settings = job.seams.store.capture_settings()
-    held = hold_capture(capture, job.title)
+class JointRefineWay:
+    """RefineResultJob's steps for a rig of several projectors (see refine_job.ProjectorRefineWay)."""
 
-    def loop():
+    inputs = staticmethod(multi_refine_inputs)
+    prepared = staticmethod(prepared_multi_refinement)
+
+    @staticmethod
+    def rig_settings(store):
+        return store.capture_settings()
+
+    @staticmethod
+    def rounds(devices, capture, refinement, capture_settings):
         with devices.multi_capture_device(capture_settings) as device:
             return (yield from multi_refine_rounds(device, refinement))
 
-    try:
-        yield from job.drive(loop, devices.main_thread, holding=held)
-    except (CaptureError, RegistrationCheckError, RefineError) as exc:
-        raise PipelineError(str(exc)) from None
-    summary, record = yield from job.drive(lambda: write_multi_refined(folder, summary, refinement), False)
-    return record_multi_refined(job.seams, folder, summary, record)
+    @staticmethod
+    def write(folder, summary, refinement):
+        summary, record = yield from write_multi_refined(folder, summary, refinement)
+        return summary, record, None
+
+    @staticmethod
+    def record(seams, folder, summary, record, image):
+        return record_multi_refined(seams, folder, summary, record)
 
 
 def record_multi_refined(seams, folder: str, summary: dict, record: dict) -> dict:

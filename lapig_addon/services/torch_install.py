@@ -270,15 +270,21 @@ def move_into_target(staging: str, target: str) -> list[str]:
     return names
 
 
-def remove_leftovers(target: str):
-    """Staging and old folders a crash or a locked file left in the target (at the next start)."""
+def remove_leftovers(target: str, older_than_s: float = 3600.0):
+    """Staging and old folders a crash or a locked file left in the target; only old ones (another Blender may
+    be installing into the same folder now)."""
     try:
         names = os.listdir(target)
     except OSError:
         return
     for name in names:
-        if name.startswith((STAGING_PREFIX, TRASH_PREFIX)):
-            shutil.rmtree(os.path.join(target, name), ignore_errors=True)
+        path = os.path.join(target, name)
+        try:
+            old = time.time() - os.path.getmtime(path) > older_than_s
+        except OSError:
+            continue
+        if name.startswith((STAGING_PREFIX, TRASH_PREFIX)) and old:
+            shutil.rmtree(path, ignore_errors=True)
 
 
 def activate_in_session(target: str) -> tuple[bool, str]:

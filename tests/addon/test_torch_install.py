@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from fake_torch_index import FAKE_VERSION, LocalIndex, isolated_pip_env, make_fake_torch_wheel
+from lapig.tools.bench.fake_torch_index import FAKE_VERSION, LocalIndex, isolated_pip_env, make_fake_torch_wheel
 from lapig.lapig_addon.services import torch_builds, torch_install
 from lapig.lapig_addon.services.torch_install import (InstallPlan, PipProgress, TorchInstallJob, plan_from_index,
                                                      plan_from_wheel)

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from fake_torch_index import FAKE_VERSION, LocalIndex, isolated_pip_env, make_fake_torch_wheel
+from lapig.tools.bench.fake_torch_index import FAKE_VERSION, LocalIndex, isolated_pip_env, make_fake_torch_wheel
 
 pytest.importorskip("bpy")
 

@@ -1,5 +1,5 @@
-"""A local package index (PEP 503, over HTTP on 127.0.0.1) holding a tiny fake torch wheel, for the tests of the
-preferences' Install torch and for bench ui: pip installs it as it would PyTorch's, in a second.
+"""A local package index (PEP 503, over HTTP on 127.0.0.1) holding a tiny fake torch wheel, for bench ui's
+install_to_import_seconds and the tests of the preferences' Install torch: pip installs it as it would PyTorch's.
 
 The wheel's torch has version.py as torch's own (installed_torch reads it) and imports in a millisecond.
 hold=True keeps the wheel's download waiting until release() (a cancel mid-download)."""

@@ -74,11 +74,11 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
         fit = ui_text.fit_for(context)
         layout.prop(self, "ip2p_model")
         layout.prop(self, "device")
+        col = layout.column(align=True)
+        for line in bundle_lines(read_bundle()):  # what the zip lacks: its next step may be the torch box below
+            _wrapped(col, fit, line.text, line.icon)
         _draw_torch(layout, self, fit)
         col = layout.column(align=True)
-        for line in bundle_lines(read_bundle()):
-            _wrapped(col, fit, line.text, line.icon)
-        col.separator()
         col.label(text="Python dependencies:")
         deps = check_dependencies()
         for dep in deps:

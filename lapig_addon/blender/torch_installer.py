@@ -35,7 +35,7 @@ def _redraw():
     """The preferences' progress bar and the sidebar's buttons (Train turns on) show the new state."""
     wm = bpy.context.window_manager
     for window in (wm.windows if wm else []):
-        for area in window.screen.areas:
+        for area in (window.screen.areas if window.screen else []):
             if area.type in {"PREFERENCES", "VIEW_3D"}:
                 area.tag_redraw()
 

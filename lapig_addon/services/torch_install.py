@@ -183,8 +183,13 @@ def run_streaming(cmd, env, cancel_event, on_line=None, timeout_s: float | None 
             tail = (tail + [line.rstrip()])[-_TAIL_LINES:]
             if on_line is not None:
                 on_line(line)
+        else:  # its output has ended: it exits now, on its own (a stop here would turn a success into a failure)
+            while proc.poll() is None:
+                if cancel_event.is_set():
+                    raise JobCancelled()
+                time.sleep(0.05)
     finally:
-        stop_process_group(proc)
+        stop_process_group(proc)  # a cancel or the timeout: pip and what it started; nothing where it has exited
         reader.join(5)
         proc.stdout.close()
     return Ran(proc.wait(), tail)

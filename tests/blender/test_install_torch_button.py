@@ -40,6 +40,20 @@ print("blocker:", repr(panel_state.torch_blocker()), "train poll:", bpy.ops.lapi
 bpy.context.preferences.system.use_online_access = False
 print("wheel:", bpy.ops.lapig.install_torch_wheel(filepath=sys.argv[1]))
 print("blocker after wheel:", panel_state.torch_blocker(), "| train poll:", bpy.ops.lapig.train_models.poll())
+# Blender's UI: the operator returns at once, a timer steps the job (stepped here: timers never fire in bpy)
+from lapig.lapig_addon.blender import torch_installer
+from lapig.lapig_addon.services.torch_install import SLOT
+torch_installer._in_ui = lambda context: True
+bpy.context.preferences.system.use_online_access = True
+print("ui install:", bpy.ops.lapig.install_torch(build="CPU"), SLOT.running())
+ticks = 0
+while torch_installer._step() is not None:
+    ticks += 1
+    time.sleep(0.02)
+print("ui outcome:", SLOT.job.state, ticks > 1, SLOT.outcome.line())
+print("ui cancel:", bpy.ops.lapig.install_torch(build="CPU"), bpy.ops.lapig.cancel_torch_install(), SLOT.failure)
+SLOT.job.stop()  # the worker's cleanup, waited for here
+print("left:", sorted(n for n in os.listdir(bpy.utils.user_resource("SCRIPTS", path="modules")) if n.startswith(".")))
 addon.unregister()
 print("OK")
 '''
@@ -66,3 +80,7 @@ def test_the_install_button_installs_torch_from_the_local_index_and_this_session
     assert said["wheel"] == "{'FINISHED'}"  # offline: a wheel file needs no online access
     assert said["blocker after wheel"] == "Restart Blender to use the torch just installed | train poll: False"
     assert os.path.isfile(os.path.join(target, "torch", "version.py"))
+    assert said["ui install"] == "{'FINISHED'} True"  # returned at once, the job running
+    assert said["ui outcome"] == f"DONE True torch {FAKE_VERSION} (CPU) installed: restart Blender to use it"
+    assert said["ui cancel"] == "{'FINISHED'} {'FINISHED'} Installing torch was cancelled: nothing was changed"
+    assert said["left"] == "[]"  # no staging folder, no old torch beside the new one

@@ -8,7 +8,7 @@ import bpy
 
 from ...lapig_core.common.deps import check_dependencies, install_command
 from ...lapig_core.common.gpu_torch import gpu_advice, installed_torch, nvidia_gpu_present
-from ..services import torch_builds, torch_install
+from ..services import torch_builds
 from ..services.bundle_status import bundle_lines, read_bundle
 from ..services.torch_install import SLOT as TORCH_INSTALL
 from . import torch_installer, ui_text
@@ -145,7 +145,7 @@ def _draw_torch(layout, prefs, fit):
     sub.operator(torch_installer.LAPIG_OT_install_torch.bl_idname, icon="IMPORT",
                  text="Install torch" if not build.present else "Install this build")
     if not online:
-        _wrapped(box, fit, torch_install.ONLINE_OFF, "INTERNET_OFFLINE")
+        _wrapped(box, fit, torch_installer.online_refusal(), "INTERNET_OFFLINE")
     box.operator(torch_installer.LAPIG_OT_install_torch_wheel.bl_idname, icon="FILEBROWSER")
     if advice.command:
         _wrapped(box, fit, "By hand, in a terminal (then restart Blender):", "NONE")

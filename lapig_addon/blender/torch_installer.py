@@ -27,6 +27,12 @@ def online_access() -> bool:
     return bool(getattr(bpy.app, "online_access", True))  # Blender 4.2 and later have the setting
 
 
+def online_refusal() -> str:
+    """Why Install torch may not download now ('' when it may)."""
+    overridden = bool(getattr(bpy.app, "online_access_override", False))  # --offline-mode on the command line
+    return torch_install.online_refusal(online_access(), overridden=overridden)
+
+
 def _in_ui(context) -> bool:
     return not bpy.app.background and getattr(context, "window", None) is not None
 
@@ -95,11 +101,11 @@ class LAPIG_OT_install_torch(ReportsErrors, bpy.types.Operator):
     @classmethod
     def description(cls, context, properties):
         text = "Download torch (the build chosen beside the button) into Blender's Python, in the background"
-        refusal = torch_install.online_refusal(online_access())
+        refusal = online_refusal()
         return f"{text}.\n{refusal}" if refusal else text
 
     def execute(self, context):
-        refusal = torch_install.online_refusal(online_access())
+        refusal = online_refusal()
         if refusal:
             self.report({"ERROR"}, refusal)
             return {"CANCELLED"}

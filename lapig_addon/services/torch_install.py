@@ -76,10 +76,17 @@ def plan_from_wheel(python: str, target: str, wheel: str, env: dict | None = Non
     return InstallPlan(python, target, ["--no-index", "--find-links", os.path.dirname(wheel), wheel], name, env)
 
 
-def online_refusal(online_access: bool, from_wheel: bool = False) -> str:
+OFFLINE_MODE = ("Blender was started offline (--offline-mode): start it without that option to download torch, "
+                "or install torch from a wheel file on disk")
+
+
+def online_refusal(online_access: bool, from_wheel: bool = False, overridden: bool = False) -> str:
     """Why the install may not run ('' when it may): downloading needs Blender's online access (a wheel file
-    from disk needs none)."""
-    return "" if online_access or from_wheel else ONLINE_OFF
+    from disk needs none). overridden: the command line set it (bpy.app.online_access_override), so the
+    preference cannot turn it on."""
+    if online_access or from_wheel:
+        return ""
+    return OFFLINE_MODE if overridden else ONLINE_OFF
 
 
 # ------------------------------------------------------------------------------------- pip's output, as progress

@@ -68,6 +68,7 @@ def test_the_button_refuses_to_go_online_where_blender_may_not():
     refusal = torch_install.online_refusal(False)
     assert "Preferences > System > Network" in refusal and "wheel file" in refusal
     assert torch_install.online_refusal(True) == "" and torch_install.online_refusal(False, from_wheel=True) == ""
+    assert "--offline-mode" in torch_install.online_refusal(False, overridden=True)  # the preference cannot help
 
 
 def test_install_from_the_local_index_checks_the_import_and_moves_torch_into_place(tmp_path, wheel, pip_env):

@@ -147,6 +147,7 @@ def _draw_torch(layout, prefs, fit):
     if not online:
         _wrapped(box, fit, torch_installer.online_refusal(), "INTERNET_OFFLINE")
     box.operator(torch_installer.LAPIG_OT_install_torch_wheel.bl_idname, icon="FILEBROWSER")
+    _wrapped(box, fit, "docs/installing-torch.md: where torch goes, the offline route, the GPU builds", "HELP")
     if advice.command:
         _wrapped(box, fit, "By hand, in a terminal (then restart Blender):", "NONE")
         box.label(text=advice.command)  # whole (the copy button takes it): a wrapped command would not paste

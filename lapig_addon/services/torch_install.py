@@ -160,8 +160,11 @@ def stop_process_group(proc, grace_s: float = 5.0):
         else:
             subprocess.run(["taskkill", "/T", "/F", "/PID", str(proc.pid)], capture_output=True)
         proc.wait(grace_s)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL) if os.name == "posix" else proc.kill()
+    except subprocess.TimeoutExpired:  # it ignored the request: no more asking
+        if os.name == "posix":
+            os.killpg(proc.pid, signal.SIGKILL)
+        else:
+            proc.kill()
         proc.wait()
     except ProcessLookupError:
         proc.wait()

@@ -71,11 +71,12 @@ def test_the_button_refuses_to_go_online_where_blender_may_not():
     assert "--offline-mode" in torch_install.online_refusal(False, overridden=True)  # the preference cannot help
 
 
-def test_install_from_the_local_index_checks_the_import_and_moves_torch_into_place(tmp_path, wheel, pip_env):
+def test_install_from_the_local_index_checks_the_import_and_moves_torch_into_place(tmp_path, pip_env):
+    wheel = make_fake_torch_wheel(tmp_path / "wheels", padding_bytes=2_000_000)  # big enough for pip's progress
     target = tmp_path / "modules"
     target.mkdir()
     (target / "torch-2.12.0.dist-info").mkdir()  # an older torch's record, which the new one replaces
-    with LocalIndex(wheel) as index:
+    with LocalIndex(wheel, send_seconds=1.0) as index:
         pip_env[torch_builds.INDEX_ENV] = index.url
         plan = plan_from_index(sys.executable, str(target), torch_builds.build("CPU"), env=pip_env)
         plan.activate = False  # this test's Python may have imported a real torch: the bpy tier tests that step
@@ -92,6 +93,8 @@ def test_install_from_the_local_index_checks_the_import_and_moves_torch_into_pla
     assert not (target / "torch-2.12.0.dist-info").exists() and (target / f"torch-{FAKE_VERSION}.dist-info").is_dir()
     assert not [n for n in os.listdir(target) if n.startswith(".lapig-torch-")]  # staging and the old one: gone
     assert "checking that torch imports" in seen and any(m.startswith("installing torch (CPU)") for m in seen)
+    assert any(m.startswith(f"downloading torch-{FAKE_VERSION}-py3-none-any.whl: ") and m.endswith("of 2 MB")
+               for m in seen), seen  # pip's raw progress, read as it comes
     found = subprocess.run([sys.executable, "-c", torch_install.CHECK_SCRIPT, str(target)], capture_output=True,
                            text=True, env=pip_env)
     assert found.stdout.startswith(f"LAPIG-TORCH {FAKE_VERSION} {target}"), found.stderr

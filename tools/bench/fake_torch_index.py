@@ -2,7 +2,8 @@
 install_to_import_seconds and the tests of the preferences' Install torch: pip installs it as it would PyTorch's.
 
 The wheel's torch has version.py as torch's own (installed_torch reads it) and imports in a millisecond.
-hold=True keeps the wheel's download waiting until release() (a cancel mid-download)."""
+hold=True keeps the wheel's download waiting until release() (a cancel mid-download); send_seconds spreads its
+bytes over that time (pip's progress lines)."""
 from __future__ import annotations
 
 import base64
@@ -10,6 +11,7 @@ import hashlib
 import http.server
 import os
 import threading
+import time
 import zipfile
 
 FAKE_VERSION = "2.13.0"
@@ -20,8 +22,9 @@ def _record_line(name: str, data: bytes) -> str:
     return f"{name},sha256={digest},{len(data)}"
 
 
-def make_fake_torch_wheel(folder, version: str = FAKE_VERSION) -> str:
-    """torch-VERSION-py3-none-any.whl in folder: a package `torch` whose __version__ is VERSION."""
+def make_fake_torch_wheel(folder, version: str = FAKE_VERSION, padding_bytes: int = 0) -> str:
+    """torch-VERSION-py3-none-any.whl in folder: a package `torch` whose __version__ is VERSION. padding_bytes:
+    a data file of that size (pip shows its download progress only for files over 512 kB)."""
     os.makedirs(folder, exist_ok=True)
     info = f"torch-{version}.dist-info"
     files = {
@@ -32,6 +35,8 @@ def make_fake_torch_wheel(folder, version: str = FAKE_VERSION) -> str:
         f"{info}/WHEEL": b"Wheel-Version: 1.0\nGenerator: lapig-tests\nRoot-Is-Purelib: true\nTag: py3-none-any\n",
         f"{info}/top_level.txt": b"torch\n",
     }
+    if padding_bytes:
+        files["torch/_padding.bin"] = os.urandom(padding_bytes)  # random: the zip cannot shrink it
     record = [_record_line(name, data) for name, data in files.items()] + [f"{info}/RECORD,,"]
     path = os.path.join(str(folder), f"torch-{version}-py3-none-any.whl")
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as whl:
@@ -44,8 +49,8 @@ def make_fake_torch_wheel(folder, version: str = FAKE_VERSION) -> str:
 class LocalIndex:
     """`with LocalIndex(wheel) as index:` pip's --index-url is index.url."""
 
-    def __init__(self, wheel: str, hold: bool = False):
-        self.wheel = wheel
+    def __init__(self, wheel: str, hold: bool = False, send_seconds: float = 0.0):
+        self.wheel, self.send_seconds = wheel, send_seconds  # send_seconds: the wheel's bytes come over that time
         self.name = os.path.basename(wheel)
         with open(wheel, "rb") as f:
             self.data = f.read()
@@ -70,12 +75,16 @@ class LocalIndex:
             def log_message(self, *args):  # quiet
                 pass
 
-            def _send(self, body: bytes, kind: str):
+            def _send(self, body: bytes, kind: str, seconds: float = 0.0):
                 self.send_response(200)
                 self.send_header("Content-Type", kind)
                 self.send_header("Content-Length", str(len(body)))
                 self.end_headers()
-                self.wfile.write(body)
+                parts = 10 if seconds > 0 else 1  # a slow line: pip's progress moves in steps
+                for i in range(parts):
+                    self.wfile.write(body[i * len(body) // parts:(i + 1) * len(body) // parts])
+                    self.wfile.flush()
+                    time.sleep(seconds / parts)
 
             def do_GET(self):
                 path = self.path.split("?")[0]
@@ -88,7 +97,7 @@ class LocalIndex:
                     index.wheel_requested.set()
                     index._released.wait(120)  # hold: pip waits here, as on a slow line
                     try:
-                        return self._send(index.data, "application/octet-stream")
+                        return self._send(index.data, "application/octet-stream", index.send_seconds)
                     except (BrokenPipeError, ConnectionResetError):  # pip was stopped meanwhile
                         return None
                 self.send_error(404)

@@ -179,8 +179,8 @@ def plan(platform: str, python_tag: str, lock: list[str] | None = None) -> Bundl
             # the CPU build for Python 3.13 is only on download.pytorch.org
             skipped.append(NotBundled("torch", "the package index has no CPU build of torch for Linux and "
                                       "Python 3.13, and its CUDA build is several GB",
-                                      "press 'Copy install command' in the add-on's preferences, run it in a "
-                                      "terminal (it takes the CPU build from download.pytorch.org), restart Blender"))
+                                      "press Install torch below (CPU: the build from download.pytorch.org), "
+                                      "or install it from a wheel file"))
             continue
         reqs.append(req)
     return BundlePlan(platform, line, reqs, skipped)

@@ -165,7 +165,8 @@ def add_parsers(sub):
                             "(default: the shipped lapig_core/photometric/weights)")
     bench.add_argument("--parts", default="",
                        help="transport: comma-separated parts (look, defocus, interreflection, noise, speed, compensation, "
-                            "pcnet, headroom; default: all but pcnet and headroom); ui: psa, window, panel (default: all three)")
+                            "pcnet, headroom; default: all but pcnet and headroom); ui: psa, window, panel, install "
+                            "(default: all four)")
     bench.add_argument("--transport-data", default="out/transport_data",
                        help="transport: data set root of the realistic setups (rendered when missing)")
     bench.add_argument("--realistic-setups", type=lambda t: [n.strip() for n in t.split(",") if n.strip()],

@@ -10,6 +10,7 @@ _MODULES = (
     ".properties",
     ".light_properties",
     ".preferences",
+    ".torch_installer",
     "...operators",
     "...panels",
     ".live_devices",

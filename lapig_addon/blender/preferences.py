@@ -8,7 +8,10 @@ import bpy
 
 from ...lapig_core.common.deps import INSTALL_DOC, check_dependencies, install_command
 from ...lapig_core.common.gpu_torch import gpu_advice, installed_torch, nvidia_gpu_present
+from ..services import torch_builds
 from ..services.bundle_status import bundle_lines, read_bundle
+from ..services.torch_install import SLOT as TORCH_INSTALL
+from . import torch_installer, ui_text
 from .operator_boundary import ReportsErrors
 
 
@@ -60,22 +63,22 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
                ("CPU", "CPU", "Always the CPU (e.g. to leave the GPU to Cycles)")],
         description="Where Train, PSA, the style networks and the native output run")
 
+    torch_build: bpy.props.EnumProperty(
+        name="torch build", items=[(b.key, b.label, f"{b.description} ({b.size_note})")
+                                   for b in torch_builds.builds_for(sys.platform)] or [("CPU", "CPU", "")],
+        default=torch_builds.default_build(sys.platform, nvidia_gpu_present()),
+        description="Which torch Install torch downloads: CPU runs everywhere, a GPU build needs that GPU's driver")
+
     def draw(self, context):
         layout = self.layout
+        fit = ui_text.fit_for(context)
         layout.prop(self, "ip2p_model")
         layout.prop(self, "device")
-        advice = _gpu_advice()
-        layout.label(text=advice.line, icon="CHECKMARK" if not advice.command else "INFO")
-        if advice.command:
-            box = layout.box()
-            for line in advice.why:
-                box.label(text=line)
-            box.label(text=advice.command)
-            box.operator(LAPIG_OT_copy_cuda_command.bl_idname, icon="COPYDOWN")
         col = layout.column(align=True)
-        for line in bundle_lines(read_bundle()):
-            col.label(text=line.text, icon=line.icon)
-        col.separator()
+        for line in bundle_lines(read_bundle()):  # what the zip lacks: its next step may be the torch box below
+            _wrapped(col, fit, line.text, line.icon)
+        _draw_torch(layout, self, fit)
+        col = layout.column(align=True)
         col.label(text="Python dependencies:")
         deps = check_dependencies()
         for dep in deps:
@@ -85,11 +88,77 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
             row.label(text=f"{dep.package}: {state}", icon=icon)
         if any(d.required and not d.present for d in deps):
             box = layout.box()
-            box.label(text="Install the missing packages into Blender's Python, then restart Blender:")
+            box.label(text="By hand: this command installs the missing packages; then restart Blender")
             target = bpy.utils.user_resource("SCRIPTS", path="modules", create=False)
             box.label(text=install_command(sys.executable, target))
             box.operator(LAPIG_OT_copy_install_command.bl_idname, icon="COPYDOWN")
             box.label(text=f"{INSTALL_DOC} explains each step.")
+
+
+def _wrapped(layout, fit, text: str, icon: str = "NONE"):
+    """A line wrapped at the preferences' width (labels do not wrap), its next lines indented."""
+    for i, part in enumerate(fit.wrap(text, icon=True, first_icon=icon != "NONE")):
+        layout.label(text=part, icon=icon if i == 0 else "BLANK1")
+
+
+def torch_icon(build, gpu_present: bool) -> str:
+    """The torch line's icon: a check mark only for a torch that is there and can use this computer's GPU
+    (or has none to use); an error for none."""
+    if not build.present:
+        return "ERROR"
+    return "CHECKMARK" if build.accelerated or not gpu_present else "INFO"
+
+
+def _draw_torch(layout, prefs, fit):
+    """torch: what is installed, the Install button with its build (or the running install's progress and its
+    Cancel), the offline route, and what the last install said."""
+    box = layout.box()
+    fit = fit.boxed()
+    gpu = nvidia_gpu_present()
+    build = installed_torch()
+    _wrapped(box, fit, build.line(), torch_icon(build, gpu))
+    if TORCH_INSTALL.running():
+        job = TORCH_INSTALL.job
+        row = box.row(align=True)
+        row.progress(factor=job.progress, text=f"{job.message[:60]} ({job.progress:.0%})")
+        row.operator(torch_installer.LAPIG_OT_cancel_torch_install.bl_idname, icon="CANCEL")
+        return
+    outcome = TORCH_INSTALL.outcome
+    if outcome is not None:
+        _wrapped(box, fit, outcome.line(), "CHECKMARK" if outcome.active else "FILE_REFRESH")
+        if outcome.why_restart:
+            _wrapped(box, fit, f"({outcome.why_restart})", "BLANK1")
+    if TORCH_INSTALL.failure:
+        _wrapped(box, fit, TORCH_INSTALL.failure, "ERROR")
+    advice = gpu_advice(build, gpu, sys.executable, _modules_folder())
+    for line in advice.why:
+        _wrapped(box, fit, line, "NONE")
+    unsupported = torch_builds.unsupported_reason()
+    if unsupported:
+        _wrapped(box, fit, unsupported, "ERROR")
+        return
+    online = torch_installer.online_access()
+    row = box.row(align=True)
+    row.prop(prefs, "torch_build", text="")
+    sub = row.row(align=True)
+    sub.enabled = online
+    sub.operator(torch_installer.LAPIG_OT_install_torch.bl_idname, icon="IMPORT",
+                 text="Install torch" if not build.present else "Install this build")
+    if not online:
+        _wrapped(box, fit, torch_installer.online_refusal(), "INTERNET_OFFLINE")
+    box.operator(torch_installer.LAPIG_OT_install_torch_wheel.bl_idname, icon="FILEBROWSER")
+    _wrapped(box, fit, "docs/installing-torch.md: where torch goes, the offline route, the GPU builds", "HELP")
+    if advice.command:
+        _wrapped(box, fit, "By hand, in a terminal (then restart Blender):", "NONE")
+        box.label(text=advice.command)  # whole (the copy button takes it): a wrapped command would not paste
+        box.operator(LAPIG_OT_copy_cuda_command.bl_idname, icon="COPYDOWN")
+
+
+def addon_preferences(context=None):
+    """The add-on's preferences, or None where it is registered without being enabled (the bpy module)."""
+    context = context or bpy.context
+    addon = context.preferences.addons.get(_addon_package())
+    return addon.preferences if addon and addon.preferences else None
 
 
 def compute_device() -> str:

@@ -120,7 +120,13 @@ def capture_blocker(state: SceneState) -> str:
 def torch_blocker() -> str:
     """Why the steps that run the networks (Train, Generate, Render Real Capture, Refine) cannot run here ('' when
     torch imports); Capture, the preview and the exports need no torch."""
+    from .torch_install import SLOT
+
+    if SLOT.restart_needed():  # installed, but this session cannot import it (or runs another torch)
+        return "Restart Blender to use the torch just installed"
     if any(d.package == "torch" for d in missing_required()):
+        if SLOT.running():
+            return f"Installing torch: {SLOT.job.progress:.0%} (the add-on preferences show it)"
         return "Install torch (see the add-on preferences)"
     return ""
 

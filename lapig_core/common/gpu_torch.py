@@ -102,7 +102,7 @@ class GpuAdvice:
     no CUDA torch to use it, why and the command that installs one."""
     line: str
     command: str = ""  # '' where there is nothing to install
-    why: tuple = ()  # short lines (a label each: Blender's labels do not wrap)
+    why: tuple = ()  # lines, each wrapped at the preferences' width
 
 
 def gpu_advice(build: TorchBuild, gpu_present: bool, python_executable: str, target: str | None = None
@@ -111,6 +111,6 @@ def gpu_advice(build: TorchBuild, gpu_present: bool, python_executable: str, tar
         return GpuAdvice(build.line())
     why = ("This computer has an NVIDIA GPU, but " + ("torch is not installed." if not build.present
                                                      else "this torch is a CPU build."),
-           "Install PyTorch's CUDA build into Blender's Python, then restart Blender:",
-           "Train, PSA and the native output then run on the GPU (Device: Auto).")
+           "Choose an NVIDIA CUDA build below and press Install: Train, PSA and the native output then run on "
+           "the GPU (Device: Auto).")
     return GpuAdvice(build.line(), cuda_install_command(python_executable, target), why)

@@ -142,3 +142,18 @@ def test_capture_waits_for_numpy_and_opencv_not_for_torch(state, panel_state, ca
         "Install opencv-contrib-python-headless (see the add-on preferences)"
     monkeypatch.setattr(panel_state, "missing_required", lambda: [])
     assert panel_state.capture_button_blocker(state.SceneState(rig=state.Rig())) == "Add the projector and camera first"
+
+
+def test_train_says_an_install_runs_then_to_restart_where_this_session_cannot_use_it(panel_state, monkeypatch):
+    from lapig.lapig_addon.services.torch_install import SLOT, InstallOutcome
+
+    dep = type("Dep", (), {"package": "torch"})()
+    monkeypatch.setattr(panel_state, "missing_required", lambda: [dep])
+    monkeypatch.setattr(SLOT, "job", type("Running", (), {"finished": False, "progress": 0.4})())
+    assert panel_state.torch_blocker() == "Installing torch: 40% (the add-on preferences show it)"
+    monkeypatch.setattr(SLOT, "job", None)
+    monkeypatch.setattr(SLOT, "outcome", InstallOutcome("2.13.0", "CPU", active=False, why_restart="imported"))
+    monkeypatch.setattr(panel_state, "missing_required", lambda: [])  # on disk now, but not in this session
+    assert panel_state.torch_blocker() == "Restart Blender to use the torch just installed"
+    monkeypatch.setattr(SLOT, "outcome", InstallOutcome("2.13.0", "CPU", active=True))
+    assert panel_state.torch_blocker() == ""

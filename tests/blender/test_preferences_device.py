@@ -32,3 +32,36 @@ def test_the_device_preference_and_the_cuda_command(lapig_registered, monkeypatc
     log = _draw(preferences)
     assert ("label", "torch 2.13.0+cpu: CPU only", "CHECKMARK") in log
     assert ("operator", "lapig.copy_cuda_command") not in log
+
+
+@pytest.mark.blender
+def test_the_torch_box_says_what_is_installed_and_offers_the_install_button(lapig_registered, monkeypatch):
+    from lapig.lapig_addon.blender import preferences, torch_installer
+    from lapig.lapig_addon.services import torch_install
+    from lapig.lapig_core.common.gpu_torch import TorchBuild
+
+    monkeypatch.setattr(preferences, "installed_torch", lambda: TorchBuild(False))
+    monkeypatch.setattr(preferences, "nvidia_gpu_present", lambda: False)
+    monkeypatch.setattr(torch_installer, "online_access", lambda: False)
+    log = _draw(preferences)
+    assert ("label", "torch not installed", "ERROR") in log  # never a check mark beside it
+    assert ("prop", "torch_build") in log and ("operator", "lapig.install_torch") in log
+    assert ("operator", "lapig.install_torch_wheel") in log
+    assert any("Preferences > System > Network" in text for text in _sentences(log))  # why Install is greyed
+    assert not any("see the add-on preferences" in text.lower() for text in _sentences(log))  # we are there
+    monkeypatch.setattr(torch_installer, "online_access", lambda: True)
+    assert not any("Preferences > System > Network" in text for text in _sentences(_draw(preferences)))
+
+    class Running:  # an install under way: its progress and its Cancel instead of the buttons
+        finished, progress, message = False, 0.4, "downloading torch-2.13.0+cpu: 40% of 190 MB"
+
+    monkeypatch.setattr(torch_install.SLOT, "job", Running())
+    log = _draw(preferences)
+    assert ("progress", "downloading torch-2.13.0+cpu: 40% of 190 MB (40%)") in log
+    assert ("operator", "lapig.cancel_torch_install") in log and ("operator", "lapig.install_torch") not in log
+
+
+def _sentences(log):
+    from test_panels import sentences
+
+    return sentences(log)

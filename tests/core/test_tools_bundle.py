@@ -24,7 +24,7 @@ def test_each_python_line_gets_its_opencv_and_linux_py313_says_why_torch_is_miss
     assert "opencv-contrib-python-headless==4.12.0.88" in py313.requirements
     assert not [r for r in py313.requirements if r.startswith("torch")]
     [missing] = py313.not_bundled
-    assert missing.package == "torch" and "CUDA" in missing.reason and "Copy install command" in missing.next_step
+    assert missing.package == "torch" and "CUDA" in missing.reason and "Install torch below" in missing.next_step
     assert "torch==2.13.0" in bundle.plan("windows-x64", "py313", lock=LOCK[1:]).requirements
 
 

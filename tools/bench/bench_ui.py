@@ -14,11 +14,20 @@ Close. Beside it, the old path: the window opened and closed on the main thread 
 
 The panels (`--parts panel`, no timing, no torch needed): `cut_lines`, the lines Blender would clip when the
 LAPIG panels are drawn in several scene states at sidebar widths of 250, 350 and 500 px (tools/bench/panel_cuts).
+
+The torch install (`--parts install`, no torch needed): `install_to_import_seconds`, from pressing the preferences'
+Install torch to a fresh Python importing the torch installed (the job's own last check), with pip from a local
+package index on 127.0.0.1 (tools/bench/fake_torch_index). The wheel is a FAKE torch of a few kB: the figure is
+the button's own cost (pip's start, resolving, the check's Python), not a download of PyTorch's 200 MB to 3 GB;
+the job runs as under the preferences' timer (poll_timeout 0), so its main-thread stall comes with it.
 """
 from __future__ import annotations
 
 import os
 import platform
+import shutil
+import sys
+import tempfile
 import threading
 import time
 from types import SimpleNamespace
@@ -27,7 +36,7 @@ import numpy as np
 
 from ...lapig_addon.services.jobs import WorkerJob
 
-PARTS = ("psa", "window", "panel")
+PARTS = ("psa", "window", "panel", "install")
 
 
 class WarmupWatch:
@@ -109,6 +118,8 @@ def run(args) -> dict:
         from .panel_cuts import cut_lines
 
         summary.update(cut_lines(os.path.abspath(args.out)))
+    if "install" in parts:
+        summary.update(install_to_import(os.path.abspath(args.out)))
     return {**summary, "bench_total_s": round(time.perf_counter() - t0, 1), "loadavg": list(os.getloadavg()),
             "machine": platform.processor() or platform.machine()}
 
@@ -290,3 +301,35 @@ def projector_window_stalls(out: str) -> dict:
                         "call_ms": round(close_call_ms, 2), "worst_stalls": closing["worst_stalls"]},
             "before_on_main_thread": {"open_ms": round(old_open_ms, 1), "close_ms": round(old_close_ms, 1)},
             "window": shown, "display": {k: display.get(k) for k in ("index", "name", "width", "height")}}
+
+
+# ------------------------------------------------------------------------ the preferences' Install torch
+
+def install_to_import(out: str) -> dict:
+    """Install torch as the button does (CPU build, the index replaced by a local one with a fake torch wheel)
+    into a fresh folder, stepped as the preferences' timer steps it: the seconds until torch imports."""
+    from ...lapig_addon.services import torch_builds
+    from ...lapig_addon.services.torch_install import TorchInstallJob, plan_from_index
+    from .fake_torch_index import LocalIndex, isolated_pip_env, make_fake_torch_wheel
+
+    os.makedirs(out, exist_ok=True)
+    folder = tempfile.mkdtemp(prefix="install_", dir=out)
+    try:
+        wheel = make_fake_torch_wheel(os.path.join(folder, "wheels"))
+        env = isolated_pip_env(os.path.join(folder, "pip-cache"))
+        with LocalIndex(wheel) as index:
+            env[torch_builds.INDEX_ENV] = index.url
+            plan = plan_from_index(sys.executable, os.path.join(folder, "modules"), torch_builds.build("CPU"), env)
+            plan.activate = False  # this process keeps its own torch (psa imported it): the check's Python imports
+            job = TorchInstallJob(plan)
+            pressed = time.perf_counter()
+            figures = drive_like_blender(job)
+            seconds = time.perf_counter() - pressed
+        if job.state != "DONE":
+            raise RuntimeError(f"the torch install ended {job.state}: {job.message}")
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    return {"install_to_import_seconds": round(seconds, 2),
+            "install": {"what": "fake torch wheel from a local index (not PyTorch's download)",
+                        "version": job.result.version, "max_main_thread_stall_ms": _stall(figures),
+                        "steps": figures["steps"]}}

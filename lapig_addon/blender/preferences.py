@@ -12,11 +12,8 @@ from ..services import torch_builds
 from ..services.bundle_status import bundle_lines, read_bundle
 from ..services.torch_install import SLOT as TORCH_INSTALL
 from . import torch_installer, ui_text
+from .preferences_access import addon_package as _addon_package
 from .operator_boundary import ReportsErrors
-
-
-def _addon_package() -> str:
-    return __package__.rsplit(".", 2)[0]  # the extension package, e.g. bl_ext.user_default.lapig
 
 
 class LAPIG_OT_copy_install_command(ReportsErrors, bpy.types.Operator):
@@ -152,13 +149,6 @@ def _draw_torch(layout, prefs, fit):
         _wrapped(box, fit, "By hand, in a terminal (then restart Blender):", "NONE")
         box.label(text=advice.command)  # whole (the copy button takes it): a wrapped command would not paste
         box.operator(LAPIG_OT_copy_cuda_command.bl_idname, icon="COPYDOWN")
-
-
-def addon_preferences(context=None):
-    """The add-on's preferences, or None where it is registered without being enabled (the bpy module)."""
-    context = context or bpy.context
-    addon = context.preferences.addons.get(_addon_package())
-    return addon.preferences if addon and addon.preferences else None
 
 
 def compute_device() -> str:

@@ -148,7 +148,7 @@ class LAPIG_OT_cancel_torch_install(ReportsErrors, bpy.types.Operator):
 
 def chosen_build(context) -> str:
     """The preferences' build (the default for this computer where the add-on is not enabled, as in bpy)."""
-    from .preferences import addon_preferences
+    from .preferences_access import addon_preferences
 
     prefs = addon_preferences(context)
     if prefs is not None and prefs.torch_build:

@@ -59,11 +59,16 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
         items=[("AUTO", "Auto", "A GPU where torch can use one (CUDA, then Apple's MPS), else the CPU"),
                ("CPU", "CPU", "Always the CPU (e.g. to leave the GPU to Cycles)")],
         description="Where Train, PSA, the style networks and the native output run")
+    ffmpeg_path: bpy.props.StringProperty(
+        name="FFmpeg", subtype="FILE_PATH",
+        description="A system ffmpeg for the video codecs the bundled PyAV lacks (HAP, HAP Alpha, HAP Q); empty: "
+                    "the ffmpeg on PATH")
 
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "ip2p_model")
         layout.prop(self, "device")
+        layout.prop(self, "ffmpeg_path")
         advice = _gpu_advice()
         layout.label(text=advice.line, icon="CHECKMARK" if not advice.command else "INFO")
         if advice.command:
@@ -104,6 +109,12 @@ def ip2p_model() -> str:
     registered without being enabled, as in the bpy module)."""
     addon = bpy.context.preferences.addons.get(_addon_package())
     return bpy.path.abspath(addon.preferences.ip2p_model) if addon and addon.preferences else ""
+
+
+def ffmpeg_path() -> str:
+    """The system ffmpeg from the preferences ('' when unset: the one on PATH)."""
+    addon = bpy.context.preferences.addons.get(_addon_package())
+    return bpy.path.abspath(addon.preferences.ffmpeg_path) if addon and addon.preferences else ""
 
 
 CLASSES = (LAPIG_OT_copy_install_command, LAPIG_OT_copy_cuda_command, LAPIG_AP_preferences)

@@ -189,6 +189,21 @@ def previz_status(scene) -> tuple[str, bool | None]:
     return f"Previz {wired}: {plan.frame_count()} frames at {plan.fps:g} fps", is_wired(scene)
 
 
+def _use_preferred_ffmpeg() -> None:
+    """The preferences' ffmpeg (for HAP where PyAV lacks it) as $LAPIG_FFMPEG, which the video writer reads on
+    the worker thread (lapig_core/export/codecs.find_ffmpeg)."""
+    import os
+
+    from ...lapig_core.export.codecs import FFMPEG_ENV
+    from .preferences import ffmpeg_path
+
+    path = ffmpeg_path()
+    if path:
+        os.environ[FFMPEG_ENV] = path
+    else:
+        os.environ.pop(FFMPEG_ENV, None)
+
+
 def export_job(scene, out_dir: str, codec: str, bit_depth: int | None = None, use_producer: bool = True):
     """Export Show's job (services/show_jobs.ShowExportJob), checked before any file is written."""
     from ..services.export_source import addon_version
@@ -196,6 +211,7 @@ def export_job(scene, out_dir: str, codec: str, bit_depth: int | None = None, us
     from . import scene_store
 
     _checked(scene)
+    _use_preferred_ffmpeg()
     store = scene_store.BlenderSceneStore(scene)
     metadata = {**store.rig_metadata(), **store.software(), "lapig_version": addon_version()}
     job = ShowExportJob(show_source(scene, bit_depth, use_producer=use_producer), out_dir, codec, metadata)

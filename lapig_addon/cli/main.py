@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import traceback
 
@@ -165,9 +166,9 @@ def _parser():
     se.add_argument("--blend", help=".blend file with a LAPIG rig and a show (default: the open file)")
     se.add_argument("--out", required=True, help="the folder to write into (show.mp4 or show_1.mp4, show_2.mp4, "
                                                  "...; show.json)")
-    se.add_argument("--codec", default="h264", help="h264, h265, prores4444, lossless, hap (where the installed "
-                                                    "FFmpeg has it) or png (a folder of PNGs per projector); "
-                                                    "default h264")
+    se.add_argument("--codec", default="h264", type=str.lower, help=_codec_help())
+    se.add_argument("--ffmpeg", help="a system ffmpeg for the codecs the installed PyAV lacks (HAP; default: "
+                                     "$LAPIG_FFMPEG, then the ffmpeg on PATH)")
     se.add_argument("--bit-depth", type=int, choices=[8, 16], help="8 or 16 (default: the scene's export bit depth)")
     se.set_defaults(func=_show_export)
 
@@ -188,11 +189,23 @@ def _parser():
     return parser
 
 
+def _codec_help() -> str:
+    """--codec's help: every choice with its trade-off (lapig_core/export/codecs, no av import)."""
+    from ...lapig_core.export.codecs import CODECS
+
+    choices = "; ".join(f"{c.name}: {c.help}" for c in CODECS.values())
+    return (f"{choices}; png: a folder of PNGs per projector (8 or 16 bit, exact, the largest). Default h264. "
+            f"HAP where PyAV or a system FFmpeg has its encoder")
+
+
 def _show_export(args) -> int:
     """show-export: the codec is checked before the .blend opens (services/show_source, no bpy)."""
+    from ...lapig_core.export.codecs import FFMPEG_ENV
     from ..services.show_source import codec_problem
 
     args.codec = args.codec.lower()
+    if getattr(args, "ffmpeg", None):  # the video writer reads it on the worker thread
+        os.environ[FFMPEG_ENV] = os.path.abspath(args.ffmpeg) if os.sep in args.ffmpeg else args.ffmpeg
     problem = codec_problem(args.codec)
     if problem:
         raise ValueError(problem)

@@ -150,5 +150,7 @@ class ShowExportJob(WorkerJob):
             staged.discard()
             raise
         staged.commit([(staged.path(n), os.path.join(self.out_dir, n)) for n in names])
+        # the writer's own lines (a padding, a depth conversion), once each
+        video_notes = list(dict.fromkeys(n for w in written for n in w.get("notes", [])))
         return {"codec": self.codec, "fps": source.plan.fps, "frames": source.frame_count,
-                "outputs": outputs, "sidecar": sidecar_path, "notes": _notes(source)}
+                "outputs": outputs, "sidecar": sidecar_path, "notes": _notes(source) + video_notes}

@@ -48,7 +48,9 @@ def _core_frames():
     return core_frames
 
 
-CODECS = ("h264", "h265", "prores4444", "lossless", "hap", "png")
+# lapig_core/export/codecs.NAMES and the PNG sequence (kept here: a build without the video branch lists them too)
+CODECS = ("h264", "h265", "h264-444", "h265-444", "prores422hq", "prores4444", "lossless", "hap", "hap-alpha",
+          "hap-q", "png")
 
 
 @dataclass(frozen=True)
@@ -334,12 +336,10 @@ def codec_problem(codec: str) -> str:
 
 def video_bit_depth(codec: str, bit_depth: int) -> int:
     """The bit depth a video of `codec` is encoded at for frames of `bit_depth` (16-bit frames: the codec's deepest,
-    10 bits for H.264, H.265 and ProRes; 8 for the others)."""
-    if bit_depth == 8:
-        return 8
+    10 bits for H.265, the 4:4:4 choices and ProRes; 8 for H.264 High and the others)."""
     from ...lapig_core.export import codecs as codec_table
 
-    return max(codec_table.CODECS[codec].pixel_formats)
+    return codec_table.encoded_depth(codec_table.CODECS[codec], bit_depth)[0]
 
 
 def output_path(out_dir: str, codec: str, projector: int, count: int, name: str = "show") -> str:
@@ -379,7 +379,8 @@ def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height:
                                     metadata=metadata, show=show, frame_count=count)
     except Cancelled:
         raise JobCancelled() from None
-    return {"path": str(written["video"]), "frames": written["frames"], "sidecar": str(written["sidecar"])}
+    return {"path": str(written["video"]), "frames": written["frames"], "sidecar": str(written["sidecar"]),
+            "notes": written.get("notes", [])}
 
 
 FRAME_NAME = "frame_{:04d}.png"  # frame 1 is frame_0001.png: Blender's image sequences count from the file's number
@@ -468,7 +469,8 @@ def _remove(path: str) -> None:
 def frame_bytes_estimate(width: int, height: int, bit_depth: int, codec: str) -> int:
     """About how many bytes one frame takes on disk (PNG and lossless: half the raw pixels; video: less)."""
     raw = width * height * 3 * (2 if bit_depth == 16 else 1)
-    return raw // 2 if codec in ("png", "lossless") else raw // 4 if codec in ("prores4444", "hap") else raw // 50
+    big = ("prores4444", "prores422hq", "hap", "hap-alpha", "hap-q")
+    return raw // 2 if codec in ("png", "lossless") else raw // 4 if codec in big else raw // 50
 
 
 def disk_problem(folder: str, frame_bytes: int, count: int) -> str:

@@ -290,10 +290,12 @@ def padded_size(codec: VideoCodec, width: int, height: int) -> tuple[int, int, s
     """The encoded size: width and height up to the codec's block (4:2:0 even, HAP a multiple of 4), the last
     column and row repeated; the note says so ('' where nothing was padded)."""
     b = codec.block
-    pw, ph = -(-width // b) * b, -(-height // b) * b
+    bh = 1 if codec.chroma == "4:2:2" else b  # 4:2:2 halves the columns only
+    pw, ph = -(-width // b) * b, -(-height // bh) * bh
     if (pw, ph) == (width, height):
         return width, height, ""
-    why = "HAP's 4x4 texture blocks" if codec.encoder == "hap" else f"{codec.chroma} needs even sizes"
+    why = "HAP's 4x4 texture blocks" if codec.encoder == "hap" else \
+        f"{codec.chroma} needs an even width" if bh == 1 else f"{codec.chroma} needs even sizes"
     return pw, ph, (f"{width}x{height} padded to {pw}x{ph} ({why}; the last column and row repeated): crop "
                     f"{pw - width} column(s) right and {ph - height} row(s) at the bottom on the media server")
 

@@ -310,6 +310,7 @@ def test_export_show_refuses_bad_input_in_one_line_before_any_file(results, tmp_
         assert not out.exists()
         return str(job.error)
 
+    monkeypatch.setenv("LAPIG_FFMPEG", str(tmp_path / "no_ffmpeg"))  # neither PyPI's PyAV nor this has HAP
     hap = refused(show_jobs.ShowExportJob(_source(good), str(out), "hap"))
     assert "hap" in hap.lower() and "\n" not in hap
     assert refused(show_jobs.ShowExportJob(_source(good), str(out), "mpeg1")).startswith("unknown codec 'mpeg1'")
@@ -413,7 +414,7 @@ def test_the_producer_is_asked_at_the_projectors_size_and_gamma_and_its_cancel_i
     assert os.listdir(tmp_path / "export") == []
 
 
-@pytest.mark.parametrize("codec", ["lossless", "h264"])
+@pytest.mark.parametrize("codec", ["lossless", "h264", "h264-444"])
 def test_export_show_writes_a_frame_locked_video_with_the_show_in_its_sidecar(results, tmp_path, codec):
     """Through lapig_core/export/video (PyAV): the decoded video has the show's frames, size and rate; the lossless
     one holds the exact pixels (OpenCV decodes to BGR)."""
@@ -439,6 +440,12 @@ def test_export_show_writes_a_frame_locked_video_with_the_show_in_its_sidecar(re
         decoded.append(frame[..., ::-1])
     assert len(decoded) == 8 and decoded[0].shape == (SIZE[1], SIZE[0], 3)
     assert capture.get(cv2.CAP_PROP_FPS) == pytest.approx(10.0)
+    if codec != "lossless":  # OpenCV ignores the BT.709 tags: PyAV's decoder honours them
+        import av
+
+        with av.open(video) as container:
+            decoded = [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
     expected = [f[0] for _, f in show_source.frames(_source(plan))]
     error = max(float(np.abs(d.astype(int) - e.astype(int)).mean()) for d, e in zip(decoded, expected))
-    assert error == 0.0 if codec == "lossless" else error < 2.0
+    # 4:2:0 halves the colour resolution of the compensated frames' grain: a mean error of 2 levels in 255
+    assert error == 0.0 if codec == "lossless" else error < (3.0 if codec == "h264" else 2.0)

@@ -136,7 +136,10 @@ def _parser():
                                      "(default: the scene's result)")
     ex.add_argument("--bit-depth", type=int, choices=[8, 16], help="8 or 16 (default: the scene's)")
     ex.add_argument("--crossfade", help="also write a crossfade sequence (without -> with PSA) into this folder")
-    ex.add_argument("--mpcdi", help="also write the rig's MPCDI 2.0 package ('2d' profile: each projector's warp "
+    ex.add_argument("--mpcdi-version", choices=["2.0", "1.0"], default="2.0",
+                    help="the MPCDI package's version: 2.0 (Watchout 7, nDisplay, Pixera; default) or 1.0 (Watchout 6, "
+                         "the VESA reference reader, which refuses 2.0)")
+    ex.add_argument("--mpcdi", help="also write the rig's MPCDI package (--mpcdi-version; '2d' profile: each projector's warp "
                                     "and blend) to this .mpcdi file; a rig of several projectors writes one image "
                                     "per projector, <out>_1.png, <out>_2.png, ...")
     ex.add_argument("--profile", choices=["2d", "sl"], default="2d",

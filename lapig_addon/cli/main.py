@@ -139,8 +139,8 @@ def _parser():
     ex.add_argument("--mpcdi-version", choices=["2.0", "1.0"], default="2.0",
                     help="the MPCDI package's version: 2.0 (Watchout 7, nDisplay, Pixera; default) or 1.0 (Watchout 6, "
                          "the VESA reference reader, which refuses 2.0)")
-    ex.add_argument("--mpcdi", help="also write the rig's MPCDI package (--mpcdi-version; '2d' profile: each projector's warp "
-                                    "and blend) to this .mpcdi file; a rig of several projectors writes one image "
+    ex.add_argument("--mpcdi", help="also write the rig's MPCDI package (--mpcdi-version; '2d' profile: each "
+                                    "projector's warp and blend) to this .mpcdi file; a rig of several projectors writes one image "
                                     "per projector, <out>_1.png, <out>_2.png, ...")
     ex.add_argument("--profile", choices=["2d", "sl"], default="2d",
                     help="the MPCDI profile: '2d' (Watchout, BrightSign; default) or 'sl' (shader lamp: nDisplay, "

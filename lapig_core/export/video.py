@@ -50,7 +50,7 @@ import numpy as np
 
 from ..common import atomic
 from . import codecs as codec_table
-from . import ffmpeg_pipe, levels
+from . import chroma, ffmpeg_pipe, levels
 from .codecs import VideoExportError
 from .projector_image import ExportError, sidecar_bytes, software_info, utc_now, write_error
 from .show_output import (Cancelled, RepeatedFrame, check_disk_space, check_size, check_writable, frame_pixels,
@@ -61,6 +61,7 @@ __all__ = ["write_video", "video_path", "VideoExportError", "ExportError", "Canc
 _FORMATS = {".mp4": "mp4", ".mov": "mov", ".mkv": "matroska"}
 # FFmpeg's numbers: BT.709 matrix, primaries and transfer, limited range (codecs' module docstring says why)
 _BT709, _RANGE_MPEG = 1, 1
+_LUMA_CORRECTED = ("yuv420p", "yuv420p10le")
 
 
 def video_path(path, codec: codec_table.VideoCodec) -> Path:
@@ -97,6 +98,11 @@ class Plan:
         return 8 if self.depth == 8 else 16
 
 
+def _chromaloc(spec: codec_table.VideoCodec) -> str:
+    """4:2:0 chroma is the 2x2 mean, sited at the centre of the four pixels: the stream says so (type 1)."""
+    return ":chromaloc=1" if spec.chroma == "4:2:0" else ""
+
+
 def plan_video(spec: codec_table.VideoCodec, bit_depth, size, rate: Fraction, intra_only: bool) -> Plan:
     """The encoding of frames of `size` at `rate`: depth, padding, level, GOP and options (VideoExportError where
     the size is beyond the codec's levels)."""
@@ -116,13 +122,13 @@ def plan_video(spec: codec_table.VideoCodec, bit_depth, size, rate: Fraction, in
     if spec.encoder == "libx264":
         key = f"keyint={gop}:min-keyint=1:scenecut=0" if gop == 1 else f"keyint={gop}"
         # closed GOP, constant frame rate, the level and its bitrate cap (so the level tag is true)
-        options["x264-params"] = f"{key}:open-gop=0:force-cfr=1:level={level.name}:{vbv}"
+        options["x264-params"] = f"{key}:open-gop=0:force-cfr=1:level={level.name}:{vbv}" + _chromaloc(spec)
     elif spec.encoder == "libx265":
         key = f"keyint={gop}:min-keyint=1:scenecut=0" if gop == 1 else f"keyint={gop}:min-keyint={gop}"
         # no B-frames: with them, a short show in an .mp4 or .mov failed at the end with 'Not yet implemented in
         # FFmpeg' (av 18.0.0); a media server decodes and scrubs I/P frames more easily
         options["x265-params"] = (f"log-level=error:{key}:open-gop=0:bframes=0:level-idc={level.idc}:{vbv}:"
-                                  f"colorprim=bt709:transfer=bt709:colormatrix=bt709:range=limited")
+                                  f"colorprim=bt709:transfer=bt709:colormatrix=bt709:range=limited" + _chromaloc(spec))
     notes = tuple(n for n in (depth_note, pad_note) if n)
     return Plan(spec, depth, codec_table.pixel_format(spec, depth), (width, height), tuple(size), rate, gop,
                 options, level, notes)
@@ -146,6 +152,10 @@ def _open_stream(container, plan: Plan):
 
 
 def _video_frame(av, pixels, plan: Plan):
+    if plan.pix_fmt in _LUMA_CORRECTED:  # 4:2:0: the 2x2 mean chroma and corrected luma (export/chroma)
+        frame = av.VideoFrame.from_ndarray(chroma.to_yuv420(pixels, plan.depth), format=plan.pix_fmt)
+        frame.colorspace, frame.color_range = _BT709, _RANGE_MPEG
+        return frame
     src = "rgb24" if pixels.dtype.itemsize == 1 else "rgb48le"
     frame = av.VideoFrame.from_ndarray(pixels, format=src)
     if plan.pix_fmt == src:

@@ -61,10 +61,11 @@ def to_yuv420(rgb: np.ndarray, depth: int = 8, correct_luma: bool = True) -> np.
     h, w = rgb.shape[:2]
     scale = 1 << (depth - 8)
     x = _to_float(rgb)
-    chroma = cv2.resize(cv2.transform(x, _TO_CB_CR), (w // 2, h // 2), interpolation=cv2.INTER_AREA)  # 2x2 mean
+    full_chroma = cv2.transform(x, _TO_CB_CR)
+    chroma = cv2.resize(full_chroma, (w // 2, h // 2), interpolation=cv2.INTER_AREA)  # the 2x2 mean
     luma = cv2.transform(x, _TO_Y)
     if correct_luma:
-        luma = _luminance_kept(x, luma, cv2.transform(x, _TO_CB_CR), chroma)
+        luma = _luminance_kept(x, luma, full_chroma, chroma)
     dtype = np.uint8 if depth == 8 else np.uint16
     out = np.empty((h * 3 // 2, w), dtype)
     # limited range: luma 16-235, chroma 16-240 (convertTo rounds and saturates; the clip keeps the bounds)
@@ -100,7 +101,8 @@ def _luminance_kept(x, luma, source_chroma, half_chroma, steps: int = 3) -> np.n
     the plain Y'. Only those pixels are computed (a few percent of a show frame)."""
     h, w = luma.shape
     up = cv2.resize(half_chroma, (w, h), interpolation=cv2.INTER_LINEAR)
-    off = np.abs(up - source_chroma).sum(axis=2) > np.float32(4.0 / 224)  # two code values
+    difference = cv2.transform(cv2.absdiff(up, source_chroma), np.ones((1, 2), np.float32))
+    off = difference > np.float32(4.0 / 224)  # two code values in each of Cb and Cr
     if not off.any():
         return luma
     cb, cr = up[off, 0], up[off, 1]

@@ -220,7 +220,11 @@ def test_show_export_refuses_in_one_line_and_writes_nothing(show_scene, tmp_path
         assert not out.exists()
         return err
 
-    assert "hap" in refused("--blend", str(tmp_path / "nowhere.blend"), "--codec", "hap").lower()
+    os.environ["LAPIG_FFMPEG"] = str(tmp_path / "no_ffmpeg")  # neither PyPI's PyAV nor this one has HAP
+    try:
+        assert "hap" in refused("--blend", str(tmp_path / "nowhere.blend"), "--codec", "hap").lower()
+    finally:
+        del os.environ["LAPIG_FFMPEG"]
     assert refused("--codec", "mpeg2").startswith("error: unknown codec 'mpeg2'")
     bpy.ops.wm.save_mainfile()
     blend = bpy.data.filepath

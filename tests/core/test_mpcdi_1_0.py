@@ -1,5 +1,5 @@
 """MPCDI 1.0 packages (issue 52): a one- and a two-projector scene in the '2d' and 'sl' profiles, checked by a
-validator written from the 1.0 text (tests/core/mpcdi_1_0_rules.py), not by the writer; 2.0 packages fail it."""
+validator written from the 1.0 text (tests/mpcdi_1_0_rules.py), not by the writer; 2.0 packages fail it."""
 import datetime as dt
 import xml.etree.ElementTree as ET
 import zipfile

@@ -31,9 +31,11 @@ def command(path: str, out_file: str, container_format: str, encoder: str, pix_f
     args = [path, "-hide_banner", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", src,
             "-s", f"{width}x{height}", "-framerate", f"{rate.numerator}/{rate.denominator}", "-i", "pipe:0",
             "-an", "-map_metadata", "-1"]
-    if yuv:  # swscale's conversion with the BT.709 matrix into limited range, so the tags are true
-        args += ["-vf", f"scale=out_color_matrix=bt709:out_range=tv:flags=bilinear+accurate_rnd+full_chroma_int,"
-                        f"format={pix_fmt}"]
+    if yuv:  # swscale's conversion with the BT.709 matrix into limited range, so the tags are true; 4:2:0
+        # chroma sited at the centre of its four pixels, as the stream says (video.plan_video's chromaloc=1)
+        siting = ":out_h_chr_pos=128:out_v_chr_pos=128" if pix_fmt.startswith("yuv420") else ""
+        args += ["-vf", f"scale=out_color_matrix=bt709:out_range=tv:flags=bilinear+accurate_rnd+full_chroma_int"
+                        f"{siting},format={pix_fmt}"]
     else:
         args += ["-pix_fmt", pix_fmt]
     args += ["-c:v", encoder, "-g", str(gop)]

@@ -238,3 +238,19 @@ def test_every_codec_says_its_trade_off():
         assert len(codec.help) > 40 and "\n" not in codec.help, codec.name
     assert "software decoder" in codecs.CODECS["h264-444"].help
     assert "software decoder" in codecs.CODECS["h265-444"].help
+
+
+@needs_ffmpeg
+def test_a_codec_pyav_lacks_goes_through_the_system_ffmpeg_with_the_same_file(tmp_path, monkeypatch):
+    real = codecs._av_has_encoder
+    monkeypatch.setattr(codecs, "_av_has_encoder", lambda codec: codec.encoder != "libx264" and real(codec))
+    assert codecs.route("h264")[0] == "ffmpeg"
+    frames = _frames()
+    out = write_video(frames, tmp_path / "piped.mp4", 30, (W, H), "h264")
+    info = probe(out["video"])
+    assert (info["codec_name"], info["profile"], info["pix_fmt"], info["level"]) == ("h264", "High", "yuv420p", 30)
+    assert {k: info.get(k) for k in BT709} == BT709 and info.get("chroma_location") == "center"
+    assert info["frames"] == N and info["rate"] == 30 and info["keyframes"] == [0]
+    decoded, _ = decode_with_ffmpeg(out["video"])
+    assert min(_psnr(_u8(s), d) for s, d in zip(frames, decoded)) >= 29.0
+    assert json.loads(out["sidecar"].read_text())["video"]["encoded_by"] == "system FFmpeg through a pipe"

@@ -353,7 +353,7 @@ def output_path(out_dir: str, codec: str, projector: int, count: int, name: str 
 
 
 def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height: int, count: int,
-          bit_depth: int = 8, sidecar: dict | None = None, cancel_event=None) -> dict:
+          bit_depth: int = 8, sidecar: dict | None = None, cancel_event=None, audio: str | None = None) -> dict:
     """Encode `frames_iter` (pixels, in order) to `path` through the video branch's writers: a PNG sequence folder
     (lapig_core/export/image_sequence) or a video and its sidecar '<name>.json' (lapig_core/export/video).
     Returns {'path', 'frames', 'sidecar'}; a cancel raises JobCancelled."""
@@ -376,7 +376,7 @@ def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height:
             return {"path": str(written["folder"]), "frames": written["frames"], "sidecar": str(written["sidecar"])}
         written = video.write_video(frames_iter, path, fps, (width, height), codec,
                                     bit_depth=video_bit_depth(codec, bit_depth), cancel_event=cancel_event,
-                                    metadata=metadata, show=show, frame_count=count)
+                                    metadata=metadata, show=show, frame_count=count, audio=audio)
     except Cancelled:
         raise JobCancelled() from None
     return {"path": str(written["video"]), "frames": written["frames"], "sidecar": str(written["sidecar"]),

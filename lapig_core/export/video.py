@@ -16,6 +16,9 @@
   H.264: 8 bits; into H.265 and ProRes: 10).
 - Sizes 4:2:0 (and HAP) cannot take are padded (even; HAP a multiple of 4), the last column and row repeated, with
   a note. The level (H.264 / H.265) comes from the size and rate (export/levels); beyond the highest: refused.
+- audio: a sound file (the show's range mixed down from its first frame) muxed beside the video: AAC in .mp4 and
+  .mkv, 16-bit PCM in .mov, 48 kHz stereo, cut or padded to the video's duration (export/audio_mux); None: no
+  audio track.
 - ffmpeg: the system FFmpeg for codecs PyAV lacks (default $LAPIG_FFMPEG, then PATH): fed raw RGB through a pipe
   (export/ffmpeg_pipe), with the same progress, cancel and temporary file.
 - frame_count: the frames promised (default len(frames) where it has one): the disk check needs it, and an
@@ -259,9 +262,25 @@ def _encode(encoder, frames, plan: Plan, count, cancel_event, on_progress) -> in
     return written
 
 
+def _with_audio(tmp: Path, target: Path, fmt: str, audio, duration_s: float) -> dict:
+    """The show's sound muxed beside the encoded video (export/audio_mux), the temporary file replaced."""
+    from .audio_mux import add_audio
+
+    with_sound = atomic.temporary_beside(target, write_error)
+    try:
+        sound = add_audio(tmp, audio, with_sound, fmt, duration_s)
+        os.replace(with_sound, tmp)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            with_sound.unlink()
+        raise
+    return {**sound, "source": Path(os.fspath(audio)).name}
+
+
 def write_video(frames, path, fps, size, codec, bit_depth: int = 8, cancel_event=None, on_progress=None,
                 metadata: dict | None = None, *, show: dict | None = None, frame_count: int | None = None,
-                intra_only: bool = False, lapig_version: str | None = None, ffmpeg: str | None = None) -> dict:
+                intra_only: bool = False, lapig_version: str | None = None, ffmpeg: str | None = None,
+                audio=None) -> dict:
     """Encode `frames` into the video at `path` with its sidecar `<name>.json` (see the module docstring)."""
     spec = codec_table.check_codec(codec, ffmpeg)
     rate = frame_rate(fps)
@@ -307,6 +326,12 @@ def write_video(frames, path, fps, size, codec, bit_depth: int = 8, cancel_event
             raise ExportError(f"the show has {count} frames, but {written} came")
         if written == 0:
             raise ExportError("the show has no frames")
+        try:
+            sound = None if audio is None else _with_audio(tmp, target, fmt, audio, float(written / rate))
+        except OSError as exc:
+            raise write_error(exc, target) from exc
+        except av.FFmpegError as exc:
+            raise ExportError(f"could not add the show's sound to {target.name}: {exc}") from exc
         software = {**software_info(lapig_version), "av": codec_table.av_version()}
         if how == "ffmpeg":
             software["ffmpeg"] = ffmpeg_path
@@ -336,6 +361,7 @@ def write_video(frames, path, fps, size, codec, bit_depth: int = 8, cancel_event
                 "every_frame_keyframe": plan.gop == 1,
                 "colour": "BT.709 primaries, transfer and matrix, limited range (tagged)" if spec.yuv else "RGB",
                 "notes": list(plan.notes),
+                "audio": sound,
             },
             "show": show or {},
             "created": utc_now(),

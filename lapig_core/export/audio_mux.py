@@ -68,6 +68,9 @@ def add_audio(video_file, audio_file, out_file, container_format: str, duration_
     with av.open(str(video_file)) as video_in, av.open(str(out_file), mode="w", format=container_format) as out:
         video_stream = video_in.streams.video[0]
         video_out = out.add_stream_from_template(video_stream, opaque=True)
+        tag = video_stream.codec_context.codec_tag if video_stream.codec_context is not None else ""
+        if tag and video_out.codec_context is not None:  # H.265's 'hvc1' (Apple's players need it) kept
+            video_out.codec_context.codec_tag = tag
         audio_out = out.add_stream(codec, rate=RATE, layout=LAYOUT)
         audio_out.format = sample_format
 

@@ -4,6 +4,7 @@ one-line refusals, and Play Show on a simulated window counting its late frames.
 import importlib
 import json
 import os
+import shutil
 import threading
 import time
 
@@ -449,3 +450,30 @@ def test_export_show_writes_a_frame_locked_video_with_the_show_in_its_sidecar(re
     error = max(float(np.abs(d.astype(int) - e.astype(int)).mean()) for d, e in zip(decoded, expected))
     # 4:2:0 halves the colour resolution of the compensated frames' grain: a mean error of 2 levels in 255
     assert error == 0.0 if codec == "lossless" else error < (3.0 if codec == "h264" else 2.0)
+
+
+@pytest.mark.skipif(shutil.which("ffprobe") is None, reason="the system ffprobe is not installed (apt-get install "
+                                                            "ffmpeg; .ci/run installs it): the sound check cannot run")
+def test_export_show_puts_the_scenes_sound_in_the_video_and_removes_its_temporary(results, tmp_path):
+    import subprocess
+    import wave
+
+    show_jobs, show_source = _module("services.show_jobs"), _module("services.show_source")
+    if show_source.codec_problem("h264"):
+        pytest.skip(show_source.codec_problem("h264"))
+    folders, _ = results
+    sound_dir = tmp_path / "lapig_show_sound_x"
+    sound_dir.mkdir()
+    sound = sound_dir / "show_sound.wav"
+    with wave.open(str(sound), "wb") as w:  # what Blender's mixdown writes: 48 kHz stereo 16-bit
+        w.setnchannels(2), w.setsampwidth(2), w.setframerate(48000)
+        w.writeframes(np.zeros(2 * 48000, "<i2").tobytes())
+    plan = _plan([dict(result_dir=folders[0], hold_s=0.4), dict(result_dir=folders[2], hold_s=0.4)])
+    job = show_jobs.ShowExportJob(_source(plan), str(tmp_path / "export"), "h264", sound=str(sound),
+                                  sound_is_temporary=True)
+    out = job.run_to_completion()
+    for output in out["outputs"]:
+        streams = subprocess.run(["ffprobe", "-v", "error", "-show_entries", "stream=codec_type,codec_name", "-of",
+                                  "csv=p=0", output["path"]], capture_output=True, text=True, check=True).stdout
+        assert sorted(streams.split()) == ["aac,audio", "h264,video"], output["path"]
+    assert len(out["outputs"]) == 1 and not sound_dir.exists()  # the mixdown's folder removed after the work

@@ -366,3 +366,33 @@ def test_the_show_panel_draws_the_list_the_blocker_and_the_buttons(show_scene):
     texts = sentences(draw())
     assert "The show has no looks: add a result to it (Add Look)" in texts  # a scene without a show reads so
     assert bpy.ops.lapig.show_remove_look() == {"CANCELLED"}
+
+
+def test_the_scenes_sound_strips_in_the_shows_range_are_mixed_down_for_the_export(show_scene, tmp_path):
+    """Export Show's sound (issue 52): the sound strips that play in the scene's range, mixed down by Blender to
+    48 kHz stereo over that range; a muted strip, a muted scene or none: no sound."""
+    import wave
+
+    from lapig.lapig_addon.blender import show_timeline
+
+    scene = show_scene
+    scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end = 30, 1.0, 1, 45
+    assert show_timeline.show_sound(scene) is None  # no sound strips
+    tone = tmp_path / "tone.wav"
+    with wave.open(str(tone), "wb") as w:
+        w.setnchannels(1), w.setsampwidth(2), w.setframerate(44100)
+        t = np.arange(44100) / 44100
+        w.writeframes((8000 * np.sin(2 * np.pi * 440 * t)).astype("<i2").tobytes())
+    if scene.sequence_editor is None:
+        scene.sequence_editor_create()
+    strip = scene.sequence_editor.strips.new_sound("tone", str(tone), 1, 10)
+    try:
+        path = show_timeline.show_sound(scene)
+        with wave.open(path, "rb") as w:
+            assert (w.getframerate(), w.getnchannels()) == (48000, 2)
+            assert w.getnframes() == pytest.approx(48000 * 45 / 30, abs=48000 / 30)  # the scene's range
+        shutil.rmtree(os.path.dirname(path))
+        strip.mute = True
+        assert show_timeline.show_sound(scene) is None
+    finally:
+        scene.sequence_editor.strips.remove(strip)

@@ -58,6 +58,8 @@ def test_the_sound_is_in_the_video_in_sync_and_as_long(tmp_path, name, suffix, a
     streams = _streams(out["video"])
     assert streams["audio"]["codec_name"] == audio_codec and int(streams["audio"]["sample_rate"]) == 48000
     assert int(streams["audio"]["channels"]) == 2 and int(streams["video"]["nb_frames"]) == N
+    if name == "h265":
+        assert streams["video"]["codec_tag_string"] == "hvc1"  # kept through the remux
     assert float(streams["audio"]["duration"]) == pytest.approx(1.0, abs=1 / FPS)
     assert float(streams["audio"].get("start_time", 0)) == pytest.approx(0.0, abs=1e-3)
     samples = _decoded_sound(out["video"])

@@ -205,9 +205,9 @@ def _use_preferred_ffmpeg() -> None:
 
 
 def sound_strips(scene) -> list:
-    """The scene's sound strips that play in its range (not muted; none where the scene's audio is muted)."""
+    """The scene's sound strips that play in its range (not muted)."""
     editor = scene.sequence_editor
-    if editor is None or getattr(scene, "use_audio", False):  # use_audio: "mute" in Blender's words
+    if editor is None:
         return []
     strips = getattr(editor, "strips_all", None)
     if strips is None:

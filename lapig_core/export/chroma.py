@@ -44,14 +44,10 @@ def _upsampled(plane: np.ndarray, width: int, height: int) -> np.ndarray:
     return cv2.resize(plane, (width, height), interpolation=cv2.INTER_LINEAR)
 
 
-# from RGB in [0, 1]: Cb and Cr; the luma; the mean of R, G and B (for the luma correction)
+# from RGB in [0, 1]: Y', Cb, Cr (BT.709)
 _B, _A = 2 * (1 - KB), 2 * (1 - KR)  # decoded B = Y' + _B Cb, R = Y' + _A Cr
-_TO_CB_CR = np.array([[-KR / _B, -KG / _B, (1 - KB) / _B], [(1 - KR) / _A, -KG / _A, -KB / _A]], np.float32)
-_TO_Y = np.array([[KR, KG, KB]], np.float32)
-_TO_MEAN = np.array([[1 / 3, 1 / 3, 1 / 3]], np.float32)
-# the mean over R, G, B of the chroma's share of the decoded pixel: (R + G + B) / 3 = Y' + _CB Cb + _CR Cr
-_CB = (_B - _B * KB / KG) / 3
-_CR = (_A - _A * KR / KG) / 3
+_TO_YCBCR = np.array([[KR, KG, KB], [-KR / _B, -KG / _B, (1 - KB) / _B], [(1 - KR) / _A, -KG / _A, -KB / _A]],
+                     np.float32)
 
 
 def to_yuv420(rgb: np.ndarray, depth: int = 8, correct_luma: bool = True) -> np.ndarray:
@@ -61,23 +57,21 @@ def to_yuv420(rgb: np.ndarray, depth: int = 8, correct_luma: bool = True) -> np.
     h, w = rgb.shape[:2]
     scale = 1 << (depth - 8)
     x = _to_float(rgb)
-    full_chroma = cv2.transform(x, _TO_CB_CR)
-    chroma = cv2.resize(full_chroma, (w // 2, h // 2), interpolation=cv2.INTER_AREA)  # the 2x2 mean
-    luma = cv2.transform(x, _TO_Y)
+    luma, cb, cr = cv2.split(cv2.transform(x, _TO_YCBCR))
+    half = [cv2.resize(c, (w // 2, h // 2), interpolation=cv2.INTER_AREA) for c in (cb, cr)]  # the 2x2 mean
     if correct_luma:
-        luma = _luminance_kept(x, luma, full_chroma, chroma)
+        luma = _luminance_kept(x, luma, (cb, cr), half)
     dtype = np.uint8 if depth == 8 else np.uint16
     out = np.empty((h * 3 // 2, w), dtype)
-    # limited range: luma 16-235, chroma 16-240 (convertTo rounds and saturates; the clip keeps the bounds)
+    # limited range: luma 16-235, chroma 16-240
     y = cv2.min(cv2.max(luma, 0.0), 1.0)
     out[:h] = cv2.convertScaleAbs(y, alpha=219, beta=16) if depth == 8 else \
         np.rint(y * np.float32(219 * scale) + np.float32(16 * scale)).astype(dtype)
-    c = np.clip(chroma * np.float32(224 * scale) + np.float32(128 * scale), 16 * scale, 240 * scale)
-    c = np.rint(c).astype(dtype)
     quarter = (h // 2) * (w // 2)
     flat = out[h:].reshape(-1)
-    flat[:quarter] = c[..., 0].reshape(-1)
-    flat[quarter:] = c[..., 1].reshape(-1)
+    for k, plane in enumerate(half):
+        c = np.clip(plane * np.float32(224 * scale) + np.float32(128 * scale), 16 * scale, 240 * scale)
+        flat[k * quarter:(k + 1) * quarter] = np.rint(c).astype(dtype).reshape(-1)
     return out
 
 
@@ -100,12 +94,12 @@ def _luminance_kept(x, luma, source_chroma, half_chroma, steps: int = 3) -> np.n
     pixel's linear-light luminance is the source's (Newton's method on the monotone luminance of Y'); elsewhere
     the plain Y'. Only those pixels are computed (a few percent of a show frame)."""
     h, w = luma.shape
-    up = cv2.resize(half_chroma, (w, h), interpolation=cv2.INTER_LINEAR)
-    difference = cv2.transform(cv2.absdiff(up, source_chroma), np.ones((1, 2), np.float32))
+    up = [cv2.resize(c, (w, h), interpolation=cv2.INTER_LINEAR) for c in half_chroma]
+    difference = cv2.add(cv2.absdiff(up[0], source_chroma[0]), cv2.absdiff(up[1], source_chroma[1]))
     off = difference > np.float32(4.0 / 224)  # two code values in each of Cb and Cr
     if not off.any():
         return luma
-    cb, cr = up[off, 0], up[off, 1]
+    cb, cr = up[0][off], up[1][off]
     weights = np.array([KR, KG, KB], np.float32)
     target = _table(x[off], _DECODE) @ weights
     shifts = np.stack([_A * cr, -(_B * KB / KG) * cb - (_A * KR / KG) * cr, _B * cb], axis=1)  # R, G, B - Y'

@@ -80,6 +80,9 @@ def test_every_codec_decodes_strictly_with_its_tags_and_frames(tmp_path, name):
         assert info.get(key) == (value if yuv else info.get(key)), key
     if not yuv:
         assert info.get("color_space") in (None, "unknown", "gbr")
+    hap_tag = {"hap": "Hap1", "hap-alpha": "Hap5", "hap-q": "HapY"}.get(name)  # which HAP it is
+    if hap_tag:
+        assert info["codec_tag_string"] == hap_tag
     assert info["frames"] == N and int(info["nb_frames"]) == N
     assert info["rate"] == 30 and info["avg_rate"] == 30  # a constant frame rate
     assert info["duration_s"] == pytest.approx(N / 30, abs=1e-3)

@@ -1,6 +1,8 @@
 """MPCDI 1.0 packages (issue 52): a one- and a two-projector scene in the '2d' and 'sl' profiles, checked by a
 validator written from the 1.0 text (tests/mpcdi_1_0_rules.py), not by the writer; 2.0 packages fail it."""
 import datetime as dt
+import os
+import subprocess
 import xml.etree.ElementTree as ET
 import zipfile
 
@@ -61,3 +63,27 @@ def test_an_unknown_version_is_one_line(tmp_path):
     with pytest.raises(ValueError, match=r"^MPCDI version must be one of 2.0, 1.0, got '1.1'$"):
         write_mpcdi(tmp_path / "x.mpcdi", "2d", _buffers_2d(), version="1.1")
     assert list(tmp_path.iterdir()) == []
+
+
+REFERENCE = os.environ.get("LAPIG_MPCDI_REFERENCE_CHECK")
+
+
+@pytest.mark.skipif(not REFERENCE, reason="LAPIG_MPCDI_REFERENCE_CHECK does not name the VESA reference reader's "
+                                          "check (tools/mpcdi/reference_check.cpp says how to build it)")
+@pytest.mark.parametrize("profile", ["2d", "sl"])
+@pytest.mark.parametrize("projectors", [1, 2])
+def test_the_vesa_reference_reader_reads_1_0_and_refuses_2_0(tmp_path, profile, projectors):
+    buffers = (_buffers_2d() if profile == "2d" else _buffers_sl())[:projectors]
+    extra = {"origin_of_3d_data": "floorCenter"} if profile == "sl" else {}
+    old = write_mpcdi(tmp_path / "old.mpcdi", profile, buffers, date=DATE, version="1.0", **extra)
+    done = subprocess.run([REFERENCE, str(old)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stdout
+    lines = done.stdout.splitlines()
+    assert lines[0] == f"level 4 profile {0 if profile == '2d' else 3}"  # beta maps (and distortion for sl)
+    regions = [ln for ln in lines if ln.startswith("region ")]
+    assert len(regions) == projectors and all("alpha 64x48" in ln and "beta yes" in ln for ln in regions)
+    assert regions[0].startswith("region left 64x48 warp " + ("64x48 first 0.005 0.989583" if profile == "2d"
+                                                              else "16x12 first nan nan"))
+    new = write_mpcdi(tmp_path / "new.mpcdi", profile, buffers, date=DATE, **extra)
+    refused = subprocess.run([REFERENCE, str(new)], capture_output=True, text=True, timeout=60)
+    assert refused.returncode == 1 and "2.0 is not supported" in refused.stdout

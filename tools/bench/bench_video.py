@@ -100,15 +100,16 @@ def _per_codec(name: str, frames, pngs, work: str, lines) -> dict:
     start = time.perf_counter()
     out = write_video(frames, os.path.join(work, f"show_{name}"), FPS, (W, H), name)
     seconds = time.perf_counter() - start
-    decoded, fps = _decode_cv2(out["video"]) if not codecs.CODECS[name].yuv else ([], FPS)
     independent = system_tool("ffprobe") is not None and system_tool("ffmpeg") is not None
     if independent:  # the system FFmpeg honours the colour tags (OpenCV does not)
         decoded, fps = decode_with_ffmpeg(out["video"])
-    elif codecs.CODECS[name].yuv:
+    elif codecs.CODECS[name].yuv:  # PyAV honours them too (not independent of the writer)
         import av
 
         with av.open(str(out["video"])) as container:
-            decoded = [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
+            decoded, fps = [f.to_ndarray(format="rgb24") for f in container.decode(video=0)], FPS
+    else:
+        decoded, fps = _decode_cv2(out["video"])
     ok = (len(decoded) == len(frames) and all(d.shape == (H, W, 3) for d in decoded) and abs(fps - FPS) < 1e-6)
     first = _psnr(pngs[0], decoded[0]) if decoded else float("nan")
     last = _psnr(pngs[-1], decoded[-1]) if decoded else float("nan")

@@ -140,8 +140,8 @@ def _parser():
                     help="the MPCDI package's version: 2.0 (Watchout 7, nDisplay, Pixera; default) or 1.0 (Watchout 6, "
                          "the VESA reference reader, which refuses 2.0)")
     ex.add_argument("--mpcdi", help="also write the rig's MPCDI package (--mpcdi-version; '2d' profile: each "
-                                    "projector's warp and blend) to this .mpcdi file; a rig of several projectors writes one image "
-                                    "per projector, <out>_1.png, <out>_2.png, ...")
+                                    "projector's warp and blend) to this .mpcdi file; a rig of several projectors "
+                                    "writes one image per projector, <out>_1.png, <out>_2.png, ...")
     ex.add_argument("--profile", choices=["2d", "sl"], default="2d",
                     help="the MPCDI profile: '2d' (Watchout, BrightSign; default) or 'sl' (shader lamp: nDisplay, "
                          "TouchDesigner: each projector's pose, frustum and 3D surface point per 8th pixel)")

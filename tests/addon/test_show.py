@@ -477,3 +477,12 @@ def test_export_show_puts_the_scenes_sound_in_the_video_and_removes_its_temporar
                                   "csv=p=0", output["path"]], capture_output=True, text=True, check=True).stdout
         assert sorted(streams.split()) == ["aac,audio", "h264,video"], output["path"]
     assert len(out["outputs"]) == 1 and not sound_dir.exists()  # the mixdown's folder removed after the work
+
+
+def test_the_show_lists_every_video_codec_and_png():
+    from lapig.lapig_core.export import codecs
+
+    show_source = _module("services.show_source")
+    assert show_source.CODECS == codecs.NAMES + ("png",)
+    assert show_source.video_bit_depth("h264", 16) == 8 and show_source.video_bit_depth("h265", 16) == 10
+    assert show_source.video_bit_depth("prores422hq", 8) == 10 and show_source.video_bit_depth("hap", 16) == 8

@@ -334,14 +334,6 @@ def codec_problem(codec: str) -> str:
     return ""
 
 
-def video_bit_depth(codec: str, bit_depth: int) -> int:
-    """The bit depth a video of `codec` is encoded at for frames of `bit_depth` (16-bit frames: the codec's deepest,
-    10 bits for H.265, the 4:4:4 choices and ProRes; 8 for H.264 High and the others)."""
-    from ...lapig_core.export import codecs as codec_table
-
-    return codec_table.encoded_depth(codec_table.CODECS[codec], bit_depth)[0]
-
-
 def output_path(out_dir: str, codec: str, projector: int, count: int, name: str = "show") -> str:
     """Where projector `projector` (0-based) of `count` goes in `out_dir`: a folder of PNGs, or a video file."""
     suffix = f"_{projector + 1}" if count > 1 else ""
@@ -375,7 +367,7 @@ def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height:
                                            metadata=metadata, size=(width, height), show=show, frame_count=count)
             return {"path": str(written["folder"]), "frames": written["frames"], "sidecar": str(written["sidecar"])}
         written = video.write_video(frames_iter, path, fps, (width, height), codec,
-                                    bit_depth=video_bit_depth(codec, bit_depth), cancel_event=cancel_event,
+                                    bit_depth=bit_depth, cancel_event=cancel_event,
                                     metadata=metadata, show=show, frame_count=count, audio=audio)
     except Cancelled:
         raise JobCancelled() from None

@@ -484,5 +484,15 @@ def test_the_show_lists_every_video_codec_and_png():
 
     show_source = _module("services.show_source")
     assert show_source.CODECS == codecs.NAMES + ("png",)
-    assert show_source.video_bit_depth("h264", 16) == 8 and show_source.video_bit_depth("h265", 16) == 10
-    assert show_source.video_bit_depth("prores422hq", 8) == 10 and show_source.video_bit_depth("hap", 16) == 8
+
+
+def test_16_bit_show_frames_go_into_h264_at_8_bits_and_the_job_says_so(results, tmp_path):
+    show_jobs, show_source = _module("services.show_jobs"), _module("services.show_source")
+    if show_source.codec_problem("h264"):
+        pytest.skip(show_source.codec_problem("h264"))
+    folders, _ = results
+    plan = _plan([dict(result_dir=folders[0], hold_s=0.3)])
+    out = show_jobs.ShowExportJob(_source(plan, bit_depth=16), str(tmp_path / "export"), "h264").run_to_completion()
+    assert "16-bit frames written at H.264's 8 bits" in out["notes"]
+    side = json.loads((tmp_path / "export" / "show.json").read_text())
+    assert side["video"]["bit_depth"] == 8 and side["video"]["pixel_format"] == "yuv420p"

@@ -221,7 +221,9 @@ def availability(ffmpeg: str | None = None) -> dict:
     routes = {name: route(name, ffmpeg) for name in NAMES}
     available = ", ".join(name for name in NAMES if routes[name]) or "none"
     path = find_ffmpeg(ffmpeg)
-    system = f"the system FFmpeg ({path}) has none either" if path else "and no system FFmpeg was found"
+    asked = ffmpeg or os.environ.get(FFMPEG_ENV)
+    system = (f"the system FFmpeg ({path}) has none either" if path else
+              f"and the FFmpeg set ({asked}) is not there" if asked else "and no system FFmpeg was found on PATH")
     out = {}
     for name, codec in CODECS.items():
         if routes[name]:

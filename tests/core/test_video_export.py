@@ -171,7 +171,8 @@ def test_hap_where_neither_pyav_nor_a_system_ffmpeg_has_it_says_how_to_get_it(tm
         write_video(_frames(2), tmp_path / "show.mov", 30, (W, H), "hap")
     line = str(info.value)
     assert "\n" not in line and line.startswith("HAP needs an FFmpeg built with snappy: install one")
-    assert "apt-get install ffmpeg" in line and f"av {av.__version__}" in line and "no system FFmpeg" in line
+    assert "apt-get install ffmpeg" in line and f"av {av.__version__}" in line
+    assert f"the FFmpeg set ({tmp_path / 'no_ffmpeg_here'}) is not there" in line
     assert line.endswith("Available here: h264, h265, h264-444, h265-444, prores422hq, prores4444, lossless")
     assert list(tmp_path.iterdir()) == []
 

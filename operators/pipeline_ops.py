@@ -202,8 +202,9 @@ class LAPIG_OT_export_image(ReportsErrors, bpy.types.Operator):
 
 
 class LAPIG_OT_export_mpcdi(ReportsErrors, bpy.types.Operator):
-    """Write the rig's calibration (each projector's warp and blend from the capture) as an MPCDI 2.0 package
-    for a media server (Watchout, BrightSign: the '2d' profile) or an engine (nDisplay, TouchDesigner: 'sl')"""
+    """Write the rig's calibration (each projector's warp and blend from the capture) as an MPCDI package (2.0,
+    or 1.0 for Watchout 6 and the VESA reference reader) for a media server (Watchout, BrightSign: the '2d'
+    profile) or an engine (nDisplay, TouchDesigner: 'sl')"""
     bl_idname = "lapig.export_mpcdi"
     bl_label = "Export MPCDI Package"
 
@@ -213,6 +214,10 @@ class LAPIG_OT_export_mpcdi(ReportsErrors, bpy.types.Operator):
         items=[("2d", "2D", "Each projector's warp (camera coordinates per pixel) and blend: Watchout, BrightSign"),
                ("sl", "Shader Lamp", "Each projector's pose, frustum and 3D surface point per 8th pixel, and blend: "
                                      "nDisplay, TouchDesigner")])
+    version: bpy.props.EnumProperty(
+        name="MPCDI version", default="2.0",
+        items=[("2.0", "2.0", "MPCDI 2.0: Watchout 7, nDisplay, Pixera, TouchDesigner"),
+               ("1.0", "1.0", "MPCDI 1.0: Watchout 6 and the VESA reference reader (which refuses 2.0); 8-bit maps")])
 
     def invoke(self, context, event):
         path = scene_state.export_settings(context.scene).path
@@ -225,8 +230,8 @@ class LAPIG_OT_export_mpcdi(ReportsErrors, bpy.types.Operator):
 
         store = BlenderSceneStore(context.scene)
         written = export_multi(store, scene_state.export_settings(context.scene), mpcdi=bpy.path.abspath(self.filepath),
-                               images=False, profile=self.profile)
-        self.report({"INFO"}, f"Exported {written['mpcdi']}")
+                               images=False, profile=self.profile, mpcdi_version=self.version)
+        self.report({"INFO"}, f"Exported {written['mpcdi']} (MPCDI {self.version})")
         return {"FINISHED"}
 
 

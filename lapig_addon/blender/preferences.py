@@ -59,6 +59,10 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
         items=[("AUTO", "Auto", "A GPU where torch can use one (CUDA, then Apple's MPS), else the CPU"),
                ("CPU", "CPU", "Always the CPU (e.g. to leave the GPU to Cycles)")],
         description="Where Train, PSA, the style networks and the native output run")
+    ffmpeg_path: bpy.props.StringProperty(
+        name="FFmpeg", subtype="FILE_PATH",
+        description="A system ffmpeg for the video codecs the bundled PyAV lacks (HAP, HAP Alpha, HAP Q); empty: "
+                    "the ffmpeg on PATH")
 
     torch_build: bpy.props.EnumProperty(
         name="torch build", items=[(b.key, b.label, f"{b.description} ({b.size_note})")
@@ -71,6 +75,7 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
         fit = ui_text.fit_for(context)
         layout.prop(self, "ip2p_model")
         layout.prop(self, "device")
+        layout.prop(self, "ffmpeg_path")
         col = layout.column(align=True)
         for line in bundle_lines(read_bundle()):  # what the zip lacks: its next step may be the torch box below
             _wrapped(col, fit, line.text, line.icon)
@@ -163,6 +168,12 @@ def ip2p_model() -> str:
     registered without being enabled, as in the bpy module)."""
     addon = bpy.context.preferences.addons.get(_addon_package())
     return bpy.path.abspath(addon.preferences.ip2p_model) if addon and addon.preferences else ""
+
+
+def ffmpeg_path() -> str:
+    """The system ffmpeg from the preferences ('' when unset: the one on PATH)."""
+    addon = bpy.context.preferences.addons.get(_addon_package())
+    return bpy.path.abspath(addon.preferences.ffmpeg_path) if addon and addon.preferences else ""
 
 
 CLASSES = (LAPIG_OT_copy_install_command, LAPIG_OT_copy_cuda_command, LAPIG_AP_preferences)

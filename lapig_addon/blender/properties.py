@@ -236,6 +236,18 @@ def _export_bit_depth_changed(self, context):
         pass
 
 
+def _show_codec_items():
+    """Each codec's trade-off (size, quality, which players take it) from lapig_core/export/codecs."""
+    from ...lapig_core.export.codecs import CODECS
+
+    items = [(c.name, c.label, c.help) for c in CODECS.values()]
+    return items + [("png", "PNG sequence", "A folder of PNGs per projector (8 or 16 bit, exact, the largest); "
+                                            "every player and compositor reads it")]
+
+
+SHOW_CODEC_ITEMS = _show_codec_items()
+
+
 class LapigSceneSettings(bpy.types.PropertyGroup):
     projector: PointerProperty(name="Projector", type=bpy.types.Object, poll=_is_projector)
     # the rig's other projectors, in order (projector 2, 3, ...); read and written by blender/scene_state only
@@ -345,10 +357,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     show_baked: StringProperty(name="Baked show", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS,
                                description="The folder of the show's baked projector frames")
     show_baked_key: StringProperty(name="Baked show's plan", description="The show the baked frames were made of")
-    show_codec: EnumProperty(name="Codec", items=[
-        ("h264", "H.264", "yuv444 where the codec allows"), ("h265", "H.265", "yuv444 where the codec allows"),
-        ("prores4444", "ProRes 4444", ""), ("lossless", "Lossless", "A lossless video"),
-        ("hap", "HAP", "Where the installed FFmpeg has it"), ("png", "PNG sequence", "A folder of PNGs per projector")],
+    show_codec: EnumProperty(name="Codec", items=SHOW_CODEC_ITEMS,
         default="h264", description="What Export Show writes")
     show_export_dir: StringProperty(name="Folder", subtype="DIR_PATH", default="//show_export",
                                     description="Export to: the folder Export Show writes the show into")

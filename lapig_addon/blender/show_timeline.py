@@ -189,17 +189,74 @@ def previz_status(scene) -> tuple[str, bool | None]:
     return f"Previz {wired}: {plan.frame_count()} frames at {plan.fps:g} fps", is_wired(scene)
 
 
+def _use_preferred_ffmpeg() -> None:
+    """The preferences' ffmpeg (for HAP where PyAV lacks it) as $LAPIG_FFMPEG, which the video writer reads on
+    the worker thread (lapig_core/export/codecs.find_ffmpeg)."""
+    import os
+
+    from ...lapig_core.export.codecs import FFMPEG_ENV
+    from .preferences import ffmpeg_path
+
+    path = ffmpeg_path()
+    if path:
+        os.environ[FFMPEG_ENV] = path
+    else:
+        os.environ.pop(FFMPEG_ENV, None)
+
+
+def sound_strips(scene) -> list:
+    """The scene's sound strips that play in its range (not muted)."""
+    editor = scene.sequence_editor
+    if editor is None:
+        return []
+    strips = getattr(editor, "strips_all", None)
+    if strips is None:
+        strips = getattr(editor, "sequences_all", [])
+    return [s for s in strips if s.type == "SOUND" and not s.mute
+            and s.frame_final_start <= scene.frame_end and s.frame_final_end > scene.frame_start]
+
+
+def show_sound(scene) -> str | None:
+    """The scene's sound over the show's range (the scene's range: the show starts at its first frame), mixed
+    down by Blender into a 48 kHz stereo WAV in a new temporary folder; None where no sound strip plays there."""
+    import shutil
+    import tempfile
+
+    if not sound_strips(scene):
+        return None
+    folder = tempfile.mkdtemp(prefix="lapig_show_sound_")
+    path = os.path.join(folder, "show_sound.wav")
+    try:
+        done = bpy.ops.sound.mixdown(filepath=path, check_existing=False, relative_path=False, container="WAV",
+                                     codec="PCM", format="S16", mixrate=48000, channels="STEREO")
+    except RuntimeError as exc:
+        done = {str(exc).strip().splitlines()[-1] if str(exc).strip() else "failed"}
+    if done != {"FINISHED"} or not os.path.isfile(path):
+        shutil.rmtree(folder, ignore_errors=True)
+        raise ValueError(f"Blender could not mix the scene's sound down ({', '.join(sorted(done))}): mute the "
+                         f"sound strips to export the show without sound")
+    return path
+
+
 def export_job(scene, out_dir: str, codec: str, bit_depth: int | None = None, use_producer: bool = True):
-    """Export Show's job (services/show_jobs.ShowExportJob), checked before any file is written."""
+    """Export Show's job (services/show_jobs.ShowExportJob), checked before any file is written; the scene's
+    sound strips in the show's range go into the video (mixed down here, on the main thread)."""
     from ..services.export_source import addon_version
     from ..services.show_jobs import ShowExportJob
     from . import scene_store
 
     _checked(scene)
+    _use_preferred_ffmpeg()
     store = scene_store.BlenderSceneStore(scene)
     metadata = {**store.rig_metadata(), **store.software(), "lapig_version": addon_version()}
-    job = ShowExportJob(show_source(scene, bit_depth, use_producer=use_producer), out_dir, codec, metadata)
-    job.check()
+    source = show_source(scene, bit_depth, use_producer=use_producer)
+    sound = show_sound(scene) if codec.lower() != "png" else None
+    job = ShowExportJob(source, out_dir, codec, metadata, sound=sound, sound_is_temporary=True)
+    try:
+        job.check()
+    except BaseException:
+        job.discard_sound()
+        raise
     return job
 
 

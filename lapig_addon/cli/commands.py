@@ -286,7 +286,8 @@ def cmd_export(args) -> int:
         from ..services.multi_export import export_multi
 
         written = export_multi(store, settings, result, mpcdi=os.path.abspath(args.mpcdi) if args.mpcdi else None,
-                               profile=getattr(args, "profile", "2d") or "2d")
+                               profile=getattr(args, "profile", "2d") or "2d",
+                               mpcdi_version=getattr(args, "mpcdi_version", "2.0") or "2.0")
         if args.crossfade:  # a folder per projector: <crossfade>/projector_<k>/
             frames = export_result.export_crossfade(store, os.path.abspath(args.crossfade), settings, result,
                                                     on_progress=headless.print_progress)

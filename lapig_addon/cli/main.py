@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import traceback
 
@@ -135,9 +136,12 @@ def _parser():
                                      "(default: the scene's result)")
     ex.add_argument("--bit-depth", type=int, choices=[8, 16], help="8 or 16 (default: the scene's)")
     ex.add_argument("--crossfade", help="also write a crossfade sequence (without -> with PSA) into this folder")
-    ex.add_argument("--mpcdi", help="also write the rig's MPCDI 2.0 package ('2d' profile: each projector's warp "
-                                    "and blend) to this .mpcdi file; a rig of several projectors writes one image "
-                                    "per projector, <out>_1.png, <out>_2.png, ...")
+    ex.add_argument("--mpcdi-version", choices=["2.0", "1.0"], default="2.0",
+                    help="the MPCDI package's version: 2.0 (Watchout 7, nDisplay, Pixera; default) or 1.0 (Watchout 6, "
+                         "the VESA reference reader, which refuses 2.0)")
+    ex.add_argument("--mpcdi", help="also write the rig's MPCDI package (--mpcdi-version; '2d' profile: each "
+                                    "projector's warp and blend) to this .mpcdi file; a rig of several projectors "
+                                    "writes one image per projector, <out>_1.png, <out>_2.png, ...")
     ex.add_argument("--profile", choices=["2d", "sl"], default="2d",
                     help="the MPCDI profile: '2d' (Watchout, BrightSign; default) or 'sl' (shader lamp: nDisplay, "
                          "TouchDesigner: each projector's pose, frustum and 3D surface point per 8th pixel)")
@@ -165,9 +169,9 @@ def _parser():
     se.add_argument("--blend", help=".blend file with a LAPIG rig and a show (default: the open file)")
     se.add_argument("--out", required=True, help="the folder to write into (show.mp4 or show_1.mp4, show_2.mp4, "
                                                  "...; show.json)")
-    se.add_argument("--codec", default="h264", help="h264, h265, prores4444, lossless, hap (where the installed "
-                                                    "FFmpeg has it) or png (a folder of PNGs per projector); "
-                                                    "default h264")
+    se.add_argument("--codec", default="h264", type=str.lower, help=_codec_help())
+    se.add_argument("--ffmpeg", help="a system ffmpeg for the codecs the installed PyAV lacks (HAP; default: "
+                                     "$LAPIG_FFMPEG, then the ffmpeg on PATH)")
     se.add_argument("--bit-depth", type=int, choices=[8, 16], help="8 or 16 (default: the scene's export bit depth)")
     se.set_defaults(func=_show_export)
 
@@ -188,11 +192,23 @@ def _parser():
     return parser
 
 
+def _codec_help() -> str:
+    """--codec's help: every choice with its trade-off (lapig_core/export/codecs, no av import)."""
+    from ...lapig_core.export.codecs import CODECS
+
+    choices = "; ".join(f"{c.name}: {c.help}" for c in CODECS.values())
+    return (f"{choices}; png: a folder of PNGs per projector (8 or 16 bit, exact, the largest). Default h264. "
+            f"HAP where PyAV or a system FFmpeg has its encoder")
+
+
 def _show_export(args) -> int:
     """show-export: the codec is checked before the .blend opens (services/show_source, no bpy)."""
+    from ...lapig_core.export.codecs import FFMPEG_ENV
     from ..services.show_source import codec_problem
 
     args.codec = args.codec.lower()
+    if getattr(args, "ffmpeg", None):  # the video writer reads it on the worker thread
+        os.environ[FFMPEG_ENV] = os.path.abspath(args.ffmpeg) if os.sep in args.ffmpeg else args.ffmpeg
     problem = codec_problem(args.codec)
     if problem:
         raise ValueError(problem)

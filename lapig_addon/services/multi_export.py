@@ -36,9 +36,10 @@ def metadata(store, summary: dict) -> dict:
 
 
 MPCDI_PROFILES = ("2d", "sl")
+MPCDI_VERSIONS = ("2.0", "1.0")  # 2.0: Watchout 7, nDisplay, Pixera; 1.0: Watchout 6, the VESA reference reader
 
 
-def write_sl_package(store, path, model, names):
+def write_sl_package(store, path, model, names, version: str = "2.0"):
     """The 'sl' (shader lamp: nDisplay, TouchDesigner) package: poses, frusta and 3D surface points per texel
     from the scene (store.sl_geometry, main thread: bpy), alpha maps from the joint model as the '2d' one."""
     from ...lapig_core.multi.blend import alpha_maps, blend_weights
@@ -51,11 +52,11 @@ def write_sl_package(store, path, model, names):
             raise ValueError(f"projector {name}: the capture was made at {alpha.shape[1]}x{alpha.shape[0]}, "
                              f"the projector is now {pm.width}x{pm.height}: capture again")
     return write_rig_mpcdi_sl(path, names, geometry["models"], geometry["matrices"], geometry["points"], alphas,
-                              gammas=model.alpha_gammas)
+                              gammas=model.alpha_gammas, version=version)
 
 
 def export_multi(store, settings: ExportSettings, result: str | None = None, mpcdi: str | None = None,
-                 images: bool = True, profile: str = "2d") -> dict:
+                 images: bool = True, profile: str = "2d", mpcdi_version: str = "2.0") -> dict:
     """Write every projector's image of `result` (None: the scene's; images=False: none) and, with `mpcdi`, the
     rig's package in `profile` ('2d' or 'sl'); returns {'images': [paths], 'sidecars': [paths], 'mpcdi': path or None}."""
     from ...lapig_core.multi.joint_model import JointModel
@@ -65,6 +66,8 @@ def export_multi(store, settings: ExportSettings, result: str | None = None, mpc
     problem = settings.problem()
     if profile not in MPCDI_PROFILES:
         problem = f"MPCDI profile must be one of {', '.join(MPCDI_PROFILES)}, got {profile!r}"
+    if mpcdi_version not in MPCDI_VERSIONS:
+        problem = f"MPCDI version must be one of {', '.join(MPCDI_VERSIONS)}, got {mpcdi_version!r}"
     if problem:
         raise ValueError(problem)
     folder = result_folder(store, result)
@@ -81,8 +84,9 @@ def export_multi(store, settings: ExportSettings, result: str | None = None, mpc
         if not model_path.is_file():
             raise ValueError(f"the result's capture has no joint model ({model_path}): capture again")
         joint = JointModel.load(model_path)
-        written["mpcdi"] = str(write_sl_package(store, mpcdi, joint, names) if profile == "sl"
-                               else write_rig_mpcdi(mpcdi, joint, names))
+        written["mpcdi"] = str(write_sl_package(store, mpcdi, joint, names, mpcdi_version) if profile == "sl"
+                               else write_rig_mpcdi(mpcdi, joint, names, version=mpcdi_version))
+        written["mpcdi_version"] = mpcdi_version
     common = metadata(store, summary)
     for k, (entry, image) in enumerate(shown if images else []):
         width, height = entry["size"]

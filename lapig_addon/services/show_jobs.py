@@ -96,10 +96,20 @@ class ShowExportJob(WorkerJob):
     title = "LAPIG export show"
 
     def __init__(self, source: ShowSource, out_dir: str, codec: str, metadata: dict | None = None,
-                 name: str = "show"):
+                 name: str = "show", sound: str | None = None, sound_is_temporary: bool = False):
         super().__init__()
         self.source, self.out_dir, self.codec = source, os.path.abspath(out_dir), codec.lower()
         self.metadata, self.name = metadata or {}, name
+        # the show's sound (a file the scene's sound strips were mixed down into), in every projector's video;
+        # a temporary one is removed when the work ends
+        self.sound, self.sound_is_temporary = sound, sound_is_temporary
+
+    def discard_sound(self) -> None:
+        if self.sound and self.sound_is_temporary:
+            import shutil
+
+            shutil.rmtree(os.path.dirname(self.sound), ignore_errors=True)
+            self.sound = None
 
     def prepare(self):
         problem = show_source.codec_problem(self.codec) or _one_line_problem(self.source)
@@ -117,6 +127,12 @@ class ShowExportJob(WorkerJob):
         return self.source
 
     def work(self, source, report, cancel_event):
+        try:
+            return self._export(source, report, cancel_event)
+        finally:
+            self.discard_sound()
+
+    def _export(self, source, report, cancel_event):
         import json
 
         from ...lapig_core.common.locking import LOCK_FILE
@@ -132,7 +148,8 @@ class ShowExportJob(WorkerJob):
                 meta = sidecar(source, {**self.metadata, "codec": self.codec, "projector": k + 1})
                 return lambda frames: show_source.write(
                     inside, frames, codec=self.codec, fps=source.plan.fps, width=model.width, height=model.height,
-                    count=source.frame_count, bit_depth=source.bit_depth, sidecar=meta, cancel_event=cancel_event)
+                    count=source.frame_count, bit_depth=source.bit_depth, sidecar=meta, cancel_event=cancel_event,
+                    audio=self.sound)
 
             written = _write_each(source, [writer(k, m) for k, m in enumerate(source.projectors)], report,
                                   cancel_event)
@@ -150,5 +167,9 @@ class ShowExportJob(WorkerJob):
             staged.discard()
             raise
         staged.commit([(staged.path(n), os.path.join(self.out_dir, n)) for n in names])
+        # the writer's own lines (a padding, a depth conversion), once each
+        video_notes = list(dict.fromkeys(n for w in written for n in w.get("notes", [])))
+        if self.sound and self.codec == "png":
+            video_notes.append("the scene's sound is not in a PNG sequence: export a video to carry it")
         return {"codec": self.codec, "fps": source.plan.fps, "frames": source.frame_count,
-                "outputs": outputs, "sidecar": sidecar_path, "notes": _notes(source)}
+                "outputs": outputs, "sidecar": sidecar_path, "notes": _notes(source) + video_notes}

@@ -48,7 +48,9 @@ def _core_frames():
     return core_frames
 
 
-CODECS = ("h264", "h265", "prores4444", "lossless", "hap", "png")
+# lapig_core/export/codecs.NAMES and the PNG sequence (kept here: a build without the video branch lists them too)
+CODECS = ("h264", "h265", "h264-444", "h265-444", "prores422hq", "prores4444", "lossless", "hap", "hap-alpha",
+          "hap-q", "png")
 
 
 @dataclass(frozen=True)
@@ -332,16 +334,6 @@ def codec_problem(codec: str) -> str:
     return ""
 
 
-def video_bit_depth(codec: str, bit_depth: int) -> int:
-    """The bit depth a video of `codec` is encoded at for frames of `bit_depth` (16-bit frames: the codec's deepest,
-    10 bits for H.264, H.265 and ProRes; 8 for the others)."""
-    if bit_depth == 8:
-        return 8
-    from ...lapig_core.export import codecs as codec_table
-
-    return max(codec_table.CODECS[codec].pixel_formats)
-
-
 def output_path(out_dir: str, codec: str, projector: int, count: int, name: str = "show") -> str:
     """Where projector `projector` (0-based) of `count` goes in `out_dir`: a folder of PNGs, or a video file."""
     suffix = f"_{projector + 1}" if count > 1 else ""
@@ -353,7 +345,7 @@ def output_path(out_dir: str, codec: str, projector: int, count: int, name: str 
 
 
 def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height: int, count: int,
-          bit_depth: int = 8, sidecar: dict | None = None, cancel_event=None) -> dict:
+          bit_depth: int = 8, sidecar: dict | None = None, cancel_event=None, audio: str | None = None) -> dict:
     """Encode `frames_iter` (pixels, in order) to `path` through the video branch's writers: a PNG sequence folder
     (lapig_core/export/image_sequence) or a video and its sidecar '<name>.json' (lapig_core/export/video).
     Returns {'path', 'frames', 'sidecar'}; a cancel raises JobCancelled."""
@@ -375,11 +367,12 @@ def write(path: str, frames_iter, *, codec: str, fps: float, width: int, height:
                                            metadata=metadata, size=(width, height), show=show, frame_count=count)
             return {"path": str(written["folder"]), "frames": written["frames"], "sidecar": str(written["sidecar"])}
         written = video.write_video(frames_iter, path, fps, (width, height), codec,
-                                    bit_depth=video_bit_depth(codec, bit_depth), cancel_event=cancel_event,
-                                    metadata=metadata, show=show, frame_count=count)
+                                    bit_depth=bit_depth, cancel_event=cancel_event,
+                                    metadata=metadata, show=show, frame_count=count, audio=audio)
     except Cancelled:
         raise JobCancelled() from None
-    return {"path": str(written["video"]), "frames": written["frames"], "sidecar": str(written["sidecar"])}
+    return {"path": str(written["video"]), "frames": written["frames"], "sidecar": str(written["sidecar"]),
+            "notes": written.get("notes", [])}
 
 
 FRAME_NAME = "frame_{:04d}.png"  # frame 1 is frame_0001.png: Blender's image sequences count from the file's number
@@ -468,7 +461,8 @@ def _remove(path: str) -> None:
 def frame_bytes_estimate(width: int, height: int, bit_depth: int, codec: str) -> int:
     """About how many bytes one frame takes on disk (PNG and lossless: half the raw pixels; video: less)."""
     raw = width * height * 3 * (2 if bit_depth == 16 else 1)
-    return raw // 2 if codec in ("png", "lossless") else raw // 4 if codec in ("prores4444", "hap") else raw // 50
+    big = ("prores4444", "prores422hq", "hap", "hap-alpha", "hap-q")
+    return raw // 2 if codec in ("png", "lossless") else raw // 4 if codec in big else raw // 50
 
 
 def disk_problem(folder: str, frame_bytes: int, count: int) -> str:

@@ -1,5 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""MPCDI 2.0 packages for several projectors: warps and blend maps as media servers read them.
+"""MPCDI 2.0 and 1.0 packages for several projectors: warps and blend maps as media servers read them.
+
+version "2.0" (the default) or "1.0" (Watchout 6, the VESA reference reader; mpcdi_xml says how the descriptor
+differs). A 1.0 package's level (figure 3-2 of 1.0 / 1a): '2d' 1 with a warp grid of at most 32x32, 3 with a
+finer one, one more with beta maps; 'sl' 1, 3 with distortion maps, one more with beta maps. Its PNG maps are
+8-bit by default (the reference reader decodes 8-bit grey or RGB only) and its PFM header is "-1.000000".
 
 A .mpcdi file (VESA MPCDI 2.0, 19 May 2015) is a ZIP with mpcdi.xml and, per region, a geometry warp
 (PFM), an alpha blend map and optionally a beta (black level) map (PNG), all at the container's root
@@ -39,7 +44,7 @@ from .mpcdi_model import (BIT_DEPTHS, GEOMETRIC_UNITS, INTERPOLATIONS, LEVEL_1_W
                           PROFILES, MpcdiBuffer, MpcdiCoordinateFrame, MpcdiFrustum, MpcdiRegion, check_2d_map,
                           check_3d_map, check_coordinate_frame, check_frustum, check_id, check_number,
                           check_resolution, check_weight_map)
-from .mpcdi_xml import PackageFacts, RegionFiles, descriptor_xml
+from .mpcdi_xml import VERSIONS, PackageFacts, RegionFiles, descriptor_xml
 from .pfm import encode_pfm
 
 __all__ = ["MpcdiBuffer", "MpcdiCoordinateFrame", "MpcdiFrustum", "MpcdiRegion", "PROFILES", "write_mpcdi",
@@ -142,6 +147,12 @@ def _prepare(profile: str, buffers) -> tuple[list[MpcdiBuffer], list[_Prepared]]
     return list(buffers), prepared
 
 
+def _level_1_0(profile: str, prepared: list[_Prepared]) -> int:
+    """MPCDI 1.0's single level (figure 3-2): 1 or 3 by the geometry, one more with beta maps."""
+    beta = any(item.beta is not None for item in prepared)
+    return (1 if _geometry_level(profile, prepared) == 1 else 3) + (1 if beta else 0)
+
+
 def _geometry_level(profile: str, prepared: list[_Prepared]) -> int:
     if profile == "sl":
         return 2 if prepared[0].distortion is not None else 1
@@ -208,38 +219,45 @@ def _check_options(profile, path, geometric_unit, origin_of_3d_data, interpolati
 
 
 def write_mpcdi(path, profile: str, buffers: Sequence[MpcdiBuffer], *, geometric_unit: str | None = None,
-                origin_of_3d_data: str = "unknown", interpolation: str = "linear", bit_depth: int = 16,
-                date: dt.datetime | None = None, comment: str | None = None) -> Path:
+                origin_of_3d_data: str = "unknown", interpolation: str = "linear", bit_depth: int | None = None,
+                date: dt.datetime | None = None, comment: str | None = None, version: str = "2.0") -> Path:
     """Write the MPCDI package of `buffers` to `path` (a .mpcdi file) and return its path.
 
     geometric_unit and origin_of_3d_data describe 'sl' 3D data (default metres, Blender's unit, and
     'unknown' origin); '2d' data has neither ('unknown'). interpolation: how a reader fills between warp
-    texels (2.7). bit_depth: the PNG blend maps' 8 or 16 bits. date: the descriptor's date (default now).
+    texels (2.7). bit_depth: the PNG blend maps' 8 or 16 bits (default 16 for 2.0, 8 for 1.0). date: the
+    descriptor's date (default now). version: "2.0" or "1.0".
     comment: an XML comment written before the root of mpcdi.xml (e.g. the 3D data's axis convention).
     Raises ValueError (one line) for input the spec does not allow, OSError (one line) when the file
     cannot be written; in both cases nothing is left at `path` but what was there before.
     """
     if geometric_unit is None:
         geometric_unit = "m" if profile == "sl" else "unknown"
+    if version not in VERSIONS:
+        raise ValueError(f"MPCDI version must be one of {', '.join(VERSIONS)}, got {version!r}")
+    if bit_depth is None:
+        bit_depth = 8 if version == "1.0" else 16
     date = dt.datetime.now().replace(microsecond=0) if date is None else date
     _check_options(profile, path, geometric_unit, origin_of_3d_data, interpolation, bit_depth, date)
     buffers, prepared = _prepare(profile, buffers)
     color_level = 2 if any(item.beta is not None for item in prepared) else 1
     facts = PackageFacts(profile=profile, geometry_level=_geometry_level(profile, prepared), color_level=color_level,
                          date=date, geometric_unit=geometric_unit, origin_of_3d_data=origin_of_3d_data,
-                         interpolation=interpolation, bit_depth=bit_depth, comment=comment)
+                         interpolation=interpolation, bit_depth=bit_depth, comment=comment, version=version,
+                         level=_level_1_0(profile, prepared))
+    scale = "-1.000000" if version == "1.0" else "-1.0"
     names = _member_names(prepared)
     members = [(DESCRIPTOR, descriptor_xml(buffers, names, facts))]
     for item in prepared:
         files = names[item.region.id]
         what = f"region {item.region.id!r}"
-        members.append((files.warp, encode_pfm(item.warp)))
+        members.append((files.warp, encode_pfm(item.warp, scale)))
         members.append((files.alpha, encode_png(encode_alpha(item.alpha, float(item.region.gamma), bit_depth),
                                                 bit_depth, f"{what} alpha")))
         if item.beta is not None:
             members.append((files.beta, encode_png(_encode_linear(item.beta, bit_depth), bit_depth, f"{what} beta")))
         if item.distortion is not None:
-            members.append((files.distortion, encode_pfm(item.distortion)))
+            members.append((files.distortion, encode_pfm(item.distortion, scale)))
     data = _zip_bytes(members, date)
     target = Path(path)
     try:

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The XML descriptor of an MPCDI package (mpcdi.xml, VESA MPCDI 2.0 section 3.5.2 and 3.5.3).
+"""The XML descriptor of an MPCDI package (mpcdi.xml): VESA MPCDI 2.0 sections 3.5.2 and 3.5.3, or MPCDI 1.0
+(version 1a, 2013, the same sections) where PackageFacts.version is "1.0".
 
 Built from already checked objects (mpcdi_model) and the member names mpcdi.py chose; it checks
 nothing itself. Numbers are written with repr(), the shortest text that reads back to the same double.
@@ -9,6 +10,12 @@ text spells xResolution, xSize, originOf3DData and puts geometry and color level
 VESA reference library (Scalable Display's MPCDI 1.0 reader, which other tools build on) looks up
 Xresolution, xsize, originof3DData and a root `level` case-sensitively, and fails without them. Where
 the two differ we write both, with equal values, so either kind of reader finds what it looks for.
+
+MPCDI 1.0 (Watchout 6, the VESA reference reader, which refuses 2.0) differs: version="1.0" and one integer
+`level` (1-4: the warp's resolution and whether there are beta maps or distortion maps, figure 3-2) on the root,
+no geometry and color attributes; Xresolution / Yresolution and xsize / ysize only (3.5.3's spelling); no
+`color` element in a region (1.0 has none: a '2d' region holds no tags, an 'sl' one its frustum and
+coordinate frame). The fileset is the same; originOf3DData is written in both spellings, as for 2.0.
 """
 from __future__ import annotations
 
@@ -19,6 +26,7 @@ from dataclasses import dataclass
 from .mpcdi_model import MpcdiBuffer, MpcdiCoordinateFrame, MpcdiFrustum, MpcdiRegion
 
 VERSION = "2.0"
+VERSIONS = ("2.0", "1.0")
 DECLARATION = '<?xml version="1.0" encoding="utf-8"?>\n'  # required verbatim at the start (3.5.2)
 DATE_FORMAT = "%Y-%m-%d %H:%M:%S"  # ISO 8601 as the spec writes it (3.5.2)
 COMPONENT_DEPTH = 1  # single-channel alpha and beta: color levels 1 and 2 (table 3-3)
@@ -51,6 +59,8 @@ class PackageFacts:
     interpolation: str
     bit_depth: int
     comment: str | None = None  # written as an XML comment before the root (e.g. the 3D data's axes)
+    version: str = VERSION
+    level: int = 1  # MPCDI 1.0's single level (figure 3-2)
 
 
 def _number(value) -> str:
@@ -94,19 +104,24 @@ def _color(parent: ET.Element, region: MpcdiRegion) -> None:
     ET.SubElement(element, "encode", {"type": "gamma", "gamma": gamma})
 
 
-def _region(parent: ET.Element, region: MpcdiRegion) -> None:
+def _spellings(names: tuple[str, str], version: str) -> tuple[str, ...]:
+    return names[1:] if version == "1.0" else names  # 1.0: 3.5.3's spelling only
+
+
+def _region(parent: ET.Element, region: MpcdiRegion, version: str) -> None:
     element = ET.SubElement(parent, "region", {"id": region.id})
     for names, value in zip(RESOLUTION_ATTRIBUTES, region.resolution):
-        _set_both(element, names, str(int(value)))
+        _set_both(element, _spellings(names, version), str(int(value)))
     element.set("x", _number(region.x))
     element.set("y", _number(region.y))
     for names, value in zip(SIZE_ATTRIBUTES, (region.xsize, region.ysize)):
-        _set_both(element, names, _number(value))
+        _set_both(element, _spellings(names, version), _number(value))
     if region.frustum is not None:
         _frustum(element, region.frustum)
     if region.coordinate_frame is not None:
         _coordinate_frame(element, region.coordinate_frame)
-    _color(element, region)
+    if version != "1.0":  # 1.0 has no colour element
+        _color(element, region)
 
 
 def _fileset(parent: ET.Element, region: MpcdiRegion, files: RegionFiles, facts: PackageFacts) -> None:
@@ -135,16 +150,20 @@ def _fileset(parent: ET.Element, region: MpcdiRegion, files: RegionFiles, facts:
 def descriptor_xml(buffers: list[MpcdiBuffer], files: dict[str, RegionFiles], facts: PackageFacts) -> bytes:
     """mpcdi.xml's bytes (UTF-8): the MPCDI root, one display with every buffer and region, one files
     tag with a fileset per region (3.5.3's layout and order). `files` maps region id to its members."""
-    root = ET.Element("MPCDI", {"profile": facts.profile, "geometry": str(facts.geometry_level),
-                                "color": str(facts.color_level), "date": facts.date.strftime(DATE_FORMAT),
-                                "version": VERSION, LEGACY_LEVEL_ATTRIBUTE: str(facts.geometry_level)})
+    if facts.version == "1.0":
+        root = ET.Element("MPCDI", {"profile": facts.profile, LEGACY_LEVEL_ATTRIBUTE: str(facts.level),
+                                    "date": facts.date.strftime(DATE_FORMAT), "version": "1.0"})
+    else:
+        root = ET.Element("MPCDI", {"profile": facts.profile, "geometry": str(facts.geometry_level),
+                                    "color": str(facts.color_level), "date": facts.date.strftime(DATE_FORMAT),
+                                    "version": VERSION, LEGACY_LEVEL_ATTRIBUTE: str(facts.geometry_level)})
     display = ET.SubElement(root, "display")
     for buffer in buffers:
         element = ET.SubElement(display, "buffer", {"id": buffer.id})
         for names, value in zip(RESOLUTION_ATTRIBUTES, buffer.resolution):
-            _set_both(element, names, str(int(value)))
+            _set_both(element, _spellings(names, facts.version), str(int(value)))
         for region in buffer.regions:
-            _region(element, region)
+            _region(element, region, facts.version)
     files_element = ET.SubElement(root, "files")
     for buffer in buffers:
         for region in buffer.regions:

@@ -18,10 +18,11 @@ _MAGIC_CHANNELS = {b"PF": 3, b"Pf": 1}
 _WHITESPACE = b" \t\r\n"
 
 
-def encode_pfm(values) -> bytes:
+def encode_pfm(values, scale_text: str = "-1.0") -> bytes:
     """The PFM file of an (H, W, 3) array ("PF") or an (H, W) array ("Pf"), row 0 at the top.
 
-    Values are stored as float32 (float64 input is rounded once, here). Raises ValueError (one line)
+    Values are stored as float32 (float64 input is rounded once, here). scale_text: the third header line
+    (-1: little-endian); MPCDI 1.0's reference reader wants it as "-1.000000". Raises ValueError (one line)
     for any other shape or a non-numeric array.
     """
     array = np.asarray(values)
@@ -36,7 +37,7 @@ def encode_pfm(values) -> bytes:
     height, width = array.shape[:2]
     if height < 1 or width < 1:
         raise ValueError(f"a PFM needs at least one pixel, got shape {array.shape}")
-    header = magic + b"\n" + f"{width} {height}\n-1.0\n".encode("ascii")
+    header = magic + b"\n" + f"{width} {height}\n{scale_text}\n".encode("ascii")
     rows_bottom_first = np.ascontiguousarray(array[::-1], dtype="<f4")
     return header + rows_bottom_first.tobytes()
 

@@ -60,10 +60,11 @@ def mpcdi_buffers(model: JointModel, names: Sequence[str], weights: np.ndarray |
     return buffers
 
 
-def write_rig_mpcdi(path, model: JointModel, names: Sequence[str], weights: np.ndarray | None = None):
+def write_rig_mpcdi(path, model: JointModel, names: Sequence[str], weights: np.ndarray | None = None,
+                    version: str = "2.0"):
     """Write the '2d' package of the rig to `path` (.mpcdi), whole or not at all; returns its path. ValueError
     or OSError (one line) when it cannot, the previous file at `path` kept."""
-    return write_mpcdi(path, "2d", mpcdi_buffers(model, names, weights))
+    return write_mpcdi(path, "2d", mpcdi_buffers(model, names, weights), version=version)
 
 
 # ---- the 'sl' (shader lamp) profile: nDisplay, TouchDesigner ----
@@ -131,8 +132,8 @@ def sl_buffers(names: Sequence[str], models, matrices, points, alphas, gammas=No
     return buffers
 
 
-def write_rig_mpcdi_sl(path, names, models, matrices, points, alphas, gammas=None):
+def write_rig_mpcdi_sl(path, names, models, matrices, points, alphas, gammas=None, version: str = "2.0"):
     """Write the 'sl' package (3D points in metres, Blender world: Z up, right-handed) whole or not at all;
     returns its path. ValueError or OSError (one line) when it cannot, the previous file at `path` kept."""
     return write_mpcdi(path, "sl", sl_buffers(names, models, matrices, points, alphas, gammas),
-                       geometric_unit="m", comment=SL_AXES)
+                       geometric_unit="m", comment=SL_AXES, version=version)

@@ -193,6 +193,15 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     assert package.regions["Left region"].coordinate_frame.roll_axis == pytest.approx((0.0, 0.0, -1.0))
     with pytest.raises(ValueError, match="MPCDI profile must be one of 2d, sl"):
         export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "x.mpcdi"), profile="3d")
+    # MPCDI 1.0 (Watchout 6, the VESA reference reader): both profiles follow the 1.0 text's rules
+    from mpcdi_1_0_rules import problems  # tests/mpcdi_1_0_rules.py, written from the 1.0 text
+
+    for profile in ("2d", "sl"):
+        old = export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / f"rig_{profile}_1.mpcdi"),
+                                  images=False, profile=profile, mpcdi_version="1.0")
+        assert old["mpcdi_version"] == "1.0" and problems(old["mpcdi"]) == [], profile
+    with pytest.raises(ValueError, match="MPCDI version must be one of 2.0, 1.0, got '3.0'"):
+        export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "x.mpcdi"), mpcdi_version="3.0")
     # after a Light Report of several: each sidecar its projector's share, the table every projector's row
     row = {"resolution": list(PROJECTOR), "lumens": 2000.0, "throw_ratio": 1.2, "shift_x": 0.0, "shift_y": 0.0,
            "position_m": [0, -3, 1], "rotation_deg": [90, 0, 0], "target_distance_m": 3.0, "target_lux": 250.0}

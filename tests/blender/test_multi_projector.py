@@ -198,6 +198,13 @@ def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path)
     assert bpy.ops.lapig.export_mpcdi(filepath=str(shader_lamp), profile="sl") == {"FINISHED"}
     sl = read_mpcdi(shader_lamp)
     assert sl.profile == "sl" and [b.id for b in sl.buffers] == list(names)
+    # MPCDI 1.0 through the operator (the file browser's MPCDI version): the 1.0 rules hold for both profiles
+    from mpcdi_1_0_rules import problems
+
+    for profile in ("2d", "sl"):
+        old = tmp_path / "export" / f"statue_{profile}_1_0.mpcdi"
+        assert bpy.ops.lapig.export_mpcdi(filepath=str(old), profile=profile, version="1.0") == {"FINISHED"}
+        assert problems(old) == [], profile
     for name, ob in zip(names, scene_state.rig_projectors(scene)):
         frame = sl.regions[f"{name} region"].coordinate_frame
         assert frame.position == pytest.approx(tuple(ob.matrix_world.translation), abs=1e-4)

@@ -1,4 +1,6 @@
-"""Video export of a show (issue 38): codecs, round trips through OpenCV and PyAV, frame lock, cancel, bad input."""
+"""Video export of a show (issue 38, 52): codecs, round trips through OpenCV (RGB codecs: it ignores the colour tags)
+and PyAV (which honours them), frame lock, cancel, bad input. tests/core/test_video_ffprobe.py checks the files
+with the system's ffprobe and ffmpeg."""
 import json
 import shutil
 import threading
@@ -62,15 +64,10 @@ def test_lossless_round_trips_exactly_through_opencv_and_pyav(tmp_path):
 
 
 @pytest.mark.parametrize("intra_only", [False, True])
-def test_h264_is_high_quality_and_frame_locked(tmp_path, intra_only):
+def test_h264_444_is_high_quality_and_frame_locked(tmp_path, intra_only):
     frames = _frames(6)
-    out = write_video(iter(frames), tmp_path / "show.mp4", 29.97, (W, H), "h264", frame_count=6,
+    out = write_video(iter(frames), tmp_path / "show.mp4", 29.97, (W, H), "h264-444", frame_count=6,
                       intra_only=intra_only)
-    decoded, fps = _decode_cv2(out["video"])
-    assert len(decoded) == 6 and decoded[0].shape == (H, W, 3)
-    assert abs(fps - 30000 / 1001) < 1e-3
-    for i in (0, 5):
-        assert _psnr(_u8(frames[i]), decoded[i]) >= 40.0
     decoded_av, rate = _decode_av(out["video"])
     assert rate == Fraction(30000, 1001) and len(decoded_av) == 6
     assert min(_psnr(_u8(s), g) for s, g in zip(frames, decoded_av)) >= 40.0
@@ -80,10 +77,14 @@ def test_h264_is_high_quality_and_frame_locked(tmp_path, intra_only):
     side = json.loads(out["sidecar"].read_text())
     assert side["video"]["frame_count"] == 6 and side["video"]["fps_rational"] == "30000/1001"
     assert side["video"]["pixel_format"] == "yuv444p" and side["video"]["every_frame_keyframe"] is intra_only
+    assert side["video"]["colour"].startswith("BT.709 primaries, transfer and matrix, limited range")
 
 
-@pytest.mark.parametrize("codec,depth,min_db", [("h265", 8, 38.0), ("prores4444", 8, 40.0),
-                                                ("prores4444", 10, 40.0), ("h264", 10, 40.0)])
+# the frames' per-pixel colour noise is the worst case of 4:2:0 (half the colour resolution): about 30 dB
+@pytest.mark.parametrize("codec,depth,min_db", [("h265-444", 8, 38.0), ("prores4444", 8, 40.0),
+                                                ("prores4444", 10, 40.0), ("h264-444", 10, 40.0),
+                                                ("h264", 8, 30.0), ("h265", 8, 30.0), ("h265", 10, 28.0),
+                                                ("prores422hq", 8, 32.0)])
 def test_other_codecs_keep_frames_count_and_rate(tmp_path, codec, depth, min_db):
     frames = _frames(4)
     out = write_video(frames, tmp_path / "show", 25, (W, H), codec, bit_depth=depth)
@@ -162,23 +163,26 @@ def test_an_error_mid_way_removes_the_temporary_and_keeps_the_previous(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["show.json", "show.mov"]
 
 
-def test_hap_where_missing_names_the_available_codecs(tmp_path):
-    if codecs.availability()["hap"] is None:
+def test_hap_where_neither_pyav_nor_a_system_ffmpeg_has_it_says_how_to_get_it(tmp_path, monkeypatch):
+    if codecs.route("hap", None) == ("pyav", None):
         pytest.skip("this PyAV has a HAP encoder")
+    monkeypatch.setenv(codecs.FFMPEG_ENV, str(tmp_path / "no_ffmpeg_here"))
     with pytest.raises(codecs.VideoExportError) as info:
         write_video(_frames(2), tmp_path / "show.mov", 30, (W, H), "hap")
     line = str(info.value)
-    assert "\n" not in line and "HAP needs an FFmpeg built with snappy" in line
-    assert f"av {av.__version__}" in line
-    assert line.endswith("Available here: h264, h265, prores4444, lossless")
+    assert "\n" not in line and line.startswith("HAP needs an FFmpeg built with snappy: install one")
+    assert "apt-get install ffmpeg" in line and f"av {av.__version__}" in line
+    assert f"the FFmpeg set ({tmp_path / 'no_ffmpeg_here'}) is not there" in line
+    assert line.endswith("Available here: h264, h265, h264-444, h265-444, prores422hq, prores4444, lossless")
     assert list(tmp_path.iterdir()) == []
 
 
 def test_unknown_codec_and_bit_depth_are_one_line(tmp_path):
     with pytest.raises(codecs.VideoExportError, match="unknown video codec 'vp9'; the choices are h264"):
         write_video(_frames(1), tmp_path / "a", 30, (W, H), "vp9")
-    with pytest.raises(codecs.VideoExportError, match="QuickTime Animation .lossless. takes a bit depth of 8, got 16"):
-        write_video(_frames(1), tmp_path / "a", 30, (W, H), "lossless", bit_depth=16)
+    with pytest.raises(codecs.VideoExportError,
+                       match="QuickTime Animation .lossless. takes frames of 8 or 16 bits, got 12"):
+        write_video(_frames(1), tmp_path / "a", 30, (W, H), "lossless", bit_depth=12)
     with pytest.raises(ExportError, match=r"H.264 goes into .mp4 or .mov or .mkv files, not .avi"):
         write_video(_frames(1), tmp_path / "a.avi", 30, (W, H), "h264")
 
@@ -228,11 +232,22 @@ def test_unwritable_folder(tmp_path, monkeypatch):
         write_video(_frames(1), tmp_path / "a.mp4", 30, (W, H), "h264")
 
 
-def test_odd_sizes_in_every_available_yuv_codec(tmp_path):
-    for name, (w, h) in (("h264", (33, 17)), ("h265", (65, 17)), ("prores4444", (33, 17))):
-        out = write_video(_frames(2, w, h), tmp_path / f"odd_{name}", 24, (w, h), name)
-        decoded, _ = _decode_cv2(out["video"])
-        assert len(decoded) == 2 and decoded[0].shape == (h, w, 3), name
+def test_odd_sizes_in_every_yuv_codec_padded_where_its_chroma_needs_it(tmp_path):
+    for name, (w, h), padded in (("h264", (33, 17), (34, 18)), ("h265", (65, 17), (66, 18)),
+                                 ("prores4444", (33, 17), (33, 17)), ("prores422hq", (33, 17), (34, 17)),
+                                 ("h264-444", (33, 17), (33, 17))):
+        frames = _frames(2, w, h)
+        out = write_video(frames, tmp_path / f"odd_{name}", 24, (w, h), name)
+        decoded, _ = _decode_av(out["video"])
+        assert len(decoded) == 2 and decoded[0].shape == (padded[1], padded[0], 3), name
+        assert _psnr(_u8(frames[0]), decoded[0][:h, :w]) > 24.0, name  # the picture at the top left
+        side = json.loads(out["sidecar"].read_text())["video"]
+        assert side["picture"] == [w, h] and [side["width"], side["height"]] == list(padded)
+        if padded != (w, h):
+            assert out["notes"] == side["notes"] and len(out["notes"]) == 1
+            assert out["notes"][0].startswith(f"{w}x{h} padded to {padded[0]}x{padded[1]}"), name
+        else:
+            assert out["notes"] == []
     with pytest.raises(codecs.VideoExportError, match="H.265 needs frames at least 64 pixels wide, got 33"):
         write_video(_frames(2, 33, 17), tmp_path / "narrow", 24, (33, 17), "h265")
 
@@ -240,7 +255,8 @@ def test_odd_sizes_in_every_available_yuv_codec(tmp_path):
 def test_availability_lists_every_codec():
     table = codecs.availability()
     assert set(table) == set(codecs.NAMES)
-    assert all(table[n] is None for n in ("h264", "h265", "prores4444", "lossless"))
+    assert all(table[n] is None for n in ("h264", "h265", "h264-444", "h265-444", "prores422hq", "prores4444",
+                                          "lossless"))
 
 
 def test_video_path_suffixes(tmp_path):

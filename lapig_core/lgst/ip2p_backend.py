@@ -85,8 +85,17 @@ def _load_pipeline(model: str, device: str, allow_download: bool):
     from diffusers import EulerAncestralDiscreteScheduler, StableDiffusionInstructPix2PixPipeline
 
     dev = torch.device(device)
-    dtype = torch.float16 if dev.type == "cuda" else torch.float32  # fp16 is slow or unsupported on CPU
     source = str(Path(model).expanduser()) if _is_local_path(model) else model
+    half = dev.type in ("cuda", "mps")  # fp16 is slow or unsupported on CPU
+    if _is_local_path(model):  # the weights' bytes are on disk: check they fit before loading them
+        from ..diffusion import device_fit
+        from ..diffusion.catalogue import ModelError
+
+        try:
+            half = device_fit.require_fit(source, dev, "InstructPix2Pix").dtype == "float16"
+        except ModelError as exc:
+            raise LGSTUnavailable(str(exc)) from None
+    dtype = torch.float16 if half else torch.float32
     try:
         pipe = StableDiffusionInstructPix2PixPipeline.from_pretrained(
             source, dtype=dtype, local_files_only=not allow_download)

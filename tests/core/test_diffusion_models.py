@@ -233,3 +233,19 @@ def test_the_downloaded_pipeline_runs_one_step_through_the_ip2p_backend(hub, tmp
     out = backend.stylize(surface, "Make it a Claymation")
     assert out.shape == (1, 3, 64, 64) and torch.isfinite(out).all() and out.std() > 0
     assert backend.describe()["dtype"] == "float32"
+
+
+def test_the_one_step_model_downloads_and_previews_at_512_px(tmp_path):
+    import torch
+    from lapig.lapig_core.diffusion import one_step
+
+    repo = make_tiny_pipeline(tmp_path / "repo", "img2img")
+    with FakeModelHub({"tiny/turbo": repo}) as hub:
+        outcome, _ = _download(hub, tmp_path / "models", entry=replace(catalogue.model("sd-turbo"),
+                                                                        repo_id="tiny/turbo"))
+    surface = torch.rand(1, 3, 96, 128, generator=torch.Generator().manual_seed(0))
+    out = one_step.preview(outcome.folder, surface, "a stained glass window", size=512, choice="cpu")
+    again = one_step.preview(outcome.folder, surface, "a stained glass window", size=512, choice="cpu")
+    assert out.shape == (1, 3, 512, 512) and torch.isfinite(out).all() and torch.equal(out, again)  # seeded
+    with pytest.raises(ModelError, match="needs a Stable Diffusion text-to-image or image-to-image pipeline"):
+        one_step.preview(make_tiny_pipeline(tmp_path / "ip2p", "ip2p"), surface, "x", size=64, choice="cpu")

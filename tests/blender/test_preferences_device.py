@@ -109,3 +109,31 @@ def test_download_refuses_offline_and_use_folder_refuses_a_folder_that_is_not_a_
         bpy.ops.lapig.download_model(model="dall-e")
     with pytest.raises(RuntimeError, match="is not a diffusers pipeline: it has no model_index.json"):
         bpy.ops.lapig.use_model_folder(model="sd-turbo", directory=str(tmp_path))
+
+
+@pytest.mark.blender
+def test_download_in_a_script_runs_to_the_end_and_the_model_is_ready(lapig_registered, monkeypatch,
+                                                                               tmp_path):
+    """Download from a script (no UI: the job runs in execute()), against the local hub named by HF_ENDPOINT; the
+    model manager then finds it ready there."""
+    pytest.importorskip("diffusers")
+    from dataclasses import replace
+
+    from lapig.lapig_addon.blender import model_manager, torch_installer
+    from lapig.lapig_core.diffusion import catalogue
+    from lapig.tools.bench.fake_model_hub import FakeModelHub
+    from lapig.tools.bench.tiny_pipeline import make_tiny_pipeline
+
+    repo = make_tiny_pipeline(tmp_path / "repo", "ip2p")
+    monkeypatch.setattr(catalogue, "CATALOGUE", (replace(catalogue.CATALOGUE[0], repo_id="tiny/ip2p"),)
+                        + catalogue.CATALOGUE[1:])
+    monkeypatch.setattr(model_manager, "models_root", lambda prefs=None: str(tmp_path / "models"))
+    monkeypatch.setattr(torch_installer, "online_access", lambda: True)
+    with FakeModelHub({"tiny/ip2p": repo}) as hub:
+        monkeypatch.setenv("HF_ENDPOINT", hub.url)
+        assert bpy.ops.lapig.download_model(model="instruct-pix2pix") == {"FINISHED"}
+    folder = tmp_path / "models" / "instruct-pix2pix"
+    assert (folder / "model_index.json").is_file() and (folder / ".lapig-model.json").is_file()
+    from lapig.lapig_addon.services.model_download import ready_folder
+
+    assert ready_folder("instruct-pix2pix", str(tmp_path / "models")) == str(folder)

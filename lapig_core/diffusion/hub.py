@@ -82,11 +82,15 @@ class Hub:
 
     def _refusal(self, err, repo_id: str, url: str) -> ModelError:
         code, error_code = err.code, err.headers.get("X-Error-Code", "")
+        bad_token = "Invalid credentials" in err.headers.get("X-Error-Message", "")
         what = f"'{repo_id}'" if repo_id else url
         err.close()
         if code == 403 and error_code == "GatedRepo" or code == 403 and not self.token:
             return ModelError(f"{what} is gated: accept its licence on https://huggingface.co/{repo_id} with your "
                               f"account, then paste a token of that account in the preferences' Hub token")
+        if code == 401 and self.token and error_code == "RepoNotFound" and not bad_token:
+            return ModelError(f"{self.base} has no model {what} that this token may read (HTTP 401): check the "
+                              f"name, and that the token's account has access to it")
         if code in (401, 403) and self.token:
             return ModelError(f"the hub refused the token for {what} (HTTP {code}): check the Hub token in the "
                               f"preferences (a read token of an account that accepted the model's licence)")

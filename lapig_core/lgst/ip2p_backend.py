@@ -40,9 +40,9 @@ def _missing_message(model: str, detail: str = "") -> str:
     else:
         where = f"'{model}' (Hugging Face cache)"
         fetch = f"`hf download {model}` (or pass allow_download=True once)"
-    msg = (f"InstructPix2Pix weights not found at {where}; download them with {fetch} and choose that folder "
-           f"as the InstructPix2Pix weights (add-on preferences, or `stylize --ip2p-model`), or use the default "
-           f"'styletransfer' backend")
+    msg = (f"InstructPix2Pix weights not found at {where}; download them in the add-on preferences (Diffusion "
+           f"models > Download), or with {fetch} and choose that folder (Diffusion models > Use Folder, or "
+           f"`stylize --ip2p-model`), or use the default 'styletransfer' backend")
     return msg + (f" ({detail})" if detail else "")
 
 

@@ -69,9 +69,10 @@ def model_status(model: str | None = None) -> tuple[bool, str]:
 
 
 def _pick_device(device) -> torch.device:
-    if device is None or device == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    return torch.device(device)
+    """'auto' (or None): CUDA, then Apple's MPS, else the CPU, as everything else picks its device."""
+    from ..common import compute_device
+
+    return compute_device.resolve(device or compute_device.AUTO)
 
 
 @functools.lru_cache(maxsize=2)

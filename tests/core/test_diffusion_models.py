@@ -223,6 +223,21 @@ def test_the_device_plan_takes_half_precision_on_gpus_and_says_when_it_does_not_
     assert ok.fits and ok.free_mb and "runs on the CPU in float32" in ok.line()
 
 
+def test_auto_takes_a_gpu_in_half_precision_where_torch_sees_one(monkeypatch):
+    import torch
+    from lapig.lapig_core.common import compute_device
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    monkeypatch.setattr(compute_device, "short_name", lambda device: "CUDA (Test GPU)")
+    gpu = device_fit.plan(3_400_000_000, "auto", free_mb=4000.0)
+    assert gpu.device == "cuda" and gpu.dtype == "float16" and gpu.fits  # 3.4 GB of float32 weights: 2 GB as halves
+    assert device_fit.plan(3_400_000_000, "cpu", free_mb=3000.0).dtype == "float32"  # the preference: the CPU
+    small = device_fit.plan(3_400_000_000, "auto", free_mb=2500.0)
+    assert small.line("InstructPix2Pix") == ("InstructPix2Pix does not fit on CUDA (Test GPU): it needs about 3.2 GB "
+                                             "in float16, 2.4 GB free: close other programs or leave the GPU to "
+                                             "Cycles and choose the CPU in the preferences")
+
+
 def test_the_downloaded_pipeline_runs_one_step_through_the_ip2p_backend(hub, tmp_path):
     import torch
     from lapig.lapig_core.lgst import get_backend

@@ -103,7 +103,7 @@ class ModelRow:
 
 
 def _gb(n: int) -> str:
-    return f"{n / 1e9:.2f} GB"
+    return pf.human_size(n)
 
 
 def model_row(key: str, root: str, own_folder: str = "", slot: DownloadSlot = DOWNLOADS) -> ModelRow:

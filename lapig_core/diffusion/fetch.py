@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass
 from typing import Callable
 
+from ..common.locking import FolderLock
 from . import pipeline_folder as pf
 from .catalogue import CatalogueModel, ModelError
 from .hub import Hub, RemoteFile
@@ -92,7 +93,8 @@ class DownloadOutcome:
     seconds: float
 
     def line(self) -> str:
-        return f"{self.key} downloaded: {self.bytes_total / 1e9:.2f} GB in {self.files} files, checked, at {self.folder}"
+        return (f"{self.key} downloaded: {pf.human_size(self.bytes_total)} in {self.files} files, checked, at "
+                f"{self.folder}")
 
 
 def _open_part(path: str):
@@ -101,7 +103,7 @@ def _open_part(path: str):
 
 
 def _disk_full(root: str, need: int) -> ModelError:
-    return ModelError(f"the disk is full: the model needs {need / 1e9:.2f} GB more in {root}: free some space, or "
+    return ModelError(f"the disk is full: the model needs {pf.human_size(need)} more in {root}: free some space, or "
                       f"choose another models folder in the preferences")
 
 
@@ -132,7 +134,7 @@ class Downloader:
     def _say(self, path: str, size: int, here: int):
         share = self.done / self.total if self.total else 0.0  # model_index.json comes before the total is known
         self.report(0.98 * share, f"{path.rsplit('/', 1)[-1]}: {here / max(size, 1):.0%} of {size / 1e6:.0f} MB "
-                           f"({self.done / 1e9:.2f} of {self.total / 1e9:.2f} GB)")
+                           f"({pf.human_size(self.done)} of {pf.human_size(self.total)})")
 
     def run(self) -> DownloadOutcome:
         started = time.perf_counter()
@@ -147,6 +149,8 @@ class Downloader:
         files = select_files(listing, index)
         self.total = sum(f.size for f in files)
         self.done = sum(self._have(f) for f in files)
+        _write_json(os.path.join(self.partial, pf.PLAN), {"repo_id": self.entry.repo_id, "bytes_total": self.total,
+                                                          "files": len(files)})  # a stopped download's row says it
         free = shutil.disk_usage(self.root).free
         if free < self.total - self.done:
             raise _disk_full(self.root, self.total - self.done - free)
@@ -158,9 +162,8 @@ class Downloader:
         manifest = {"repo_id": self.entry.repo_id, "revision": self.revision, "key": self.entry.key,
                     "files": {f.path: {"size": f.size, "sha256": f.sha256 or pf.sha256_of(
                         os.path.join(self.partial, f.path))} for f in files}}
-        with open(os.path.join(self.partial, pf.MANIFEST + ".tmp"), "w", encoding="utf-8") as out:
-            json.dump(manifest, out, indent=1)
-        os.replace(os.path.join(self.partial, pf.MANIFEST + ".tmp"), os.path.join(self.partial, pf.MANIFEST))
+        _write_json(os.path.join(self.partial, pf.MANIFEST), manifest)
+        os.remove(os.path.join(self.partial, pf.PLAN))
         final = model_folder(self.root, self.entry.key)
         replace_folder(self.partial, final)
         return DownloadOutcome(self.entry.key, final, len(files), self.total, self.fetched, self.resumed,
@@ -236,6 +239,12 @@ class Downloader:
             raise http.client.IncompleteRead(b"", f.size - os.path.getsize(part))
 
 
+def _write_json(path: str, value):
+    with open(path + ".tmp", "w", encoding="utf-8") as out:
+        json.dump(value, out, indent=1)
+    os.replace(path + ".tmp", path)
+
+
 def replace_folder(source: str, dest: str):
     """Rename source to dest; an old dest (a damaged model) goes aside first and is removed after."""
     trash = None
@@ -249,6 +258,13 @@ def replace_folder(source: str, dest: str):
 
 def remove_model(root: str, key: str) -> bool:
     """Delete a downloaded model and what a stopped download left; True where there was something."""
+    if not os.path.isdir(root):
+        return False
+    with FolderLock(root, f"LAPIG: removing {key}"):  # never under a download of another Blender
+        return _remove_folders(root, key)
+
+
+def _remove_folders(root: str, key: str) -> bool:
     found = False
     for path in (model_folder(root, key), partial_folder(root, key)):
         if os.path.isdir(path):
@@ -271,4 +287,5 @@ def download(entry: CatalogueModel, root: str, online_access: bool, base: str = 
     except OSError as exc:
         raise ModelError(f"cannot make the models folder {root} ({exc.strerror}): choose another in the "
                          f"preferences") from None
-    return Downloader(Hub(base, token), entry, root, report, cancel_event).run()
+    with FolderLock(root, f"LAPIG: downloading {entry.title}"):  # another Blender downloading here: refused
+        return Downloader(Hub(base, token), entry, root, report, cancel_event).run()

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from .catalogue import ModelError
 
 MANIFEST = ".lapig-model.json"
+PLAN = ".lapig-download.json"  # in a partial folder: the listing's total, while the download is not whole
 PARTIAL_PREFIX = ".partial-"
 WEIGHT_SUFFIXES = (".safetensors", ".bin")
 CONFIG_NAMES = ("config.json", "scheduler_config.json", "tokenizer_config.json", "preprocessor_config.json")
@@ -119,6 +120,19 @@ def read_manifest(folder: str) -> dict | None:
         return None
 
 
+def human_size(n: int) -> str:
+    """'5.12 GB', '385.5 MB', '0.2 MB'."""
+    return f"{n / 1e9:.2f} GB" if n >= 1e9 else f"{n / 1e6:.1f} MB"
+
+
+def _planned_bytes(partial: str) -> int:
+    try:
+        with open(os.path.join(partial, PLAN), encoding="utf-8") as f:
+            return int(json.load(f).get("bytes_total", 0))
+    except (OSError, ValueError, TypeError, AttributeError):
+        return 0
+
+
 def _folder_bytes(folder: str) -> int:
     return sum(os.path.getsize(os.path.join(r, n)) for r, _, names in os.walk(folder) for n in names)
 
@@ -128,7 +142,11 @@ def folder_state(folder: str, partial: str | None = None) -> FolderState:
     must be there with its size; a folder of the user's own has none: it must be a whole pipeline."""
     partial_bytes = _folder_bytes(partial) if partial and os.path.isdir(partial) else 0
     if not os.path.isdir(folder):
-        why = f"a download stopped after {partial_bytes / 1e6:.0f} MB: Download resumes it" if partial_bytes else ""
+        why = ""
+        if partial_bytes:
+            total = _planned_bytes(partial)
+            of = f" of {human_size(total)}" if total else ""
+            why = f"a download stopped after {human_size(partial_bytes)}{of}: Download resumes it"
         return FolderState(ABSENT, folder, why, partial_bytes=partial_bytes)
     manifest = read_manifest(folder)
     problems = []

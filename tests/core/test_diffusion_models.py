@@ -6,6 +6,7 @@ downloaded folder loaded on the CPU and one step run through the InstructPix2Pix
 from __future__ import annotations
 
 import errno
+import re
 import io
 import os
 import threading
@@ -107,7 +108,7 @@ def test_a_cancel_leaves_nothing_that_looks_ready_and_the_next_download_resumes(
     kept = part.stat().st_size
     assert 0 < kept < os.path.getsize(os.path.join(hub.repos["tiny/ip2p"], UNET))
     state = pf.folder_state(str(root / "instruct-pix2pix"), str(root / ".partial-instruct-pix2pix"))
-    assert "Download resumes it" in state.why
+    assert re.match(r"a download stopped after 0\.\d MB of 0\.4 MB: Download resumes it$", state.why), state.why
     hub.slow_s = 0.0
     hub.requests.clear()
     outcome, _ = _download(hub, root)
@@ -148,6 +149,20 @@ def test_a_model_damaged_on_disk_says_so(hub, tmp_path):
     assert pf.folder_state(outcome.folder).state == pf.ABSENT
 
 
+def test_a_second_download_into_the_same_folder_is_refused_while_one_runs(hub, tmp_path):
+    from lapig.lapig_core.common.locking import FolderLock
+
+    root = tmp_path / "models"
+    with FolderLock(root, "LAPIG: downloading SD-Turbo"):  # another Blender's download
+        with pytest.raises(OSError, match=r"models is in use by LAPIG: downloading SD-Turbo \(pid \d+"):
+            _download(hub, root)
+        with pytest.raises(OSError, match="in use by LAPIG: downloading SD-Turbo"):
+            fetch.remove_model(str(root), ENTRY.key)
+    assert hub.requests == []
+    outcome, _ = _download(hub, root)
+    assert not (root / ".lapig.lock").exists() and pf.folder_state(outcome.folder).state == pf.READY
+
+
 def test_online_access_off_is_refused_before_any_request(hub, tmp_path):
     with pytest.raises(ModelError, match=r"^Online access is off in Blender: allow it in Preferences > System > "
                                          r"Network"):
@@ -162,7 +177,7 @@ def test_a_full_disk_is_one_line_and_keeps_what_was_written(hub, tmp_path, monke
             raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(fetch, "_open_part", lambda path: Full())
-    with pytest.raises(ModelError, match=r"^the disk is full: the model needs .* GB more in .*models: free some "
+    with pytest.raises(ModelError, match=r"^the disk is full: the model needs .* [MG]B more in .*models: free some "
                                          r"space, or choose another models folder"):
         _download(hub, tmp_path / "models")
     assert not (tmp_path / "models" / "instruct-pix2pix").exists()

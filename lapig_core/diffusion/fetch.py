@@ -229,7 +229,7 @@ class Downloader:
                         out.write(block)
                     except OSError as exc:
                         if exc.errno == errno.ENOSPC:
-                            raise _disk_full(self.root, f.size - here) from None
+                            raise _disk_full(self.root, self.total - self.done) from None  # what is still to come
                         raise
                     here += len(block)
                     self.done += len(block)

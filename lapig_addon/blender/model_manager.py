@@ -180,9 +180,18 @@ class LAPIG_OT_remove_model(ReportsErrors, bpy.types.Operator):
 
 
 def device_line() -> str:
-    """Where the diffusion models would run, in which precision (no torch: says so)."""
+    """Where the diffusion models would run, in which precision; where torch cannot use this computer's GPU,
+    which torch to install (the torch box above)."""
     import sys
 
+    from ...lapig_core.common.gpu_torch import installed_torch, nvidia_gpu_present
+
+    build = installed_torch()  # read from its files: no import of torch
+    if not build.present:
+        return "Diffusion needs torch: install it in the torch box above (a CUDA build for an NVIDIA GPU)"
+    if nvidia_gpu_present() and not build.cuda:
+        return (f"Diffusion would run on the CPU ({build.line()}): this computer has an NVIDIA GPU; install a "
+                f"CUDA build in the torch box above to run it there in half precision")
     if "torch" not in sys.modules:  # importing it here would stall the preferences' first draw for seconds
         return ("Diffusion runs on CUDA, Apple's MPS or the CPU, picked when a model loads (half precision on a "
                 "GPU); a model that does not fit there is refused with what it needs")

@@ -32,6 +32,7 @@ from .hub import Hub, RemoteFile
 
 CHUNK = 1 << 20
 RETRIES = 3
+REPORT_S = 0.1  # at most this often a progress line
 SKIP_SUFFIXES = (".ckpt", ".msgpack", ".h5", ".onnx", ".onnx_data", ".pb", ".tflite", ".ot", ".mlmodel", ".gguf")
 ONLINE_OFF = ("Online access is off in Blender: allow it in Preferences > System > Network (Allow Online Access), "
               "or use a folder you already have (Use Folder)")
@@ -126,6 +127,7 @@ class Downloader:
         self.partial = partial_folder(self.root, entry.key)
         self.total = self.done = self.fetched = 0
         self.resumed = 0
+        self._said_at = 0.0
 
     def _check_cancel(self):
         if self.cancel_event.is_set():
@@ -219,7 +221,7 @@ class Downloader:
                 with open(part, "wb"):
                     pass
             with _open_part(part) as out:
-                here = start
+                here, first = start, True
                 while True:
                     self._check_cancel()
                     block = response.read1(CHUNK)  # what has come: progress and cancel between packets
@@ -234,7 +236,10 @@ class Downloader:
                     here += len(block)
                     self.done += len(block)
                     self.fetched += len(block)
-                    self._say(f.path, f.size, here)
+                    now = time.monotonic()
+                    if first or here == f.size or now - self._said_at >= REPORT_S:  # not a line per packet
+                        self._said_at, first = now, False
+                        self._say(f.path, f.size, here)
         if os.path.getsize(part) < f.size:  # the connection ended early: the caller resumes from here
             raise http.client.IncompleteRead(b"", f.size - os.path.getsize(part))
 

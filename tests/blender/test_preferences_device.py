@@ -71,7 +71,7 @@ def _sentences(log):
 @pytest.mark.blender
 def test_the_model_manager_box_shows_each_model_with_its_licence_state_and_buttons(lapig_registered, monkeypatch,
                                                                                   tmp_path):
-    from lapig.lapig_addon.blender import preferences, torch_installer
+    from lapig.lapig_addon.blender import model_manager, preferences, torch_installer
     from lapig.lapig_addon.services import model_download
 
     monkeypatch.setattr(torch_installer, "online_access", lambda: False)
@@ -85,6 +85,12 @@ def test_the_model_manager_box_shows_each_model_with_its_licence_state_and_butto
     assert log.count(("operator", "lapig.download_model")) == 2 and ("operator", "lapig.use_model_folder") in log
     assert any(t.startswith("Online access is off in Blender") and "Use Folder" in t for t in text)
     assert any(t.startswith("Diffusion runs on") for t in text)
+    from lapig.lapig_core.common import gpu_torch
+
+    monkeypatch.setattr(gpu_torch, "nvidia_gpu_present", lambda: True)  # a GPU, and a torch without CUDA
+    monkeypatch.setattr(gpu_torch, "installed_torch", lambda: gpu_torch.TorchBuild(True, "2.13.0+cpu"))
+    assert model_manager.device_line().startswith("Diffusion would run on the CPU (torch 2.13.0+cpu: CPU only): this "
+                                                  "computer has an NVIDIA GPU; install a CUDA build")
 
     class Running:  # a download under way: its progress bar and Cancel in its row
         finished, progress, message = False, 0.25, "diffusion_pytorch_model.safetensors: 25% of 3438 MB"

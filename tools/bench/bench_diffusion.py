@@ -127,14 +127,50 @@ def _runs(ip2p_folder: str, turbo_folder: str, device: str) -> dict:
     return out
 
 
-def _real_models(models: str) -> dict:
-    """The real models' state in a models folder (their timing needs the weights: not run here)."""
+def _real_models(models: str, device: str) -> dict:
+    """Each catalogue model in a models folder (--models, or $LAPIG_MODELS_DIR): its state, and where it is
+    ready, its figures at 512 px on the device the manager picks (the one-step model: one preview after a
+    warm-up; InstructPix2Pix: one stylize with its 10 steps after a warm-up)."""
+    import torch
+
     from ...lapig_addon.services.model_download import model_row
-    from ...lapig_core.diffusion import catalogue
+    from ...lapig_core.diffusion import catalogue, device_fit, one_step
+    from ...lapig_core.diffusion.catalogue import ModelError
+    from ...lapig_core.lgst import get_backend
 
     if not models:
         return {"note": "no --models folder given: real models not looked for"}
-    return {m.key: model_row(m.key, models).line for m in catalogue.CATALOGUE}
+    out = {}
+    surface = torch.rand(1, 3, 512, 512, generator=torch.Generator().manual_seed(0))
+    for entry in catalogue.CATALOGUE:
+        row = model_row(entry.key, models)
+        figures = {"state": row.state, "line": row.line}
+        out[entry.key] = figures
+        if row.state != "ready":
+            continue
+        try:
+            plan = device_fit.require_fit(row.folder, device, entry.title)
+        except ModelError as exc:
+            figures["fits"] = False
+            figures["why"] = str(exc)
+            continue
+        figures.update(device=plan.name, dtype=plan.dtype, needed_mb=plan.needed_mb)
+        if torch.cuda.is_available():
+            torch.cuda.reset_peak_memory_stats()
+        if entry.kind == "img2img":
+            run = lambda seed: one_step.preview(row.folder, surface, "a stained glass window", size=512,  # noqa: E731
+                                                choice=device, seed=seed)
+        else:
+            backend = get_backend("instruct-pix2pix", model=row.folder, size=512, device=device)
+            run = lambda seed: backend.stylize(surface, "Make it a stained glass artwork", seed=seed)  # noqa: E731
+        run(0)  # the load and the first call
+        started = time.perf_counter()
+        run(1)
+        figures["preview_seconds" if entry.kind == "img2img" else "stylize_seconds_512"] = round(
+            time.perf_counter() - started, 3)
+        if torch.cuda.is_available() and plan.device == "cuda":
+            figures["peak_memory_mb"] = round(torch.cuda.max_memory_allocated() / 2 ** 20, 1)
+    return out
 
 
 def run(args) -> dict:
@@ -161,5 +197,6 @@ def run(args) -> dict:
     summary["depth_conditioned_ok"] = None
     summary["depth_conditioned_reason"] = "depth conditioning (issue 53, item 3) is not built yet"
     summary["psa_seconds"] = None
-    summary["real_models"] = _real_models(getattr(args, "models", "") or os.environ.get("LAPIG_MODELS_DIR", ""))
+    summary["real_models"] = _real_models(getattr(args, "models", "") or os.environ.get("LAPIG_MODELS_DIR", ""),
+                                          device)
     return summary

@@ -4,7 +4,8 @@
 The device is compute_device's choice (CUDA, then Apple's MPS, else the CPU; 'cpu' forces the CPU). Half
 precision (float16) on CUDA and MPS, which run it natively; float32 on the CPU, where float16 is slow or
 unsupported. The memory need is estimated from the weights' bytes on disk (the files hold float32 or
-float16: their bytes scaled to the chosen precision), plus a working margin for the activations at 512 px;
+float16: their bytes scaled to the chosen precision), plus a working margin for the activations at 512 px
+(on the CPU without accelerate, twice the weights: loading holds a random copy beside the file's);
 the free memory is the GPU's (CUDA: free now; MPS: the recommended working set less what torch holds) or,
 on the CPU, the computer's available memory. One line says the result, and why it does not fit.
 """
@@ -72,9 +73,18 @@ def system_available_mb() -> float | None:
         return None
 
 
+def _loads_twice() -> bool:
+    """Without accelerate, diffusers builds each network with random weights, then loads the file's: both are in
+    the computer's memory at once while it loads."""
+    import importlib.util
+
+    return importlib.util.find_spec("accelerate") is None
+
+
 def needed_mb(weights_bytes: int, dtype: str, device: str, stored_half: bool = False) -> float:
     scale = (0.5 if dtype == "float16" else 1.0) * (2.0 if stored_half else 1.0)
-    return weights_bytes * scale * ACTIVATION_MARGIN / 2 ** 20 + WORKING_MB[device]
+    margin = 2.0 if device == "cpu" and _loads_twice() else ACTIVATION_MARGIN
+    return weights_bytes * scale * margin / 2 ** 20 + WORKING_MB[device]
 
 
 def plan(weights_bytes: int, choice="auto", stored_half: bool = False, free_mb: float | None = -1.0) -> DevicePlan:

@@ -224,13 +224,16 @@ def test_a_folder_that_is_not_a_pipeline_is_refused_with_what_it_lacks(tiny_repo
         pf.check_pipeline(str(tmp_path / "nowhere"))
 
 
-def test_the_device_plan_takes_half_precision_on_gpus_and_says_when_it_does_not_fit(tiny_repo):
+def test_the_device_plan_takes_half_precision_on_gpus_and_says_when_it_does_not_fit(tiny_repo, monkeypatch):
     assert device_fit.half_precision("cuda") and device_fit.half_precision("mps")
     assert not device_fit.half_precision("cpu")
+    monkeypatch.setattr(device_fit, "_loads_twice", lambda: False)  # accelerate installed
     cpu = device_fit.plan(3_400_000_000, "cpu", free_mb=2000.0)
     assert cpu.device == "cpu" and cpu.dtype == "float32" and not cpu.fits
     assert cpu.line("InstructPix2Pix").startswith("InstructPix2Pix does not fit on the CPU: it needs about 5.4 GB "
                                                   "in float32, 2.0 GB free")
+    monkeypatch.setattr(device_fit, "_loads_twice", lambda: True)  # without it, loading holds two copies
+    assert "it needs about 7.8 GB" in device_fit.plan(3_400_000_000, "cpu", free_mb=2000.0).line()
     assert device_fit.needed_mb(2 ** 30, "float16", "cuda") < device_fit.needed_mb(2 ** 30, "float32", "cuda")
     with pytest.raises(ModelError, match="does not fit on the CPU"):
         device_fit.require_fit(tiny_repo, "cpu", free_mb=100.0)

@@ -108,7 +108,7 @@ class LAPIG_OT_download_model(ReportsErrors, bpy.types.Operator):
         prefs = _prefs(context)
         request = DownloadRequest(self.model, models_root(prefs), online_access(),
                                   base=prefs.hub_endpoint if prefs else "", token=prefs.hub_token if prefs else "",
-                                  overridden=_overridden())
+                                  overridden=_overridden(), device=prefs.device.lower() if prefs else "auto")
         job = ModelDownloadJob(request)  # an unknown model: ModelError, reported by ReportsErrors
         refusal = DOWNLOADS.start(job)
         if refusal:

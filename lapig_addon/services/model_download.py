@@ -29,6 +29,7 @@ class DownloadRequest:
     base: str = ""  # the hub's address ('' : HF_ENDPOINT, else huggingface.co)
     token: str = ""
     overridden: bool = False  # --offline-mode: the preference cannot turn it on
+    device: str = "auto"  # the preferences' Device: a GPU that runs half precision takes the fp16 copies
 
 
 class ModelDownloadJob(WorkerJob):
@@ -44,9 +45,19 @@ class ModelDownloadJob(WorkerJob):
         r = self.request
         try:
             return fetch.download(self.entry, r.root, r.online_access, r.base, r.token, report, cancel_event,
-                                  r.overridden)
+                                  r.overridden, half=runs_half(r.device))
         except fetch.DownloadCancelled:
             raise JobCancelled() from None
+
+
+def runs_half(choice: str) -> bool:
+    """Whether the device the models would run on takes half precision (on the worker: it imports torch)."""
+    try:
+        from ...lapig_core.common import compute_device
+        from ...lapig_core.diffusion.device_fit import half_precision
+    except ImportError:  # no torch yet: the full-precision files, which every device loads
+        return False
+    return half_precision(compute_device.resolve(choice).type)
 
 
 class DownloadSlot:

@@ -22,7 +22,7 @@ import shutil
 import socket
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 from ..common.locking import FolderLock
@@ -63,9 +63,25 @@ def _variant(name: str) -> bool:
     return name.endswith(pf.WEIGHT_SUFFIXES) and name.count(".") >= 2
 
 
-def select_files(files: list[RemoteFile], index: dict) -> list[RemoteFile]:
+def _half_copies(parts: list[RemoteFile]) -> dict[str, RemoteFile]:
+    """A component's fp16 weights by the default file they stand for ('unet/x.safetensors' -> its x.fp16 copy),
+    only where every default safetensors file has one (a sharded or partial fp16 set is not taken)."""
+    by_path = {p.path: p for p in parts}
+    defaults = [p for p in parts if p.path.endswith(".safetensors") and not _variant(p.path.rsplit("/", 1)[1])]
+    copies = {}
+    for d in defaults:
+        half = by_path.get(d.path[:-len(".safetensors")] + ".fp16.safetensors")
+        if half is None:
+            return {}
+        copies[d.path] = half
+    return copies
+
+
+def select_files(files: list[RemoteFile], index: dict, half: bool = False) -> list[RemoteFile]:
     """The files from_pretrained loads: model_index.json and its components' folders; of the weights, the
-    default variant in safetensors where the folder has it (else the .bin)."""
+    default variant in safetensors where the folder has it (else the .bin). half: where a component has fp16
+    copies of its weights, those instead, under the default names (half the download; a device that runs
+    float32 loads them too, converted)."""
     wanted = set(pf.components(index))
     by_folder: dict[str, list[RemoteFile]] = {}
     chosen = [f for f in files if f.path == "model_index.json"]
@@ -76,10 +92,12 @@ def select_files(files: list[RemoteFile], index: dict) -> list[RemoteFile]:
     for top, parts in sorted(by_folder.items()):
         names = [p.path.rsplit("/", 1)[1] for p in parts]
         has_safetensors = any(n.endswith(".safetensors") and not _variant(n) for n in names)
+        copies = _half_copies(parts) if half else {}
         for part, name in zip(parts, names):
             if _variant(name) or (has_safetensors and name.endswith(".bin")):
                 continue
-            chosen.append(part)
+            copy = copies.get(part.path)
+            chosen.append(replace(copy, local=part.path) if copy else part)
     return chosen
 
 
@@ -120,8 +138,9 @@ class Downloader:
     """One model's download; report(fraction, message) after each chunk; cancel_event stops it."""
 
     def __init__(self, hub: Hub, entry: CatalogueModel, root: str, report: Callable[[float, str], None] | None = None,
-                 cancel_event: threading.Event | None = None, revision: str = "main"):
+                 cancel_event: threading.Event | None = None, revision: str = "main", half: bool = False):
         self.hub, self.entry, self.root, self.revision = hub, entry, os.path.abspath(root), revision
+        self.half = half
         self.report = report or (lambda fraction, message: None)
         self.cancel_event = cancel_event or threading.Event()
         self.partial = partial_folder(self.root, entry.key)
@@ -148,7 +167,7 @@ class Downloader:
         os.makedirs(self.partial, exist_ok=True)
         self._fetch(index_file)
         index = pf.read_index(self.partial)
-        files = select_files(listing, index)
+        files = select_files(listing, index, self.half)
         self.total = sum(f.size for f in files)
         self.done = sum(self._have(f) for f in files)
         _write_json(os.path.join(self.partial, pf.PLAN), {"repo_id": self.entry.repo_id, "bytes_total": self.total,
@@ -162,8 +181,8 @@ class Downloader:
         self.report(0.99, "checking the pipeline")
         pf.check_pipeline(self.partial)
         manifest = {"repo_id": self.entry.repo_id, "revision": self.revision, "key": self.entry.key,
-                    "files": {f.path: {"size": f.size, "sha256": f.sha256 or pf.sha256_of(
-                        os.path.join(self.partial, f.path))} for f in files}}
+                    "files": {f.local_path: {"size": f.size, "source": f.path, "sha256": f.sha256 or pf.sha256_of(
+                        os.path.join(self.partial, f.local_path))} for f in files}}
         _write_json(os.path.join(self.partial, pf.MANIFEST), manifest)
         os.remove(os.path.join(self.partial, pf.PLAN))
         final = model_folder(self.root, self.entry.key)
@@ -173,14 +192,14 @@ class Downloader:
 
     def _have(self, f: RemoteFile) -> int:
         """Bytes of f already here (a whole file, or its .part)."""
-        path = os.path.join(self.partial, f.path)
+        path = os.path.join(self.partial, f.local_path)
         for candidate in (path, path + ".part"):
             if os.path.isfile(candidate):
                 return min(os.path.getsize(candidate), f.size)
         return 0
 
     def _fetch(self, f: RemoteFile):
-        path = os.path.join(self.partial, f.path)
+        path = os.path.join(self.partial, f.local_path)
         if os.path.isfile(path) and os.path.getsize(path) == f.size and _hash_ok(path, f):
             return  # verified by an earlier try
         if os.path.isfile(path):
@@ -281,8 +300,9 @@ def _remove_folders(root: str, key: str) -> bool:
 
 
 def download(entry: CatalogueModel, root: str, online_access: bool, base: str = "", token: str = "",
-             report=None, cancel_event=None, overridden: bool = False) -> DownloadOutcome:
-    """The whole download, refused before any request where Blender does not allow online access."""
+             report=None, cancel_event=None, overridden: bool = False, half: bool = False) -> DownloadOutcome:
+    """The whole download, refused before any request where Blender does not allow online access. half: take
+    the repository's fp16 copies of the weights where it has them (for a device that runs half precision)."""
     refusal = online_refusal(online_access, overridden)
     if refusal:
         raise ModelError(refusal)
@@ -293,4 +313,4 @@ def download(entry: CatalogueModel, root: str, online_access: bool, base: str = 
         raise ModelError(f"cannot make the models folder {root} ({exc.strerror}): choose another in the "
                          f"preferences") from None
     with FolderLock(root, f"LAPIG: downloading {entry.title}"):  # another Blender downloading here: refused
-        return Downloader(Hub(base, token), entry, root, report, cancel_event).run()
+        return Downloader(Hub(base, token), entry, root, report, cancel_event, half=half).run()

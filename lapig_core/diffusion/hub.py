@@ -40,6 +40,11 @@ class RemoteFile:
     size: int
     sha256: str | None  # the LFS files' (the weights)
     git_oid: str  # git's blob sha1 (the small files are checked by it)
+    local: str = ""  # where it goes in the model's folder, where not at `path` (an fp16 copy under the default name)
+
+    @property
+    def local_path(self) -> str:
+        return self.local or self.path
 
 
 class _KeepMethodRedirects(urllib.request.HTTPRedirectHandler):

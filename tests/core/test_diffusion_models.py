@@ -206,6 +206,25 @@ def test_an_unknown_repository_a_refused_token_and_a_gated_model_are_one_line_ea
             _download(hub, tmp_path / "g")
 
 
+def test_a_half_precision_device_takes_the_fp16_copies_under_the_default_names(tmp_path):
+    import torch
+    from lapig.lapig_core.lgst import get_backend
+
+    repo = make_tiny_pipeline(tmp_path / "repo", "ip2p", fp16_copies=True)
+    with FakeModelHub({"tiny/ip2p": repo}) as hub:
+        full, _ = _download(hub, tmp_path / "full")
+        half, _ = _download(hub, tmp_path / "half", half=True)
+    assert half.bytes_total < 0.6 * full.bytes_total
+    manifest = pf.read_manifest(half.folder)["files"]
+    assert manifest[UNET]["source"] == "unet/diffusion_pytorch_model.fp16.safetensors"
+    assert not os.path.exists(os.path.join(half.folder, "unet", "diffusion_pytorch_model.fp16.safetensors"))
+    assert device_fit._stored_half(half.folder) and not device_fit._stored_half(full.folder)
+    assert pf.verify(half.folder) == [] and pf.folder_state(half.folder).state == pf.READY
+    backend = get_backend("instruct-pix2pix", model=half.folder, size=64, steps=1, psa_steps=1, device="cpu")
+    out = backend.stylize(torch.rand(1, 3, 64, 64), "Make it a Claymation")  # the CPU loads them as float32
+    assert torch.isfinite(out).all() and backend.describe()["dtype"] == "float32"
+
+
 def test_a_folder_that_is_not_a_pipeline_is_refused_with_what_it_lacks(tiny_repo, tmp_path):
     assert pf.check_pipeline(tiny_repo)["_class_name"] == "StableDiffusionInstructPix2PixPipeline"
     with pytest.raises(ModelError, match="has no model_index.json"):

@@ -33,7 +33,9 @@ def tiny_tokenizer():
     return CLIPTokenizer(vocab=vocab, merges=[], model_max_length=77), len(vocab)
 
 
-def make_tiny_pipeline(folder, kind: str = "ip2p", seed: int = 0) -> str:
+def make_tiny_pipeline(folder, kind: str = "ip2p", seed: int = 0, fp16_copies: bool = False) -> str:
+    """fp16_copies: also the weights' fp16 variant (x.fp16.safetensors beside x.safetensors), as SD-Turbo's
+    repository has them."""
     import torch
     from diffusers import (AutoencoderKL, EulerAncestralDiscreteScheduler, StableDiffusionImg2ImgPipeline,
                            StableDiffusionInstructPix2PixPipeline, UNet2DConditionModel)
@@ -61,4 +63,6 @@ def make_tiny_pipeline(folder, kind: str = "ip2p", seed: int = 0) -> str:
         pipe = cls(vae=vae, text_encoder=text_encoder, tokenizer=tokenizer, unet=unet, scheduler=scheduler,
                    safety_checker=None, feature_extractor=None, requires_safety_checker=False)
         pipe.save_pretrained(str(folder))
+        if fp16_copies:
+            pipe.to(torch.float16).save_pretrained(str(folder), variant="fp16")
     return str(folder)

@@ -2,7 +2,7 @@
 """`python -m lapig_addon bench diffusion --json`: the diffusion model manager's chain against a local hub (issue 53).
 
 A tiny InstructPix2Pix pipeline and a tiny one-step img2img pipeline (random weights, about 0.4 MB each, built
-here) are served by tools/bench/fake_model_hub as a Hugging Face hub would serve them; the manager downloads them
+here; the one-step one with fp16 copies, which a GPU's download takes) are served by tools/bench/fake_model_hub as a Hugging Face hub would serve them; the manager downloads them
 into a fresh models folder. Each *_ok is true only when its check ran and held:
   * download_ok: the download reported progress, every file matches its listed sha256 / git hash, the folder is
     a whole pipeline and ready, and no partial folder is left;
@@ -174,6 +174,7 @@ def _real_models(models: str, device: str) -> dict:
 
 
 def run(args) -> dict:
+    from ...lapig_addon.services.model_download import runs_half
     from ...lapig_core.diffusion import catalogue
     from .fake_model_hub import FakeModelHub
     from .tiny_pipeline import make_tiny_pipeline
@@ -184,7 +185,7 @@ def run(args) -> dict:
         os.makedirs(out_dir, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="lapig-bench-diffusion-", dir=out_dir or None) as work:
         repos = {"tiny/ip2p": make_tiny_pipeline(os.path.join(work, "repo-ip2p"), "ip2p"),
-                 "tiny/turbo": make_tiny_pipeline(os.path.join(work, "repo-turbo"), "img2img")}
+                 "tiny/turbo": make_tiny_pipeline(os.path.join(work, "repo-turbo"), "img2img", fp16_copies=True)}
         ip2p = replace(catalogue.model("instruct-pix2pix"), repo_id="tiny/ip2p")
         turbo = replace(catalogue.model("sd-turbo"), repo_id="tiny/turbo")
         from ...lapig_core.diffusion import fetch
@@ -192,7 +193,9 @@ def run(args) -> dict:
         with FakeModelHub(repos) as hub:
             summary = {"benchmark": "diffusion", "model": "tiny random pipelines (about 0.4 MB each)"}
             summary.update(_checks(hub, work, ip2p))
-            turbo_folder = fetch.download(turbo, os.path.join(work, "download"), True, hub.url).folder
+            half = runs_half(device)  # a GPU: the fp16 copies, as the preferences' Download takes them there
+            turbo_folder = fetch.download(turbo, os.path.join(work, "download"), True, hub.url, half=half).folder
+            summary["turbo_fp16_copies"] = half
         summary.update(_runs(os.path.join(work, "download", ip2p.key), turbo_folder, device))
     summary["depth_conditioned_ok"] = None
     summary["depth_conditioned_reason"] = "depth conditioning (issue 53, item 3) is not built yet"

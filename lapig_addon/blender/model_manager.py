@@ -173,7 +173,8 @@ class LAPIG_OT_remove_model(ReportsErrors, bpy.types.Operator):
         prefs = _prefs(context)
         if own_folder(prefs, self.model):
             _set_own_folder(prefs, self.model, "")
-            self.report({"INFO"}, f"{catalogue.model(self.model).title}: your folder is no longer used (its files stay)")
+            title = catalogue.model(self.model).title
+            self.report({"INFO"}, f"{title}: your folder is no longer used (its files stay)")
             return {"FINISHED"}
         self.report({"INFO"}, model_download.remove(self.model, models_root(prefs)))
         return {"FINISHED"}

@@ -10,7 +10,6 @@ import re
 import io
 import os
 import threading
-import time
 from dataclasses import replace
 
 import pytest
@@ -103,7 +102,8 @@ def test_a_cancel_leaves_nothing_that_looks_ready_and_the_next_download_resumes(
 
     with pytest.raises(fetch.DownloadCancelled):
         fetch.download(ENTRY, str(root), True, base=hub.url, report=report, cancel_event=cancel)
-    assert pf.folder_state(str(root / "instruct-pix2pix"), fetch.partial_folder(str(root), ENTRY.key)).state == pf.ABSENT
+    partial = fetch.partial_folder(str(root), ENTRY.key)
+    assert pf.folder_state(str(root / "instruct-pix2pix"), partial).state == pf.ABSENT
     part = root / ".partial-instruct-pix2pix" / (UNET + ".part")
     kept = part.stat().st_size
     assert 0 < kept < os.path.getsize(os.path.join(hub.repos["tiny/ip2p"], UNET))

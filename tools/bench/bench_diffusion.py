@@ -2,7 +2,8 @@
 """`python -m lapig_addon bench diffusion --json`: the diffusion model manager's chain against a local hub (issue 53).
 
 A tiny InstructPix2Pix pipeline and a tiny one-step img2img pipeline (random weights, about 0.4 MB each, built
-here; the one-step one with fp16 copies, which a GPU's download takes) are served by tools/bench/fake_model_hub as a Hugging Face hub would serve them; the manager downloads them
+here; the one-step one with fp16 copies, which a GPU's download takes) are served by tools/bench/fake_model_hub
+as a Hugging Face hub would serve them; the manager downloads them
 into a fresh models folder. Each *_ok is true only when its check ran and held:
   * download_ok: the download reported progress, every file matches its listed sha256 / git hash, the folder is
     a whole pipeline and ready, and no partial folder is left;
@@ -80,7 +81,8 @@ def _checks(hub, work: str, ip2p_entry) -> dict:
         fetch.download(ip2p_entry, root, True, hub.url)
         out["hash_check_ok"] = False
     except ModelError as exc:
-        out["hash_check_ok"] = ("arrived damaged" in str(exc) and not os.path.exists(os.path.join(root, ip2p_entry.key)))
+        out["hash_check_ok"] = ("arrived damaged" in str(exc)
+                                and not os.path.exists(os.path.join(root, ip2p_entry.key)))
         out["hash_check_line"] = str(exc)
     hub.corrupt.clear()
 

@@ -52,7 +52,19 @@ class _KeepMethodRedirects(urllib.request.HTTPRedirectHandler):
         return None
 
 
-_OPENER = urllib.request.build_opener(_KeepMethodRedirects)
+def _tls_context():
+    """The system's certificates, or certifi's where it is installed (Blender bundles it; a Python on macOS may
+    have no system store it can read)."""
+    import ssl
+
+    try:
+        import certifi
+        return ssl.create_default_context(cafile=certifi.where())
+    except ImportError:
+        return ssl.create_default_context()
+
+
+_OPENER = urllib.request.build_opener(_KeepMethodRedirects, urllib.request.HTTPSHandler(context=_tls_context()))
 
 
 class Hub:

@@ -23,7 +23,7 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "show": "show", "show-live": "show_live", "video": "video", "multi": "multi",
               "multi-live": "multi_live", "show-multi": "show_multi",
               "denormals": "denormals", "layout": "layout", "threads": "threads", "looks": "looks",
-              "machine": "machine"}
+              "machine": "machine", "diffusion": "diffusion"}
 
 
 def _ensure_registered():
@@ -199,6 +199,8 @@ def add_parsers(sub):
                        help="looks: add the suite's held-back prompts (tools/bench/looks_suite.toml)")
     bench.add_argument("--prompts-like", default=None, help="looks: only the suite's prompts containing this text")
     bench.add_argument("--psa", action="store_true", help="looks: also PSA's gain per family (the device check capture)")
+    bench.add_argument("--models", default="",
+                       help="diffusion: a models folder whose real models' state is reported (default: $LAPIG_MODELS_DIR)")
     from .bench.bench_device import add_arguments as device_arguments
 
     device_arguments(bench)  # device: --device, --paper-iterations, --frames, --write-cpu-figures, ...

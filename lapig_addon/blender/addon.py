@@ -11,6 +11,7 @@ _MODULES = (
     ".light_properties",
     ".preferences",
     ".torch_installer",
+    ".model_manager",
     "...operators",
     "...panels",
     ".live_devices",

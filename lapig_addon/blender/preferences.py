@@ -11,8 +11,9 @@ from ...lapig_core.common.gpu_torch import gpu_advice, installed_torch, nvidia_g
 from ..services import torch_builds
 from ..services.bundle_status import bundle_lines, read_bundle
 from ..services.torch_install import SLOT as TORCH_INSTALL
-from . import torch_installer, ui_text
+from . import model_manager, torch_installer, ui_text
 from .preferences_access import addon_package as _addon_package
+from .preferences_access import compute_device  # noqa: F401 (scene_state reads it from here)
 from .operator_boundary import ReportsErrors
 
 
@@ -53,7 +54,19 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
     ip2p_model: bpy.props.StringProperty(
         name="InstructPix2Pix weights", subtype="DIR_PATH",
         description="Folder with the InstructPix2Pix weights for the 'instruct-pix2pix' backend "
-                    "(empty: the public checkpoint, if it is in the Hugging Face cache)")
+                    "(empty: the model manager's download, else the public checkpoint in the Hugging Face cache)")
+    turbo_model: bpy.props.StringProperty(
+        name="SD-Turbo weights", subtype="DIR_PATH",
+        description="Folder with the one-step model's weights (empty: the model manager's download)")
+    models_folder: bpy.props.StringProperty(
+        name="Models folder", subtype="DIR_PATH",
+        description="Where Download puts the diffusion models (empty: LAPIG's folder in Blender's user data)")
+    hub_endpoint: bpy.props.StringProperty(
+        name="Model hub", default="",
+        description="The Hugging Face hub's address, or a mirror's (empty: HF_ENDPOINT, else https://huggingface.co)")
+    hub_token: bpy.props.StringProperty(
+        name="Hub token", subtype="PASSWORD", default="",
+        description="A Hugging Face read token, for gated models (optional; sent to the model hub only)")
     device: bpy.props.EnumProperty(
         name="Device", default="AUTO",
         items=[("AUTO", "Auto", "A GPU where torch can use one (CUDA, then Apple's MPS), else the CPU"),
@@ -73,13 +86,13 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
     def draw(self, context):
         layout = self.layout
         fit = ui_text.fit_for(context)
-        layout.prop(self, "ip2p_model")
         layout.prop(self, "device")
         layout.prop(self, "ffmpeg_path")
         col = layout.column(align=True)
         for line in bundle_lines(read_bundle()):  # what the zip lacks: its next step may be the torch box below
             _wrapped(col, fit, line.text, line.icon)
         _draw_torch(layout, self, fit)
+        model_manager.draw_models(layout, self, fit, _wrapped)
         col = layout.column(align=True)
         col.label(text="Python dependencies:")
         deps = check_dependencies()
@@ -156,18 +169,18 @@ def _draw_torch(layout, prefs, fit):
         box.operator(LAPIG_OT_copy_cuda_command.bl_idname, icon="COPYDOWN")
 
 
-def compute_device() -> str:
-    """'auto' or 'cpu' from the preferences ('auto' when the add-on is registered without being enabled, as
-    in the bpy module)."""
-    addon = bpy.context.preferences.addons.get(_addon_package())
-    return addon.preferences.device.lower() if addon and addon.preferences else "auto"
-
-
 def ip2p_model() -> str:
-    """The InstructPix2Pix weights folder from the preferences ('' when unset, or when the add-on is
-    registered without being enabled, as in the bpy module)."""
+    """The InstructPix2Pix weights folder: the preferences' own folder, else the model manager's download where it
+    is ready ('' when neither, or when the add-on is registered without being enabled, as in the bpy module)."""
+    from ..services.model_download import ready_folder
+
     addon = bpy.context.preferences.addons.get(_addon_package())
-    return bpy.path.abspath(addon.preferences.ip2p_model) if addon and addon.preferences else ""
+    if not (addon and addon.preferences):
+        return ""
+    prefs = addon.preferences
+    if prefs.ip2p_model:
+        return bpy.path.abspath(prefs.ip2p_model)
+    return ready_folder("instruct-pix2pix", model_manager.models_root(prefs))
 
 
 def ffmpeg_path() -> str:

@@ -12,3 +12,10 @@ def addon_preferences(context=None):
     context = context or bpy.context
     addon = context.preferences.addons.get(addon_package())
     return addon.preferences if addon and addon.preferences else None
+
+
+def compute_device() -> str:
+    """'auto' or 'cpu' from the preferences ('auto' when the add-on is registered without being enabled, as
+    in the bpy module)."""
+    addon = bpy.context.preferences.addons.get(addon_package())
+    return addon.preferences.device.lower() if addon and addon.preferences else "auto"

@@ -40,9 +40,9 @@ def _missing_message(model: str, detail: str = "") -> str:
     else:
         where = f"'{model}' (Hugging Face cache)"
         fetch = f"`hf download {model}` (or pass allow_download=True once)"
-    msg = (f"InstructPix2Pix weights not found at {where}; download them with {fetch} and choose that folder "
-           f"as the InstructPix2Pix weights (add-on preferences, or `stylize --ip2p-model`), or use the default "
-           f"'styletransfer' backend")
+    msg = (f"InstructPix2Pix weights not found at {where}; download them in the add-on preferences (Diffusion "
+           f"models > Download), or with {fetch} and choose that folder (Diffusion models > Use Folder, or "
+           f"`stylize --ip2p-model`), or use the default 'styletransfer' backend")
     return msg + (f" ({detail})" if detail else "")
 
 
@@ -69,9 +69,10 @@ def model_status(model: str | None = None) -> tuple[bool, str]:
 
 
 def _pick_device(device) -> torch.device:
-    if device is None or device == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    return torch.device(device)
+    """'auto' (or None): CUDA, then Apple's MPS, else the CPU, as everything else picks its device."""
+    from ..common import compute_device
+
+    return compute_device.resolve(device or compute_device.AUTO)
 
 
 @functools.lru_cache(maxsize=2)
@@ -85,8 +86,17 @@ def _load_pipeline(model: str, device: str, allow_download: bool):
     from diffusers import EulerAncestralDiscreteScheduler, StableDiffusionInstructPix2PixPipeline
 
     dev = torch.device(device)
-    dtype = torch.float16 if dev.type == "cuda" else torch.float32  # fp16 is slow or unsupported on CPU
     source = str(Path(model).expanduser()) if _is_local_path(model) else model
+    half = dev.type in ("cuda", "mps")  # fp16 is slow or unsupported on CPU
+    if _is_local_path(model):  # the weights' bytes are on disk: check they fit before loading them
+        from ..diffusion import device_fit
+        from ..diffusion.catalogue import ModelError
+
+        try:
+            half = device_fit.require_fit(source, dev, "InstructPix2Pix").dtype == "float16"
+        except ModelError as exc:
+            raise LGSTUnavailable(str(exc)) from None
+    dtype = torch.float16 if half else torch.float32
     try:
         pipe = StableDiffusionInstructPix2PixPipeline.from_pretrained(
             source, dtype=dtype, local_files_only=not allow_download)

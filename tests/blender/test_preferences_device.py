@@ -6,11 +6,12 @@ import pytest
 from test_panels import RecordingLayout
 
 
-def _draw(preferences):
+def _draw(preferences, models_folder=""):
     log = []
     cls = preferences.LAPIG_AP_preferences
     fake = type("Prefs", (), {"layout": RecordingLayout(log), "device": "AUTO", "ip2p_model": "",
-                              "bl_rna": cls.bl_rna})()
+                              "turbo_model": "", "models_folder": models_folder, "hub_endpoint": "",
+                              "hub_token": "", "bl_rna": cls.bl_rna})()
     cls.draw(fake, bpy.context)
     return log
 
@@ -65,3 +66,80 @@ def _sentences(log):
     from test_panels import sentences
 
     return sentences(log)
+
+
+@pytest.mark.blender
+def test_the_model_manager_box_shows_each_model_with_its_licence_state_and_buttons(lapig_registered, monkeypatch,
+                                                                                  tmp_path):
+    from lapig.lapig_addon.blender import model_manager, preferences, torch_installer
+    from lapig.lapig_addon.services import model_download
+
+    monkeypatch.setattr(torch_installer, "online_access", lambda: False)
+    log = _draw(preferences, str(tmp_path))
+    text = _sentences(log)
+    assert ("prop", "models_folder") in log and ("prop", "hub_token") in log and ("prop", "hub_endpoint") in log
+    assert ("label", "InstructPix2Pix (timbrooks/instruct-pix2pix)", "IMPORT") in log
+    assert ("label", "SD-Turbo (stabilityai/sd-turbo)", "IMPORT") in log
+    assert any(t.startswith("Licence: MIT") for t in text) and any("Stability AI" in t for t in text)
+    assert any(t.startswith("absent (size: listed when the download starts)") for t in text)
+    assert log.count(("operator", "lapig.download_model")) == 2 and ("operator", "lapig.use_model_folder") in log
+    assert any(t.startswith("Online access is off in Blender") and "Use Folder" in t for t in text)
+    assert any(t.startswith("Diffusion runs on") for t in text)
+    from lapig.lapig_core.common import gpu_torch
+
+    monkeypatch.setattr(gpu_torch, "nvidia_gpu_present", lambda: True)  # a GPU, and a torch without CUDA
+    monkeypatch.setattr(gpu_torch, "installed_torch", lambda: gpu_torch.TorchBuild(True, "2.13.0+cpu"))
+    assert model_manager.device_line().startswith("Diffusion would run on the CPU (torch 2.13.0+cpu: CPU only): this "
+                                                  "computer has an NVIDIA GPU; install a CUDA build")
+
+    class Running:  # a download under way: its progress bar and Cancel in its row
+        finished, progress, message = False, 0.25, "diffusion_pytorch_model.safetensors: 25% of 3438 MB"
+        request = model_download.DownloadRequest("sd-turbo", str(tmp_path), True)
+
+    monkeypatch.setattr(model_download.DOWNLOADS, "job", Running())
+    log = _draw(preferences, str(tmp_path))
+    assert ("progress", "diffusion_pytorch_model.safetensors: 25% of 3438 MB (25%)") in log
+    assert ("operator", "lapig.cancel_model_download") in log and log.count(("operator", "lapig.download_model")) == 1
+
+
+@pytest.mark.blender
+def test_download_refuses_offline_and_use_folder_refuses_a_folder_that_is_not_a_pipeline(lapig_registered,
+                                                                                         monkeypatch, tmp_path):
+    from lapig.lapig_addon.blender import torch_installer
+
+    monkeypatch.setattr(torch_installer, "online_access", lambda: False)
+    with pytest.raises(RuntimeError, match="Online access is off in Blender"):
+        bpy.ops.lapig.download_model(model="sd-turbo")
+    with pytest.raises(RuntimeError, match="unknown model 'dall-e'"):
+        monkeypatch.setattr(torch_installer, "online_access", lambda: True)
+        bpy.ops.lapig.download_model(model="dall-e")
+    with pytest.raises(RuntimeError, match="is not a diffusers pipeline: it has no model_index.json"):
+        bpy.ops.lapig.use_model_folder(model="sd-turbo", directory=str(tmp_path))
+
+
+@pytest.mark.blender
+def test_download_in_a_script_runs_to_the_end_and_the_model_is_ready(lapig_registered, monkeypatch,
+                                                                               tmp_path):
+    """Download from a script (no UI: the job runs in execute()), against the local hub named by HF_ENDPOINT; the
+    model manager then finds it ready there."""
+    pytest.importorskip("diffusers")
+    from dataclasses import replace
+
+    from lapig.lapig_addon.blender import model_manager, torch_installer
+    from lapig.lapig_core.diffusion import catalogue
+    from lapig.tools.bench.fake_model_hub import FakeModelHub
+    from lapig.tools.bench.tiny_pipeline import make_tiny_pipeline
+
+    repo = make_tiny_pipeline(tmp_path / "repo", "ip2p")
+    monkeypatch.setattr(catalogue, "CATALOGUE", (replace(catalogue.CATALOGUE[0], repo_id="tiny/ip2p"),)
+                        + catalogue.CATALOGUE[1:])
+    monkeypatch.setattr(model_manager, "models_root", lambda prefs=None: str(tmp_path / "models"))
+    monkeypatch.setattr(torch_installer, "online_access", lambda: True)
+    with FakeModelHub({"tiny/ip2p": repo}) as hub:
+        monkeypatch.setenv("HF_ENDPOINT", hub.url)
+        assert bpy.ops.lapig.download_model(model="instruct-pix2pix") == {"FINISHED"}
+    folder = tmp_path / "models" / "instruct-pix2pix"
+    assert (folder / "model_index.json").is_file() and (folder / ".lapig-model.json").is_file()
+    from lapig.lapig_addon.services.model_download import ready_folder
+
+    assert ready_folder("instruct-pix2pix", str(tmp_path / "models")) == str(folder)

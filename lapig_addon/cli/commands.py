@@ -28,7 +28,8 @@ def cmd_demo(args) -> int:
     """The README's main job: demo scene -> capture -> models -> prompt -> projector image -> render."""
     from ...lapig_core.lgst.prompt_mapping import validate_prompt
     from ..services import export_result
-    from ..services.pipeline_jobs import GenerateJob, RenderResultJob, TrainModelsJob, result_notes
+    from ..services.pipeline_jobs import GenerateJob, TrainModelsJob, result_notes
+    from ..services.render_job import RenderResultJob
 
     validate_prompt(args.prompt)  # now, not after minutes of capture and training
     _ensure_registered()
@@ -195,7 +196,8 @@ def _style_image_specs(specs) -> tuple | None:
 
 
 def cmd_stylize(args) -> int:
-    from ..services.pipeline_jobs import GenerateJob, RenderResultJob, result_notes
+    from ..services.pipeline_jobs import GenerateJob, result_notes
+    from ..services.render_job import RenderResultJob
 
     style_images = _style_image_specs(args.style_images)  # a bad image is refused before the .blend opens
     prompt = args.prompt if args.prompt is not None else ("" if style_images else None)
@@ -249,7 +251,7 @@ def _stylize_multi(args, seams, request, capture) -> int:
         refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
         out["summary"] = read_summary_of(refined["folder"])
     if args.render:  # after the refinement: the render captures the refined images
-        from ..services.pipeline_jobs import RenderResultJob
+        from ..services.render_job import RenderResultJob
 
         out["summary"] = RenderResultJob(seams).run_to_completion()
     _save_if_asked(args)

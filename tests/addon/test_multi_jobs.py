@@ -293,7 +293,7 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     assert panel_state.refine_blocker(shared.read()).endswith("are both on display '1': give each its own display")
 
 
-@pytest.mark.torch  # RenderResultJob lives in pipeline_jobs, which loads torch
+@pytest.mark.torch  # render_job takes current_capture from pipeline_jobs, which loads torch
 def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_on_the_object(tmp_path):
     """Render Real Capture on a rig of several: both projectors' images of the result shown together, captured
     once in camera space; rendered.png and its PSNR against the look (and the predicted capture) go into the
@@ -319,7 +319,7 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
                                    {"prompt": "look", "capture": str(cs.setup_dir), "summary_line": "look"},
                                    model.reached.any(axis=0))
     store.result = str(folder)
-    job = _module("pipeline_jobs").RenderResultJob(seams)
+    job = _module("render_job").RenderResultJob(seams)
     assert job.run() == "DONE", job.error
     m = job.result["metrics"]
     print("rendered", m["rendered_psnr"], "vs predicted", m["rendered_vs_predicted_psnr"], "simulated",
@@ -336,7 +336,7 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
     assert saved["summary_line"].endswith(f"; no PSA; rendered in Cycles {m['rendered_psnr']:.1f} dB against the look")
     assert store.result == str(folder)
     # rendered again: one figure in the line, the newest
-    assert _module("pipeline_jobs").RenderResultJob(seams).run() == "DONE"
+    assert _module("render_job").RenderResultJob(seams).run() == "DONE"
     assert json.loads((folder / "result.json").read_text())["summary_line"].count("rendered in Cycles") == 1
     sheet = read_image(folder / "comparison.png")
     assert sheet.shape[1] == 3 * 256  # look, predicted, rendered; the projectors below

@@ -1,0 +1,102 @@
+"""Render Real Capture in camera space, for a result of several projectors (issue 36): every projector shows its
+image of the result (result.json's projectors[k].image, the refined one where Refine put it) at once, and the
+camera captures them, once, on the rig's multi_capture_device (the virtual rig: one Cycles studio per projector,
+their linear light added before the one camera response, as the capture and refinement do).
+
+RenderResultJob (services/render_job) takes this way when the scene's rig has more than one projector (the Render
+Real Capture button, `stylize --render`). The rendered capture is in camera space, as the result's look and
+predicted capture are: rendered.png (and rendered_nopsa.png from the images without PSA) go into the result
+folder, its comparison sheet shows look, predicted and rendered side by side, and result.json's metrics get
+rendered_psnr (against the look, on the object where some projector reaches) and rendered_vs_predicted_psnr
+(against the joint model's predicted capture). result.json is written last.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ...lapig_core.export.result_files import read_summary
+from .refine_joint import multi_refine_inputs
+from .pipeline_errors import PipelineError
+
+
+def render_valid(capture: str) -> np.ndarray:
+    """The camera pixels compared: the object where some projector of the capture's joint model reaches."""
+    from ...lapig_core.multi.capture_set import load_multi_capture
+    from ...lapig_core.multi.first_look import fit_joint_first_look, load_joint_model
+
+    cs = load_multi_capture(capture, pairs=False)
+    model = load_joint_model(cs.setup_dir)
+    if model is None or model.count != cs.count:
+        model = fit_joint_first_look(load_multi_capture(capture)).model
+    return model.reached.any(axis=0) & np.asarray(cs.object_mask, bool)
+
+
+def render_rounds(device, image_sets: list):
+    """A generator over an open MultiProjectorDevice of the fraction done: each set of K images shown together
+    and captured once, at the exposure the capture fixed (every projector white together); its value is the
+    float captures."""
+    from ...lapig_core.refine.joint import device_capture
+
+    capture = device_capture(device)
+    device.lock_exposure([np.ones((m.shape[0], m.shape[1], 3), np.uint8) * 255 for m in image_sets[0]])
+    captured = []
+    for images in image_sets:
+        captured.append(capture(images, 1)[0])
+        yield len(captured) / len(image_sets)
+    return captured
+
+
+class JointRenderWay:
+    """RenderResultJob's steps for a rig of several projectors (see render_job.ProjectorRenderWay)."""
+
+    projecting = 0.05, "projecting every projector's image on the rig"
+    comparing = "comparing with the look"
+    holds_capture = True
+
+    def inputs(self, seams):
+        folder, capture = multi_refine_inputs(seams, "rendering")
+        summary = read_summary(folder)
+        if summary.get("capture") and summary["capture"] != capture:
+            raise PipelineError("the result was made on another capture than the scene's: generate again first")
+        return folder, capture, summary
+
+    def image_sets(self, folder):
+        """Every projector's image (the refined one where made), and the images without PSA where made."""
+        from ...lapig_core.multi.result_files import nopsa_images, projector_images
+
+        sets = {"rendered": [image for _, image in projector_images(folder)]}
+        without = nopsa_images(folder)
+        if without is not None:
+            sets["rendered_nopsa"] = without
+        return sets
+
+    def rig_settings(self, store):
+        return store.capture_settings()
+
+    def rounds(self, devices, capture, image_sets, capture_settings):
+        with devices.multi_capture_device(capture_settings) as device:
+            return (yield from render_rounds(device, image_sets))
+
+    def record(self, seams, folder, capture, summary, rendered, capture_settings):
+        from ...lapig_core.multi.result_files import rendered_metrics, write_rendered
+
+        summary.setdefault("metrics", {}).update(rendered_metrics(rendered, folder, render_valid(capture)))
+        summary["rendered_bit_depth"] = 8  # the device's frames: refine/joint.device_capture's contract
+        summary["summary_line"] = with_rendered(summary.get("summary_line") or summary.get("prompt") or "result",
+                                                summary["metrics"]["rendered_psnr"])
+        write_rendered(folder, rendered, summary)
+        seams.store.record_result(folder, summary["summary_line"])  # the panel's line says it
+        return summary
+
+
+RENDERED = "; rendered in Cycles "
+
+
+def with_rendered(line: str, psnr: float) -> str:
+    """The result line with this render's figure in place of an earlier render's, before ' | ' (the panel shows
+    what follows it on a line of its own)."""
+    head, bar, missed = line.partition(" | ")
+    head = re.sub(re.escape(RENDERED) + r"[^;]*", "", head)
+    return head + f"{RENDERED}{psnr:.1f} dB against the look" + (bar + missed if bar else "")

@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...lapig_core.export.result_files import read_result_image, read_summary, write_result
+from ...lapig_core.export.result_files import read_result_image, write_result
 from ...lapig_core.refine.loop import RefineError, RefineSettings
 from . import panel_state
 from .multi_generate_job import MultiPipelineError, multi_capture
-from .pipeline_errors import PipelineError
+from .pipeline_errors import PipelineError, summary_made_on
 from .refine_lines import record_refinement, refine_line
 
 REFINED_SUFFIX = "_refined"
@@ -50,9 +50,7 @@ def prepared_multi_refinement(folder: str, capture: str, settings: RefineSetting
     from ...lapig_core.multi.result_files import projector_images
 
     yield 0.02, "reading the result and the joint model"
-    summary = read_summary(folder)
-    if summary.get("capture") and summary["capture"] != capture:
-        raise PipelineError("the result was made on another capture than the scene's: generate again first")
+    summary = summary_made_on(folder, capture)
     cs = load_multi_capture(capture, pairs=False)
     model = load_joint_model(cs.setup_dir)
     if model is None or model.count != cs.count:
@@ -66,14 +64,18 @@ def prepared_multi_refinement(folder: str, capture: str, settings: RefineSetting
         raise PipelineError(str(exc)) from None
 
 
-def multi_refine_rounds(device, refinement):
-    """A generator of (progress, message) that runs `refinement` on an open MultiProjectorDevice."""
+def exposed_capture(device, sizes):
+    """refine/joint.device_capture over an open MultiProjectorDevice, at the camera's exposure as the capture fixed
+    it: every projector (sizes: (width, height) each) white together."""
     from ...lapig_core.refine.joint import device_capture
 
-    capture = device_capture(device)
-    # the camera's exposure as the capture fixed it: every projector white together
-    device.lock_exposure([np.ones((m.projector_size[1], m.projector_size[0], 3), np.uint8) * 255
-                          for m in refinement.model.maps])
+    device.lock_exposure([np.full((h, w, 3), 255, np.uint8) for w, h in sizes])
+    return device_capture(device)
+
+
+def multi_refine_rounds(device, refinement):
+    """A generator of (progress, message) that runs `refinement` on an open MultiProjectorDevice."""
+    capture = exposed_capture(device, [m.projector_size for m in refinement.model.maps])
     vary = getattr(device, "vary_noise", None)
     cap, draws = refinement.settings.iterations, 0
     while not refinement.done:

@@ -1,9 +1,7 @@
-"""Render Real Capture: the result's projector images shown on the rig and captured, the 'real capture', through
-the device factory every job uses (Cycles, a real or a simulated rig alike). The way is chosen once, by the rig:
-one projector's images are captured and registered into its working frame (ProjectorRenderWay, below), several
-projectors' images shown at once and captured in camera space (services/render_joint); the job's steps are the
-same for both. Captures are bpy work with Cycles: the device's steps run on the thread it needs, one image a
-step, so the UI gets a turn between renders. result.json is written last.
+"""Render Real Capture: the result's projector images shown on the rig and captured, through the device factory
+every job uses. The way is chosen once, by the rig: one projector's captures are registered into its working
+frame (ProjectorRenderWay, below), several projectors' images are shown at once and captured in camera space
+(services/render_joint); the job's steps are the same for both, one image a step. result.json is written last.
 """
 from __future__ import annotations
 
@@ -12,6 +10,7 @@ import os
 from ...lapig_core.capture.settings import CaptureError
 from ...lapig_core.common import metrics
 from ...lapig_core.common.resample import resize_image
+from ...lapig_core.common.steps import mapped_steps
 from ...lapig_core.export.result_files import output_name, read_output_image, read_summary, write_result
 from . import panel_state
 from .jobs import Job
@@ -32,20 +31,14 @@ class RenderResultJob(Job):
 
     def steps(self):
         way = render_way(self.seams)
-        folder, capture, summary = way.inputs(self.seams)
+        folder, capture, summary, sets = way.inputs(self.seams)  # sets: {the capture's name: the image(s) shown}
         yield way.projecting
-        sets = way.image_sets(folder)  # {name of the capture: the image(s) shown for it}
         devices, rig_settings = self.seams.devices, way.rig_settings(self.seams.store)  # the store reads bpy: here
         held = hold_capture(capture, self.title) if way.holds_capture else None
 
-        def render():
-            fractions = way.rounds(devices, capture, list(sets.values()), rig_settings)
-            while True:
-                try:
-                    done = next(fractions)
-                except StopIteration as end:
-                    return end.value
-                yield 0.1 + 0.8 * done, f"captured {round(done * len(sets))}/{len(sets)}"
+        def render():  # the fraction done of each way's rounds, as the progress bar's step
+            return mapped_steps(way.rounds(devices, capture, list(sets.values()), rig_settings),
+                                lambda done: (0.1 + 0.8 * done, f"captured {round(done * len(sets))}/{len(sets)}"))
 
         try:
             captured = yield from self.drive(render, devices.main_thread, holding=held)
@@ -66,8 +59,8 @@ def render_way(seams):
 
 
 class ProjectorRenderWay:
-    """RenderResultJob's steps for one projector: inputs(seams) -> (result folder, capture, summary), image_sets,
-    rig_settings(store) on the main thread; rounds(devices, capture, images, rig_settings) a generator of the
+    """RenderResultJob's steps for one projector: inputs(seams) -> (result folder, capture, summary, image sets)
+    and rig_settings(store) on the main thread; rounds(devices, capture, images, rig_settings): a generator of the
     fraction done whose value is one capture per image; record(seams, folder, capture, summary, {name: capture},
     rig_settings) writes the figures and the captures and returns the summary."""
 
@@ -80,12 +73,10 @@ class ProjectorRenderWay:
         blocker = panel_state.single_result_blocker(state)
         if blocker:
             raise PipelineError(blocker)
-        return state.result_dir, current_capture(state), read_summary(state.result_dir)
-
-    def image_sets(self, folder):
-        """The images with and without PSA where the result has them, native where made."""
-        return {"rendered" + suffix: read_output_image(folder, "projector" + suffix) for suffix in ("", "_nopsa")
+        folder = state.result_dir  # its images with and without PSA where made, native where made
+        sets = {"rendered" + suffix: read_output_image(folder, "projector" + suffix) for suffix in ("", "_nopsa")
                 if os.path.isfile(os.path.join(folder, f"projector{suffix}.png"))}
+        return folder, current_capture(state), read_summary(folder), sets
 
     def rig_settings(self, store):
         return store.export_settings().bit_depth  # the frames are the pixels of the files Export writes

@@ -16,9 +16,8 @@ import re
 
 import numpy as np
 
-from ...lapig_core.export.result_files import read_summary
-from .refine_joint import multi_refine_inputs
-from .pipeline_errors import PipelineError
+from .pipeline_errors import summary_made_on
+from .refine_joint import exposed_capture, multi_refine_inputs
 
 
 def render_valid(capture: str) -> np.ndarray:
@@ -33,21 +32,6 @@ def render_valid(capture: str) -> np.ndarray:
     return model.reached.any(axis=0) & np.asarray(cs.object_mask, bool)
 
 
-def render_rounds(device, image_sets: list):
-    """A generator over an open MultiProjectorDevice of the fraction done: each set of K images shown together
-    and captured once, at the exposure the capture fixed (every projector white together); its value is the
-    float captures."""
-    from ...lapig_core.refine.joint import device_capture
-
-    capture = device_capture(device)
-    device.lock_exposure([np.ones((m.shape[0], m.shape[1], 3), np.uint8) * 255 for m in image_sets[0]])
-    captured = []
-    for images in image_sets:
-        captured.append(capture(images, 1)[0])
-        yield len(captured) / len(image_sets)
-    return captured
-
-
 class JointRenderWay:
     """RenderResultJob's steps for a rig of several projectors (see render_job.ProjectorRenderWay)."""
 
@@ -56,28 +40,28 @@ class JointRenderWay:
     holds_capture = True
 
     def inputs(self, seams):
-        folder, capture = multi_refine_inputs(seams, "rendering")
-        summary = read_summary(folder)
-        if summary.get("capture") and summary["capture"] != capture:
-            raise PipelineError("the result was made on another capture than the scene's: generate again first")
-        return folder, capture, summary
-
-    def image_sets(self, folder):
         """Every projector's image (the refined one where made), and the images without PSA where made."""
         from ...lapig_core.multi.result_files import nopsa_images, projector_images
 
+        folder, capture = multi_refine_inputs(seams, "rendering")
+        summary = summary_made_on(folder, capture)
         sets = {"rendered": [image for _, image in projector_images(folder)]}
         without = nopsa_images(folder)
         if without is not None:
             sets["rendered_nopsa"] = without
-        return sets
+        return folder, capture, summary, sets
 
     def rig_settings(self, store):
         return store.capture_settings()
 
     def rounds(self, devices, capture, image_sets, capture_settings):
+        """Each set of K images shown together and captured once; the float captures."""
         with devices.multi_capture_device(capture_settings) as device:
-            return (yield from render_rounds(device, image_sets))
+            grab, captured = exposed_capture(device, [(m.shape[1], m.shape[0]) for m in image_sets[0]]), []
+            for images in image_sets:
+                captured.append(grab(images, 1)[0])
+                yield len(captured) / len(image_sets)
+            return captured
 
     def record(self, seams, folder, capture, summary, rendered, capture_settings):
         from ...lapig_core.multi.result_files import rendered_metrics, write_rendered

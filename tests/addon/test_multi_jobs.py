@@ -94,7 +94,7 @@ def multi(tmp_path):
 
 def test_the_capture_job_records_the_capture_its_coverage_and_the_first_look(multi):
     seams, store = multi
-    job = _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings())
+    job = _module("capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "DONE", job.error
     assert os.path.isfile(os.path.join(store.capture_dir, "models", "joint_model.npz"))
     names, shares, reached = store.coverage
@@ -108,7 +108,7 @@ def test_a_rig_that_captures_one_projector_refuses_several_in_one_line(tmp_path)
     ports, state = _module("ports"), _module("state")
     store = MultiStore(state, tmp_path / "data")
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR), multi=False))
-    job = _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings())
+    job = _module("capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "FAILED"
     assert str(job.error) == ("fake rig of two cannot capture several projectors yet: remove the other projectors, "
                               "or capture them with the virtual rig")
@@ -158,7 +158,7 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     from lapig.lapig_core.multi.stylize import JointLook
 
     seams, store = multi
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     target = np.full(cs.together.shape, 0.4, np.float32)  # a flat grey look: no torch needed
@@ -249,7 +249,7 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
 
     store, sink = Store(state, tmp_path / "data"), Sink()
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)), (sink,))
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     lo, hi = reach(model)
@@ -308,7 +308,7 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
     ports, state = _module("ports"), _module("state")
     store = MultiStore(state, tmp_path / "data")
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)))
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     lo, hi = reach(model)
@@ -353,7 +353,7 @@ def test_generate_adapts_the_look_to_the_joint_reach_when_asked(multi, psa):
     """MultiGenerateJob passes the request's PSA on: with it the folder keeps the look without PSA beside the
     adapted one, and result.json says what PSA did; without it, one look and 'no PSA'."""
     seams, store = multi
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     request = _module("state").GenerateRequest("Make it a stained glass artwork", "styletransfer", "", psa, 0.5, 0)
     job = _module("multi_generate_job").MultiGenerateJob(seams, request, working_size=48)
     assert job.run() == "DONE", job.error
@@ -375,7 +375,7 @@ def test_a_show_of_several_makes_its_morph_and_motion_per_projector_and_exports_
     by lapig_core's producer on the joint reach (show/joint_setup), one frame per projector; the holds are the
     looks' own images, the in-betweens new ones; Export Show writes one sequence per projector."""
     seams, store = multi
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     folders = []
     for prompt in ("Make it a stained glass artwork", "Make it a charcoal sketch"):
         request = _module("state").GenerateRequest(prompt, "styletransfer", "", True, 0.5, 0)

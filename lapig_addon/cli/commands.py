@@ -402,7 +402,7 @@ def cmd_show(args) -> int:
     show."""
     from ...lapig_core.multi.result_files import is_multi_result
     from ..rigs import live_output
-    from ..services import export_result
+    from ..services import crossfade, export_result
 
     scene = _open_scene(args)
     store = BlenderSceneStore(scene)
@@ -426,7 +426,8 @@ def cmd_show(args) -> int:
     try:
         summary = {"display": sink.window.describe()["display"], "result": folder}
         if args.crossfade:
-            frames = live_output.result_crossfade(store, folder, settings.bit_depth, settings.crossfade_frames)
+            sets = crossfade.frame_sets(store, folder, settings.bit_depth, settings.crossfade_frames)
+            frames = (frame for [frame] in sets)  # one projector's
             summary["crossfade"] = live_output.play(sink.window, frames, fps=args.fps)
         t = time.perf_counter()
         sink.show(frame)

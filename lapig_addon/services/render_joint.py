@@ -16,19 +16,14 @@ import re
 
 import numpy as np
 
+from ...lapig_core.common.steps import run_to_end
 from .pipeline_errors import summary_made_on
-from .refine_joint import exposed_capture, multi_refine_inputs
+from .refine_joint import exposed_capture, joint_inputs, joint_model_steps
 
 
 def render_valid(capture: str) -> np.ndarray:
     """The camera pixels compared: the object where some projector of the capture's joint model reaches."""
-    from ...lapig_core.multi.capture_set import load_multi_capture
-    from ...lapig_core.multi.first_look import fit_joint_first_look, load_joint_model
-
-    cs = load_multi_capture(capture, pairs=False)
-    model = load_joint_model(cs.setup_dir)
-    if model is None or model.count != cs.count:
-        model = fit_joint_first_look(load_multi_capture(capture)).model
+    cs, model = run_to_end(joint_model_steps(capture))
     return model.reached.any(axis=0) & np.asarray(cs.object_mask, bool)
 
 
@@ -43,7 +38,7 @@ class JointRenderWay:
         """Every projector's image (the refined one where made), and the images without PSA where made."""
         from ...lapig_core.multi.result_files import nopsa_images, projector_images
 
-        folder, capture = multi_refine_inputs(seams, "rendering")
+        folder, capture = joint_inputs(seams, "rendering")
         summary = summary_made_on(folder, capture)
         sets = {"rendered": [image for _, image in projector_images(folder)]}
         without = nopsa_images(folder)

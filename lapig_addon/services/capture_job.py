@@ -130,4 +130,5 @@ class ProjectorCaptureWay:
 
     def line(self, seams, result):
         err = result["meta"]["registration"].get("registration_error_px_median")
-        return f"Captured into {result['setup_dir']}" + (f", registration error {err:.2f} px" if err is not None else "")
+        extra = f", registration error {err:.2f} px" if err is not None else ""
+        return f"Captured into {result['setup_dir']}{extra}"

@@ -6,7 +6,6 @@ from ..lapig_addon.blender.operator_boundary import AsksForFolder, poll_reason
 from ..lapig_addon.blender.scene_store import scene_seams
 from ..lapig_addon.services.background_jobs import train_after_capture
 from ..lapig_addon.services.capture_job import CaptureJob, check_rig
-from ..lapig_addon.services.multi_capture_job import MultiCaptureJob
 from ..lapig_addon.services.panel_state import capture_deps_blocker
 from ..lapig_core.capture.dataset import load_capture_set, setup_dir_of, summarize
 from ..lapig_core.optics.working_frame import check_aspect
@@ -30,19 +29,13 @@ class LAPIG_OT_capture(JobRunnerMixin, bpy.types.Operator):
         _, temporary = storage.data_root()
         if temporary:
             self.report({"WARNING"}, storage.location_message())
-        if seams.store.read().rig.projector_count > 1:  # several projectors: their own sequence and first look
-            return MultiCaptureJob(seams, seams.store.capture_settings())
         return CaptureJob(seams, seams.store.capture_settings())  # it records the capture in the scene
 
     def on_done(self, context, job):
-        if isinstance(job, MultiCaptureJob):  # no networks to train in the background for several projectors
-            self.report({"INFO"}, job.line())
-            return
-        folder = str(job.result["setup_dir"])
-        err = job.result["meta"]["registration"].get("registration_error_px_median")
-        extra = f", registration error {err:.2f} px" if err is not None else ""
-        self.report({"INFO"}, f"Captured into {folder}{extra}")
-        if train_after_capture(job, self.ran_modal, scene_state.train_in_background(context.scene)):
+        self.report({"INFO"}, job.line())
+        # several projectors have no networks to train: their joint model is the first look
+        if job.way.trains_networks and train_after_capture(job, self.ran_modal,
+                                                           scene_state.train_in_background(context.scene)):
             try:
                 bpy.ops.lapig.train_background("INVOKE_DEFAULT")
             except RuntimeError as exc:  # its ERROR report, raised back here: the capture itself is fine

@@ -58,9 +58,7 @@ class LAPIG_OT_light_cap(JobRunnerMixin, bpy.types.Operator):
             problem = "generate a look first"
         if problem:
             raise ValueError(problem)
-        if scene_state.read_rig(scene).projector_count > 1:  # one factor on every projector's light
-            return light_plan_run.several_cap_job(scene, plan)
-        return light_plan_run.cap_job(scene, plan)
+        return light_plan_run.cap_job(scene, plan)  # several projectors: one factor on every projector's light
 
     def on_done(self, context, job):
         out = job.result

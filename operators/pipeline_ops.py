@@ -117,7 +117,10 @@ class LAPIG_OT_render_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     bl_label = "Render Real Capture"
 
     def make_job(self, context):
-        return _pipeline_jobs().RenderResultJob(scene_seams(context.scene))
+        require("torch")  # render_job loads pipeline_jobs, as _pipeline_jobs says
+        from ..lapig_addon.services.render_job import RenderResultJob
+
+        return RenderResultJob(scene_seams(context.scene))
 
     def on_done(self, context, job):
         m = job.result["metrics"]

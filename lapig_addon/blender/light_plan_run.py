@@ -59,12 +59,15 @@ def write_capped(path, scene, plan, folder) -> dict:
 
 def cap_job(scene, plan, folder: str | None = None, record: bool = True, measure_psnr: bool = False):
     """Limit Look to the Dose as a job (services/dose_cap.DoseCapJob) on the scene's seams: its result (or
-    `folder`), its capture's lock, its rig's device factory."""
+    `folder`), its capture's lock, its rig's device factory. The one place its way is chosen: a rig of several
+    projectors limits every projector's light by one factor (services/several_dose_cap.SeveralDoseCapJob)."""
     from ..services.dose_cap import DoseCapJob
     from .scene_store import scene_seams
 
     if plan.limit is None:
         raise ValueError("limiting the look needs a conservation category")
+    if scene_state.read_rig(scene).projector_count > 1:
+        return _several_cap_job(scene, plan, folder, record)
     return DoseCapJob(scene_seams(scene), plan, SceneLight(scene, plan), folder, record=record,
                       measure_psnr=measure_psnr)
 
@@ -223,14 +226,12 @@ def several_report_job(scene, plan, folder: str | None, width: int = 160, maps_d
     return SeveralReportJob(plan, SeveralSceneLight(scene, plan, width), folder or None, maps_dir)
 
 
-def several_cap_job(scene, plan, folder: str | None = None, record: bool = True):
-    """Limit Look to the Dose for a result of several projectors (services/several_dose_cap.SeveralDoseCapJob):
-    one factor on every projector's light, a result of its own."""
+def _several_cap_job(scene, plan, folder: str | None, record: bool):
+    """cap_job's way for a result of several projectors: one factor on every projector's light, a result of its
+    own."""
     from ..services.several_dose_cap import SeveralDoseCapJob
     from .scene_store import scene_seams
 
-    if plan.limit is None:
-        raise ValueError("limiting the look needs a conservation category")
     folder = folder or scene_state.read(scene).result_dir
     if not folder:
         raise ValueError("limiting the look needs a result: generate a look first")

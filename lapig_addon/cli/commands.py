@@ -28,7 +28,8 @@ def cmd_demo(args) -> int:
     """The README's main job: demo scene -> capture -> models -> prompt -> projector image -> render."""
     from ...lapig_core.lgst.prompt_mapping import validate_prompt
     from ..services import export_result
-    from ..services.pipeline_jobs import GenerateJob, RenderResultJob, TrainModelsJob, result_notes
+    from ..services.pipeline_jobs import GenerateJob, TrainModelsJob, result_notes
+    from ..services.render_job import RenderResultJob
 
     validate_prompt(args.prompt)  # now, not after minutes of capture and training
     _ensure_registered()
@@ -195,7 +196,8 @@ def _style_image_specs(specs) -> tuple | None:
 
 
 def cmd_stylize(args) -> int:
-    from ..services.pipeline_jobs import GenerateJob, RenderResultJob, result_notes
+    from ..services.pipeline_jobs import GenerateJob, result_notes
+    from ..services.render_job import RenderResultJob
 
     style_images = _style_image_specs(args.style_images)  # a bad image is refused before the .blend opens
     prompt = args.prompt if args.prompt is not None else ("" if style_images else None)
@@ -249,7 +251,7 @@ def _stylize_multi(args, seams, request, capture) -> int:
         refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
         out["summary"] = read_summary_of(refined["folder"])
     if args.render:  # after the refinement: the render captures the refined images
-        from ..services.pipeline_jobs import RenderResultJob
+        from ..services.render_job import RenderResultJob
 
         out["summary"] = RenderResultJob(seams).run_to_completion()
     _save_if_asked(args)
@@ -401,7 +403,7 @@ def cmd_show(args) -> int:
     show."""
     from ...lapig_core.multi.result_files import is_multi_result
     from ..rigs import live_output
-    from ..services import export_result
+    from ..services import crossfade, export_result
 
     scene = _open_scene(args)
     store = BlenderSceneStore(scene)
@@ -425,7 +427,8 @@ def cmd_show(args) -> int:
     try:
         summary = {"display": sink.window.describe()["display"], "result": folder}
         if args.crossfade:
-            frames = live_output.result_crossfade(store, folder, settings.bit_depth, settings.crossfade_frames)
+            sets = crossfade.frame_sets(store, folder, settings.bit_depth, settings.crossfade_frames)
+            frames = (frame for [frame] in sets)  # one projector's
             summary["crossfade"] = live_output.play(sink.window, frames, fps=args.fps)
         t = time.perf_counter()
         sink.show(frame)

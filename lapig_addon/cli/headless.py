@@ -8,7 +8,6 @@ import bpy
 from ..blender import demo_scene, rig
 from ..blender.scene_store import scene_seams
 from ..services.capture_job import CaptureJob, CaptureSettings
-from ..services.multi_capture_job import MultiCaptureJob
 from .output import print_progress  # noqa: F401 (re-exported)
 
 
@@ -46,9 +45,7 @@ def run_capture(scene, settings: CaptureSettings, projector=None, camera=None, t
     panel's."""
     record = projector is None and camera is None and target is None
     seams = scene_seams(scene, projector, camera, target, devices=devices)
-    several = record and seams.store.read().rig.projector_count > 1  # the scene's own rig of several projectors
-    job = (MultiCaptureJob if several else CaptureJob)(seams, settings, record=record)
-    return job.run_to_completion(on_progress=progress)
+    return CaptureJob(seams, settings, record=record).run_to_completion(on_progress=progress)
 
 
 def ensure_dir(path):

@@ -103,8 +103,7 @@ def cmd_report(args) -> int:
         report = light_plan_run.several_report_job(scene, plan, folder, args.map_width,
                                                    args.maps).run_to_completion()
         if args.cap_result:
-            report["capped_result"] = light_plan_run.several_cap_job(scene, plan, folder,
-                                                                     record=args.save).run_to_completion()
+            report["capped_result"] = light_plan_run.cap_job(scene, plan, folder, record=args.save).run_to_completion()
             report["capped_result"].pop("summary", None)
             _save_if_asked(args)
         print_json(report)

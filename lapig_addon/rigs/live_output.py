@@ -203,22 +203,6 @@ def identification_frame(size, border: int = 8) -> np.ndarray:
     return frame
 
 
-def result_crossfade(store, folder: str, bit_depth: int, frames: int):
-    """The frames (a generator) from the result's look without PSA (black where it has none) to its look
-    with PSA, at the scene's projector's native size: what Export Crossfade writes, played instead."""
-    from ...lapig_core.export.projector_image import crossfade_frames
-    from ...lapig_core.export.result_files import read_output_image, read_result_image
-
-    model = store.projector_model()
-    end = read_output_image(folder, "projector")
-    try:
-        start = read_result_image(folder, "projector_nopsa")
-    except FileNotFoundError:
-        start = end * 0
-    return crossfade_frames(start, end, frames, width=model.width, height=model.height, bit_depth=bit_depth,
-                            gamma=model.gamma)
-
-
 class _Stopped(Exception):
     pass
 
@@ -226,7 +210,7 @@ class _Stopped(Exception):
 class CrossfadeJob(WorkerJob):
     """Play a result's crossfade on the open projector window at ``fps``, on a worker thread (Esc in
     Blender stops it; the window keeps the frame it was showing). A result of several on the windows of several
-    (a LockedWindowsSink): each projector's crossfade on its own window (services/several_crossfade), every frame
+    (a LockedWindowsSink): each projector's crossfade on its own window (services/crossfade), every frame
     presented together; the figures add `max_skew_frames`."""
 
     title = "LAPIG crossfade"
@@ -242,16 +226,15 @@ class CrossfadeJob(WorkerJob):
 
     def prepare(self):
         from ...lapig_core.multi.result_files import is_multi_result
+        from ..services import crossfade
 
         multi = is_multi_result(self.folder)
         if multi or self.several:
-            from ..services import several_crossfade
-
             if not (multi and self.several):
                 raise ValueError("the result has several projectors but one window is open: Show on Projector again"
                                  if multi else "the windows of several are open but the result is of one projector: "
                                  "Generate first")
-            sizes, windows = several_crossfade.sizes(self.folder), self.sink.window.windows
+            sizes, windows = crossfade.sizes(self.folder), self.sink.window.windows
             if len(sizes) != len(windows):
                 raise ValueError(f"the result has {len(sizes)} projectors but {len(windows)} window(s) are open: "
                                  f"Show on Projector again")
@@ -259,12 +242,13 @@ class CrossfadeJob(WorkerJob):
                 problem = size_problem(size[0], size[1], window.size)
                 if problem:
                     raise ValueError(f"projector {k + 1}: {problem}")
-            return several_crossfade.crossfade_sets(self.store, self.folder, self.bit_depth, self.frames)
-        model = self.store.projector_model()
-        problem = size_problem(model.width, model.height, self.sink.window.size)
-        if problem:
-            raise ValueError(problem)
-        return result_crossfade(self.store, self.folder, self.bit_depth, self.frames)
+        else:
+            model = self.store.projector_model()
+            problem = size_problem(model.width, model.height, self.sink.window.size)
+            if problem:
+                raise ValueError(problem)
+        sets = crossfade.frame_sets(self.store, self.folder, self.bit_depth, self.frames)
+        return sets if self.several else (frame for [frame] in sets)  # one window: its projector's frames
 
     def work(self, frames, report, cancel_event):
         def on_frame(i, on_screen):

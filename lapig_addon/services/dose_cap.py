@@ -22,6 +22,7 @@ from ...lapig_core.capture.staging import hold_root
 from ...lapig_core.common.imageio import read_image
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.common.scratch import ScratchFolder
+from ...lapig_core.common.steps import mapped_steps
 from ...lapig_core.export.result_files import output_name, read_output_image, read_summary, write_result
 from ...lapig_core.optics.projector_model import ProjectorModel
 from ...lapig_core.photometry import units
@@ -169,13 +170,8 @@ def psnr_cost_steps(devices, capture_dir, folder, frame: np.ndarray, capped: np.
     """Steps that project both frames on the rig; their value is each one's PSNR against the free look's target
     (dB) and the difference."""
     projected = projection_steps(devices, os.fspath(capture_dir), [frame, capped], chunk=2)
-    while True:
-        try:
-            done = next(projected)
-        except StopIteration as end:
-            captured = end.value[0]
-            break
-        yield 0.7 + 0.2 * done, "projecting the free and the limited look on the rig"
+    captured, _ = yield from mapped_steps(projected, lambda done: (
+        0.7 + 0.2 * done, "projecting the free and the limited look on the rig"))
     target = resize_image(read_output_image(folder, "target"), captured.shape[2], captured.shape[1])
     whole = np.ones(target.shape[:2], bool)  # numpy PSNR over the frame: Light Report needs no torch
     free, limited = (masked_psnr(c, target, whole) for c in captured)

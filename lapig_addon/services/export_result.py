@@ -9,10 +9,10 @@ import glob
 import os
 
 from ...lapig_core.export import projector_image as export
-from ...lapig_core.export.result_files import (output_name, read_output_image, read_result_image, read_summary,
-                                               stored_bit_depth)
+from ...lapig_core.export.result_files import output_name, read_output_image, read_summary, stored_bit_depth
 from ...lapig_core.multi.result_files import is_multi_result
 from . import light_sidecar
+from .crossfade import crossfades, export_crossfades
 from .export_source import addon_version, result_folder
 from .ports import ProjectorFrame
 from .sinks import ProjectorImageFile
@@ -73,28 +73,19 @@ def export_current(store, settings: ExportSettings, result: str | None = None) -
 def export_crossfade(store, directory: str, settings: ExportSettings, result: str | None = None,
                      on_progress=None) -> list:
     """Write the crossfade frames of `result` (None: the scene's result) into `directory` (absolute). A result of
-    several projectors: a folder per projector, directory/projector_<k>/ (services/several_crossfade)."""
+    several projectors: a folder per projector, directory/projector_<k>/ (services/crossfade)."""
     _check(settings)
     folder = result_folder(store, result)
     if not directory:
         raise ValueError("Choose a folder for the crossfade frames")
+    summary = read_summary(folder)
     if is_multi_result(folder):
-        from .several_crossfade import export_crossfades
-
-        summary = read_summary(folder)
         common = {key: summary.get(key) for key in ("prompt", "backend", "seed", "psa", "metrics", "refine")}
         return export_crossfades(store, directory, settings.crossfade_frames, settings.bit_depth, folder,
                                  {**common, **store.rig_metadata(), **store.software()}, addon_version(),
                                  on_progress=on_progress)
-    summary = read_summary(folder)
-    model = store.projector_model()
-    b = read_output_image(folder, "projector")
-    try:
-        a, labels = read_result_image(folder, "projector_nopsa"), ["without PSA", "with PSA"]
-    except FileNotFoundError:
-        a, labels = b * 0, ["black", "with PSA"]
-    return export.crossfade_sequence(directory, a, b, frames=settings.crossfade_frames,
-                                     width=model.width, height=model.height,
-                                     bit_depth=settings.bit_depth, ease="smooth", gamma=model.gamma,
-                                     metadata=metadata(store, folder, summary), source_labels=labels,
-                                     lapig_version=addon_version(), on_progress=on_progress)
+    [fade] = crossfades(store, folder)
+    return export.crossfade_sequence(directory, fade.start, fade.end, frames=settings.crossfade_frames,
+                                     width=fade.width, height=fade.height, bit_depth=settings.bit_depth,
+                                     ease="smooth", gamma=fade.gamma, metadata=metadata(store, folder, summary),
+                                     source_labels=fade.labels, lapig_version=addon_version(), on_progress=on_progress)

@@ -163,21 +163,16 @@ def single_result_blocker(state: SceneState) -> str:
 
 
 def render_blocker(state: SceneState) -> str:
-    """Why Render Real Capture cannot run ('' when it can): one projector's result as single_result_blocker
-    says; a rig of several renders every projector's image at once (services/multi_render_job) where its devices
-    can show them together (projectors_blocker: each on its own display)."""
+    """Why Render Real Capture or Refine on the Rig cannot run ('' when it can): one projector's result as
+    single_result_blocker says; a rig of several shows every projector's image at once (services/render_joint,
+    refine_joint): the virtual rig, or a real one with a window on each projector's own display
+    (projectors_blocker)."""
     if state.rig.projector_count > 1:
         return result_blocker(state) or projectors_blocker(state.rig)
     return single_result_blocker(state)
 
 
-def refine_blocker(state: SceneState) -> str:
-    """Why Refine on the Rig cannot run ('' when it can): one projector's result as single_result_blocker says;
-    a rig of several refines all its projectors together (services/refine_joint): the virtual rig, or a real
-    one with a window on each projector's own display (projectors_blocker)."""
-    if state.rig.projector_count > 1:
-        return result_blocker(state) or projectors_blocker(state.rig)
-    return single_result_blocker(state)
+refine_blocker = render_blocker  # Refine shows and captures the images on the rig as Render does
 
 
 def models_status(state: SceneState) -> StepStatus:

@@ -1,7 +1,6 @@
-"""Jobs of the artist's path after the capture: train the models, generate, render the result.
+"""Jobs of the artist's path after the capture: train the models, generate the look (Render: services/render_job).
 
-Training and generation run their torch work on a worker thread (jobs.WorkerJob); rendering the
-real capture is bpy work and runs on the main thread in small steps (jobs.Job).
+Training and generation run their torch work on a worker thread (jobs.WorkerJob).
 """
 from __future__ import annotations
 
@@ -13,7 +12,6 @@ import time
 import numpy as np
 
 from ...lapig_core.common import compute_device, metrics
-from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
                                            resolve_setup, setup_dir_of)
 from ...lapig_core.lgst import backend_class
@@ -25,15 +23,14 @@ from ...lapig_core.pipeline import (as_image, first_look_models, output_at, save
                                     surface_models, train_models)
 from ...lapig_core.photometric import first_look
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
-from ...lapig_core.export.result_files import (as_stored, folder_name, heat_overlay, output_name,
-                                               read_output_image, read_summary, write_new_result, write_result)
+from ...lapig_core.export.result_files import as_stored, folder_name, heat_overlay, write_new_result
 from . import panel_state, warmup
 from .capture_job import CaptureError
 from .export_result import result_frame
-from .jobs import Job, WorkerJob
+from .jobs import WorkerJob
 from .pipeline_errors import PipelineError, hold_capture  # noqa: F401 (their home for the jobs that import them here)
 from .ports import Seams
-from .projection import project_and_capture, projection_steps, register_at
+from .projection import project_and_capture, projection_steps
 from .state import GenerateRequest, SceneState
 
 
@@ -530,64 +527,3 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     projector = as_stored(images.get("projector_native", images["projector"]))
     return {"folder": folder, "summary": summary, "summary_line": line, "projector": projector}
 
-
-class RenderResultJob(Job):
-    """Project the result's projector images on the rig and capture them: the 'real capture'."""
-
-    title = "LAPIG render result"
-
-    def __init__(self, seams: Seams):
-        super().__init__()
-        self.seams = seams
-
-    def steps(self):
-        store, devices = self.seams.store, self.seams.devices
-        state = store.read()
-        if state.rig.projector_count > 1:  # every projector's image shown at once, captured in camera space
-            from .multi_render_job import multi_render_steps
-
-            self.result = yield from multi_render_steps(self)
-            return
-        blocker = panel_state.single_result_blocker(state)
-        if blocker:
-            raise PipelineError(blocker)
-        folder, capture = state.result_dir, current_capture(state)
-        summary = read_summary(folder)
-        names = [n for n in ("projector", "projector_nopsa") if os.path.isfile(os.path.join(folder, n + ".png"))]
-        yield 0.1, "projecting the result on the rig"
-        images = [read_output_image(folder, n) for n in names]  # native where the result has it
-        # one image per step, so the UI gets a turn between renders; the frames are the pixels of the
-        # files Export writes at the scene's bit depth
-        bit_depth = store.export_settings().bit_depth
-
-        def render():
-            steps = projection_steps(devices, capture, images, chunk=1, bit_depth=bit_depth)
-            while True:
-                try:
-                    done = next(steps)
-                except StopIteration as end:
-                    return end.value
-                yield 0.1 + 0.8 * done, f"captured {round(done * len(names))}/{len(names)}"
-
-        try:
-            captured, raw = yield from self.drive(render, devices.main_thread)
-        except CaptureError as exc:
-            raise PipelineError(str(exc)) from None
-        yield 0.9, "comparing with the targets"
-        rendered = {}
-        for name, cap in zip(names, captured):
-            suffix = name[len("projector"):]
-            rendered["rendered" + suffix] = cap
-            # the look of the image that was projected (the native one where made), at the working frame
-            target = resize_image(read_output_image(folder, "target" + suffix), cap.shape[1], cap.shape[0])
-            summary["metrics"]["rendered_psnr" + suffix] = metrics.psnr(cap, target)
-            summary["metrics"]["rendered_ssim" + suffix] = metrics.ssim(cap, target)
-        if output_name(folder, "target") != "target":  # and at the output size, on the object
-            target = read_output_image(folder, "target")
-            cap, valid = register_at(capture, raw[0], target.shape[1], target.shape[0])
-            rendered["rendered_native"] = cap
-            summary["metrics"]["rendered_psnr_native"] = metrics.masked_psnr(cap, target, valid)
-            summary["metrics"]["rendered_ssim_native"] = metrics.ssim(cap, target)
-        summary["rendered_bit_depth"] = bit_depth
-        write_result(folder, rendered, summary)
-        self.result = summary

@@ -15,7 +15,7 @@ import numpy as np
 
 from ...lapig_core.capture.dataset import DatasetError, load_capture_set, setup_dir_of
 from ...lapig_core.capture.settings import CaptureError
-from ...lapig_core.export.result_files import (NATIVE, read_output_image, read_result_image, read_summary, refined_images,
+from ...lapig_core.export.result_files import (NATIVE, read_output_image, read_result_image, refined_images,
                                                 write_result)
 from ...lapig_core.photometric.classical import ClassicalModel
 from ...lapig_core.photometric.first_look import load_first_look
@@ -26,7 +26,8 @@ from . import panel_state
 from .export_result import result_frame
 from .jobs import Job
 from .limits import LIMITS
-from .pipeline_jobs import PipelineError, current_capture, hold_capture
+from .pipeline_errors import PipelineError, hold_capture, summary_made_on
+from .pipeline_jobs import current_capture
 from .ports import Seams
 from .projection import projection_session
 from .refine_lines import record_refinement, refine_line
@@ -141,9 +142,7 @@ def prepared_refinement(folder: str, capture: str, settings: RefineSettings):
     """Steps whose value is (the result's summary, the Refinement of its projector image against its target on
     the setup's classical model); the native output where the result has one."""
     yield 0.02, "reading the result and the setup's model"
-    summary = read_summary(folder)
-    if summary.get("capture") and summary["capture"] != capture:
-        raise PipelineError("the result was made on another capture than the scene's: generate again first")
+    summary = summary_made_on(folder, capture)
     try:
         cs = load_capture_set(capture, pairs=False)
     except DatasetError as exc:

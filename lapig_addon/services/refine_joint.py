@@ -11,17 +11,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...lapig_core.export.result_files import read_result_image, read_summary, write_result
+from ...lapig_core.export.result_files import read_result_image, write_result
 from ...lapig_core.refine.loop import RefineError, RefineSettings
 from . import panel_state
 from .multi_generate_job import MultiPipelineError, multi_capture
-from .pipeline_errors import PipelineError
+from .pipeline_errors import PipelineError, summary_made_on
 from .refine_lines import record_refinement, refine_line
 
 REFINED_SUFFIX = "_refined"
 
 
-def multi_refine_inputs(seams, doing: str = "refinement") -> tuple[str, str]:
+def joint_inputs(seams, doing: str = "refinement") -> tuple[str, str]:
     """(the result folder, the capture) from the scene (the main thread), or PipelineError saying why not."""
     from ...lapig_core.multi.result_files import is_multi_result
 
@@ -41,81 +41,51 @@ def multi_refine_inputs(seams, doing: str = "refinement") -> tuple[str, str]:
     return state.result_dir, capture
 
 
-def prepared_multi_refinement(folder: str, capture: str, settings: RefineSettings):
-    """Steps whose value is (the result's summary, the JointRefinement of its projector images against its look
-    on the capture's joint model)."""
+def joint_model_steps(capture: str):
+    """Steps whose value is (the capture of several, without its pairs, and its joint model: its first look's, else
+    fitted now)."""
     from ...lapig_core.multi.capture_set import load_multi_capture
     from ...lapig_core.multi.first_look import fit_joint_first_look, load_joint_model
-    from ...lapig_core.refine.joint import JointRefinement
-    from ...lapig_core.multi.result_files import projector_images
 
-    yield 0.02, "reading the result and the joint model"
-    summary = read_summary(folder)
-    if summary.get("capture") and summary["capture"] != capture:
-        raise PipelineError("the result was made on another capture than the scene's: generate again first")
     cs = load_multi_capture(capture, pairs=False)
     model = load_joint_model(cs.setup_dir)
     if model is None or model.count != cs.count:
         yield 0.04, "fitting the joint model"
         model = fit_joint_first_look(load_multi_capture(capture)).model
-    target = read_result_image(folder, "look")
-    start = [image for _, image in projector_images(folder)]
-    try:
-        return summary, JointRefinement(model, target, model.reached.any(axis=0) & cs.object_mask, start, settings)
-    except RefineError as exc:
-        raise PipelineError(str(exc)) from None
+    return cs, model
 
 
-def multi_refine_rounds(device, refinement):
-    """A generator of (progress, message) that runs `refinement` on an open MultiProjectorDevice."""
+def exposed_capture(device, sizes):
+    """refine/joint.device_capture over an open MultiProjectorDevice, at the camera's exposure as the capture fixed
+    it: every projector (sizes: (width, height) each) white together."""
     from ...lapig_core.refine.joint import device_capture
 
-    capture = device_capture(device)
-    # the camera's exposure as the capture fixed it: every projector white together
-    device.lock_exposure([np.ones((m.projector_size[1], m.projector_size[0], 3), np.uint8) * 255
-                          for m in refinement.model.maps])
-    vary = getattr(device, "vary_noise", None)
-    cap, draws = refinement.settings.iterations, 0
-    while not refinement.done:
-        images, repeats = refinement.request()
-        shots = []
-        for _ in range(repeats):  # each grab a new noise draw, as a real camera's are
-            if vary is not None:
-                vary(draws)
-            draws += 1
-            shots.append(capture(images, 1)[0])
-        refinement.take(np.stack(shots))
-        rec = refinement.record
-        yield 0.05 + 0.9 * min(rec.iterations, cap) / (cap + 1), \
-            f"refining {len(images)} projectors on the rig: step {rec.iterations}/{cap}, last capture " \
-            f"{rec.history[-1]:.1f} dB (noise floor {rec.noise_floor_psnr:.1f})"
-
-
-def write_multi_refined(folder: str, summary: dict, refinement):
-    """Steps that write each projector's refined image, then result.json pointing at them; their value is (the
-    summary written, the record)."""
-    from ...lapig_core.multi.result_files import projector_image_name
-
-    yield 0.96, "writing the refined result"
-    record = refinement.record.to_dict()
-    record["frame"] = "projectors"
-    names = [projector_image_name(k) + REFINED_SUFFIX for k in range(len(refinement.images))]
-    images = dict(zip(names, refinement.images))
-    entries = summary.get("projectors") or []
-    for entry, name in zip(entries, names):
-        entry.setdefault("image_open_loop", entry["image"])
-        entry["image"] = f"{name}.png"
-    record["images"] = {f"projector_{k + 1}": f"{n}.png" for k, n in enumerate(names)}
-    record_refinement(summary, record)
-    write_result(folder, images, summary)  # the images first, result.json last: it names them
-    return summary, record
+    device.lock_exposure([np.full((h, w, 3), 255, np.uint8) for w, h in sizes])
+    return device_capture(device)
 
 
 class JointRefineWay:
     """RefineResultJob's steps for a rig of several projectors (see refine_job.ProjectorRefineWay)."""
 
-    inputs = staticmethod(multi_refine_inputs)
-    prepared = staticmethod(prepared_multi_refinement)
+    inputs = staticmethod(joint_inputs)
+
+    @staticmethod
+    def prepared(folder: str, capture: str, settings: RefineSettings):
+        """Steps whose value is (the result's summary, the JointRefinement of its projector images against its
+        look on the capture's joint model)."""
+        from ...lapig_core.refine.joint import JointRefinement
+        from ...lapig_core.multi.result_files import projector_images
+
+        yield 0.02, "reading the result and the joint model"
+        summary = summary_made_on(folder, capture)
+        cs, model = yield from joint_model_steps(capture)
+        target = read_result_image(folder, "look")
+        start = [image for _, image in projector_images(folder)]
+        try:
+            return summary, JointRefinement(model, target, model.reached.any(axis=0) & cs.object_mask, start,
+                                            settings)
+        except RefineError as exc:
+            raise PipelineError(str(exc)) from None
 
     @staticmethod
     def rig_settings(store):
@@ -123,23 +93,49 @@ class JointRefineWay:
 
     @staticmethod
     def rounds(devices, capture, refinement, capture_settings):
+        """A generator of (progress, message) that runs `refinement` on the rig's MultiProjectorDevice."""
         with devices.multi_capture_device(capture_settings) as device:
-            return (yield from multi_refine_rounds(device, refinement))
+            grab = exposed_capture(device, [m.projector_size for m in refinement.model.maps])
+            vary = getattr(device, "vary_noise", None)
+            cap, draws = refinement.settings.iterations, 0
+            while not refinement.done:
+                images, repeats = refinement.request()
+                shots = []
+                for _ in range(repeats):  # each grab a new noise draw, as a real camera's are
+                    if vary is not None:
+                        vary(draws)
+                    draws += 1
+                    shots.append(grab(images, 1)[0])
+                refinement.take(np.stack(shots))
+                rec = refinement.record
+                yield 0.05 + 0.9 * min(rec.iterations, cap) / (cap + 1), \
+                    f"refining {len(images)} projectors on the rig: step {rec.iterations}/{cap}, last capture " \
+                    f"{rec.history[-1]:.1f} dB (noise floor {rec.noise_floor_psnr:.1f})"
 
     @staticmethod
-    def write(folder, summary, refinement):
-        summary, record = yield from write_multi_refined(folder, summary, refinement)
+    def write(folder: str, summary: dict, refinement):
+        """Steps that write each projector's refined image, then result.json pointing at them; their value is (the
+        summary written, the record, None)."""
+        from ...lapig_core.multi.result_files import projector_image_name
+
+        yield 0.96, "writing the refined result"
+        record = refinement.record.to_dict()
+        record["frame"] = "projectors"
+        names = [projector_image_name(k) + REFINED_SUFFIX for k in range(len(refinement.images))]
+        images = dict(zip(names, refinement.images))
+        for entry, name in zip(summary.get("projectors") or [], names):
+            entry.setdefault("image_open_loop", entry["image"])
+            entry["image"] = f"{name}.png"
+        record["images"] = {f"projector_{k + 1}": f"{n}.png" for k, n in enumerate(names)}
+        record_refinement(summary, record)
+        write_result(folder, images, summary)  # the images first, result.json last: it names them
         return summary, record, None
 
     @staticmethod
-    def record(seams, folder, summary, record, image):
-        return record_multi_refined(seams, folder, summary, record)
+    def record(seams, folder: str, summary: dict, record: dict, image) -> dict:
+        """The refined result into the scene (the main thread): its line, and each image to the sinks of several."""
+        from .multi_generate_job import show_projector_images
 
-
-def record_multi_refined(seams, folder: str, summary: dict, record: dict) -> dict:
-    """The refined result into the scene (the main thread): its line, and each image to the sinks of several."""
-    from .multi_generate_job import show_projector_images
-
-    seams.store.record_result(folder, summary["summary_line"])
-    show_projector_images(seams, {"folder": folder, "summary": summary})
-    return {"folder": folder, "refine": record, "line": refine_line(record).lstrip("; ")}
+        seams.store.record_result(folder, summary["summary_line"])
+        show_projector_images(seams, {"folder": folder, "summary": summary})
+        return {"folder": folder, "refine": record, "line": refine_line(record).lstrip("; ")}

@@ -19,3 +19,17 @@ def run_to_end(steps: Generator, on_step: Callable | None = None):
         if on_step is not None and on_step(step):
             steps.close()
             return None
+
+
+def mapped_steps(steps: Generator, as_step: Callable):
+    """A generator of as_step(each step of ``steps``) whose value is theirs (``yield from`` it in a job); closed,
+    it closes ``steps`` (and the device they hold) at once."""
+    try:
+        while True:
+            try:
+                step = next(steps)
+            except StopIteration as done:
+                return done.value
+            yield as_step(step)
+    finally:
+        steps.close()

@@ -102,7 +102,7 @@ def test_capture_train_generate_render_and_export_without_blender(seams, tmp_pat
     np.testing.assert_array_equal(frame.image, read_output_image(out["folder"], "projector"))
 
     # Render Real Capture through the same device factory
-    rendered = pipeline_jobs.RenderResultJob(seams).run_to_completion()
+    rendered = _module("render_job").RenderResultJob(seams).run_to_completion()
     assert 5 < rendered["metrics"]["rendered_psnr"] < 60 and factory.opened == factory.closed == 3
 
     # Export: the file holds the pixels the sinks were shown

@@ -94,7 +94,7 @@ def multi(tmp_path):
 
 def test_the_capture_job_records_the_capture_its_coverage_and_the_first_look(multi):
     seams, store = multi
-    job = _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings())
+    job = _module("capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "DONE", job.error
     assert os.path.isfile(os.path.join(store.capture_dir, "models", "joint_model.npz"))
     names, shares, reached = store.coverage
@@ -108,7 +108,7 @@ def test_a_rig_that_captures_one_projector_refuses_several_in_one_line(tmp_path)
     ports, state = _module("ports"), _module("state")
     store = MultiStore(state, tmp_path / "data")
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR), multi=False))
-    job = _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings())
+    job = _module("capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "FAILED"
     assert str(job.error) == ("fake rig of two cannot capture several projectors yet: remove the other projectors, "
                               "or capture them with the virtual rig")
@@ -158,7 +158,7 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     from lapig.lapig_core.multi.stylize import JointLook
 
     seams, store = multi
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     target = np.full(cs.together.shape, 0.4, np.float32)  # a flat grey look: no torch needed
@@ -258,7 +258,7 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
 
     store, sink = Store(state, tmp_path / "data"), Sink()
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)), (sink,))
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     lo, hi = reach(model)
@@ -302,7 +302,7 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     assert panel_state.refine_blocker(shared.read()).endswith("are both on display '1': give each its own display")
 
 
-@pytest.mark.torch  # RenderResultJob lives in pipeline_jobs, which loads torch
+@pytest.mark.torch  # render_job takes current_capture from pipeline_jobs, which loads torch
 def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_on_the_object(tmp_path):
     """Render Real Capture on a rig of several: both projectors' images of the result shown together, captured
     once in camera space; rendered.png and its PSNR against the look (and the predicted capture) go into the
@@ -317,7 +317,7 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
     ports, state = _module("ports"), _module("state")
     store = MultiStore(state, tmp_path / "data")
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)))
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     lo, hi = reach(model)
@@ -328,7 +328,7 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
                                    {"prompt": "look", "capture": str(cs.setup_dir), "summary_line": "look"},
                                    model.reached.any(axis=0))
     store.result = str(folder)
-    job = _module("pipeline_jobs").RenderResultJob(seams)
+    job = _module("render_job").RenderResultJob(seams)
     assert job.run() == "DONE", job.error
     m = job.result["metrics"]
     print("rendered", m["rendered_psnr"], "vs predicted", m["rendered_vs_predicted_psnr"], "simulated",
@@ -345,7 +345,7 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
     assert saved["summary_line"].endswith(f"; no PSA; rendered in Cycles {m['rendered_psnr']:.1f} dB against the look")
     assert store.result == str(folder)
     # rendered again: one figure in the line, the newest
-    assert _module("pipeline_jobs").RenderResultJob(seams).run() == "DONE"
+    assert _module("render_job").RenderResultJob(seams).run() == "DONE"
     assert json.loads((folder / "result.json").read_text())["summary_line"].count("rendered in Cycles") == 1
     sheet = read_image(folder / "comparison.png")
     assert sheet.shape[1] == 3 * 256  # look, predicted, rendered; the projectors below
@@ -362,7 +362,7 @@ def test_generate_adapts_the_look_to_the_joint_reach_when_asked(multi, psa):
     """MultiGenerateJob passes the request's PSA on: with it the folder keeps the look without PSA beside the
     adapted one, and result.json says what PSA did; without it, one look and 'no PSA'."""
     seams, store = multi
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     request = _module("state").GenerateRequest("Make it a stained glass artwork", "styletransfer", "", psa, 0.5, 0)
     job = _module("multi_generate_job").MultiGenerateJob(seams, request, working_size=48)
     assert job.run() == "DONE", job.error
@@ -384,7 +384,7 @@ def test_a_show_of_several_makes_its_morph_and_motion_per_projector_and_exports_
     by lapig_core's producer on the joint reach (show/joint_setup), one frame per projector; the holds are the
     looks' own images, the in-betweens new ones; Export Show writes one sequence per projector."""
     seams, store = multi
-    assert _module("multi_capture_job").MultiCaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     folders = []
     for prompt in ("Make it a stained glass artwork", "Make it a charcoal sketch"):
         request = _module("state").GenerateRequest(prompt, "styletransfer", "", True, 0.5, 0)

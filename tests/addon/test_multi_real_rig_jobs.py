@@ -67,7 +67,7 @@ def _seams(tmp_path, displays=("1", "2")):
 
 def test_the_capture_job_opens_a_window_per_display_and_one_camera_on_a_worker(tmp_path):
     seams, store, hardware = _seams(tmp_path)
-    job = _module("services.multi_capture_job").MultiCaptureJob(seams, store.capture_settings())
+    job = _module("services.capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "DONE", job.error
     assert sorted(hardware.opened) == ["1", "2"] and threading.main_thread().name not in hardware.threads
     meta = job.result["meta"]
@@ -88,7 +88,7 @@ def test_the_rig_check_says_each_projectors_lines(tmp_path):
 
 def test_two_projectors_on_one_display_open_no_window(tmp_path):
     seams, store, hardware = _seams(tmp_path, displays=("1", "1"))
-    job = _module("services.multi_capture_job").MultiCaptureJob(seams, store.capture_settings())
+    job = _module("services.capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "FAILED"
     assert str(job.error) == "Projectors 'Left' and 'Right' are both on display '1': give each its own display"
     assert hardware.opened == [] and store.capture_dir == ""

@@ -205,7 +205,7 @@ def test_unavailable_backend_falls_back_with_a_message(captured, tmp_path):
 def test_cancelled_render_leaves_the_scene_as_it_was(captured):
     from lapig.lapig_addon.blender import capture_studio, projector_nodes
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.pipeline_jobs import RenderResultJob
+    from lapig.lapig_addon.services.render_job import RenderResultJob
 
     scene = captured
     s = scene.lapig

@@ -144,7 +144,7 @@ class Rig:
         self.capture_s = ended - t0
         self.cs = load_multi_capture(result["setup_dir"])
         self.look = fit_joint_first_look(self.cs)
-        self.first_look_s = time.perf_counter() - ended  # capture end -> first look, as MultiCaptureJob counts
+        self.first_look_s = time.perf_counter() - ended  # capture end -> first look, as CaptureJob counts for several
         self.model = self.look.model
         self.mask = self.cs.object_mask & self.model.reached.any(axis=0)
         self.object_mask = self.cs.object_mask

@@ -35,7 +35,8 @@ from ...lapig_addon.blender import result_preview, scene_state
 from ...lapig_addon.blender.scene_store import scene_seams
 from ...lapig_addon.cli import headless
 from ...lapig_addon.services import warmup
-from ...lapig_addon.services.pipeline_jobs import GenerateJob, RenderResultJob, TrainModelsJob
+from ...lapig_addon.services.pipeline_jobs import GenerateJob, TrainModelsJob
+from ...lapig_addon.services.render_job import RenderResultJob
 from .io_count import counted_io
 
 # the first Generate is the cold one; the rest are warm, on prompts whose PSA runs to different lengths

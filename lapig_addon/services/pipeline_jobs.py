@@ -16,7 +16,7 @@ from ...lapig_core.common import compute_device, metrics
 from ...lapig_core.common.resample import resize_image
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
                                            resolve_setup, setup_dir_of)
-from ...lapig_core.lgst import backend_class
+from ...lapig_core.lgst import DEFAULT_BACKEND, backend_class
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.native_output import OutputSizeError, output_frame, tile_for
@@ -30,7 +30,7 @@ from ...lapig_core.export.result_files import (as_stored, folder_name, heat_over
 from . import panel_state, warmup
 from .capture_job import CaptureError
 from .export_result import result_frame
-from .jobs import Job, WorkerJob
+from .jobs import THREAD_PREFIX, Job, WorkerJob
 from .pipeline_errors import PipelineError, hold_capture  # noqa: F401 (their home for the jobs that import them here)
 from .ports import Seams
 from .projection import project_and_capture, projection_steps, register_at
@@ -350,6 +350,7 @@ class GenerateJob(WorkerJob):
         rendering (on the worker thread, surface_models could only ask PCNet)."""
         if self._inputs is self._NOT_PREPARED:
             self._inputs = self.prepare()
+        yield from self._read_prompt()  # a prompt of which nothing is understood: refused before any training
         share = 0.0
         problem, self._inputs["saved"] = saved_models_problem(self._inputs["capture"])  # each checkpoint read once
         if problem == "":  # never trained: the capture's first look, where Capture fitted one, works at once
@@ -372,6 +373,33 @@ class GenerateJob(WorkerJob):
                 inner.close()
         for progress, message in super().steps():
             yield share + (1.0 - share) * progress, message
+
+    def _read_prompt(self):
+        """Plan the prompt on a thread (the text model may load: Blender's UI keeps its turns) and raise its one
+        line when nothing of it is understood ('no look matched ...'), so a refused prompt changes nothing."""
+        import threading
+
+        job = self._inputs
+        if job["mix"] or job["backend"] != DEFAULT_BACKEND or not job["prompt"]:
+            return
+        from ...lapig_core.lgst.not_understood import check_prompt
+
+        box = {}
+
+        def target():
+            try:
+                warmup.wait_for_warmup()  # the text model once, not loaded beside a warm-up under way
+                check_prompt(job["prompt"])
+            except BaseException as exc:  # handed to the main thread, raised there
+                box["error"] = exc
+
+        thread = threading.Thread(target=target, name=f"{THREAD_PREFIX}{self.title} prompt", daemon=True)
+        thread.start()
+        while thread.is_alive():
+            thread.join(self.poll_timeout or 0.0)
+            yield 0.0, "reading the prompt"
+        if "error" in box:
+            raise box["error"]
 
     def stop(self):
         super().stop()  # closes steps(), and with it the training's, which tells its worker to stop

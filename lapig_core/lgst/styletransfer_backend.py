@@ -95,11 +95,11 @@ class StyleTransferBackend(ThetaBackend):
         if surface.ndim != 4 or surface.shape[:2] != (1, 3):
             raise ValueError(f"surface must be (1,3,H,W), got {tuple(surface.shape)}")
         text, notes = pm.validate_prompt(prompt) if (mix is None or prompt) else ("", [])
-        if self.effects_spec == "auto":
-            self._effects = effects_for_prompt(text)
+        if self.effects_spec == "auto":  # kept apart until the prompt is accepted: a refusal changes nothing
+            effects = effects_for_prompt(text)
         else:
-            self._effects = list(self.effects_spec or [])
-        hints = [e.style_hint for e in self._effects if getattr(e, "style_hint", "")]
+            effects = list(self.effects_spec or [])
+        hints = [e.style_hint for e in effects if getattr(e, "style_hint", "")]
         if mix is not None:
             # an explicit style mix is the medium; a prompt beside it still gives colours and mood
             plan = plan_prompt(text) if text else PromptPlan(prompt="", embedder="")
@@ -112,6 +112,11 @@ class StyleTransferBackend(ThetaBackend):
             query = ", ".join([text] + hints)
             if self.looks:
                 plan = plan_prompt(query, k=self.top_k, temperature=self.temperature)
+                if not effects:  # nothing understood: one line, never a tint (an effect is understood)
+                    from .not_understood import refuse_if_not_understood
+                    from .text_embedder import active
+
+                    refuse_if_not_understood(plan, active().weak)
                 notes += plan.notes + plan.unmatched  # so the artist can rephrase
             else:  # the 26 styles only, as before the look library (for comparisons)
                 from .text_embedder import active
@@ -120,10 +125,11 @@ class StyleTransferBackend(ThetaBackend):
                 plan = PromptPlan(prompt=text, embedder=active().description, medium_kind="style",
                                   styles=info["mix"], medium_score=info["best_score"])
                 notes += info["notes"]
-        if plan.medium_kind == "look" and any(e.name == plan.look for e in self._effects):
+        if plan.medium_kind == "look" and any(e.name == plan.look for e in effects):
             # the named look makes the pixels itself (art lexicon): no second, misaligned grid over it
-            self._effects = [e for e in self._effects if e.name != plan.look]
+            effects = [e for e in effects if e.name != plan.look]
             notes = [n for n in notes if not n.startswith("style chosen for the effects' look")]
+        self._effects = effects  # the prompt is accepted: from here on the backend holds its look
         self.plan = plan
         self.surface = surface.detach().float().clamp(0, 1)
         self.size = tuple(self.surface.shape[-2:])

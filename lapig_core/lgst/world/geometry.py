@@ -65,6 +65,49 @@ def _blur(a: np.ndarray, sigma: float, weight: np.ndarray | None = None) -> np.n
     return num / np.maximum(den, 1e-6)
 
 
+def _local_plane(a: np.ndarray, sigma: float, weight: np.ndarray) -> np.ndarray:
+    """Each pixel's value on the plane fitted to its surroundings (Gaussian weights, `weight` where a pixel counts):
+    exact for any affine field, at the frame's border and beside holes too."""
+    h, w = a.shape
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
+    xs, ys = (xs - w / 2) / sigma, (ys - h / 2) / sigma
+    wt = weight.astype(np.float32)
+    m = {k: _blur_raw(v * wt, sigma) for k, v in (("1", np.ones_like(a)), ("x", xs), ("y", ys), ("xx", xs * xs),
+                                                   ("xy", xs * ys), ("yy", ys * ys), ("a", a), ("ax", a * xs),
+                                                   ("ay", a * ys))}
+    # the 3x3 normal equations of a + b x + c y around each pixel, solved there (xs, ys: the pixel's own at the end)
+    mat = np.stack([np.stack([m["1"], m["x"], m["y"]], -1), np.stack([m["x"], m["xx"], m["xy"]], -1),
+                    np.stack([m["y"], m["xy"], m["yy"]], -1)], -2)
+    rhs = np.stack([m["a"], m["ax"], m["ay"]], -1)
+    mat = mat + np.eye(3, dtype=np.float32) * 1e-6 * np.maximum(m["1"], 1e-6)[..., None, None]
+    coef = np.linalg.solve(mat.astype(np.float64), rhs[..., None].astype(np.float64))[..., 0]
+    return (coef[..., 0] + coef[..., 1] * xs + coef[..., 2] * ys).astype(np.float32)
+
+
+def _blur_raw(a: np.ndarray, sigma: float) -> np.ndarray:
+    import cv2
+
+    return cv2.GaussianBlur(a.astype(np.float32), (0, 0), sigma, borderType=cv2.BORDER_CONSTANT)
+
+
+def _occlusions(q: np.ndarray, valid: np.ndarray, radius: int) -> np.ndarray:
+    """Pixels within `radius` of a depth jump (one object in front of another; a crease is no jump): a step of
+    inverse depth four times the steps on either side of it."""
+    import cv2
+
+    jump = np.zeros(q.shape, bool)
+    for axis in (0, 1):
+        d = np.abs(np.diff(q, axis=axis))
+        before = np.concatenate([np.take(d, [0], axis), np.take(d, range(d.shape[axis] - 1), axis)], axis)
+        after = np.concatenate([np.take(d, range(1, d.shape[axis]), axis), np.take(d, [-1], axis)], axis)
+        j = d > 4 * np.maximum(before, after) + 1e-3 * np.abs(np.take(q, range(d.shape[axis]), axis))
+        pad = [(0, 1) if a == axis else (0, 0) for a in (0, 1)]
+        jump |= np.pad(j, pad)
+    jump &= valid
+    size = 2 * radius + 1
+    return cv2.dilate(jump.astype(np.uint8), np.ones((size, size), np.uint8)) > 0
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
 
@@ -114,12 +157,13 @@ def from_hits(points, normals, up, fx: float, fy: float, cx: float, cy: float, n
     downhill = _unit(d).astype(np.float32)
     # cavity: a pixel farther than its surroundings lies in a crevice. Inverse depth is affine in the image on any
     # plane, so a slanted flat wall has none; the recess is measured against the blur window's own size.
+    # Occlusion edges are no crevices: the floor seen behind a box is not in its shadow.
     q = _fill(1.0 / np.where(valid, depth, median), valid, 0.0)
-    around = _blur(q, CAVITY_SIGMA_PX, valid)
+    around = _local_plane(q, CAVITY_SIGMA_PX, valid)
     recess = (around - q) / np.maximum(q, 1e-9)
     window = CAVITY_SIGMA_PX / max(fx, 1e-6)
     cavity = np.clip(recess / (0.15 * window), 0.0, 1.0).astype(np.float32)
-    cavity[~valid] = 0.0
+    cavity[~valid | _occlusions(q, valid, int(2.5 * CAVITY_SIGMA_PX))] = 0.0
     # curvature: the normal's divergence in the image (per pixel), convex > 0
     gx = np.gradient(n[..., 0], axis=1)
     gy = np.gradient(n[..., 1], axis=0)

@@ -7,6 +7,7 @@ coverage, the dirt, and an exposure. The scale and the seed are not theta: PSA c
 coloured, not where its stones are."""
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from ..looks.stage import Stage, tensor
@@ -88,10 +89,12 @@ SETTLES_ON_TOPS = ("snow", "snowflakes", "frost")               # what falls and
 RUNS_DOWNHILL = ("rust", "patina", "raindrops", "dust")          # what water carries down the surface
 
 
-def _smear_downhill(field: torch.Tensor, downhill: torch.Tensor, steps: int = 10, step_px: float = 2.0):
+def _smear_downhill(field: torch.Tensor, downhill: torch.Tensor, steps: int = 20, step_px: float | None = None):
     """Each pixel takes the strongest of what lies upstream of it, fading with the distance: streaks that run
-    down the surface from where the field is (drips, rust stains). field (h, w); downhill (h, w, 2) in pixels."""
+    down the surface from where the field is (drips, rust stains), about a sixth of the frame long.
+    field (h, w); downhill (h, w, 2) in pixels."""
     h, w = field.shape
+    step_px = step_px or max(1.0, max(h, w) / 120.0)
     ys, xs = torch.meshgrid(torch.arange(h, dtype=torch.float32, device=field.device),
                             torch.arange(w, dtype=torch.float32, device=field.device), indexing="ij")
     src = field.view(1, 1, h, w)
@@ -111,19 +114,30 @@ def _geometry_maps(geometry, h: int, w: int, device):
     g = resized(geometry, h, w)
     as_t = lambda a: torch.as_tensor(a, dtype=torch.float32, device=device)  # noqa: E731
     u, v = look_coordinates(geometry, h, w)
+    # thin streaks along the downhill direction (about the image's down on walls): fine across, long along
+    across = torch.as_tensor(np.abs(g.downhill[..., 1]) > np.abs(g.downhill[..., 0]))
+    su, sv = coordinates(h, w)
+    a, b = torch.where(across, su, sv), torch.where(across, sv, su)
+    streaks = _smooth(0.45, 0.7, _u01(noise.fbm(a * 90, b * 6, 131, 3))).to(device)
     return {"u": u.to(device), "v": v.to(device), "cavity": as_t(g.cavity), "valid": as_t(g.valid),
+            "streaks": streaks,
             "up": None if g.up is None else as_t(g.up), "downhill": as_t(g.downhill)}
 
 
 def shaped_cover(overlay: Material, cover: torch.Tensor, geo: dict) -> torch.Tensor:
     """An overlay's cover shaped by the object: growth gathers in crevices, snow on what faces up, rust and drips
     run downhill."""
-    if overlay.pattern in GROWTH_PATTERNS or overlay.name == "dust":
-        cover = cover * (0.35 + 1.3 * geo["cavity"])
+    # on a flat wall facing the projector the look stays much as it is without the object
     if overlay.name in SETTLES_ON_TOPS and geo["up"] is not None:
-        cover = cover * (0.3 + 1.0 * _smooth(0.15, 0.7, geo["up"]))
-    if overlay.name in RUNS_DOWNHILL:
-        cover = _smear_downhill(cover.clamp(0, 1), geo["downhill"])
+        tops = _smooth(0.15, 0.7, geo["up"])  # tops take it whole, walls keep some where it caught
+        cover = cover * (0.6 + 0.4 * tops) + 0.6 * tops * (1 - cover.clamp(0, 1))
+    elif overlay.pattern in GROWTH_PATTERNS or overlay.name == "dust":
+        cover = cover.clamp(0, 1) * 0.8
+        cover = cover + 0.9 * geo["cavity"] * (1 - cover)
+    if overlay.name in RUNS_DOWNHILL:  # the stains run below the patches in thin streaks
+        cover = cover.clamp(0, 1)
+        tail = (_smear_downhill(cover, geo["downhill"]) - cover).clamp_min(0)
+        cover = cover + tail * geo["streaks"]
     return cover.clamp(0, 1)
 
 

@@ -295,6 +295,22 @@ def psa_settings_from(request: GenerateRequest) -> PSASettings:
     return PSASettings(adaptation=request.adaptation, seed=request.seed)
 
 
+def look_geometry(store, capture: str, backend: str, mix: str, prompt: str):
+    """What the looks of the world follow (on the main thread: Blender's ray casts): the object as the projector
+    sees it at the capture's working frame, or "capture" (no 3D model: the captured surface stands in); None where
+    the look reads no geometry (a style mix, another backend)."""
+    if mix or backend != DEFAULT_BACKEND or not prompt:
+        return None
+    reader = getattr(store, "look_geometry", None)
+    if reader is None:
+        return "capture"
+    try:
+        geometry = reader(*frame_size_of(capture))
+    except ValueError:  # the rays land on nothing the scene can render: the captured surface then
+        geometry = None
+    return geometry if geometry is not None else "capture"
+
+
 class GenerateJob(WorkerJob):
     """Prompt -> stylized target (with and without PSA) -> compensated projector image."""
 
@@ -331,7 +347,8 @@ class GenerateJob(WorkerJob):
             if r.backend != backend:
                 notes.append(f"a style image is chosen: the look comes from it ('{backend}' backend), "
                              f"not from '{r.backend}'")
-        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend,
+        geometry = look_geometry(store, folder, backend, mix, prompt)
+        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend, "geometry": geometry,
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
                 "dark_outside": r.dark_outside, "output_frame": output,
                 "settings": psa_settings_from(r),
@@ -431,7 +448,7 @@ class GenerateJob(WorkerJob):
         res = stylize(cs, models, job["prompt"], backend=job["backend"], seed=job["seed"], mix=job["mix"],
                       psa=job["psa"], settings=job["settings"], cancel_event=cancel_event,
                       on_progress=lambda p, m: report(0.55 + 0.4 * p, m), backend_options=job["backend_options"],
-                      dark_outside=job["dark_outside"])
+                      dark_outside=job["dark_outside"], geometry=job.get("geometry"))
         if cancel_event.is_set():  # cancelled: write nothing, the scene keeps its last result
             return None
         report(0.95, "the look and its compensation at %dx%d" % job["output_frame"])

@@ -190,3 +190,14 @@ def test_generate_refuses_a_prompt_it_does_not_understand_and_changes_nothing(se
     line = one_line(job.error)
     assert line.startswith("no look matched 'qwzx': try ") and "\n" not in line, line
     assert store.recorded == recorded and not (os.path.isdir(results) and os.listdir(results))
+
+
+@pytest.mark.torch
+def test_without_a_3d_model_the_world_look_follows_the_captured_surface_and_says_so(seams):
+    pipeline_jobs = _module("pipeline_jobs")
+    _capture(seams)
+    out = pipeline_jobs.GenerateJob(seams, seams.store.generate_request(prompt="mossy concrete", psa=False)).run_to_completion()
+    lgst = out["summary"]["lgst"]
+    assert lgst["understood"]["medium"]["kind"] == "world" and lgst["geometry"]["source"] == "capture"
+    assert any(n.startswith("no 3D model of the object") for n in out["summary"]["notes"] + lgst["notes"])
+    assert lgst["understood"]["generators"][:2] == ["clouds (concrete)", "clouds (moss)"]

@@ -509,11 +509,21 @@ def _world_materials():
 
 def _world_names_a_material(plan: PromptPlan, text: str) -> bool:
     """An entry found only by a spelling or a meaning ("river" read as Rivera) whose words name a material of the
-    world: the material was meant."""
-    from .world.compose import find_materials
+    world, or a painting's title inside a material's phrase ("a starry night sky"): the material was meant."""
+    from .world.compose import find_materials, tokens
 
-    return plan.entry is not None and plan.entry_how in ("spelling", "meaning") and \
-        bool(find_materials(plan.entry_written or ""))
+    if plan.entry is None:
+        return False
+    if plan.entry_how in ("spelling", "meaning"):
+        return bool(find_materials(plan.entry_written or ""))
+    if plan.entry_how == "work":  # "a starry night sky": a material phrase runs on past the painting's title
+        title = {t for t, _ in tokens(plan.entry_written or "")}
+        toks = [t for t, _ in tokens(text)]
+        for a, b, _ in find_materials(text):
+            words = toks[a:b]
+            if any(w in title for w in words) and any(w not in title for w in words):
+                return True
+    return False
 
 
 def _colours_by_layer(comp, colours: list[NamedColour], text: str) -> dict:

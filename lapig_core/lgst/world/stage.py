@@ -157,8 +157,9 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
         rgb, f, _ = _layer(overlay, u, v, seed + 11 + i, comp.scale, comp.density, p, f"overlay{i}")
         cover = f["cover"]
         if comp.base.pattern in ("masonry", "stones", "hex_tiles", "checker", "cracks") and overlay.pattern in (
-                "leaves", "clouds", "reaction", "grass"):
-            # growth follows the joints: what grows on a wall starts in its mortar and spreads from there
+                "leaves", "clouds", "grass"):
+            # growth follows the joints: what grows on a wall starts in its mortar and spreads from there (lichen
+            # grows on the faces of the stones themselves)
             joint = _smooth(0.35, 0.0, base_t)
             cover = (cover * (0.45 + 0.9 * joint)).clamp(0, 1)
         if geo is not None:

@@ -256,11 +256,13 @@ def darkened_outside(result: PSAResult, mask: torch.Tensor, models: SurfaceModel
 
 def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = DEFAULT_BACKEND, seed: int = 0,
             mix=None, psa: bool = True, settings: PSASettings | None = None, on_progress=None, cancel_event=None,
-            backend_options: dict | None = None, dark_outside: bool = True) -> StylizeResult:
+            backend_options: dict | None = None, dark_outside: bool = True, geometry=None) -> StylizeResult:
     """The prompt's look on this surface, and its PSA-adapted version.
 
     dark_outside: black projector pixels where the frame misses the object (where the capture set
     knows it: setups captured here; public sets have no registration).
+    geometry: what the looks of the world follow: a lgst/world/geometry.LookGeometry (the object as the projector
+    sees it), "capture" (no 3D model: the captured surface stands in), or None (the image alone).
     It runs where the models are (SurfaceModels.to): the backend follows the surface's device; the
     result's images come back on the CPU."""
     settings = settings or PSASettings(seed=seed)
@@ -268,6 +270,12 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     # LGST sees the white-lit surface (as the paper)
     surface = SurfaceTensors.from_capture_set(cs).i_max.to(device)
     backend_options = with_device(backend, backend_options, device)
+    if geometry is not None and backend == DEFAULT_BACKEND:
+        from .lgst.world.geometry import from_capture
+
+        if isinstance(geometry, str):
+            geometry = from_capture(surface[0].permute(1, 2, 0).cpu().numpy())
+        backend_options["geometry"] = geometry
     lgst, fallback = prepared_backend(backend, surface, prompt, seed=seed, mix=mix, options=backend_options)
     plain = without_psa(lgst, models)
     adapted = None

@@ -58,6 +58,16 @@ class BlenderSceneStore:
     def data_root(self) -> str:
         return storage.data_root()[0]
 
+    def look_geometry(self, width: int, height: int):
+        """Ray cast from the projector into the scene (blender/look_geometry), here on the main thread; None on a
+        real rig: its scene's objects are no model of the surface."""
+        if scene_state.uses_real_rig(self.scene):
+            return None
+        from .look_geometry import projector_look_geometry
+
+        projector = scene_state.rig_objects(self.scene)[0]
+        return projector_look_geometry(self.scene, projector, scene_state.projector_model(projector), width, height)
+
     def record_capture(self, folder, fingerprint: str, transport: str = ""):
         scene_state.record_capture(self.scene, folder, fingerprint, transport)
 

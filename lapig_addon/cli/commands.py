@@ -26,12 +26,12 @@ def _ensure_registered():
 
 def cmd_demo(args) -> int:
     """The README's main job: demo scene -> capture -> models -> prompt -> projector image -> render."""
-    from ...lapig_core.lgst.prompt_mapping import validate_prompt
+    from ...lapig_core.lgst.not_understood import check_prompt
     from ..services import export_result
     from ..services.pipeline_jobs import GenerateJob, TrainModelsJob, result_notes
     from ..services.render_job import RenderResultJob
 
-    validate_prompt(args.prompt)  # now, not after minutes of capture and training
+    check_prompt(args.prompt)  # now, not after minutes of capture and training (nothing understood: refused)
     _ensure_registered()
     out = os.path.abspath(args.out)
     os.makedirs(out, exist_ok=True)
@@ -211,6 +211,7 @@ def cmd_stylize(args) -> int:
                                            ip2p_model=args.ip2p_model, style_images=style_images,
                                            style_prompt_weight=args.style_prompt_weight,
                                            output_size=args.output_size, dark_outside=args.dark_outside)
+    _check_request_prompt(request)
     if seams.store.read().rig.projector_count > 1:
         return _stylize_multi(args, seams, request, capture)
     job = GenerateJob(seams, request, _iterations(args, scene), capture=capture, device=args.device)
@@ -236,6 +237,16 @@ def cmd_stylize(args) -> int:
                 "models": (out["summary"].get("models") or {}).get("line"), "device": out["summary"].get("device"),
                 **images, **summary})
     return 0
+
+
+def _check_request_prompt(request) -> None:
+    """A prompt the default backend reads (no mix, no style image) is refused before any model loads when nothing
+    of it is understood (one line: 'no look matched ...')."""
+    from ...lapig_core.lgst import DEFAULT_BACKEND
+    from ...lapig_core.lgst.not_understood import check_prompt
+
+    if request.lgst_backend() == DEFAULT_BACKEND and not request.mix.strip() and request.prompt.strip():
+        check_prompt(request.prompt)
 
 
 def _stylize_multi(args, seams, request, capture) -> int:

@@ -14,7 +14,7 @@ import numpy as np
 from ...lapig_core.common import compute_device, metrics
 from ...lapig_core.capture.dataset import (DatasetError, frame_size_of, load_capture_set, read_setup_json,
                                            resolve_setup, setup_dir_of)
-from ...lapig_core.lgst import backend_class
+from ...lapig_core.lgst import DEFAULT_BACKEND, backend_class
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from ...lapig_core.lgst.prompt_mapping import validate_prompt
 from ...lapig_core.native_output import OutputSizeError, output_frame, tile_for
@@ -27,7 +27,7 @@ from ...lapig_core.export.result_files import as_stored, folder_name, heat_overl
 from . import panel_state, warmup
 from .capture_job import CaptureError
 from .export_result import result_frame
-from .jobs import WorkerJob
+from .jobs import THREAD_PREFIX, WorkerJob
 from .pipeline_errors import PipelineError, hold_capture  # noqa: F401 (their home for the jobs that import them here)
 from .ports import Seams
 from .projection import project_and_capture, projection_steps
@@ -292,6 +292,22 @@ def psa_settings_from(request: GenerateRequest) -> PSASettings:
     return PSASettings(adaptation=request.adaptation, seed=request.seed)
 
 
+def look_geometry(store, capture: str, backend: str, mix: str, prompt: str):
+    """What the looks of the world follow (on the main thread: Blender's ray casts): the object as the projector
+    sees it at the capture's working frame, or "capture" (no 3D model: the captured surface stands in); None where
+    the look reads no geometry (a style mix, another backend)."""
+    if mix or backend != DEFAULT_BACKEND or not prompt:
+        return None
+    reader = getattr(store, "look_geometry", None)
+    if reader is None:
+        return "capture"
+    try:
+        geometry = reader(*frame_size_of(capture))
+    except ValueError:  # the rays land on nothing the scene can render: the captured surface then
+        geometry = None
+    return geometry if geometry is not None else "capture"
+
+
 class GenerateJob(WorkerJob):
     """Prompt -> stylized target (with and without PSA) -> compensated projector image."""
 
@@ -328,7 +344,8 @@ class GenerateJob(WorkerJob):
             if r.backend != backend:
                 notes.append(f"a style image is chosen: the look comes from it ('{backend}' backend), "
                              f"not from '{r.backend}'")
-        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend,
+        geometry = look_geometry(store, folder, backend, mix, prompt)
+        return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend, "geometry": geometry,
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
                 "dark_outside": r.dark_outside, "output_frame": output,
                 "settings": psa_settings_from(r),
@@ -347,6 +364,7 @@ class GenerateJob(WorkerJob):
         rendering (on the worker thread, surface_models could only ask PCNet)."""
         if self._inputs is self._NOT_PREPARED:
             self._inputs = self.prepare()
+        yield from self._read_prompt()  # a prompt of which nothing is understood: refused before any training
         share = 0.0
         problem, self._inputs["saved"] = saved_models_problem(self._inputs["capture"])  # each checkpoint read once
         if problem == "":  # never trained: the capture's first look, where Capture fitted one, works at once
@@ -369,6 +387,33 @@ class GenerateJob(WorkerJob):
                 inner.close()
         for progress, message in super().steps():
             yield share + (1.0 - share) * progress, message
+
+    def _read_prompt(self):
+        """Plan the prompt on a thread (the text model may load: Blender's UI keeps its turns) and raise its one
+        line when nothing of it is understood ('no look matched ...'), so a refused prompt changes nothing."""
+        import threading
+
+        job = self._inputs
+        if job["mix"] or job["backend"] != DEFAULT_BACKEND or not job["prompt"]:
+            return
+        from ...lapig_core.lgst.not_understood import check_prompt
+
+        box = {}
+
+        def target():
+            try:
+                warmup.wait_for_warmup()  # the text model once, not loaded beside a warm-up under way
+                check_prompt(job["prompt"])
+            except BaseException as exc:  # handed to the main thread, raised there
+                box["error"] = exc
+
+        thread = threading.Thread(target=target, name=f"{THREAD_PREFIX}{self.title} prompt", daemon=True)
+        thread.start()
+        while thread.is_alive():
+            thread.join(self.poll_timeout or 0.0)
+            yield 0.0, "reading the prompt"
+        if "error" in box:
+            raise box["error"]
 
     def stop(self):
         super().stop()  # closes steps(), and with it the training's, which tells its worker to stop
@@ -400,7 +445,7 @@ class GenerateJob(WorkerJob):
         res = stylize(cs, models, job["prompt"], backend=job["backend"], seed=job["seed"], mix=job["mix"],
                       psa=job["psa"], settings=job["settings"], cancel_event=cancel_event,
                       on_progress=lambda p, m: report(0.55 + 0.4 * p, m), backend_options=job["backend_options"],
-                      dark_outside=job["dark_outside"])
+                      dark_outside=job["dark_outside"], geometry=job.get("geometry"))
         if cancel_event.is_set():  # cancelled: write nothing, the scene keeps its last result
             return None
         report(0.95, "the look and its compensation at %dx%d" % job["output_frame"])

@@ -79,6 +79,11 @@ class SceneStore(Protocol):
     def data_root(self) -> str:
         """Where this scene's captures and results live."""
 
+    def look_geometry(self, width: int, height: int):
+        """The object as the (first) projector sees it at a width x height frame, for the looks of the world
+        (lapig_core/lgst/world/geometry.LookGeometry), or None where there is no 3D model to read (a real rig):
+        the look then follows the captured surface. Optional: a store without it counts as None."""
+
     def record_capture(self, folder: str, fingerprint: str, transport: str = "") -> None: ...
 
     def record_coverage(self, names, shares, reached: float) -> None:

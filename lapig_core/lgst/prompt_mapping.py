@@ -18,6 +18,7 @@ import torch
 from .minilm import MODEL_PACKAGE, embed, shutdown_embedding_process  # noqa: F401 (the mapping's public names)
 from .style_catalog import BY_NAME, NAMES, STYLES
 MAX_PROMPT_CHARS = 500      # MiniLM reads 256 word pieces at most; longer text only dilutes the match
+REFUSED_PROMPT_CHARS = 2000  # longer is a paste gone wrong, not a description: refused, not cut at 500
 DEFAULT_K = 3
 # the softmax temperature and the weak-match threshold depend on the embedder (text_embedder.py)
 TAG_WEIGHT = 0.5            # score = mix of whole-description and best single-tag similarity
@@ -41,13 +42,20 @@ def prompt_model_status() -> tuple[bool, str]:
 
 
 def validate_prompt(prompt) -> tuple[str, list[str]]:
-    """Clean a user prompt: (text, notes). ValueError for an empty prompt; long ones are truncated."""
+    """Clean a user prompt: (text, notes). ValueError (one line) for an empty prompt, one with no letters or one
+    over REFUSED_PROMPT_CHARS; long ones are truncated to MAX_PROMPT_CHARS with a note."""
     if not isinstance(prompt, str):
         raise ValueError(f"the prompt must be text, got {type(prompt).__name__}")
     text = " ".join(unicodedata.normalize("NFC", prompt).split())  # any script works; NFC + one space
     if not text:
         raise ValueError("the prompt is empty: describe the look you want, e.g. 'Make it a stained glass "
                          "artwork', or give a style mix such as 'black_ink_cells:0.7, teal_red_mosaic:0.3'")
+    if len(text) > REFUSED_PROMPT_CHARS:
+        raise ValueError(f"the prompt is {len(text)} characters long: describe the look in a few words (at most "
+                         f"{MAX_PROMPT_CHARS} characters are read), e.g. 'granite' or 'ivy over old bricks'")
+    if not any(c.isalpha() for c in text):
+        raise ValueError(f"the prompt '{text[:40]}' has no words (only digits, symbols or emoji): describe the look "
+                         f"in words, e.g. 'granite' or 'ivy over old bricks'")
     notes = []
     if len(text) > MAX_PROMPT_CHARS:
         notes.append(f"prompt truncated from {len(text)} to {MAX_PROMPT_CHARS} characters")

@@ -110,7 +110,43 @@ class PromptPlan:
         return {"embedder": self.embedder, "entry": entry, "medium": medium,
                 "colours": [c.to_dict() for c in self.colours],
                 "mood": self.mood, "mood_words": self.mood_words or None, "texture": self.texture,
-                "translated": [[w, e] for w, e in self.glossed], "unmatched": list(self.unmatched)}
+                "translated": [[w, e] for w, e in self.glossed], "unmatched": list(self.unmatched),
+                "generators": self.generators(), "words_used": self.words_used(),
+                "not_understood": self.not_understood()}
+
+    def generators(self) -> list[str]:
+        """What makes the look, by name: the world's patterns and weathering, the look, the styles, the grades."""
+        out = []
+        if self.medium_kind == "world":
+            for m in self.world.materials():
+                out.append(f"{m.pattern} ({m.name})")
+            out += [f"weathering: {w}" for w in self.world.weathering]
+        elif self.medium_kind == "look":
+            out.append(f"look: {self.look}")
+        elif self.medium_kind == "style":
+            out += [f"style: {n}" for n, _ in self.styles[:3]]
+        if self.colours:
+            out.append("colours: " + ", ".join(c.name for c in self.colours))
+        out += [f"{kind}: {name}" for kind, name in (("texture", self.texture), ("mood", self.mood)) if name]
+        return out
+
+    def words_used(self) -> list[list[str]]:
+        """[as written, what it was read as] for every word the look follows."""
+        out = []
+        if self.entry is not None:
+            out.append([self.entry_written or self.entry.name, f"{self.entry.kind}: {self.entry.name}"])
+        if self.medium_kind == "world":
+            out += [[w, what] for w, what in self.world.words]
+        out += [[c.words, f"colour: {c.name}"] for c in self.colours]
+        if self.mood_words:
+            out.append([self.mood_words, f"mood: {self.mood}"])
+        out += [[w, f"translated: {e}"] for w, e in self.glossed]
+        return out
+
+    def not_understood(self) -> list[str]:
+        """The words the look does not follow (each message of `unmatched` names its word first)."""
+        words = [m.group(1) for m in (re.match(r"'([^']+)'", u) for u in self.unmatched) if m]
+        return list(dict.fromkeys(words))
 
     def summary(self) -> str:
         """One line for the panel: what the prompt was read as."""
@@ -123,8 +159,9 @@ class PromptPlan:
             parts.append(" + ".join(f"{n} {w:.2f}" for n, w in self.styles[:2]))
         elif self.medium_kind == "look":
             parts.append(self.look)
-        elif self.medium_kind == "world":
-            parts.append(self.world.line())
+        elif self.medium_kind == "world":  # the materials, then the generators that draw them
+            patterns = list(dict.fromkeys(m.pattern for m in self.world.materials()))
+            parts.append(f"{self.world.line()} [{', '.join(patterns)}]")
         if self.colours and self.entry is None:
             parts.append("colours " + ", ".join(c.name for c in self.colours))
         if self.mood:
@@ -134,6 +171,9 @@ class PromptPlan:
         line = "; ".join(parts) or "the surface as it is"
         if self.unmatched:
             line += " | " + self.unmatched[0]
+            others = [w for w in self.not_understood() if not self.unmatched[0].startswith(f"'{w}'")]
+            if others:
+                line += "; not understood either: " + ", ".join(f"'{w}'" for w in others)
         return line
 
 
@@ -469,11 +509,21 @@ def _world_materials():
 
 def _world_names_a_material(plan: PromptPlan, text: str) -> bool:
     """An entry found only by a spelling or a meaning ("river" read as Rivera) whose words name a material of the
-    world: the material was meant."""
-    from .world.compose import find_materials
+    world, or a painting's title inside a material's phrase ("a starry night sky"): the material was meant."""
+    from .world.compose import find_materials, tokens
 
-    return plan.entry is not None and plan.entry_how in ("spelling", "meaning") and \
-        bool(find_materials(plan.entry_written or ""))
+    if plan.entry is None:
+        return False
+    if plan.entry_how in ("spelling", "meaning"):
+        return bool(find_materials(plan.entry_written or ""))
+    if plan.entry_how == "work":  # "a starry night sky": a material phrase runs on past the painting's title
+        title = {t for t, _ in tokens(plan.entry_written or "")}
+        toks = [t for t, _ in tokens(text)]
+        for a, b, _ in find_materials(text):
+            words = toks[a:b]
+            if any(w in title for w in words) and any(w not in title for w in words):
+                return True
+    return False
 
 
 def _colours_by_layer(comp, colours: list[NamedColour], text: str) -> dict:

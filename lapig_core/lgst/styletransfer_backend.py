@@ -52,18 +52,21 @@ class StyleTransferBackend(ThetaBackend):
 
     def __init__(self, internal_size: int = 512, blend: float = 0.15, top_k: int = 3,
                  temperature: float | None = None, jitter: float = 0.0, effects: str | list = "auto",
-                 looks: bool = True):
+                 looks: bool = True, geometry=None):
         """internal_size: the style net's working resolution (its styles were trained near 512 px).
         blend: share of the input surface mixed back in, so the content stays recognisable.
         jitter: std of seeded noise added to theta at prepare (0 = the mix exactly; >0 for PSA restarts).
         effects: 'auto' (from the prompt's words), a list of effect objects, or None.
         looks: False maps prompts to the 26 styles only (no looks, colours or moods), as before.
+        geometry: the object as the projector sees it (world.geometry.LookGeometry, at any size): the looks of the
+        world follow it (crevices, tops, downhill, metres); None: the image alone, as before.
         """
         if not 0.0 <= blend <= 1.0:
             raise ValueError(f"blend must be in [0, 1], got {blend}")
         self.internal_size, self.blend, self.top_k = int(internal_size), float(blend), int(top_k)
         self.temperature, self.jitter, self.effects_spec = temperature, float(jitter), effects
         self.looks = bool(looks)
+        self.geometry = geometry
         self._theta: list[torch.Tensor] = []
         self._anchor: list[torch.Tensor] = []
         self._stages: list = []
@@ -95,11 +98,11 @@ class StyleTransferBackend(ThetaBackend):
         if surface.ndim != 4 or surface.shape[:2] != (1, 3):
             raise ValueError(f"surface must be (1,3,H,W), got {tuple(surface.shape)}")
         text, notes = pm.validate_prompt(prompt) if (mix is None or prompt) else ("", [])
-        if self.effects_spec == "auto":
-            self._effects = effects_for_prompt(text)
+        if self.effects_spec == "auto":  # kept apart until the prompt is accepted: a refusal changes nothing
+            effects = effects_for_prompt(text)
         else:
-            self._effects = list(self.effects_spec or [])
-        hints = [e.style_hint for e in self._effects if getattr(e, "style_hint", "")]
+            effects = list(self.effects_spec or [])
+        hints = [e.style_hint for e in effects if getattr(e, "style_hint", "")]
         if mix is not None:
             # an explicit style mix is the medium; a prompt beside it still gives colours and mood
             plan = plan_prompt(text) if text else PromptPlan(prompt="", embedder="")
@@ -112,6 +115,11 @@ class StyleTransferBackend(ThetaBackend):
             query = ", ".join([text] + hints)
             if self.looks:
                 plan = plan_prompt(query, k=self.top_k, temperature=self.temperature)
+                if not effects:  # nothing understood: one line, never a tint (an effect is understood)
+                    from .not_understood import refuse_if_not_understood
+                    from .text_embedder import active
+
+                    refuse_if_not_understood(plan, active().weak)
                 notes += plan.notes + plan.unmatched  # so the artist can rephrase
             else:  # the 26 styles only, as before the look library (for comparisons)
                 from .text_embedder import active
@@ -120,10 +128,11 @@ class StyleTransferBackend(ThetaBackend):
                 plan = PromptPlan(prompt=text, embedder=active().description, medium_kind="style",
                                   styles=info["mix"], medium_score=info["best_score"])
                 notes += info["notes"]
-        if plan.medium_kind == "look" and any(e.name == plan.look for e in self._effects):
+        if plan.medium_kind == "look" and any(e.name == plan.look for e in effects):
             # the named look makes the pixels itself (art lexicon): no second, misaligned grid over it
-            self._effects = [e for e in self._effects if e.name != plan.look]
+            effects = [e for e in effects if e.name != plan.look]
             notes = [n for n in notes if not n.startswith("style chosen for the effects' look")]
+        self._effects = effects  # the prompt is accepted: from here on the backend holds its look
         self.plan = plan
         self.surface = surface.detach().float().clamp(0, 1)
         self.size = tuple(self.surface.shape[-2:])
@@ -131,7 +140,7 @@ class StyleTransferBackend(ThetaBackend):
         gen = torch.Generator().manual_seed(int(seed))
         if plan.medium_kind == "style":
             self._prepare_style_net(plan.styles, gen)
-        self._stages = self._build_stages(plan, seed)
+        self._stages = self._build_stages(plan, seed, self.geometry)
         for stage in self._stages:
             for key, value, scale in stage.tensors():
                 self._add_theta(value.to(self.surface.device), gen, scale)
@@ -144,6 +153,10 @@ class StyleTransferBackend(ThetaBackend):
                       "understood": plan.understood(), "understood_line": plan.summary(),
                       "internal_size": self.internal_size, "blend": self.blend,
                       "theta_numel": sum(t.numel() for t in self._theta), "notes": notes}
+        if self.geometry is not None and plan.medium_kind == "world":  # what shaped the look, and from what
+            self._info["geometry"] = self.geometry.to_dict()
+            if self.geometry.note:
+                notes.append(self.geometry.note)
 
     def _add_theta(self, t, gen, scale):
         t = t.detach().clone().float()
@@ -169,7 +182,7 @@ class StyleTransferBackend(ThetaBackend):
                 self._add_theta(t, gen, None)  # CIN tensors: relative distance (None)
 
     @staticmethod
-    def _build_stages(plan, seed: int = 0) -> list:
+    def _build_stages(plan, seed: int = 0, geometry=None) -> list:
         """The look chain after the medium: the look medium, the named colours, the texture, the mood."""
         from .looks import BY_NAME, palette_stage
 
@@ -187,7 +200,7 @@ class StyleTransferBackend(ThetaBackend):
         if plan.medium_kind == "world":  # the world composition makes its own colours (the named ones recolour it)
             from .world.stage import world_stage
 
-            stages.append(world_stage(plan.world, plan.world_colour_layers or None, seed=seed))
+            stages.append(world_stage(plan.world, plan.world_colour_layers or None, seed=seed, geometry=geometry))
             rgb = None
         medium = BY_NAME.get(plan.look) if plan.medium_kind == "look" else None
         if medium is not None:

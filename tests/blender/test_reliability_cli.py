@@ -286,13 +286,19 @@ def test_export_after_a_stylize_without_save_says_which_result_to_export(capfd, 
 def test_notes_on_the_prompt_are_printed_and_reported(capfd, project, new_results):
     from lapig.operators.pipeline_ops import LAPIG_OT_generate
 
-    prompt = "Mach es wie ein Zorblax, über dem stillen Meer, " * 12
+    # nothing of it understood: refused in one line before any work, and nothing changes (issue 50)
+    before = _snapshot(project.folder)
+    status, _, err = _run(capfd, "stylize", "--blend", project.blend, "--prompt",
+                          "Mach es wie ein Zorblax, über dem stillen Meer", "--no-psa")
+    line = _refused(status, err, "no look matched 'Zorblax stillen Meer': try ")
+    assert new_results() == [] and _snapshot(project.folder) == before, line
+    prompt = "Mach es wie ein Zorblax, über dem stillen Meer, in Blau, " * 12  # the colour is understood
     status, _, err = _run(capfd, "stylize", "--blend", project.blend, "--prompt", prompt, "--no-psa")
     assert status == 0, err[-2000:]
     notes = [line for line in err.splitlines() if line.startswith("note: ")]
     assert f"note: prompt truncated from {len(prompt.strip())} to 500 characters" in notes
     assert any(n.startswith("note: weak match") for n in notes), notes
-    said = [n for n in notes if "'Zorblax' matched no look" in n]
+    said = [n for n in notes if "'zorblax' matched no look" in n.lower()]
     assert len(said) == 1, notes  # once, though the prompt says it twelve times
 
     class Operator:  # the Generate operator's report, recorded

@@ -214,8 +214,16 @@ def describe_line(info: dict) -> str:
 def render_case(backend, case: Case, surface: np.ndarray, surface_800: "torch.Tensor | None") -> Rendered:
     import torch
 
+    from ...lapig_core.lgst.not_understood import PromptNotUnderstood
+
     x = torch.from_numpy(surface).permute(2, 0, 1)[None].float()
-    target = backend.stylize(x, case.text, seed=0)[0].permute(1, 2, 0).clamp(0, 1).numpy()
+    try:
+        target = backend.stylize(x, case.text, seed=0)[0].permute(1, 2, 0).clamp(0, 1).numpy()
+    except PromptNotUnderstood as exc:  # refused with its line: no look, so no structure of its own (counted)
+        done = Rendered(case, surface.copy(), f"refused: {exc}", unmatched=[str(exc)])
+        done.structure = structure(done.target, surface)
+        done.checks = checks(case, done.target)
+        return done
     info = backend.describe()
     done = Rendered(case, target, describe_line(info),
                     unmatched=[n for n in info.get("notes", []) if "matched no" in n or "weak match" in n])

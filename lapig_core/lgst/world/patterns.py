@@ -375,7 +375,7 @@ def candle(u, v, s, seed, o):
 def stars(u, v, s, seed, o):
     """A night sky: stars of many brightnesses, a faint band of the Milky Way."""
     light = shapes.stars(u * s, v * s, seed, density=o.get("density", 0.2))
-    light = light + shapes.stars(u * s * 3, v * s * 3, seed + 1, density=0.25, size=0.08) * 0.5
+    light = light + shapes.stars(u * s * 3, v * s * 3, seed + 1, density=o.get("faint", 0.25), size=0.08) * 0.5
     band = torch.exp(-((v - 0.35 - 0.6 * u * 0.3 - 0.05 * noise.fbm(u * 4, v * 4, seed + 38, 4)) / 0.12) ** 2)
     haze = band * _u01(noise.fbm(u * 8, v * 8, seed + 39, 5)) * o.get("milky_way", 0.35)
     return _out((0.08 + haze + light).clamp(0, 1))
@@ -459,7 +459,14 @@ def falls(u, v, s, seed, o):
 def reaction(u, v, s, seed, o):
     """Reaction-diffusion: lichen's spots, coral's mazes, holes (t 1 on the grown pattern)."""
     pattern = growth.reaction_diffusion(u * s / 6, v * s / 6, o.get("kind", "spots"), seed)
-    return _out(pattern, cover=_smooth(0.3, 0.6, pattern))
+    th = o.get("threshold", 0.3)  # lower: the growth covers more than its spots
+    cover = _smooth(th, th + 0.3, pattern)
+    if o.get("colonies"):  # lichen grows in colonies: ragged patches filled with its spots
+        c = o["colonies"]
+        patch = _smooth(0.62 - 0.3 * c, 0.78 - 0.3 * c, _u01(noise.fbm(u * s / 3, v * s / 3, seed + 33, 5)))
+        cover = torch.maximum(cover, patch)
+        pattern = torch.maximum(pattern, patch * (0.6 + 0.4 * pattern))
+    return _out(pattern, cover=cover)
 
 
 def cave_art(u, v, s, seed, o):

@@ -7,6 +7,7 @@ coverage, the dirt, and an exposure. The scale and the seed are not theta: PSA c
 coloured, not where its stones are."""
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from ..looks.stage import Stage, tensor
@@ -83,9 +84,70 @@ def _layer(material: Material, u, v, seed: int, scale: float, density: float, p:
     return rgb * light, f, t
 
 
-def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=None) -> torch.Tensor:
-    """The composition at h x w, (1, 3, h, w) in 0..1."""
-    u, v = coordinates(h, w, device)
+GROWTH_PATTERNS = ("leaves", "clouds", "reaction", "grass")   # what grows: it starts in joints and crevices
+SETTLES_ON_TOPS = ("snow", "snowflakes", "frost")               # what falls and stays on what faces up
+RUNS_DOWNHILL = ("rust", "patina", "raindrops", "dust")          # what water carries down the surface
+
+
+def _smear_downhill(field: torch.Tensor, downhill: torch.Tensor, steps: int = 20, step_px: float | None = None):
+    """Each pixel takes the strongest of what lies upstream of it, fading with the distance: streaks that run
+    down the surface from where the field is (drips, rust stains), about a sixth of the frame long.
+    field (h, w); downhill (h, w, 2) in pixels."""
+    h, w = field.shape
+    step_px = step_px or max(1.0, max(h, w) / 120.0)
+    ys, xs = torch.meshgrid(torch.arange(h, dtype=torch.float32, device=field.device),
+                            torch.arange(w, dtype=torch.float32, device=field.device), indexing="ij")
+    src = field.view(1, 1, h, w)
+    out = field
+    for k in range(1, steps + 1):
+        x = xs - k * step_px * downhill[..., 0]
+        y = ys - k * step_px * downhill[..., 1]
+        grid = torch.stack([2 * (x + 0.5) / w - 1, 2 * (y + 0.5) / h - 1], -1).unsqueeze(0)
+        up = torch.nn.functional.grid_sample(src, grid, mode="bilinear", padding_mode="border", align_corners=False)
+        out = torch.maximum(out, up[0, 0] * (0.93 ** k))
+    return out
+
+
+def _geometry_maps(geometry, h: int, w: int, device):
+    from .geometry import look_coordinates, resized
+
+    g = resized(geometry, h, w)
+    as_t = lambda a: torch.as_tensor(a, dtype=torch.float32, device=device)  # noqa: E731
+    u, v = look_coordinates(geometry, h, w)
+    # thin streaks along the downhill direction (about the image's down on walls): fine across, long along
+    across = torch.as_tensor(np.abs(g.downhill[..., 1]) > np.abs(g.downhill[..., 0]))
+    su, sv = coordinates(h, w)
+    a, b = torch.where(across, su, sv), torch.where(across, sv, su)
+    streaks = _smooth(0.45, 0.7, _u01(noise.fbm(a * 90, b * 6, 131, 3))).to(device)
+    return {"u": u.to(device), "v": v.to(device), "cavity": as_t(g.cavity), "valid": as_t(g.valid),
+            "streaks": streaks,
+            "up": None if g.up is None else as_t(g.up), "downhill": as_t(g.downhill)}
+
+
+def shaped_cover(overlay: Material, cover: torch.Tensor, geo: dict) -> torch.Tensor:
+    """An overlay's cover shaped by the object: growth gathers in crevices, snow on what faces up, rust and drips
+    run downhill."""
+    # on a flat wall facing the projector the look stays much as it is without the object
+    if overlay.name in SETTLES_ON_TOPS and geo["up"] is not None:
+        tops = _smooth(0.15, 0.7, geo["up"])  # tops take it whole, walls keep some where it caught
+        cover = cover * (0.6 + 0.4 * tops) + 0.6 * tops * (1 - cover.clamp(0, 1))
+    elif overlay.pattern in GROWTH_PATTERNS or overlay.name == "dust":
+        cover = cover.clamp(0, 1) * 0.8
+        cover = cover + 0.9 * geo["cavity"] * (1 - cover)
+    if overlay.name in RUNS_DOWNHILL:  # the stains run below the patches in thin streaks
+        cover = cover.clamp(0, 1)
+        tail = (_smear_downhill(cover, geo["downhill"]) - cover).clamp_min(0)
+        cover = cover + tail * geo["streaks"]
+    return cover.clamp(0, 1)
+
+
+def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=None, geometry=None,
+           geo: dict | None = None) -> torch.Tensor:
+    """The composition at h x w, (1, 3, h, w) in 0..1; shaped by the object where `geometry` (geometry.LookGeometry,
+    as the projector sees the object) is given (geo: its maps at this size, made once by the stage)."""
+    if geo is None and geometry is not None:
+        geo = _geometry_maps(geometry, h, w, device)
+    u, v = (geo["u"], geo["v"]) if geo is not None else coordinates(h, w, device)
     out, base_f, base_t = _layer(comp.base, u, v, seed, comp.scale, comp.density, p, "base")
     if comp.second is not None:
         second, _, _ = _layer(comp.second, u, v, seed + 7, comp.scale, comp.density, p, "second")
@@ -95,10 +157,13 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
         rgb, f, _ = _layer(overlay, u, v, seed + 11 + i, comp.scale, comp.density, p, f"overlay{i}")
         cover = f["cover"]
         if comp.base.pattern in ("masonry", "stones", "hex_tiles", "checker", "cracks") and overlay.pattern in (
-                "leaves", "clouds", "reaction", "grass"):
-            # growth follows the joints: what grows on a wall starts in its mortar and spreads from there
+                "leaves", "clouds", "grass"):
+            # growth follows the joints: what grows on a wall starts in its mortar and spreads from there (lichen
+            # grows on the faces of the stones themselves)
             joint = _smooth(0.35, 0.0, base_t)
             cover = (cover * (0.45 + 0.9 * joint)).clamp(0, 1)
+        if geo is not None:
+            cover = shaped_cover(overlay, cover, geo)
         amount = (cover * p[f"overlay{i}_coverage"]).clamp(0, 1)
         out = out * (1 - amount) + rgb * amount
     grain = comp.base.options.get("grain", 0.35)
@@ -108,17 +173,22 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
     if "dirt" in comp.weathering:
         grime = _u01(noise.fbm(u * 6, v * 6, seed + 71, 5))
         crevice = _smooth(0.4, 0.0, base_t)
+        if geo is not None:  # the object's own crevices hold the dirt too
+            crevice = torch.maximum(crevice, geo["cavity"])
         out = out * (1 - p["dirt"] * (0.5 * grime + 0.6 * crevice)).clamp(0.2, 1)
     if "wet" in comp.weathering:
         glints = _smooth(0.82, 0.95, _u01(noise.fbm(u * 40, v * 40, seed + 81, 3)))
+        if geo is not None:  # wet glints run down in drips
+            glints = _smear_downhill(glints, geo["downhill"], steps=8)
         out = (out.clamp(0, 1) ** 1.35) * 0.85 + 0.5 * glints
     if "glow" in comp.weathering:
         out = out * 1.25 + 0.1 * out ** 2
     return (out * p["exposure"]).clamp(0, 1).unsqueeze(0)
 
 
-def world_stage(comp: Composition, colours: list | None = None, seed: int = 0) -> Stage:
-    """The look Stage of a composition (named colours, if any, recolour the base)."""
+def world_stage(comp: Composition, colours: list | None = None, seed: int = 0, geometry=None) -> Stage:
+    """The look Stage of a composition (named colours, if any, recolour the base), shaped by the object's
+    geometry (geometry.LookGeometry) where it is given."""
     params, scales = {}, {}
 
     def layer(key, material, named=None):
@@ -144,8 +214,15 @@ def world_stage(comp: Composition, colours: list | None = None, seed: int = 0) -
     params["grain"], scales["grain"] = tensor(1.0), 0.3
     params["exposure"], scales["exposure"] = tensor(1.0), 0.2
 
+    maps = {}  # the geometry's maps by size and device: made once, not at every PSA step
+
     def fn(x, p, surface=None):
         h, w = x.shape[-2:]
-        return render(comp, p, h, w, seed=seed, device=x.device)
+        geo = None
+        if geometry is not None:
+            key = (h, w, str(x.device))
+            geo = maps.get(key) or maps.setdefault(key, _geometry_maps(geometry, h, w, x.device))
+        return render(comp, p, h, w, seed=seed, device=x.device, geo=geo)
 
-    return Stage("world", "medium", fn, params, scales, note=comp.line())
+    note = comp.line() + (f"; shaped by the {geometry.source}" if geometry is not None else "")
+    return Stage("world", "medium", fn, params, scales, note=note)

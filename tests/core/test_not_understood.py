@@ -4,12 +4,12 @@ import importlib.util
 
 import pytest
 
-from lapig.lapig_core.lgst import prompt_mapping as pm
-from lapig.lapig_core.lgst.not_understood import (PromptNotUnderstood, check_prompt, refusal_line, suggestions,
-                                                 vocabulary)
-
-torch = pytest.importorskip("torch")
+torch = pytest.importorskip("torch")  # before the imports: the prompt's modules load torch
 pytestmark = pytest.mark.torch
+
+from lapig.lapig_core.lgst import prompt_mapping as pm  # noqa: E402
+from lapig.lapig_core.lgst.not_understood import (PromptNotUnderstood, check_prompt, refusal_line,  # noqa: E402
+                                                 suggestions, vocabulary)
 
 
 def _has(*modules):

@@ -6,7 +6,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-pytestmark = pytest.mark.blender
+pytestmark = [pytest.mark.blender, pytest.mark.torch]  # the looks of the world (lgst) load torch
 
 
 def _rigged(shape, tmp_path):

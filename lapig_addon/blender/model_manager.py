@@ -17,7 +17,7 @@ from ..services.model_download import DOWNLOADS, DownloadRequest, ModelDownloadJ
 from . import torch_installer
 from .operator_boundary import ReportsErrors
 
-STEP_S = 0.1
+from .timer_jobs import STEP_S, in_ui, redraw, timer_step
 ICONS = {"absent": "IMPORT", "downloading": "SORTTIME", "ready": "CHECKMARK", "damaged": "ERROR"}
 
 
@@ -57,24 +57,10 @@ def _prefs(context):
 
 
 def _redraw():
-    wm = bpy.context.window_manager
-    for window in (wm.windows if wm else []):
-        for area in (window.screen.areas if window.screen else []):
-            if area.type == "PREFERENCES":
-                area.tag_redraw()
+    redraw({"PREFERENCES"})
 
 
-def _step():
-    job = DOWNLOADS.job
-    if job is None:
-        return None
-    if not job.finished:
-        job.step()
-    _redraw()
-    if job.finished:
-        _ended(job)
-        return None
-    return STEP_S
+_step = timer_step(DOWNLOADS, lambda job: _ended(job), {"PREFERENCES"})  # bpy.app.timers: one step of the download
 
 
 def _ended(job):
@@ -82,8 +68,7 @@ def _ended(job):
     print(f"LAPIG: {DOWNLOADS.said[job.request.key][1]}")
 
 
-def _in_ui(context) -> bool:
-    return not bpy.app.background and getattr(context, "window", None) is not None
+_in_ui = in_ui
 
 
 def _model_items(self, context):

@@ -15,7 +15,7 @@ from ..services import torch_builds, torch_install
 from ..services.torch_install import SLOT, TorchInstallJob
 from .operator_boundary import ReportsErrors
 
-STEP_S = 0.1
+from .timer_jobs import STEP_S, in_ui, redraw, timer_step
 
 
 def target_folder() -> str:
@@ -33,31 +33,15 @@ def online_refusal() -> str:
     return torch_install.online_refusal(online_access(), overridden=overridden)
 
 
-def _in_ui(context) -> bool:
-    return not bpy.app.background and getattr(context, "window", None) is not None
+_in_ui = in_ui
+SHOWN_IN = {"PREFERENCES", "VIEW_3D"}  # the preferences' progress bar; the sidebar's buttons (Train turns on)
 
 
 def _redraw():
-    """The preferences' progress bar and the sidebar's buttons (Train turns on) show the new state."""
-    wm = bpy.context.window_manager
-    for window in (wm.windows if wm else []):
-        for area in (window.screen.areas if window.screen else []):
-            if area.type in {"PREFERENCES", "VIEW_3D"}:
-                area.tag_redraw()
+    redraw(SHOWN_IN)
 
 
-def _step():
-    """bpy.app.timers: one step of the install, then again in STEP_S (None: the timer ends)."""
-    job = SLOT.job
-    if job is None:
-        return None
-    if not job.finished:
-        job.step()
-    _redraw()
-    if job.finished:
-        _ended(job)
-        return None
-    return STEP_S
+_step = timer_step(SLOT, lambda job: _ended(job), SHOWN_IN)  # bpy.app.timers: one step of the install
 
 
 def _ended(job):

@@ -17,6 +17,7 @@ from .jobs import Job
 from .limits import first_problem
 from .panel_state import device_blocker
 from .ports import Seams
+from .ways import chosen_way
 
 
 def check_rig(store):
@@ -90,11 +91,9 @@ class CaptureJob(Job):
 def capture_way(seams: Seams, record: bool):
     """The one place the capture's way is chosen: the scene's own rig of several projectors (`record`) is
     captured in camera space, for their joint model."""
-    if record and seams.store.read().rig.projector_count > 1:
-        from .capture_joint import JointCaptureWay
-
-        return JointCaptureWay()
-    return ProjectorCaptureWay()
+    if not record:  # a capture that is not the scene's own (not recorded) is one projector's, as before
+        return ProjectorCaptureWay()
+    return chosen_way(seams.store.read().rig, ProjectorCaptureWay, "capture_joint:JointCaptureWay")()
 
 
 class ProjectorCaptureWay:

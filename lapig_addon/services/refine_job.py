@@ -31,6 +31,7 @@ from .pipeline_jobs import current_capture
 from .ports import Seams
 from .projection import projection_session
 from .refine_lines import record_refinement, refine_line
+from .ways import chosen_way
 
 REFINED = "projector_refined"
 
@@ -87,11 +88,7 @@ class RefineResultJob(Job):
 
 def refine_way(seams):
     """The one place the refinement's way is chosen: several projectors are refined together in camera space."""
-    if seams.store.read().rig.projector_count > 1:
-        from .refine_joint import JointRefineWay
-
-        return JointRefineWay
-    return ProjectorRefineWay
+    return chosen_way(seams.store.read().rig, ProjectorRefineWay, "refine_joint:JointRefineWay")
 
 
 class ProjectorRefineWay:

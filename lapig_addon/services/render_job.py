@@ -18,6 +18,7 @@ from .pipeline_jobs import current_capture
 from .pipeline_errors import PipelineError, hold_capture
 from .ports import Seams
 from .projection import projection_steps, register_at
+from .ways import chosen_way
 
 
 class RenderResultJob(Job):
@@ -51,11 +52,7 @@ class RenderResultJob(Job):
 def render_way(seams):
     """The one place Render's way is chosen: several projectors' images are shown at once, captured in camera
     space."""
-    if seams.store.read().rig.projector_count > 1:
-        from .render_joint import JointRenderWay
-
-        return JointRenderWay()
-    return ProjectorRenderWay()
+    return chosen_way(seams.store.read().rig, ProjectorRenderWay, "render_joint:JointRenderWay")()
 
 
 class ProjectorRenderWay:

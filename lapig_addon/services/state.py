@@ -11,6 +11,9 @@ from dataclasses import dataclass, replace
 from ...lapig_core.optics.camera_model import CameraResponse
 from .limits import first_problem
 
+PROJECTOR_SPACE = "projector-space"  # Rig.strategy: one projector's models, in its own pixels
+JOINT = "joint"  # Rig.strategy: several projectors' joint model, in the camera's pixels
+
 IP2P_BACKEND = "instruct-pix2pix"  # lapig_core.lgst's name for it (not imported here: it needs torch)
 ARBITRARY_BACKEND = "arbitrary"  # the reference-image backend, which a chosen style image uses
 
@@ -60,6 +63,14 @@ class Rig:
     @property
     def projector_count(self) -> int:
         return len(self.projectors) if self.projectors else int(self.projector is not None)
+
+    @property
+    def strategy(self) -> str:
+        """The model strategy, chosen here and nowhere else (ARCHITECTURE.md, glossary): PROJECTOR_SPACE, the
+        learned CompenNeSt/PCNet or the classical model of one projector (the paper's figures), or JOINT, the
+        camera-space joint model of any number of projectors. Each stage picks its way from this
+        (services/ways.py)."""
+        return JOINT if self.projector_count > 1 else PROJECTOR_SPACE
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ from ...lapig_core.optics.projector_model import frame_from_working_image
 from ...lapig_core.export.result_files import read_output_image
 from ...lapig_core.multi.result_files import problem_areas
 from ..services.panel_state import preview_blocker
+from ..services.state import JOINT
 from . import preview, projector_nodes, scene_state
 from .scene_state import projector_model
 
@@ -70,7 +71,7 @@ def _light_map_image(projector, result_dir: str, name: str) -> bpy.types.Image:
     return frame_image(IMAGE_PREFIX + name, colours)
 
 
-def _several_image(result_dir: str, mode: str) -> bpy.types.Image:
+def _joint_image(result_dir: str, mode: str) -> bpy.types.Image:
     """A result of several projectors' camera-space image of `mode` (its look, the joint model's capture, the
     rendered capture, the light maps of its Light Report), as an image at the camera's size."""
     name = SEVERAL_IMAGES[mode]
@@ -84,19 +85,19 @@ def _several_image(result_dir: str, mode: str) -> bpy.types.Image:
     return frame_image(IMAGE_PREFIX + "camera " + name, np.ascontiguousarray(pixels[..., :3], dtype=np.float32))
 
 
-def _several_problem_image(result_dir: str) -> bpy.types.Image:
+def _joint_problem_image(result_dir: str) -> bpy.types.Image:
     """Problem areas of a result of several: where their joint light falls short of the look (camera space)."""
     return frame_image(IMAGE_PREFIX + "camera problem areas", problem_areas(result_dir).astype(np.float32))
 
 
-def _several_mode(scene, mode: str, camera, target, result_dir: str) -> None:
+def _joint_mode(scene, mode: str, camera, target, result_dir: str) -> None:
     if mode == "PROJECTION":  # every projector's light carries its own image: the surface shows their sum
         projectors = scene_state.rig_projectors(scene)
         preview.enable_casts(target, [(p, projector_nodes.projected_image(p.data)) for p in projectors])
     elif mode == "COMPENSABILITY":
-        preview.enable_preview(target, camera, _several_problem_image(result_dir), appearance=True)
+        preview.enable_preview(target, camera, _joint_problem_image(result_dir), appearance=True)
     else:  # a result of several lives in the camera's frame: its images are cast from the rig's camera
-        preview.enable_preview(target, camera, _several_image(result_dir, mode), appearance=True)
+        preview.enable_preview(target, camera, _joint_image(result_dir, mode), appearance=True)
 
 
 def apply_mode(scene, mode: str, report=None) -> bool:
@@ -107,8 +108,8 @@ def apply_mode(scene, mode: str, report=None) -> bool:
         return _fail(report, blocker)
     projector, camera, target = scene_state.rig_objects(scene)
     try:
-        if mode != "ORIGINAL" and state.rig.projector_count > 1:
-            _several_mode(scene, mode, camera, target, state.result_dir)
+        if mode != "ORIGINAL" and state.rig.strategy == JOINT:  # a joint result's images are the camera's
+            _joint_mode(scene, mode, camera, target, state.result_dir)
         elif mode == "ORIGINAL":
             preview.disable_preview(target)
         elif mode == "PROJECTION":

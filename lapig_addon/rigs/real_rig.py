@@ -83,7 +83,8 @@ class RealRigFactory:
         """window_factory(display) and camera_factory(spec): the real ones by default (tests pass others);
         expected_size: the projector resolution the looks are made for (the display must have it);
         clock: the devices' (lapig_core.rig.clock; None: the real one); projectors: a rig of several, each
-        projector's (name, display, (width, height)), projector 1 first (its display is the spec's)."""
+        projector's (name, display, (width, height)), projector 1 first (its display is the spec's); () for one
+        projector, whose identity stays the spec's devices (the key its captures were recorded under)."""
         self.spec, self.expected_size = spec, tuple(expected_size) if expected_size else None
         self.projectors = tuple((str(n), str(d), tuple(size) if size else None) for n, d, size in projectors)
         self.clock = clock if clock is not None else _clock()
@@ -92,7 +93,7 @@ class RealRigFactory:
 
     def rig_identity(self) -> RigIdentity:
         devices = self.spec.devices()
-        if len(self.projectors) > 1:  # a rig of several: every projector's display is the rig's
+        if self.projectors:  # a rig of several: every projector's display is the rig's (one: the spec's display)
             devices["projectors"] = [f"{name} on display {display}" for name, display, _ in self.projectors]
         return RigIdentity(self.spec.name, devices)
 

@@ -77,6 +77,7 @@ class RigSpec:
 
 class RealRigFactory:
     main_thread = False
+    opens_several = True  # a window per display and the one camera (multi_capture_device)
 
     def __init__(self, spec: RigSpec, window_factory=None, camera_factory=None, expected_size=None, clock=None,
                  projectors=()):
@@ -178,6 +179,7 @@ class SimulatedRigFactory:
         self.names, self.closes_after = names, closes_after
         self.clock, self.rig_options = clock, rig_options
         self.main_thread = optics_factory.main_thread  # Cycles renders the optics: its thread rules
+        self.opens_several = optics_factory.opens_several  # several simulated windows over optics of several
         self.last = None  # (device, screen, camera) of the last rig opened: the bench reads the truth there
 
     def rig_identity(self) -> RigIdentity:
@@ -205,10 +207,9 @@ class SimulatedRigFactory:
         Cycles studio of every projector): lapig_core.rig.multi_rig.simulated_multi_rig."""
         from ...lapig_core.rig.multi_rig import simulated_multi_rig
 
-        opener = getattr(self.optics_factory, "multi_capture_device", None)
-        if opener is None:
+        if not self.opens_several:
             raise CaptureError(f"{self.name} cannot simulate several projectors over these optics")
-        with opener(settings) as optics:
+        with self.optics_factory.multi_capture_device(settings) as optics:
             options = dict(self.rig_options)
             options.pop("geometry", None)
             device, screens, camera = simulated_multi_rig(optics, self.faults, clock=self.clock, names=self.names,

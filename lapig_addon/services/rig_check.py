@@ -96,6 +96,8 @@ class RigCheckJob(Job):
         lines, problems = [], []
         yield 0.05, "opening every projector's window and the camera"
         try:
+            if not devices.opens_several:
+                raise CaptureError(f"{devices.rig_identity().name} cannot open several projectors at once")
             with devices.multi_capture_device(self.settings) as device:
                 count = len(device.rigs)
                 for k, rig in enumerate(device.rigs):

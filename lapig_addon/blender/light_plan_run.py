@@ -97,9 +97,7 @@ def capped_frame(scene, plan, folder):
         raise ValueError("limiting the look needs a result: generate a look first")
     light = SceneLight(scene, plan)
     room = light_report.plan_maps(run_to_end(light.room_steps()), light.scale, light.target_name, plan)
-    native = light_report.plan_maps(run_to_end(light.native_steps()), light.scale, light.target_name, plan,
-                                    check=False)
-    return capped_look(plan, light.model, light_report.native_frame(folder, light.model), room, native)
+    return capped_look(plan, light, folder, room, run_to_end(light.native_steps()))[1:]
 
 
 class SceneLight:

@@ -134,11 +134,8 @@ def capped_result_steps(plan, light: LightRenders, folder, room_passes, native_p
     frame, the capped frame, what the cap did, the new result's folder, the room maps)."""
     try:
         yield 0.6, "limiting the look"
-        model = light.model
         room = light_report.plan_maps(room_passes, light.scale, light.target_name, plan)
-        native = light_report.plan_maps(native_passes, light.scale, light.target_name, plan, check=False)
-        free = light_report.native_frame(folder, model)
-        capped, info = capped_look(plan, model, free, room, native)
+        free, capped, info = capped_look(plan, light, folder, room, native_passes)
         yield 0.7, "writing the limited look"
         return free, capped, info, write_capped_result(folder, capped, info), room
     finally:
@@ -146,15 +143,18 @@ def capped_result_steps(plan, light: LightRenders, folder, room_passes, native_p
         native_passes.discard()
 
 
-def capped_look(plan, model: ProjectorModel, frame: np.ndarray, room, native) -> tuple[np.ndarray, dict]:
-    """The native frame limited to the plan's lux on the marked region (light_report.capped_frame), and what the
-    cap did, with the brightest lux it predicts there."""
+def capped_look(plan, light: LightRenders, folder, room, native_passes) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(the result's native frame, it limited to the plan's lux on the marked region: light_report.capped_frame,
+    what the cap did with the brightest lux it predicts there), from the room maps and the native render."""
+    model = light.model
+    native = light_report.plan_maps(native_passes, light.scale, light.target_name, plan, check=False)
+    frame = light_report.native_frame(folder, model)
     ambient = resize_image(np.repeat(room.ambient_lux[..., None], 3, -1).astype(np.float32), model.width,
                            model.height)[..., 0]
     region = native.region & native.on_object
     capped, info = light_report.capped_frame(plan, frame, native.white_lux, ambient, region, model)
     predicted = native.white_lux * (model.emitted(capped) @ units.LUMA) + ambient
-    return capped, {**info, "predicted_max_lux": round(float(predicted[region].max()), 2)}
+    return frame, capped, {**info, "predicted_max_lux": round(float(predicted[region].max()), 2)}
 
 
 def write_capped_result(folder, capped: np.ndarray, cap_info: dict) -> Path:

@@ -61,8 +61,17 @@ def report_job(scene, plan, folder: str | None, width: int = 160, maps_dir: str 
 
 
 def write_capped(path, scene, plan, folder) -> dict:
-    """The result's projector image limited to the plan's lux limit on the marked region, written to path."""
-    capped, info = capped_frame(scene, plan, folder)
+    """The result's projector image limited to the plan's lux limit on the marked region, written to path (the
+    command line's --cap-out: one projector's frame, rendered and computed here); what the cap did."""
+    from ..services.dose_cap import capped_look
+
+    if plan.limit is None:
+        raise ValueError("limiting the look needs a conservation category")
+    if not folder:
+        raise ValueError("limiting the look needs a result: generate a look first")
+    light = SceneLight(scene, plan)
+    room = light_report.plan_maps(run_to_end(light.room_steps()), light.scale, light.target_name, plan)
+    _, capped, info = capped_look(plan, light, folder, room, run_to_end(light.native_steps()))
     write_png(os.path.abspath(path), capped)
     return {**info, "path": os.path.abspath(path)}
 
@@ -78,26 +87,6 @@ def cap_job(scene, plan, folder: str | None = None, record: bool = True, measure
         raise ValueError("limiting the look needs a conservation category")
     return DoseCapJob(scene_seams(scene), plan, scene_light(scene, plan), folder, record=record,
                       measure_psnr=measure_psnr)
-
-
-def cap_result(scene, plan, folder, record: bool = False, measure_psnr: bool = False) -> dict:
-    """The limited look as a result of its own, the job run to its end (the command line); record: it becomes
-    the scene's result; measure_psnr: both projected on the rig for the cap's cost."""
-    return cap_job(scene, plan, folder, record, measure_psnr).run_to_completion()
-
-
-def capped_frame(scene, plan, folder):
-    """(the result's native frame limited to the plan's lux on the marked region, what the cap did): the
-    command line's --cap-out, rendered and computed here."""
-    from ..services.dose_cap import capped_look
-
-    if plan.limit is None:
-        raise ValueError("limiting the look needs a conservation category")
-    if not folder:
-        raise ValueError("limiting the look needs a result: generate a look first")
-    light = SceneLight(scene, plan)
-    room = light_report.plan_maps(run_to_end(light.room_steps()), light.scale, light.target_name, plan)
-    return capped_look(plan, light, folder, room, run_to_end(light.native_steps()))[1:]
 
 
 class SceneLight:

@@ -102,8 +102,8 @@ def cmd_report(args) -> int:
     if args.cap_out:
         report["cap"] = light_plan_run.write_capped(args.cap_out, scene, plan, folder)
     if args.cap_result:
-        report["capped_result"] = light_plan_run.cap_result(scene, plan, folder, record=args.save,
-                                                            measure_psnr=args.psnr)
+        report["capped_result"] = light_plan_run.cap_job(scene, plan, folder, record=args.save,
+                                                         measure_psnr=args.psnr).run_to_completion()
         report["capped_result"].pop("summary", None)
         _save_if_asked(args)
     if args.apply:

@@ -18,13 +18,8 @@ class LAPIG_OT_light_report(JobRunnerMixin, bpy.types.Operator):
         problem = rig_blocker(scene_state.read_rig(scene)) or plan.problem()
         if problem:
             raise ValueError(problem)
-        folder = scene_state.read(scene).result_dir or None
-        if scene_state.read_rig(scene).projector_count > 1:  # every projector's light over the camera's pixels
-            from ..lapig_core.multi.result_files import is_multi_result
-
-            return light_plan_run.several_report_job(scene, plan, folder if folder and is_multi_result(folder)
-                                                     else None)
-        return light_plan_run.report_job(scene, plan, folder)
+        # several projectors: every projector's light over the camera's pixels (the rig's strategy)
+        return light_plan_run.report_job(scene, plan, scene_state.read(scene).result_dir or None)
 
     def on_done(self, context, job):
         report = job.result

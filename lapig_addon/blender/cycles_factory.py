@@ -19,6 +19,7 @@ from .cycles_device import CyclesCaptureDevice
 
 class CyclesDeviceFactory:
     main_thread = True
+    opens_several = True  # one Cycles studio per projector (multi_capture_device)
 
     def __init__(self, scene, projector=None, camera=None, target=None):
         """The given rig objects; None: the scene's own (read when a device opens, so a rig set up

@@ -1,7 +1,8 @@
-"""The light report and the dose cap of the scene's rig and look (bpy): SceneLight reads the rig on the main
-thread and renders the maps as job steps (one Cycles render a step); services/light_report_job (the Light
-Report button and the `report` command: report_job) and services/dose_cap (Limit Look to the Dose: cap_job)
-turn them into the report, the capped look and their files on a worker thread."""
+"""The light report and the dose cap of the scene's rig and look (bpy): SceneLight (one projector, its own frame)
+or JointSceneLight (every projector over the camera's pixels), chosen by the rig's strategy (scene_light), reads
+the rig on the main thread and renders the maps as job steps (one Cycles render a step);
+services/light_report_job (the Light Report button and the `report` command: report_job) and services/dose_cap
+(Limit Look to the Dose: cap_job) turn them into the report, the capped look and their files on a worker thread."""
 from __future__ import annotations
 
 import math
@@ -13,6 +14,9 @@ from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.steps import run_to_end
 from ...lapig_core.photometry import units
 from ..services import light_report
+from ..services.light_joint import joint_lumens
+from ..services.state import JOINT, PROJECTOR_SPACE
+from ..services.ways import chosen_way
 from . import light_render, rig, scene_state
 
 LUX_MAP, CONTRAST_MAP = light_report.LUX_MAP, light_report.CONTRAST_MAP  # result-folder PNGs the preview shows
@@ -42,45 +46,23 @@ def map_size(projector, width: int = 160) -> tuple[int, int]:
     return width, max(8, round(width * rows / columns))
 
 
+def scene_light(scene, plan, width: int = 160):
+    """The scene's light for the report and the dose cap, as the rig's strategy models it: one projector's in its
+    own frame (SceneLight), several projectors' over the camera's pixels (JointSceneLight)."""
+    return chosen_way(scene_state.read_rig(scene), SceneLight, JointSceneLight)(scene, plan, width)
+
+
 def report_job(scene, plan, folder: str | None, width: int = 160, maps_dir: str | None = None):
     """The Light Report as a job (services/light_report_job.LightReportJob): the report of the scene's look
     (folder: its result; None: a white frame, nothing written there), its maps `width` pixels wide."""
     from ..services.light_report_job import LightReportJob
 
-    return LightReportJob(plan, SceneLight(scene, plan, width), folder or None, maps_dir)
+    return LightReportJob(plan, scene_light(scene, plan, width), folder or None, maps_dir)
 
 
 def write_capped(path, scene, plan, folder) -> dict:
-    """The result's projector image limited to the plan's lux limit on the marked region, written to path."""
-    capped, info = capped_frame(scene, plan, folder)
-    write_png(os.path.abspath(path), capped)
-    return {**info, "path": os.path.abspath(path)}
-
-
-def cap_job(scene, plan, folder: str | None = None, record: bool = True, measure_psnr: bool = False):
-    """Limit Look to the Dose as a job (services/dose_cap.DoseCapJob) on the scene's seams: its result (or
-    `folder`), its capture's lock, its rig's device factory. The one place its way is chosen: a rig of several
-    projectors limits every projector's light by one factor (services/several_dose_cap.SeveralDoseCapJob)."""
-    from ..services.dose_cap import DoseCapJob
-    from .scene_store import scene_seams
-
-    if plan.limit is None:
-        raise ValueError("limiting the look needs a conservation category")
-    if scene_state.read_rig(scene).projector_count > 1:
-        return _several_cap_job(scene, plan, folder, record)
-    return DoseCapJob(scene_seams(scene), plan, SceneLight(scene, plan), folder, record=record,
-                      measure_psnr=measure_psnr)
-
-
-def cap_result(scene, plan, folder, record: bool = False, measure_psnr: bool = False) -> dict:
-    """The limited look as a result of its own, the job run to its end (the command line); record: it becomes
-    the scene's result; measure_psnr: both projected on the rig for the cap's cost."""
-    return cap_job(scene, plan, folder, record, measure_psnr).run_to_completion()
-
-
-def capped_frame(scene, plan, folder):
-    """(the result's native frame limited to the plan's lux on the marked region, what the cap did): the
-    command line's --cap-out, rendered and computed here."""
+    """The result's projector image limited to the plan's lux limit on the marked region, written to path (the
+    command line's --cap-out: one projector's frame, rendered and computed here); what the cap did."""
     from ..services.dose_cap import capped_look
 
     if plan.limit is None:
@@ -89,9 +71,22 @@ def capped_frame(scene, plan, folder):
         raise ValueError("limiting the look needs a result: generate a look first")
     light = SceneLight(scene, plan)
     room = light_report.plan_maps(run_to_end(light.room_steps()), light.scale, light.target_name, plan)
-    native = light_report.plan_maps(run_to_end(light.native_steps()), light.scale, light.target_name, plan,
-                                    check=False)
-    return capped_look(plan, light.model, light_report.native_frame(folder, light.model), room, native)
+    _, capped, info = capped_look(plan, light, folder, room, run_to_end(light.native_steps()))
+    write_png(os.path.abspath(path), capped)
+    return {**info, "path": os.path.abspath(path)}
+
+
+def cap_job(scene, plan, folder: str | None = None, record: bool = True, measure_psnr: bool = False):
+    """Limit Look to the Dose as a job (services/dose_cap.DoseCapJob) on the scene's seams: its result (or
+    `folder`), its capture's lock, its rig's device factory; a rig of several projectors limits every projector's
+    light by one factor (services/dose_cap_joint)."""
+    from ..services.dose_cap import DoseCapJob
+    from .scene_store import scene_seams
+
+    if plan.limit is None:
+        raise ValueError("limiting the look needs a conservation category")
+    return DoseCapJob(scene_seams(scene), plan, scene_light(scene, plan), folder, record=record,
+                      measure_psnr=measure_psnr)
 
 
 class SceneLight:
@@ -100,15 +95,15 @@ class SceneLight:
     thread, and every input checked; the Cycles renders as steps, each on Blender's main thread, into passes a
     worker turns into maps (light_report.plan_maps)."""
 
+    strategy = PROJECTOR_SPACE
+
     def __init__(self, scene, plan, width: int = 160):
         plan.check()
         self.scene, self.plan = scene, plan
         self.projector, _, self.target = scene_state.rig_objects(scene)
         if self.projector is None or self.target is None:
             raise light_render.LightRenderError("set up the rig first: there is no projector or no object")
-        if self.projector.data.energy <= 0:
-            raise ValueError(f"'{self.projector.name}' has no light power to render with: set its brightness "
-                             "above 0")
+        check_power([self.projector])
         self.model = plan_model(self.projector, plan)
         self.scale = units.lumens_to_watts(plan.resolved_lumens, self.model) / self.projector.data.energy
         self.size = map_size(self.projector, width)
@@ -128,17 +123,31 @@ class SceneLight:
         with light_render.LightStudio(self.scene, self.projector, self.target, *size, ambient_lux,
                                       plan.lamp_direction, plan.region_material,
                                       region_group=plan.region_group) as studio:
-            renders, count, done = studio.render_steps(), studio.render_count, 0
+            count = studio.render_count
+            return (yield from studio_steps(studio, lambda done: start + (end - start) * done / count, "rendering "))
+
+
+def check_power(projectors) -> None:
+    """Refused in one line where a projector has no light to render with."""
+    for p in projectors:
+        if p.data.energy <= 0:
+            raise ValueError(f"'{p.name}' has no light power to render with: set its brightness above 0")
+
+
+def studio_steps(studio, progress, label: str):
+    """A LightStudio's renders as steps (progress(renders done), label + what is rendered); their value is its
+    passes. A cancel removes the renders' files."""
+    renders, done = studio.render_steps(), 0
+    try:
+        while True:
             try:
-                while True:
-                    try:
-                        what = next(renders)
-                    except StopIteration as finished:
-                        return finished.value
-                    yield start + (end - start) * done / count, f"rendering {what}"
-                    done += 1
-            finally:
-                renders.close()  # a cancel: the renders' files go
+                what = next(renders)
+            except StopIteration as finished:
+                return finished.value
+            yield progress(done), label + what
+            done += 1
+    finally:
+        renders.close()
 
 
 def apply_projector(scene, plan) -> tuple[dict, list[str]]:
@@ -152,13 +161,15 @@ def apply_projector(scene, plan) -> tuple[dict, list[str]]:
     return {k: (round(v, 6) if isinstance(v, float) else v) for k, v in settings.items()}, notes
 
 
-class SeveralSceneLight:
-    """The light of a rig of several projectors over its camera's pixels (issue 36): each projector's maps from
-    a LightStudio viewed from the rig's camera (light_render's view), so their light adds pixel by pixel; the
-    room's light rendered once, with the first. Each projector at its own lumens (light_report.several_lumens:
-    the plan's are the first's, the others' in proportion to their own light power); a result's look as each
-    projector shows its image of it (result.json's projectors[k].image), rendered as the light it emits.
-    Read on the main thread when made; steps() renders, one Cycles render a step."""
+class JointSceneLight:
+    """The light of a rig of several projectors over its camera's pixels (issue 36; the joint strategy): each
+    projector's maps from a LightStudio viewed from the rig's camera (light_render's view), so their light adds
+    pixel by pixel; the room's light rendered once, with the first. Each projector at its own lumens
+    (services/light_joint.joint_lumens: the plan's are the first's, the others' in proportion to their own light
+    power); a result's look as each projector shows its image of it (result.json's projectors[k].image), rendered
+    as the light it emits. Read on the main thread when made; steps() renders, one Cycles render a step."""
+
+    strategy = JOINT
 
     def __init__(self, scene, plan, width: int = 160):
         plan.check()
@@ -167,12 +178,10 @@ class SeveralSceneLight:
         _, self.camera, self.target = scene_state.rig_objects(scene)
         if not self.projectors or self.camera is None or self.target is None:
             raise light_render.LightRenderError("set up the rig first: there is no projector, camera or object")
-        for p in self.projectors:
-            if p.data.energy <= 0:
-                raise ValueError(f"'{p.name}' has no light power to render with: set its brightness above 0")
+        check_power(self.projectors)
         self.models = [plan_model(p, plan) for p in self.projectors]
         self.names = [p.name for p in self.projectors]
-        self.lumens = light_report.several_lumens(plan, [p.data.energy for p in self.projectors], self.models)
+        self.lumens = joint_lumens(plan, [p.data.energy for p in self.projectors], self.models)
         self.scales = [units.lumens_to_watts(lm, m) / p.data.energy
                        for lm, m, p in zip(self.lumens, self.models, self.projectors)]
         c = self.camera.lapig_camera
@@ -183,10 +192,10 @@ class SeveralSceneLight:
         for row, lm in zip(self.rows, self.lumens):
             row["lumens"] = lm
 
-    def steps(self, frames=None):
-        """Steps (progress, message), one render each; the value is (each projector's maps at its lumens, each
-        one's relative emitted light of its frame over the camera's pixels, or None for white frames).
-        frames: each projector's native image (values as Export writes them), or None."""
+    def steps(self, frames=None, start: float = 0.0, end: float = 1.0):
+        """Steps (progress from start to end, message), one render each; the value is (each projector's maps at
+        its lumens, each one's relative emitted light of its frame over the camera's pixels, or None for white
+        frames). frames: each projector's native image (values as Export writes them), or None."""
         plan, maps, emitted = self.plan, [], ([] if frames is not None else None)
         count = len(self.projectors) * (2 if frames is not None else 1) + (1 if plan.ambient_lux > 0 else 0)
         done = 0
@@ -195,44 +204,16 @@ class SeveralSceneLight:
                                           plan.ambient_lux if k == 0 else 0.0, plan.lamp_direction,
                                           plan.region_material, region_group=plan.region_group,
                                           view=self.camera) as studio:
-                renders = studio.render_steps()
-                try:
-                    while True:
-                        try:
-                            what = next(renders)
-                        except StopIteration as finished:
-                            passes = finished.value
-                            break
-                        yield done / count, f"rendering {projector.name}: {what}"
-                        done += 1
-                finally:
-                    renders.close()
+                passes = yield from studio_steps(studio, lambda n: start + (end - start) * (done + n) / count,
+                                                 f"rendering {projector.name}: ")
+                done += studio.render_count
                 m = passes.maps()
                 m.white_lux = m.white_lux * scale
                 maps.append(m)
                 if frames is not None:
-                    yield done / count, f"rendering {projector.name}: its image of the look"
+                    yield start + (end - start) * done / count, f"rendering {projector.name}: its image of the look"
                     done += 1
                     look = studio.render_frame_lux(model.emitted(frames[k]).astype(np.float32)) * scale
                     with np.errstate(divide="ignore", invalid="ignore"):
                         emitted.append(np.where(m.white_lux > 1e-9, look / np.maximum(m.white_lux, 1e-12), 0.0))
         return maps, emitted
-
-
-def several_report_job(scene, plan, folder: str | None, width: int = 160, maps_dir: str | None = None):
-    """The Light Report of a rig of several projectors as a job (services/light_report_job.SeveralReportJob)."""
-    from ..services.light_report_job import SeveralReportJob
-
-    return SeveralReportJob(plan, SeveralSceneLight(scene, plan, width), folder or None, maps_dir)
-
-
-def _several_cap_job(scene, plan, folder: str | None, record: bool):
-    """cap_job's way for a result of several projectors: one factor on every projector's light, a result of its
-    own."""
-    from ..services.several_dose_cap import SeveralDoseCapJob
-    from .scene_store import scene_seams
-
-    folder = folder or scene_state.read(scene).result_dir
-    if not folder:
-        raise ValueError("limiting the look needs a result: generate a look first")
-    return SeveralDoseCapJob(scene_seams(scene), plan, SeveralSceneLight(scene, plan), folder, record=record)

@@ -16,6 +16,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from ..rigs import camera_view, live_output
+from ..services.state import JOINT
 from . import scene_state
 
 IMAGE_NAME = "LAPIG camera view"
@@ -143,7 +144,7 @@ def projector_job(scene, window_factory=None) -> live_output.OpenWindowJob:
         def window_factory(display):  # the rig's hook, looked up when the window opens: tests replace it
             return real_rig._projector_window(display)
     rig = scene_state.read_rig(scene)
-    if rig.projector_count > 1:  # every projector's window at once, on its display, presenting together
+    if rig.strategy == JOINT:  # a joint result has an image per projector: every window at once, presenting together
         from ..services.panel_state import projectors_blocker
         from ...lapig_core.multi.result_files import is_multi_result
 

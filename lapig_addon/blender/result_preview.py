@@ -18,6 +18,7 @@ from ...lapig_core.optics.projector_model import frame_from_working_image
 from ...lapig_core.export.result_files import read_output_image
 from ...lapig_core.multi.result_files import problem_areas
 from ..services.panel_state import preview_blocker
+from ..services.state import JOINT
 from . import preview, projector_nodes, scene_state
 from .scene_state import projector_model
 
@@ -26,8 +27,8 @@ LIGHT_MAPS = {"LUX": "light_lux", "CONTRAST": "light_contrast"}  # blender/light
 MODE_IMAGES = {"TARGET": "target", "SIMULATED": "simulated", "RENDERED": "rendered",
                "COMPENSABILITY": "compensability"}
 # a result of several projectors (lapig_core/multi/result_files): its camera-space images by preview mode
-SEVERAL_IMAGES = {"TARGET": "look", "SIMULATED": "predicted", "RENDERED": "rendered", **LIGHT_MAPS}
-SEVERAL_MISSING = {"RENDERED": "Rendered: press Render Real Capture first"}
+JOINT_IMAGES = {"TARGET": "look", "SIMULATED": "predicted", "RENDERED": "rendered", **LIGHT_MAPS}
+JOINT_MISSING = {"RENDERED": "Rendered: press Render Real Capture first"}
 
 
 def frame_image(name: str, pixels: np.ndarray, non_color: bool = True) -> bpy.types.Image:
@@ -70,33 +71,21 @@ def _light_map_image(projector, result_dir: str, name: str) -> bpy.types.Image:
     return frame_image(IMAGE_PREFIX + name, colours)
 
 
-def _several_image(result_dir: str, mode: str) -> bpy.types.Image:
+def _joint_image(result_dir: str, mode: str) -> bpy.types.Image:
     """A result of several projectors' camera-space image of `mode` (its look, the joint model's capture, the
-    rendered capture, the light maps of its Light Report), as an image at the camera's size."""
-    name = SEVERAL_IMAGES[mode]
+    rendered capture, the light maps of its Light Report; Problem areas: where their joint light falls short of
+    the look), as an image at the camera's size."""
+    if mode == "COMPENSABILITY":
+        return frame_image(IMAGE_PREFIX + "camera problem areas", problem_areas(result_dir).astype(np.float32))
+    name = JOINT_IMAGES[mode]
     if mode in LIGHT_MAPS:  # camera-space maps: made linear at their own size
         pixels = np.power(_light_map(result_dir, name), 2.2)
     else:
         path = os.path.join(result_dir, name + ".png")
         if not os.path.isfile(path):
-            raise ValueError(SEVERAL_MISSING.get(mode, f"this result has no {name} image"))
+            raise ValueError(JOINT_MISSING.get(mode, f"this result has no {name} image"))
         pixels = to_float(read_image(path))
     return frame_image(IMAGE_PREFIX + "camera " + name, np.ascontiguousarray(pixels[..., :3], dtype=np.float32))
-
-
-def _several_problem_image(result_dir: str) -> bpy.types.Image:
-    """Problem areas of a result of several: where their joint light falls short of the look (camera space)."""
-    return frame_image(IMAGE_PREFIX + "camera problem areas", problem_areas(result_dir).astype(np.float32))
-
-
-def _several_mode(scene, mode: str, camera, target, result_dir: str) -> None:
-    if mode == "PROJECTION":  # every projector's light carries its own image: the surface shows their sum
-        projectors = scene_state.rig_projectors(scene)
-        preview.enable_casts(target, [(p, projector_nodes.projected_image(p.data)) for p in projectors])
-    elif mode == "COMPENSABILITY":
-        preview.enable_preview(target, camera, _several_problem_image(result_dir), appearance=True)
-    else:  # a result of several lives in the camera's frame: its images are cast from the rig's camera
-        preview.enable_preview(target, camera, _several_image(result_dir, mode), appearance=True)
 
 
 def apply_mode(scene, mode: str, report=None) -> bool:
@@ -107,13 +96,13 @@ def apply_mode(scene, mode: str, report=None) -> bool:
         return _fail(report, blocker)
     projector, camera, target = scene_state.rig_objects(scene)
     try:
-        if mode != "ORIGINAL" and state.rig.projector_count > 1:
-            _several_mode(scene, mode, camera, target, state.result_dir)
-        elif mode == "ORIGINAL":
+        if mode == "ORIGINAL":
             preview.disable_preview(target)
-        elif mode == "PROJECTION":
-            image = projector_nodes.projected_image(projector.data)
-            preview.enable_preview(target, projector, image, appearance=False)
+        elif mode == "PROJECTION":  # every projector's light carries its own image: the surface shows their sum
+            preview.enable_casts(target, [(p, projector_nodes.projected_image(p.data))
+                                          for p in scene_state.rig_projectors(scene)])
+        elif state.rig.strategy == JOINT:  # a joint result lives in the camera's frame: cast from the rig's camera
+            preview.enable_preview(target, camera, _joint_image(state.result_dir, mode), appearance=True)
         elif mode in LIGHT_MAPS:  # the Light Report's maps cover the whole projector frame
             image = _light_map_image(projector, state.result_dir, LIGHT_MAPS[mode])
             preview.enable_preview(target, projector, image, appearance=True)

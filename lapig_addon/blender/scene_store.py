@@ -90,7 +90,9 @@ def device_factory(scene, projector=None, camera=None, target=None):
     from ..rigs.real_rig import RealRigFactory
 
     rig = scene_state.read_rig(scene)
-    several = tuple(zip(rig.projectors, rig.displays, rig.projector_sizes)) if rig.projector_count > 1 else ()
+    # every projector's (name, display, size): rig.displays names each one's where the rig has several, none for
+    # one projector (its display is the spec's)
+    several = tuple(zip(rig.projectors, rig.displays, rig.projector_sizes))
     return RealRigFactory(spec, expected_size=rig.projector_size, projectors=several)
 
 

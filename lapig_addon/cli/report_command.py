@@ -89,32 +89,22 @@ def cmd_report(args) -> int:
         raise ValueError(f"--map-width must be 8 to 4096 pixels, got {args.map_width}")
     from ..blender import light_plan_run
     from ..blender.scene_store import BlenderSceneStore
+    from ..services.state import JOINT
     from .commands import _open_scene, _save_if_asked
 
     scene = _open_scene(args)
     folder = os.path.abspath(args.result) if args.result else BlenderSceneStore(scene).read().result_dir
-    several = BlenderSceneStore(scene).read().rig.projector_count > 1
-    if several:  # every projector's light over the camera's pixels; the cap one factor on all of them
-        if args.cap_out or args.psnr:
-            raise ValueError("--cap-out and --psnr work with one projector; for several use --cap-result")
-        from ...lapig_core.multi.result_files import is_multi_result
-
-        folder = folder if folder and is_multi_result(folder) else None
-        report = light_plan_run.several_report_job(scene, plan, folder, args.map_width,
-                                                   args.maps).run_to_completion()
-        if args.cap_result:
-            report["capped_result"] = light_plan_run.cap_job(scene, plan, folder, record=args.save).run_to_completion()
-            report["capped_result"].pop("summary", None)
-            _save_if_asked(args)
-        print_json(report)
-        return 0
-    # the Light Report button's job, run here to its end
+    if BlenderSceneStore(scene).read().rig.strategy == JOINT and (args.cap_out or args.psnr):
+        # the per-pixel cap and its cost are in one projector's frame; several share one factor (--cap-result)
+        raise ValueError("--cap-out and --psnr work with one projector; for several use --cap-result")
+    # the Light Report button's job, run here to its end (several projectors: every one's light over the camera's)
     report = light_plan_run.report_job(scene, plan, folder or None, args.map_width, args.maps).run_to_completion()
     if args.cap_out:
         report["cap"] = light_plan_run.write_capped(args.cap_out, scene, plan, folder)
     if args.cap_result:
-        report["capped_result"] = light_plan_run.cap_result(scene, plan, folder, record=args.save,
-                                                            measure_psnr=args.psnr)
+        report["capped_result"] = light_plan_run.cap_job(scene, plan, folder, record=args.save,
+                                                         measure_psnr=args.psnr).run_to_completion()
+        report["capped_result"].pop("summary", None)
         _save_if_asked(args)
     if args.apply:
         settings, notes = light_plan_run.apply_projector(scene, plan)

@@ -69,6 +69,7 @@ def _simulated(args, scene):
     from ...lapig_core.rig.simulated import CameraFaults
     from ..blender.cycles_factory import CyclesDeviceFactory
     from ..rigs.real_rig import SimulatedRigFactory
+    from ..services.state import JOINT
 
     rate = args.sim_faults
     if not (0 <= rate <= 0.3) or not (0 <= args.sim_latency <= 2):
@@ -77,9 +78,9 @@ def _simulated(args, scene):
                           repeat_rate=rate, torn_rate=rate)
     rig = scene_state.read_rig(scene)
     gone = getattr(args, "sim_display_gone", None)
-    if gone is not None and (gone < 1 or rig.projector_count < 2):
+    if gone is not None and (gone < 1 or rig.strategy != JOINT):  # a display gone mid-capture: the joint rig's
         raise ValueError("--sim-display-gone takes a number of frames, and a rig of several projectors")
     closes_after = [None] * (rig.projector_count - 1) + [gone] if gone is not None else None
     return SimulatedRigFactory(CyclesDeviceFactory(scene), faults, clock=VirtualClock(),
-                               names=list(rig.projectors) if rig.projector_count > 1 else None,
+                               names=list(rig.projectors),
                                closes_after=closes_after)

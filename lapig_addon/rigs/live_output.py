@@ -43,10 +43,21 @@ class ProjectorWindowSink:
     A look that cannot be shown (the window was closed, or it is another resolution) does not undo the
     Generate that made it: `problem` says why, for the panel and the command line."""
 
+    several_projectors = False  # Generate hands it projector 1's frame only
+
     def __init__(self, window):
         self.window = window
         self.shown_at: float | None = None
         self.problem = ""
+
+    @property
+    def windows(self) -> list:
+        """The windows it shows on, one per projector it drives."""
+        return [self.window]
+
+    def player(self, clock=time):
+        """play()'s window: one frame at a time."""
+        return self.window
 
     def show(self, frame: ProjectorFrame) -> None:
         try:
@@ -207,6 +218,26 @@ class _Stopped(Exception):
     pass
 
 
+def windows_problem(sink, sizes, whose: str = "the rig") -> str:
+    """Why frames of `sizes` (each projector's (width, height), of `whose` projectors) cannot play on the sink's
+    windows, one per projector ('' when they can)."""
+    windows = sink.windows
+    if len(sizes) != len(windows):
+        return f"{whose} has {len(sizes)} projectors but {len(windows)} window(s) are open: Show on Projector again"
+    for k, (size, window) in enumerate(zip(sizes, windows)):
+        problem = size_problem(size[0], size[1], window.size)
+        if problem:
+            return f"projector {k + 1}: {problem}" if sink.several_projectors else problem
+    return ""
+
+
+def skew_figures(played: dict, window, fps: float, several: bool) -> dict:
+    """play()'s figures; the windows of several add the largest spread of one frame's presentations, in frames."""
+    if several:
+        played["max_skew_frames"] = round(window.max_skew_s * float(fps), 4)
+    return played
+
+
 class CrossfadeJob(WorkerJob):
     """Play a result's crossfade on the open projector window at ``fps``, on a worker thread (Esc in
     Blender stops it; the window keeps the frame it was showing). A result of several on the windows of several
@@ -220,35 +251,25 @@ class CrossfadeJob(WorkerJob):
         self.sink, self.store, self.folder = sink, store, folder
         self.frames, self.fps, self.bit_depth = frames, fps, bit_depth
 
-    @property
-    def several(self) -> bool:
-        return bool(getattr(self.sink, "several_projectors", False))
-
     def prepare(self):
         from ...lapig_core.multi.result_files import is_multi_result
         from ..services import crossfade
 
-        multi = is_multi_result(self.folder)
-        if multi or self.several:
-            if not (multi and self.several):
-                raise ValueError("the result has several projectors but one window is open: Show on Projector again"
-                                 if multi else "the windows of several are open but the result is of one projector: "
-                                 "Generate first")
-            sizes, windows = crossfade.sizes(self.folder), self.sink.window.windows
-            if len(sizes) != len(windows):
-                raise ValueError(f"the result has {len(sizes)} projectors but {len(windows)} window(s) are open: "
-                                 f"Show on Projector again")
-            for k, (size, window) in enumerate(zip(sizes, windows)):
-                problem = size_problem(size[0], size[1], window.size)
-                if problem:
-                    raise ValueError(f"projector {k + 1}: {problem}")
+        several = self.sink.several_projectors
+        if is_multi_result(self.folder) != several:  # the result's images and the windows open: one each or one
+            raise ValueError("the windows of several are open but the result is of one projector: Generate first"
+                             if several else "the result has several projectors but one window is open: Show on "
+                             "Projector again")
+        if several:
+            sizes = crossfade.sizes(self.folder)
         else:
             model = self.store.projector_model()
-            problem = size_problem(model.width, model.height, self.sink.window.size)
-            if problem:
-                raise ValueError(problem)
+            sizes = [(model.width, model.height)]
+        problem = windows_problem(self.sink, sizes, "the result")
+        if problem:
+            raise ValueError(problem)
         sets = crossfade.frame_sets(self.store, self.folder, self.bit_depth, self.frames)
-        return sets if self.several else (frame for [frame] in sets)  # one window: its projector's frames
+        return sets if several else (frame for [frame] in sets)  # one window: its projector's frames
 
     def work(self, frames, report, cancel_event):
         def on_frame(i, on_screen):
@@ -256,14 +277,12 @@ class CrossfadeJob(WorkerJob):
                 raise _Stopped
             report((i + 1) / self.frames, f"frame {i + 1} of {self.frames}")
 
-        window = LockedTogether(self.sink) if self.several else self.sink.window
+        window = self.sink.player()
         try:
             played = play(window, frames, self.fps, on_frame=on_frame)
         except _Stopped:
             return None
-        if self.several:
-            played["max_skew_frames"] = round(window.max_skew_s * float(self.fps), 4)
-        return played
+        return skew_figures(played, window, self.fps, self.sink.several_projectors)
 
 
 def late_share(played: dict) -> dict:
@@ -290,28 +309,15 @@ class ShowPlayJob(WorkerJob):
         self.sink, self.source, self.clock = sink, source, clock
         self.fps = source.plan.fps if fps is None else fps
 
-    @property
-    def several(self) -> bool:
-        return bool(getattr(self.sink, "several_projectors", False))
-
     def prepare(self):
         problem = self.source.plan.problem()
         if problem:
             raise ValueError(problem)
         if not self.source.projectors:
             raise ValueError("the show needs the rig's projector")
-        if self.several:
-            windows = self.sink.window.windows
-            if len(windows) != len(self.source.projectors):
-                raise ValueError(f"the rig has {len(self.source.projectors)} projectors but {len(windows)} "
-                                 f"window(s) are open: Show on Projector again")
-            for k, (model, window) in enumerate(zip(self.source.projectors, windows)):
-                problem = size_problem(model.width, model.height, window.size)
-                if problem:
-                    raise ValueError(f"projector {k + 1}: {problem}")
-            return self.source
-        model = self.source.projectors[0]
-        problem = size_problem(model.width, model.height, self.sink.window.size)
+        # one window plays projector 1's frames; the windows of several every projector's
+        shown = self.source.projectors if self.sink.several_projectors else self.source.projectors[:1]
+        problem = windows_problem(self.sink, [(m.width, m.height) for m in shown])
         if problem:
             raise ValueError(problem)
         return self.source
@@ -327,19 +333,15 @@ class ShowPlayJob(WorkerJob):
             report((i + 1) / count, f"frame {i + 1} of {count}")
 
         made = show_source.frames(source, cancel_event=cancel_event)
-        if self.several:
-            window = LockedTogether(self.sink, self.clock)
-            pixels = (list(frame) for _, frame in made)
-        else:
-            window, pixels = self.sink.window, (frame[0] for _, frame in made)
+        several = self.sink.several_projectors
+        window = self.sink.player(self.clock)
+        pixels = (list(frame) if several else frame[0] for _, frame in made)
         try:
             played = late_share(play(window, pixels, self.fps, clock=self.clock, on_frame=on_frame,
                                      ahead=self.AHEAD))
         except _Stopped:
             return None
-        if self.several:
-            played["max_skew_frames"] = round(window.max_skew_s * float(self.fps), 4)
-        return played
+        return skew_figures(played, window, self.fps, several)
 
 
 class LockedTogether:
@@ -386,6 +388,7 @@ class OpenWindowJob(WorkerJob):
     window that opens after it is closed, never live."""
 
     title = "LAPIG projector window"
+    opening, showing = "opening the projector window on display {}", "showing the look"
 
     def __init__(self, display: str, look: StoredLook = StoredLook(), window_factory=None):
         """window_factory(display): a ProjectorWindow on that display by default (the panel passes the real
@@ -396,8 +399,8 @@ class OpenWindowJob(WorkerJob):
         self._unclaimed = None  # the window opened, until finish() makes it live or a cancel closes it
 
     def work(self, inputs, report, cancel_event):
-        report(0.05, f"opening the projector window on display {self.display}")
-        frame = self.look.frame()  # read first: a result that cannot be read opens no window
+        report(0.05, self.opening.format(self.display))
+        look = self.look.frame()  # read first: a result that cannot be read opens no window
         window = self._open()
         with self._lock:
             self._unclaimed = window
@@ -405,15 +408,19 @@ class OpenWindowJob(WorkerJob):
             self._close_unclaimed(wait=True)
             return None
         try:
-            report(0.9, "showing the look")
-            sink = ProjectorWindowSink(window)
-            if frame is None:
-                window.show(identification_frame(window.size))
-            else:
-                sink.show(frame)
+            report(0.9, self.showing)
+            return self._shown(window, look)
         except BaseException:
             self._close_unclaimed(wait=True)
             raise
+
+    def _shown(self, window, frame):
+        """The window's sink, showing the look (the identification frame before there is one)."""
+        sink = ProjectorWindowSink(window)
+        if frame is None:
+            window.show(identification_frame(window.size))
+        else:
+            sink.show(frame)
         return sink
 
     def finish(self, sink):
@@ -465,6 +472,14 @@ class LockedWindowsSink:
         self.shown_at: float | None = None
         self.skew_frames: float | None = None
         self.problem = ""
+
+    @property
+    def windows(self) -> list:
+        return self.window.windows
+
+    def player(self, clock=time):
+        """play()'s window: a frame per projector, presented together."""
+        return LockedTogether(self, clock)
 
     def show(self, frame: ProjectorFrame) -> None:
         self.show_all([frame])
@@ -530,7 +545,8 @@ class StoredLooks:
     folder: str = ""
     bit_depth: int = 8
 
-    def frames(self) -> list:
+    def frame(self) -> list:
+        """Every projector's frame (StoredLook.frame's for several), or none."""
         return result_frames(self.folder, self.bit_depth) if self.folder else []
 
 
@@ -538,29 +554,21 @@ class OpenWindowsJob(OpenWindowJob):
     """Show on Projector for a rig of several: every projector's window opens at once, on its display, on the
     job's worker thread, each showing its own image of the result; the windows present together."""
 
-    def __init__(self, displays, looks: StoredLooks = StoredLooks(), window_factory=None, names=None):
-        super().__init__(",".join(str(d) for d in displays), StoredLook(), window_factory)
-        self.displays, self.looks, self.names = [str(d) for d in displays], looks, names
+    opening, showing = "opening the projector windows on displays {}", "showing the look on every projector"
 
-    def work(self, inputs, report, cancel_event):
-        report(0.05, f"opening the projector windows on displays {', '.join(self.displays)}")
-        frames = self.looks.frames()  # read first: a result that cannot be read opens no window
-        windows = open_windows(self.displays, self.window_factory, self.names)
-        with self._lock:
-            self._unclaimed = windows
-        if cancel_event.is_set():
-            self._close_unclaimed(wait=True)
-            return None
-        try:
-            report(0.9, "showing the look on every projector")
-            sink = LockedWindowsSink(windows)
-            if frames:
-                sink.show_all(frames)
-                if sink.problem:
-                    raise RigError(sink.problem)
-            else:
-                windows.show(sink.frames)
-        except BaseException:
-            self._close_unclaimed(wait=True)
-            raise
+    def __init__(self, displays, looks: StoredLooks = StoredLooks(), window_factory=None, names=None):
+        super().__init__(", ".join(str(d) for d in displays), looks, window_factory)
+        self.displays, self.names = [str(d) for d in displays], names
+
+    def _open(self):
+        return open_windows(self.displays, self.window_factory, self.names)
+
+    def _shown(self, windows, frames):
+        sink = LockedWindowsSink(windows)
+        if frames:
+            sink.show_all(frames)
+            if sink.problem:
+                raise RigError(sink.problem)
+        else:
+            windows.show(sink.frames)
         return sink

@@ -77,13 +77,15 @@ class RigSpec:
 
 class RealRigFactory:
     main_thread = False
+    opens_several = True  # a window per display and the one camera (multi_capture_device)
 
     def __init__(self, spec: RigSpec, window_factory=None, camera_factory=None, expected_size=None, clock=None,
                  projectors=()):
         """window_factory(display) and camera_factory(spec): the real ones by default (tests pass others);
         expected_size: the projector resolution the looks are made for (the display must have it);
         clock: the devices' (lapig_core.rig.clock; None: the real one); projectors: a rig of several, each
-        projector's (name, display, (width, height)), projector 1 first (its display is the spec's)."""
+        projector's (name, display, (width, height)), projector 1 first (its display is the spec's); () for one
+        projector, whose identity stays the spec's devices (the key its captures were recorded under)."""
         self.spec, self.expected_size = spec, tuple(expected_size) if expected_size else None
         self.projectors = tuple((str(n), str(d), tuple(size) if size else None) for n, d, size in projectors)
         self.clock = clock if clock is not None else _clock()
@@ -92,7 +94,7 @@ class RealRigFactory:
 
     def rig_identity(self) -> RigIdentity:
         devices = self.spec.devices()
-        if len(self.projectors) > 1:  # a rig of several: every projector's display is the rig's
+        if self.projectors:  # a rig of several: every projector's display is the rig's (one: the spec's display)
             devices["projectors"] = [f"{name} on display {display}" for name, display, _ in self.projectors]
         return RigIdentity(self.spec.name, devices)
 
@@ -177,6 +179,7 @@ class SimulatedRigFactory:
         self.names, self.closes_after = names, closes_after
         self.clock, self.rig_options = clock, rig_options
         self.main_thread = optics_factory.main_thread  # Cycles renders the optics: its thread rules
+        self.opens_several = optics_factory.opens_several  # several simulated windows over optics of several
         self.last = None  # (device, screen, camera) of the last rig opened: the bench reads the truth there
 
     def rig_identity(self) -> RigIdentity:
@@ -204,10 +207,9 @@ class SimulatedRigFactory:
         Cycles studio of every projector): lapig_core.rig.multi_rig.simulated_multi_rig."""
         from ...lapig_core.rig.multi_rig import simulated_multi_rig
 
-        opener = getattr(self.optics_factory, "multi_capture_device", None)
-        if opener is None:
+        if not self.opens_several:
             raise CaptureError(f"{self.name} cannot simulate several projectors over these optics")
-        with opener(settings) as optics:
+        with self.optics_factory.multi_capture_device(settings) as optics:
             options = dict(self.rig_options)
             options.pop("geometry", None)
             device, screens, camera = simulated_multi_rig(optics, self.faults, clock=self.clock, names=self.names,

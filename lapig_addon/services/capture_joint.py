@@ -24,14 +24,13 @@ class JointCaptureWay:
         devices, rig = seams.devices, seams.store.read().rig
         names = self.names = rig.projectors  # the store's coverage is recorded under these names
         fingerprint = rig.fingerprint
-        opener = getattr(devices, "multi_capture_device", None)
 
         def capture():
-            if opener is None:
+            if not devices.opens_several:
                 name = getattr(devices.rig_identity(), "name", "this rig")
                 raise CaptureError(f"{name} cannot capture several projectors yet: remove the other projectors, or "
                                    f"capture them with the virtual rig")
-            with opener(settings) as device:
+            with devices.multi_capture_device(settings) as device:
                 identity = devices.rig_identity()
                 meta = {"fingerprint": fingerprint, "rig": {**identity.to_dict(), "key": fingerprint}}
                 return (yield from run_multi_capture(device, settings, names, extra_meta=meta, holder=holder))

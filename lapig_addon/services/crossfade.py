@@ -82,7 +82,7 @@ def export_crossfades(store, directory: str, frames: int, bit_depth: int, folder
             if not os.path.isdir(out):
                 os.makedirs(out)
                 made.append(out)
-            meta = {**metadata, **light_sidecar.several_sidecar_fields(folder, k),  # the Light Report's, where run
+            meta = {**metadata, **light_sidecar.sidecar_fields(folder, k),  # the Light Report's, where run
                     "projector": {"index": k + 1, "count": len(fades), "name": fade.name,
                                   "resolution": [fade.width, fade.height], "gamma": fade.gamma}}
             heard = None if on_progress is None else (

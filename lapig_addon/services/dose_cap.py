@@ -33,6 +33,7 @@ from .jobs import Job
 from .light_report_job import ReportLight, report_steps
 from .ports import Seams
 from .projection import projection_steps
+from .ways import chosen_way
 
 SUFFIX = "_dose_cap"
 LIMITED = " | limited to the light dose"  # after the result's line: the panel shows it on a line of its own
@@ -80,37 +81,52 @@ class DoseCapJob(Job):
 
     def steps(self):
         folder, capture = self._inputs()
-        # as Generate and Refine: no capture replaces the setup (nor Train writes beside it) meanwhile
-        held = hold_root(resolve_setup(capture).root, self.title) if capture else None
-        rendered = []  # the renders' passes: the worker reads them; a cancel before it does removes them here
-        try:
-            rendered.append((yield from self.light.room_steps(0.05, 0.35)))
-            rendered.append((yield from self.light.native_steps(0.35, 0.55)))
-            free, capped, info, new, room = yield from self.drive(
-                lambda: capped_result_steps(self.plan, self.light, folder, *rendered), False)
-            out = {**info, "folder": str(new)}
-            if self.measure_psnr:
-                devices = self.seams.devices
-                out.update((yield from self.drive(
-                    lambda: psnr_cost_steps(devices, capture, folder, free, capped), devices.main_thread)))
-        finally:
-            for passes in rendered:
-                passes.discard()
-            if held is not None:
-                held.release()
-        if self.record:
-            yield 0.9, "the light report of the limited look"
-            yield from self._record(str(new), room)
-        self.result = out
+        self.result = yield from cap_way(self.light)(self, folder, capture)
 
-    def _record(self, new: str, room):
-        """The limited look becomes the scene's result, shown on the light (and a live window), with its report
-        (on the room maps the cap rendered: written on a worker)."""
-        store = self.seams.store
-        summary = read_summary(new)
-        store.record_result(new, (summary.get("summary_line") or summary.get("prompt") or "result") + LIMITED)
-        self.seams.show(result_frame(store, new, store.export_settings().bit_depth, summary=summary))
-        yield from report_steps(self, self.plan, self.light, new, room=room, span=(0.9, 1.0))
+
+def cap_way(light):
+    """The one place the dose cap's way is chosen, by the light's strategy (the rig's): one projector's frame is
+    limited pixel by pixel (projector_cap_steps), several projectors' light by one factor (dose_cap_joint)."""
+    return chosen_way(light, projector_cap_steps, "dose_cap_joint:joint_cap_steps")
+
+
+def projector_cap_steps(job: DoseCapJob, folder: str, capture: str):
+    """DoseCapJob's steps for one projector: the room's light and the projector's at its native size rendered
+    (main thread), the frame capped on a worker, the cap's cost measured on the rig where asked, the limited look
+    recorded with its report. Their value is what the cap did."""
+    # as Generate and Refine: no capture replaces the setup (nor Train writes beside it) meanwhile
+    held = hold_root(resolve_setup(capture).root, job.title) if capture else None
+    light, plan = job.light, job.plan
+    rendered = []  # the renders' passes: the worker reads them; a cancel before it does removes them here
+    try:
+        rendered.append((yield from light.room_steps(0.05, 0.35)))
+        rendered.append((yield from light.native_steps(0.35, 0.55)))
+        free, capped, info, new, room = yield from job.drive(
+            lambda: capped_result_steps(plan, light, folder, *rendered), False)
+        out = {**info, "folder": str(new)}
+        if job.measure_psnr:
+            devices = job.seams.devices
+            out.update((yield from job.drive(
+                lambda: psnr_cost_steps(devices, capture, folder, free, capped), devices.main_thread)))
+    finally:
+        for passes in rendered:
+            passes.discard()
+        if held is not None:
+            held.release()
+    if job.record:
+        yield 0.9, "the light report of the limited look"
+        yield from _record(job, str(new), room)
+    return out
+
+
+def _record(job: DoseCapJob, new: str, room):
+    """The limited look becomes the scene's result, shown on the light (and a live window), with its report (on
+    the room maps the cap rendered: written on a worker)."""
+    store = job.seams.store
+    summary = read_summary(new)
+    store.record_result(new, (summary.get("summary_line") or summary.get("prompt") or "result") + LIMITED)
+    job.seams.show(result_frame(store, new, store.export_settings().bit_depth, summary=summary))
+    yield from report_steps(job, job.plan, job.light, new, room=room, span=(0.9, 1.0))
 
 
 def capped_result_steps(plan, light: LightRenders, folder, room_passes, native_passes):
@@ -118,11 +134,8 @@ def capped_result_steps(plan, light: LightRenders, folder, room_passes, native_p
     frame, the capped frame, what the cap did, the new result's folder, the room maps)."""
     try:
         yield 0.6, "limiting the look"
-        model = light.model
         room = light_report.plan_maps(room_passes, light.scale, light.target_name, plan)
-        native = light_report.plan_maps(native_passes, light.scale, light.target_name, plan, check=False)
-        free = light_report.native_frame(folder, model)
-        capped, info = capped_look(plan, model, free, room, native)
+        free, capped, info = capped_look(plan, light, folder, room, native_passes)
         yield 0.7, "writing the limited look"
         return free, capped, info, write_capped_result(folder, capped, info), room
     finally:
@@ -130,15 +143,18 @@ def capped_result_steps(plan, light: LightRenders, folder, room_passes, native_p
         native_passes.discard()
 
 
-def capped_look(plan, model: ProjectorModel, frame: np.ndarray, room, native) -> tuple[np.ndarray, dict]:
-    """The native frame limited to the plan's lux on the marked region (light_report.capped_frame), and what the
-    cap did, with the brightest lux it predicts there."""
+def capped_look(plan, light: LightRenders, folder, room, native_passes) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(the result's native frame, it limited to the plan's lux on the marked region: light_report.capped_frame,
+    what the cap did with the brightest lux it predicts there), from the room maps and the native render."""
+    model = light.model
+    native = light_report.plan_maps(native_passes, light.scale, light.target_name, plan, check=False)
+    frame = light_report.native_frame(folder, model)
     ambient = resize_image(np.repeat(room.ambient_lux[..., None], 3, -1).astype(np.float32), model.width,
                            model.height)[..., 0]
     region = native.region & native.on_object
     capped, info = light_report.capped_frame(plan, frame, native.white_lux, ambient, region, model)
     predicted = native.white_lux * (model.emitted(capped) @ units.LUMA) + ambient
-    return capped, {**info, "predicted_max_lux": round(float(predicted[region].max()), 2)}
+    return frame, capped, {**info, "predicted_max_lux": round(float(predicted[region].max()), 2)}
 
 
 def write_capped_result(folder, capped: np.ndarray, cap_info: dict) -> Path:

@@ -14,42 +14,45 @@ SIDECAR_KEYS = ("lumens", "light_power_w", "ambient_lux", "lamp_direction", "pro
                 "warning", "dose")
 
 
-def sidecar_fields(folder) -> dict:
+def sidecar_fields(folder, k: int = 0) -> dict:
+    """Projector k's sidecar `light` from the result's light report ({} without one): the rig's figures (all its
+    projectors together), and where the report names each projector (a rig of several: light_joint.joint_report)
+    under `projector` its own lumens, watts and share, with the report's frame."""
     report = read_report(folder)
     if not report:
         return {}
-    light = {k: report[k] for k in SIDECAR_KEYS if k in report}
+    light = {key: report[key] for key in SIDECAR_KEYS if key in report}
     if report.get("preset"):
-        light["preset"] = {k: report["preset"].get(k) for k in ("id", "name", "ansi_lumens", "contrast", "source")}
+        light["preset"] = {key: report["preset"].get(key) for key in ("id", "name", "ansi_lumens", "contrast", "source")}
+    own = report.get("projectors") or []
+    if k < len(own):
+        light["projector"] = own[k]
+        light["frame"] = report.get("frame")
     return {"light": light}
 
 
-def table_row(report: dict) -> ProjectorRow | None:
-    row = (report or {}).get("projector_table_row")
-    if not row:
-        return None
-    return _row(row)
+several_sidecar_fields = sidecar_fields  # the name Export of several still calls (issue 51's Export fold drops it)
 
 
-def several_sidecar_fields(folder, k: int) -> dict:
-    """Projector k's sidecar `light` from a report of several (light_report.several_report): the rig's
-    figures, all projectors together, and under `projector` its own lumens, watts and share ({} without)."""
-    report = read_report(folder)
-    fields = sidecar_fields(folder)
-    own = (report or {}).get("projectors") or []
-    if fields and k < len(own):
-        fields["light"]["projector"] = own[k]
-        fields["light"]["frame"] = report.get("frame")
-    return fields
+def table_rows(report: dict | None) -> list:
+    """Every projector's row of the projector table of a light report: one projector's report holds its row, a
+    report of several one row each ([] without a report)."""
+    report = report or {}
+    rows = report.get("projector_table_rows") or [r for r in [report.get("projector_table_row")] if r]
+    return [_row(row) for row in rows]
 
 
-def write_several_table(path, folder) -> Path | None:
-    """<path stem>_projectors.csv: the projector table of every projector of a report of several (None without)."""
-    rows = [_row(r) for r in ((read_report(folder) or {}).get("projector_table_rows") or [])]
+def write_table_beside(image_path, folder) -> Path | None:
+    """<image stem>_projectors.csv beside the exported image(s): every projector's row, when the result has a light
+    report (None without)."""
+    rows = table_rows(read_report(folder))
     if not rows:
         return None
-    path = Path(path)
-    return write_projector_table(path.with_name(path.stem + "_projectors.csv"), rows)
+    image_path = Path(image_path)
+    return write_projector_table(image_path.with_name(image_path.stem + "_projectors.csv"), rows)
+
+
+write_several_table = write_table_beside  # the name Export of several still calls (issue 51's Export fold drops it)
 
 
 def _row(row: dict) -> ProjectorRow:
@@ -58,11 +61,3 @@ def _row(row: dict) -> ProjectorRow:
                         float(row["shift_y"]), tuple(row["position_m"]), tuple(row["rotation_deg"]),
                         float(row["target_distance_m"]), float(row["target_lux"]))
 
-
-def write_table_beside(image_path, folder) -> Path | None:
-    """<image>_projectors.csv beside the exported image, when the result has a light report."""
-    row = table_row(read_report(folder))
-    if row is None:
-        return None
-    image_path = Path(image_path)
-    return write_projector_table(image_path.with_name(image_path.stem + "_projectors.csv"), [row])

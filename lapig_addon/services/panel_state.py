@@ -7,7 +7,7 @@ import time
 from dataclasses import dataclass
 
 from ...lapig_core.common.deps import missing_required
-from .state import GenerateRequest, Rig, SceneState
+from .state import JOINT, PROJECTOR_SPACE, GenerateRequest, Rig, SceneState
 
 NEEDS_NO_RESULT = ("ORIGINAL", "PROJECTION")  # preview modes that show no generated image
 
@@ -36,9 +36,11 @@ def device_blocker(rig: Rig) -> str:
 
 
 def projectors_blocker(rig: Rig) -> str:
-    """Why a rig of several projectors cannot be captured ('' when it can, and for one projector): a real rig
-    opens one window per display (rigs/real_rig.multi_display_problem says the same where the rig opens)."""
-    if rig.projector_count < 2 or rig.kind != "REAL":
+    """Why the rig's projectors cannot be captured together ('' when they can): a real rig opens one window per
+    display (rigs/real_rig.multi_display_problem says the same where the rig opens). Rig.displays are the
+    displays of a real rig's projectors beyond the first (none for one projector: its display is the rig's own,
+    which devices_problem checks)."""
+    if rig.kind != "REAL":
         return ""
     seen = {}
     for name, display in zip(rig.projectors, rig.displays):
@@ -52,8 +54,9 @@ def projectors_blocker(rig: Rig) -> str:
 
 
 def one_projector_blocker(rig: Rig) -> str:
-    """Why a step made for one projector cannot run on this rig ('' for one projector)."""
-    if rig.projector_count < 2:
+    """Why a step of the projector-space strategy alone (one projector's models) cannot run on this rig ('' for
+    one projector)."""
+    if rig.strategy == PROJECTOR_SPACE:
         return ""
     return f"Works with one projector for now; the rig has {rig.projector_count}"
 
@@ -151,7 +154,7 @@ def models_blocker(state: SceneState) -> str:
 def train_blocker(state: SceneState) -> str:
     """Why Train cannot run: models_blocker, or several projectors (their first look, the joint classical model,
     is fitted at the capture; there are no networks for them)."""
-    if state.rig.projector_count > 1 and not models_blocker(state):
+    if state.rig.strategy == JOINT and not models_blocker(state):
         return ("Several projectors use the joint model fitted at the capture: there is nothing to train; Refine on "
                 "the Rig corrects what it misses")
     return models_blocker(state)
@@ -163,13 +166,10 @@ def single_result_blocker(state: SceneState) -> str:
 
 
 def render_blocker(state: SceneState) -> str:
-    """Why Render Real Capture or Refine on the Rig cannot run ('' when it can): one projector's result as
-    single_result_blocker says; a rig of several shows every projector's image at once (services/render_joint,
-    refine_joint): the virtual rig, or a real one with a window on each projector's own display
-    (projectors_blocker)."""
-    if state.rig.projector_count > 1:
-        return result_blocker(state) or projectors_blocker(state.rig)
-    return single_result_blocker(state)
+    """Why Render Real Capture or Refine on the Rig cannot run ('' when it can): a result, and every projector's
+    window on its own display where the rig is real (projectors_blocker; a rig of several shows every
+    projector's image at once: services/render_joint, refine_joint)."""
+    return result_blocker(state) or projectors_blocker(state.rig)
 
 
 refine_blocker = render_blocker  # Refine shows and captures the images on the rig as Render does
@@ -231,6 +231,6 @@ def preview_blocker(state: SceneState, mode: str) -> str:
     projector's image at once (Projection) and its result's camera-space images from the rig's camera."""
     if mode in NEEDS_NO_RESULT:
         return rig_blocker(state.rig)
-    if state.rig.projector_count > 1:  # every result mode: an image of the result, missing ones said where read
+    if state.rig.strategy == JOINT:  # the result's images are the camera's: cast from it, missing ones said where read
         return result_blocker(state) or ("" if state.rig.camera else "the rig has no camera to show its images from")
-    return single_result_blocker(state)
+    return result_blocker(state)

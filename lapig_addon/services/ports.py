@@ -100,6 +100,10 @@ class DeviceFactory(Protocol):
     the UI."""
 
     main_thread: bool
+    # the factory declares whether its multi_capture_device(settings) opens every projector of the rig at once and
+    # the one camera (a MultiProjectorDevice: the joint strategy's capture, refinement, render and check); False: a
+    # rig that captures one projector, refused in one line where several are asked for
+    opens_several: bool
 
     def rig_identity(self) -> RigIdentity: ...
 

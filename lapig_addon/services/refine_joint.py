@@ -29,7 +29,7 @@ def joint_inputs(seams, doing: str = "refinement") -> tuple[str, str]:
     blocker = panel_state.result_blocker(state) or panel_state.device_blocker(state.rig)
     if blocker:
         raise PipelineError(blocker)
-    if seams.devices is None or getattr(seams.devices, "multi_capture_device", None) is None:
+    if seams.devices is None or not seams.devices.opens_several:
         raise PipelineError(f"{doing} of several projectors needs a rig that shows them all at once (the virtual "
                             f"rig, or a real one with a window on each projector's display)")
     try:

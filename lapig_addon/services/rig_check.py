@@ -20,6 +20,7 @@ from ...lapig_core.rig import RigError
 from .errors import one_line
 from .jobs import Job
 from .ports import Seams
+from .ways import chosen_way
 
 
 @dataclass(frozen=True)
@@ -88,14 +89,16 @@ class RigCheckJob(Job):
         super().__init__()
         self.seams, self.settings = seams, settings
 
-    def _check_several(self, opener):
+    def _check_joint(self):
         """Every projector of a rig of several checked alone (the others black), through the one camera: its
         lines, each named after its projector, and its problems, each a sentence naming it."""
         devices = self.seams.devices
         lines, problems = [], []
         yield 0.05, "opening every projector's window and the camera"
         try:
-            with opener(self.settings) as device:
+            if not devices.opens_several:
+                raise CaptureError(f"{devices.rig_identity().name} cannot open several projectors at once")
+            with devices.multi_capture_device(self.settings) as device:
                 count = len(device.rigs)
                 for k, rig in enumerate(device.rigs):
                     yield 0.1 + 0.85 * k / count, f"checking {device.label(k)}: latency, frame code, exposure, ramp"
@@ -114,10 +117,12 @@ class RigCheckJob(Job):
         return RigCheck(devices.rig_identity().key(), tuple(lines), tuple(problems))
 
     def _check(self):
+        """The one place the check's way is chosen, by the rig's strategy: several projectors are checked one by
+        one through the factory's multi_capture_device."""
+        return (yield from chosen_way(self.seams.store.read().rig, self._check_one, self._check_joint)())
+
+    def _check_one(self):
         devices = self.seams.devices
-        opener = getattr(devices, "multi_capture_device", None)
-        if opener is not None and self.seams.store.read().rig.projector_count > 1:
-            return (yield from self._check_several(opener))
         device, problems = None, []
         yield 0.05, "opening the projector window and the camera"
         try:

@@ -29,6 +29,7 @@ from ...lapig_core.export.result_files import read_output_image
 from ...lapig_core.optics.projector_model import quantised_frame
 from .jobs import JobCancelled
 from .show_plan import ShowPlan
+from .state import JOINT, PROJECTOR_SPACE, strategy_for
 
 
 def _core_model():
@@ -69,6 +70,12 @@ class ShowSource:
     def frame_count(self) -> int:
         return self.plan.frame_count()
 
+    @property
+    def strategy(self) -> str:
+        """The rig's model strategy (state.strategy_for): the joint one makes every projector's frames from the
+        joint model in the camera's space, then each projector's frame."""
+        return strategy_for(len(self.projectors))
+
 
 def has_producer() -> bool:
     """Whether lapig_core's per-frame producer is here (morphs and motions made per frame)."""
@@ -87,8 +94,8 @@ def needs_producer(plan: ShowPlan) -> bool:
 def uses_producer(source: "ShowSource") -> bool:
     """Whether the frames of `source` come from lapig_core's producer: a show with morphs or motions, and the
     producer (and torch) here; a rig of several projectors also needs its capture (the joint model)."""
-    several_ready = len(source.projectors) == 1 or bool(source.capture_dir)
-    return has_producer() and source.use_producer and several_ready and needs_producer(source.plan)
+    joint_ready = source.strategy == PROJECTOR_SPACE or bool(source.capture_dir)
+    return has_producer() and source.use_producer and joint_ready and needs_producer(source.plan)
 
 
 def fallback_notes(source: "ShowSource") -> list:
@@ -97,7 +104,7 @@ def fallback_notes(source: "ShowSource") -> list:
     if uses_producer(source) or not needs_producer(plan):
         return []
     why = ("this build has no per-frame show producer (lapig_core/show with torch)" if not has_producer()
-           else "the rig of several projectors has no capture" if len(source.projectors) > 1
+           else "the rig of several projectors has no capture" if source.strategy == JOINT
            and not source.capture_dir else "the stored looks were asked for")
     notes = []
     if any(s.kind == "morph" for s in plan.segments()):
@@ -148,7 +155,7 @@ def _produced(source: ShowSource, cancel_event, on_progress, start: int, stop: i
     core_frames = _core_frames()
     summaries = source.summaries or read_summaries(source.plan)
     show = core_show_of(source.plan, summaries)
-    several = len(source.projectors) > 1
+    several = source.strategy == JOINT
     setup = _joint_setup(source, summaries) if several else core_frames.ShowSetup.from_capture(source.capture_dir)
     settings = core_frames.FrameSettings(gamma=model.gamma)  # dissolves in this projector's linear light
     size = None if several else (model.width, model.height)  # several: the camera's, then each projector's frame
@@ -260,7 +267,7 @@ def _stored_dissolve(source: ShowSource):
     core_frames = _core_frames()
     m = source.projectors[0]
     try:
-        if len(source.projectors) > 1:
+        if source.strategy == JOINT:
             setup = _joint_setup(source, source.summaries or read_summaries(source.plan))
             return StoredDissolve(setup, *setup.output_size)
         setup = core_frames.ShowSetup.from_capture(source.capture_dir)

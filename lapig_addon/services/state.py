@@ -66,11 +66,15 @@ class Rig:
 
     @property
     def strategy(self) -> str:
-        """The model strategy, chosen here and nowhere else (ARCHITECTURE.md, glossary): PROJECTOR_SPACE, the
-        learned CompenNeSt/PCNet or the classical model of one projector (the paper's figures), or JOINT, the
-        camera-space joint model of any number of projectors. Each stage picks its way from this
-        (services/ways.py)."""
-        return JOINT if self.projector_count > 1 else PROJECTOR_SPACE
+        """The rig's model strategy (strategy_for). Each stage picks its way from this (services/ways.py)."""
+        return strategy_for(self.projector_count)
+
+
+def strategy_for(projector_count: int) -> str:
+    """The model strategy of a rig of `projector_count` projectors, chosen here and nowhere else (ARCHITECTURE.md,
+    glossary): PROJECTOR_SPACE, the learned CompenNeSt/PCNet or the classical model of one projector (the paper's
+    figures), or JOINT, the camera-space joint model of any number of projectors."""
+    return JOINT if projector_count > 1 else PROJECTOR_SPACE
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ PROJECTOR_SIZE = (64, 48)
 
 
 class FakeFactory:
+    opens_several = False  # the fake rig of one projector
     def __init__(self, ports, main_thread=False, settle_s=0.0, name="site rig"):
         self.ports, self.main_thread, self.settle_s, self.name = ports, main_thread, settle_s, name
         self.opened, self.closed, self.threads = 0, 0, set()

@@ -147,6 +147,8 @@ class _SceneLight:
     """blender/light_plan_run.SceneLight's fake: flat light maps at the projector's size, one render a step, and
     whether the capture's lock was held (by someone) while each was rendered."""
 
+    strategy = "projector-space"  # services/state.PROJECTOR_SPACE: the maps in the projector's frame
+
     def __init__(self, model, capture_root):
         self.model, self.capture_root = model, capture_root
         self.size, self.scale, self.target_name = (16, 12), 1.0, "Wall"
@@ -257,6 +259,8 @@ class _Passes:
 class _ReportLight:
     """blender/light_plan_run.SceneLight's fake for the report: read from the scene when made; each Cycles
     render a step of its own (the thread that ran each one recorded); the passes' arithmetic where maps() runs."""
+
+    strategy = "projector-space"
 
     def __init__(self, model, size=(16, 12)):
         self.model, self.size, self.scale, self.target_name = model, size, 2.0, "Wall"

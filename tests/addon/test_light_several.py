@@ -16,6 +16,11 @@ def lr():
     return importlib.import_module("lapig.lapig_addon.services.light_report")
 
 
+@pytest.fixture
+def lj():
+    return importlib.import_module("lapig.lapig_addon.services.light_joint")
+
+
 def _maps(white_left, white_right, room=0.0):
     """A projector's light over 8 x 10 camera pixels: `white_left` lux on the left half, `white_right` on the
     right; the room's light where it rendered it; the object everywhere but the last column."""
@@ -37,13 +42,13 @@ def test_light_adds_over_the_cameras_pixels_and_the_room_counts_once():
                                                      np.ones((4, 4), bool))])
 
 
-def test_two_stacked_projectors_give_twice_the_light_and_half_each(lr):
+def test_two_stacked_projectors_give_twice_the_light_and_half_each(lr, lj):
     model = ProjectorModel()
     plan = lr.LightPlan(lumens=2000, ambient_lux=20)
     one = lr.light_report(plan, _maps(400.0, 400.0, room=20.0), None, model)
-    lumens = lr.several_lumens(plan, [10.0, 10.0], [model, model])
+    lumens = lj.joint_lumens(plan, [10.0, 10.0], [model, model])
     assert lumens == pytest.approx([2000, 2000])  # a copy of the first has the first's lumens
-    two, total, _ = lr.several_report(plan, [_maps(400.0, 400.0, room=20.0), _maps(400.0, 400.0)], None,
+    two, total, _ = lj.joint_report(plan, [_maps(400.0, 400.0, room=20.0), _maps(400.0, 400.0)], None,
                                       [model, model], ["A", "B"], lumens)
     assert two["white_lux"]["mean"] == pytest.approx(2 * one["white_lux"]["mean"])
     assert two["lumens"] == 4000 and two["light_power_w"] == pytest.approx(2 * one["light_power_w"], rel=1e-3)
@@ -53,15 +58,15 @@ def test_two_stacked_projectors_give_twice_the_light_and_half_each(lr):
     json.dumps(two)
 
 
-def test_each_projector_its_own_lumens_and_look(lr):
+def test_each_projector_its_own_lumens_and_look(lr, lj):
     model = ProjectorModel()
     plan = lr.LightPlan(lumens=1000, limit=dose.ConservationLimit("high", schedule=dose.Schedule(10, 200)))
-    lumens = lr.several_lumens(plan, [10.0, 30.0], [model, model])  # the second set three times as bright
+    lumens = lj.joint_lumens(plan, [10.0, 30.0], [model, model])  # the second set three times as bright
     assert lumens == pytest.approx([1000, 3000])
     left, right = _maps(300.0, 0.0), _maps(0.0, 300.0)
     # the left projector shows half white, the right full white
     emitted = [np.full((8, 10), 0.5), np.ones((8, 10))]
-    report, total, combined = lr.several_report(plan, [left, right], emitted, [model, model], ["L", "R"], lumens)
+    report, total, combined = lj.joint_report(plan, [left, right], emitted, [model, model], ["L", "R"], lumens)
     look = total.white_lux * combined
     assert look[0, 0] == pytest.approx(150) and look[0, 6] == pytest.approx(300)
     assert report["look_lux"]["max"] == pytest.approx(300) and report["look_lux"]["min"] == pytest.approx(150)
@@ -69,38 +74,38 @@ def test_each_projector_its_own_lumens_and_look(lr):
     assert shares["L"] == pytest.approx(150 * 5 / (150 * 5 + 300 * 4), abs=1e-4)  # the look's light on the object
     # the dose on the sum: 300 lux against 50: one factor for every projector's light brings it within
     assert not report["dose"]["within_limit"] and report["dose"]["max_lux"] == pytest.approx(300)
-    scale = lr.several_cap_scale(plan, report)
+    scale = lj.joint_cap_factor(plan, total, combined, margin=0.0)
     assert scale == pytest.approx(50 / 300, rel=0.01)
 
 
-def test_one_projector_through_the_several_path_reads_as_today(lr):
+def test_one_projector_through_the_joint_path_reads_as_today(lr, lj):
     model = ProjectorModel()
     plan = lr.LightPlan(lumens=2000, ambient_lux=20, limit=dose.ConservationLimit("high"))
     emitted = np.full((8, 10), 0.25)
     today = lr.light_report(plan, _maps(400.0, 320.0, room=20.0), emitted, model)
-    several, _, _ = lr.several_report(plan, [_maps(400.0, 320.0, room=20.0)], [emitted], [model], ["P"], [2000.0])
+    several, _, _ = lj.joint_report(plan, [_maps(400.0, 320.0, room=20.0)], [emitted], [model], ["P"], [2000.0])
     for key in ("white_lux", "look_lux", "total_lux", "contrast_ratio", "dose", "lumens", "light_power_w"):
         assert several[key] == today[key], key
 
 
-def test_the_dose_cap_scales_every_projectors_light_by_one_factor(lr):
+def test_the_dose_cap_scales_every_projectors_light_by_one_factor(lr, lj):
     model = ProjectorModel()
     frame = np.full((6, 8, 3), 0.8, np.float32)
     frame[:, :4] = 0.0  # black stays black
-    half = lr.scaled_frame(frame, model, 0.5)
+    half = lj.scaled_frame(frame, model, 0.5)
     e0, e1 = model.emitted(frame), model.emitted(half)
     lit = frame[..., 0] > 0
     assert np.allclose(e1[lit], 0.5 * e0[lit], rtol=1e-3) and np.all(half <= frame)
     assert np.array_equal(half[~lit], frame[~lit])
-    assert np.array_equal(lr.scaled_frame(frame, model, 1.0), np.floor(frame * 65535 + 1e-9) / 65535)
+    assert np.array_equal(lj.scaled_frame(frame, model, 1.0), np.floor(frame * 65535 + 1e-9) / 65535)
     plan = lr.LightPlan(lumens=1000, ambient_lux=10, limit=dose.ConservationLimit("high", schedule=dose.Schedule(10, 200)))
-    _, total, combined = lr.several_report(plan, [_maps(300.0, 0.0, room=10.0), _maps(0.0, 300.0)], None,
+    _, total, combined = lj.joint_report(plan, [_maps(300.0, 0.0, room=10.0), _maps(0.0, 300.0)], None,
                                            [model, model], ["L", "R"], [1000.0, 1000.0])
-    factor = lr.several_cap_factor(plan, total, combined)
+    factor = lj.joint_cap_factor(plan, total, combined)
     assert factor == pytest.approx((50 * 0.99 - 10) / 300)  # the brightest point of the sum meets the limit
 
 
-def test_the_dose_cap_job_of_several_writes_a_limited_result_of_its_own(lr, tmp_path):
+def test_the_dose_cap_job_of_several_writes_a_limited_result_of_its_own(lr, lj, tmp_path):
     from lapig.lapig_core.export.result_files import write_new_result
     from lapig.lapig_core.multi.result_files import projector_images
 
@@ -113,16 +118,21 @@ def test_the_dose_cap_job_of_several_writes_a_limited_result_of_its_own(lr, tmp_
                                               {"name": "R", "image": "projector_2.png", "size": [8, 6]}]})
 
     class Light:
+        strategy = importlib.import_module("lapig.lapig_addon.services.state").JOINT
         models, names, lumens, target_name = [model, model], ["L", "R"], [1000.0, 1000.0], "Bust"
 
-        def steps(self, shown):
+        def steps(self, shown, start=0.0, end=1.0):
             assert len(shown) == 2
             yield 0.5, "rendering"
             return [_maps(300.0, 0.0, room=10.0), _maps(0.0, 300.0)], [np.ones((8, 10)), np.ones((8, 10))]
 
     plan = lr.LightPlan(lumens=1000, ambient_lux=10, limit=dose.ConservationLimit("high", schedule=dose.Schedule(10, 200)))
-    job = importlib.import_module("lapig.lapig_addon.services.several_dose_cap").SeveralDoseCapJob(
-        None, plan, Light(), str(folder), record=False)
+    from types import SimpleNamespace
+
+    state = importlib.import_module("lapig.lapig_addon.services.state")
+    store = SimpleNamespace(read=state.SceneState, export_settings=lambda: SimpleNamespace(bit_depth=16))
+    job = importlib.import_module("lapig.lapig_addon.services.dose_cap").DoseCapJob(
+        SimpleNamespace(store=store, devices=None), plan, Light(), str(folder), record=False)
     assert job.run() == "DONE", job.error
     out = job.result
     assert out["folder"] != str(folder) and out["scale"] == pytest.approx((50 * 0.99 - 10) / 300)

@@ -27,8 +27,10 @@ class MultiFactory:
 
     def __init__(self, ports, rig, multi=True):
         self.ports, self.rig = ports, rig
-        if multi:
-            self.multi_capture_device = self._device
+        self.opens_several = multi  # declared: multi_capture_device opens both projectors at once
+
+    def multi_capture_device(self, settings):
+        return self._device(settings)
 
     def rig_identity(self):
         return self.ports.RigIdentity("fake rig of two", {"projectors": 2})

@@ -15,11 +15,11 @@ pytestmark = pytest.mark.blender
 
 
 def _mean_lux(scene, plan):
-    from lapig.lapig_addon.blender.light_plan_run import SeveralSceneLight
+    from lapig.lapig_addon.blender.light_plan_run import JointSceneLight
     from lapig.lapig_core.common.steps import run_to_end
     from lapig.lapig_core.photometry.light_passes import sum_projector_maps
 
-    light = SeveralSceneLight(scene, plan, width=40)
+    light = JointSceneLight(scene, plan, width=40)  # one projector too: over the camera's pixels
     maps, _ = run_to_end(light.steps())
     total = sum_projector_maps(maps)
     return float(total.white_lux[total.on_object].mean()), maps, light
@@ -54,7 +54,7 @@ def test_the_light_report_of_two_projectors_names_each_ones_share(lapig_register
     assert bpy.ops.lapig.add_projector() == {"FINISHED"}  # the other side
     plan = LightPlan(lumens=2000, ambient_lux=10, limit=dose.ConservationLimit("high"))
     maps_dir = str(tmp_path / "maps")
-    report = light_plan_run.several_report_job(scene, plan, None, width=40, maps_dir=maps_dir).run_to_completion()
+    report = light_plan_run.report_job(scene, plan, None, width=40, maps_dir=maps_dir).run_to_completion()
     print(json.dumps(report["projectors"]), report["white_lux"], report["dose"]["max_lux"],
           report["dose_cap_scale"])
     assert report["frame"] == "camera" and report["lumens"] == pytest.approx(4000)

@@ -102,6 +102,7 @@ class GenerateRequest:
     adaptation: float  # PSA: 0 keeps the look (brightness too), 1 takes whatever the surface can show
     seed: int
     ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
+    depth_model: str = ""  # the depth adapter's folder where the model manager has it ready ('' : no depth)
     dark_outside: bool = True  # black projector pixels where the frame misses the object
     output_size: int = 0  # long side of the final projector image; 0: the projector's native frame
     style_images: tuple = ()  # reference images ('path' or 'path:weight') whose style the look takes
@@ -136,7 +137,12 @@ class GenerateRequest:
         """Options for the LGST backend (and its availability check): where its model is."""
         if self.style_images:
             return {"style_images": tuple(self.style_images), "prompt_weight": self.style_prompt_weight}
-        return {"model": self.ip2p_model} if self.backend == IP2P_BACKEND and self.ip2p_model else {}
+        if self.backend != IP2P_BACKEND:
+            return {}
+        options = {"model": self.ip2p_model} if self.ip2p_model else {}
+        if self.depth_model:  # the drawing follows the object's depth (issue 53)
+            options["depth_adapter"] = self.depth_model
+        return options
 
 
 @dataclass(frozen=True)

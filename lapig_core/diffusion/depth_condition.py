@@ -23,7 +23,8 @@ from .pipeline_folder import check_model
 
 ADAPTER_CLASS = "T2IAdapter"
 NEAR_FLOOR = 0.25  # the farthest point of the object: above the black of the background
-NO_DEPTH = ("no 3D model of the object (the captured surface stands in): the drawing is not conditioned on its depth")
+NO_DEPTH = ("the object's depth as the projector sees it is not known here (no 3D model of it, or the joint path of "
+            "several projectors): the drawing is not conditioned on its depth")
 
 
 def depth_image(geometry, h: int, w: int):

@@ -57,12 +57,15 @@ def load_adapter(folder: str, device: str, dtype: str):
 
     folder = os.path.abspath(os.path.expanduser(folder))
     check_model(folder, ADAPTER_CLASS)
+    # TencentARC's depth adapter has a .bin only: diffusers reads it with torch.load(weights_only=True), tensors
+    # and no code
+    safetensors = any(name.endswith(".safetensors") for name in os.listdir(folder))
     try:
-        adapter = T2IAdapter.from_pretrained(folder, local_files_only=True)
+        adapter = T2IAdapter.from_pretrained(folder, local_files_only=True, torch_dtype=getattr(torch, dtype),
+                                             use_safetensors=safetensors)
     except (OSError, ValueError, RuntimeError) as exc:
         raise ModelError(f"{folder} does not load as a T2I-Adapter ({type(exc).__name__}: {exc})") from None
-    adapter = adapter.to(torch.device(device), getattr(torch, dtype)).eval().requires_grad_(False)
-    return adapter
+    return adapter.to(torch.device(device)).eval().requires_grad_(False)
 
 
 def check_fits(adapter, unet) -> None:

@@ -65,6 +65,8 @@ def test_a_ready_depth_adapter_goes_to_instruct_pix2pix_and_asks_for_the_geometr
     request = _request(state, backend="instruct-pix2pix", depth_model="/models/depth-adapter")
     assert request.backend_options() == {"depth_adapter": "/models/depth-adapter"}
     assert _request(state, depth_model="/models/depth-adapter").backend_options() == {}  # styletransfer: none
+    assert _request(state, backend="one-step", one_step_model="/models/sd-turbo",
+                    depth_model="/models/depth-adapter").backend_options() == {"model": "/models/sd-turbo"}
 
     class Store:
         def look_geometry(self, w, h):

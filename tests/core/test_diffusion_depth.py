@@ -71,6 +71,30 @@ def test_a_folder_that_is_not_an_adapter_is_one_line(downloaded, tmp_path):
         catalogue.model("depth")
 
 
+def test_a_refused_token_and_a_pipeline_repository_for_the_adapter_are_one_line_each(downloaded, tmp_path):
+    adapter_repo = make_tiny_adapter(tmp_path / "repo-depth")
+    entry = replace(catalogue.model("depth-adapter"), repo_id="tiny/depth")
+    with FakeModelHub({"tiny/depth": adapter_repo, "tiny/ip2p": downloaded["ip2p"]}, token="right") as hub:
+        with pytest.raises(ModelError, match=r"^the hub refused the token for 'tiny/depth' \(HTTP 401\): check the "
+                                             r"Hub token"):
+            fetch.download(entry, str(tmp_path / "m"), True, hub.url, token="wrong")
+        with pytest.raises(ModelError, match=r"^'tiny/ip2p' is not a diffusers model: it has no config\.json$"):
+            fetch.download(replace(entry, repo_id="tiny/ip2p"), str(tmp_path / "m"), True, hub.url, token="right")
+        assert not os.path.exists(tmp_path / "m" / "depth-adapter")  # nothing that looks ready
+        done = fetch.download(entry, str(tmp_path / "m"), True, hub.url, token="right")
+        assert pf.folder_state(done.folder, layout=catalogue.MODEL).state == pf.READY
+
+
+def test_the_one_step_look_without_its_model_is_one_line(tmp_path):
+    from lapig.lapig_core.lgst import LGSTUnavailable
+
+    backend = get_backend("one-step", model=str(tmp_path), device="cpu")
+    assert backend.availability(model=str(tmp_path))[1].startswith(f"no one-step model at {tmp_path}")
+    with pytest.raises(LGSTUnavailable, match="download it in the add-on preferences"):
+        backend.prepare(torch.rand(1, 3, 16, 16), PROMPT)
+    assert get_backend("one-step").availability()[1].startswith("the one-step look needs the one-step model")
+
+
 def test_the_depth_image_is_near_bright_far_dark_and_none_without_a_3d_model():
     from lapig.lapig_core.lgst.world.geometry import from_capture
 

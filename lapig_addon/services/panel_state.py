@@ -188,6 +188,15 @@ def models_status(state: SceneState) -> StepStatus:
 _AVAILABILITY: dict = {}  # (backend, options) -> (checked at, available, reason): draw() runs on every redraw
 
 
+def fast_path_line(request: GenerateRequest) -> str:
+    """The Stylize panel's line where the prompt's preview follows the typing ('' where it does not)."""
+    from .prompt_preview import fast_path_problem
+
+    if fast_path_problem(request.backend, request.one_step_model):
+        return ""
+    return "The projector previews the prompt as you type (SD-Turbo, no PSA); Generate makes the result with PSA"
+
+
 def backend_warning(request: GenerateRequest) -> str:
     """Why the request's backend cannot run here ('' when it can); Generate then falls back."""
     options = request.backend_options()

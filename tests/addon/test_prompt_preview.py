@@ -96,6 +96,12 @@ def test_the_fast_path_only_with_a_ready_one_step_model_and_a_diffusion_look():
     assert problem("instruct-pix2pix", "/models/sd-turbo") == ""
     assert "not ready" in problem("one-step", "")
     assert "no one-step preview" in problem("styletransfer", "/models/sd-turbo")
+    state = importlib.import_module(f"{ADDON}.services.state")
+    panel_state = importlib.import_module(f"{ADDON}.services.panel_state")
+    request = state.GenerateRequest(prompt="ink", backend="one-step", mix="", psa=True, adaptation=0.5, seed=0,
+                                    one_step_model="/models/sd-turbo")
+    assert panel_state.fast_path_line(request).startswith("The projector previews the prompt as you type")
+    assert panel_state.fast_path_line(state.overridden(request, one_step_model="")) == ""  # not ready: no line
 
 
 def test_a_preview_of_the_captured_surface_through_the_one_step_model(seams, tmp_path):

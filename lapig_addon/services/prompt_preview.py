@@ -20,18 +20,9 @@ from dataclasses import dataclass
 from typing import Callable
 
 from .jobs import WorkerJob
+from .panel_state import fast_path_problem  # noqa: F401 (the Blender side asks it here)
 
 DELAY_S = 0.5  # after the last keystroke
-DIFFUSION_BACKENDS = ("one-step", "instruct-pix2pix")  # the looks a one-step preview stands for
-
-
-def fast_path_problem(backend: str, model_folder: str) -> str:
-    """Why typing makes no preview ('' : it does): no one-step model ready, or a look that is not a diffusion one."""
-    if not model_folder:
-        return "the one-step model (SD-Turbo) is not ready in the add-on preferences"
-    if backend not in DIFFUSION_BACKENDS:
-        return f"the '{backend}' look has no one-step preview (choose 'one-step' or 'instruct-pix2pix')"
-    return ""
 
 
 @dataclass(frozen=True)

@@ -81,7 +81,8 @@ class LAPIG_OT_download_model(ReportsErrors, bpy.types.Operator):
     bl_idname = "lapig.download_model"
     bl_label = "Download"
 
-    model: bpy.props.StringProperty(name="Model", description="The catalogue's key (instruct-pix2pix, sd-turbo, depth-adapter)")
+    model: bpy.props.StringProperty(name="Model",
+                                    description="The catalogue's key (instruct-pix2pix, sd-turbo, depth-adapter)")
 
     @classmethod
     def description(cls, context, properties):

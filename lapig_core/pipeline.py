@@ -262,7 +262,8 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     dark_outside: black projector pixels where the frame misses the object (where the capture set
     knows it: setups captured here; public sets have no registration).
     geometry: what the looks of the world follow: a lgst/world/geometry.LookGeometry (the object as the projector
-    sees it), "capture" (no 3D model: the captured surface stands in), or None (the image alone).
+    sees it), "capture" (no 3D model: the captured surface stands in), or None (the image alone); InstructPix2Pix
+    takes its depth where its options name a depth adapter (backend_options["depth_adapter"]).
     It runs where the models are (SurfaceModels.to): the backend follows the surface's device; the
     result's images come back on the CPU."""
     settings = settings or PSASettings(seed=seed)
@@ -270,12 +271,13 @@ def stylize(cs: CaptureSet, models: SurfaceModels, prompt: str, backend: str = D
     # LGST sees the white-lit surface (as the paper)
     surface = SurfaceTensors.from_capture_set(cs).i_max.to(device)
     backend_options = with_device(backend, backend_options, device)
-    if geometry is not None and backend == DEFAULT_BACKEND:
+    if geometry is not None and (backend == DEFAULT_BACKEND or getattr(backend_class(backend), "takes_geometry",
+                                                                          False)):
         from .lgst.world.geometry import from_capture
 
         if isinstance(geometry, str):
             geometry = from_capture(surface[0].permute(1, 2, 0).cpu().numpy())
-        backend_options["geometry"] = geometry
+        backend_options["geometry"] = geometry  # the looks of the world; InstructPix2Pix's depth adapter
     lgst, fallback = prepared_backend(backend, surface, prompt, seed=seed, mix=mix, options=backend_options)
     plain = without_psa(lgst, models)
     adapted = None

@@ -3,7 +3,7 @@ import os
 
 import bpy
 
-from ..lapig_addon.blender import live_devices, result_preview, scene_state
+from ..lapig_addon.blender import live_devices, prompt_preview, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import BackgroundJobRunner, JobRunnerMixin, cancel_background
 from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, poll_reason, report_notes
 from ..lapig_addon.blender.properties import PREVIEW_MODES
@@ -89,6 +89,7 @@ class LAPIG_OT_generate(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     bl_label = "Generate"
 
     def make_job(self, context):
+        prompt_preview.stop()  # the fast path's preview must not land on the full PSA run's result
         scene = context.scene
         seams = scene_seams(scene)
         if seams.store.read().rig.projector_count > 1:  # several projectors: the joint look and compensation

@@ -347,6 +347,9 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         warning = panel_state.backend_warning(request)
         if warning:
             _lines(layout, fit, [("Falls back to 'styletransfer': " + warning[:160], False)])
+        fast = panel_state.fast_path_line(request)
+        if fast:
+            _lines(layout, fit, [(fast, True)])
         layout.prop(s, "style_override")
         layout.prop(s, "style_image")
         if s.style_image.strip():

@@ -12,6 +12,7 @@ _MODULES = (
     ".preferences",
     ".torch_installer",
     ".model_manager",
+    ".prompt_preview",
     "...operators",
     "...panels",
     ".live_devices",

@@ -35,19 +35,19 @@ def models_root(prefs=None) -> str:
     return chosen or bpy.utils.user_resource("DATAFILES", path=os.path.join("lapig", "models"), create=False)
 
 
+OWN_FOLDER_PREFERENCE = {"instruct-pix2pix": "ip2p_model", "sd-turbo": "turbo_model", "depth-adapter": "depth_model"}
+
+
 def own_folder(prefs, key: str) -> str:
     """The user's folder for that model (Use Folder), '' where none is chosen."""
     if prefs is None:
         return ""
-    value = prefs.ip2p_model if key == "instruct-pix2pix" else prefs.turbo_model
+    value = getattr(prefs, OWN_FOLDER_PREFERENCE[key], "")
     return bpy.path.abspath(value) if value else ""
 
 
 def _set_own_folder(prefs, key: str, folder: str):
-    if key == "instruct-pix2pix":
-        prefs.ip2p_model = folder
-    else:
-        prefs.turbo_model = folder
+    setattr(prefs, OWN_FOLDER_PREFERENCE[key], folder)
 
 
 def _prefs(context):
@@ -81,7 +81,8 @@ class LAPIG_OT_download_model(ReportsErrors, bpy.types.Operator):
     bl_idname = "lapig.download_model"
     bl_label = "Download"
 
-    model: bpy.props.StringProperty(name="Model", description="The catalogue's key (instruct-pix2pix, sd-turbo)")
+    model: bpy.props.StringProperty(name="Model",
+                                    description="The catalogue's key (instruct-pix2pix, sd-turbo, depth-adapter)")
 
     @classmethod
     def description(cls, context, properties):
@@ -124,8 +125,8 @@ class LAPIG_OT_cancel_model_download(ReportsErrors, bpy.types.Operator):
 
 
 class LAPIG_OT_use_model_folder(ReportsErrors, bpy.types.Operator):
-    """Use a folder of this model you already have (a diffusers pipeline: model_index.json, unet/, vae/, ...),
-    for computers that stay offline"""
+    """Use a folder of this model you already have (a diffusers pipeline: model_index.json, unet/, vae/, ...; the
+    depth adapter: config.json and its weights), for computers that stay offline"""
     bl_idname = "lapig.use_model_folder"
     bl_label = "Use Folder"
 

@@ -58,6 +58,10 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
     turbo_model: bpy.props.StringProperty(
         name="SD-Turbo weights", subtype="DIR_PATH",
         description="Folder with the one-step model's weights (empty: the model manager's download)")
+    depth_model: bpy.props.StringProperty(
+        name="Depth adapter weights", subtype="DIR_PATH",
+        description="Folder with the depth adapter (T2I-Adapter depth, SD 1.5) that makes InstructPix2Pix follow the "
+                    "object's shape (empty: the model manager's download)")
     models_folder: bpy.props.StringProperty(
         name="Models folder", subtype="DIR_PATH",
         description="Where Download puts the diffusion models (empty: LAPIG's folder in Blender's user data)")
@@ -181,6 +185,18 @@ def ip2p_model() -> str:
     if prefs.ip2p_model:
         return bpy.path.abspath(prefs.ip2p_model)
     return ready_folder("instruct-pix2pix", model_manager.models_root(prefs))
+
+
+def ready_model(key: str) -> str:
+    """A catalogue model's folder where it is ready: the preferences' own folder for it (Use Folder), else the model
+    manager's download ('' when neither is ready, or when the add-on is registered without being enabled)."""
+    from ..services.model_download import ready_folder
+
+    addon = bpy.context.preferences.addons.get(_addon_package())
+    if not (addon and addon.preferences):
+        return ""
+    prefs = addon.preferences
+    return ready_folder(key, model_manager.models_root(prefs), model_manager.own_folder(prefs, key))
 
 
 def ffmpeg_path() -> str:

@@ -10,6 +10,12 @@ from .compat import RELATIVE_PATH_OPTIONS
 from .scene_state import projector_model
 
 
+def _prompt_changed(self, context):
+    from .prompt_preview import prompt_changed  # the fast path's preview, where the one-step model is ready
+
+    prompt_changed(self, context)
+
+
 def _rebuild_projector(self, context):
     obj = self.id_data
     if getattr(obj, "type", None) == "LIGHT" and self.is_projector:
@@ -299,7 +305,7 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     models_fingerprint: StringProperty(name="Rig fingerprint the models were trained for")
     models_status: StringProperty(name="Models")
     # stylize
-    prompt: StringProperty(name="Prompt", default="Make it a stained glass artwork",
+    prompt: StringProperty(name="Prompt", default="Make it a stained glass artwork", update=_prompt_changed,
                            description="What the object should look like under the projection")
     backend: EnumProperty(name="Backend", items=_backend_items,
                           description="Language-guided style transfer that turns the prompt into a look")

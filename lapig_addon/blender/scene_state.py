@@ -293,7 +293,9 @@ def generate_request(scene, **overrides) -> GenerateRequest:
     s = scene.lapig
     request = GenerateRequest(prompt=s.prompt, backend=s.backend, mix=s.style_override, psa=s.use_psa,
                               adaptation=s.psa_adaptation, seed=s.style_seed, ip2p_model=preferences.ip2p_model(),
-                              dark_outside=s.dark_outside, output_size=s.output_size,
+                              depth_model=preferences.ready_model("depth-adapter"),
+                              one_step_model=preferences.ready_model("sd-turbo"), dark_outside=s.dark_outside,
+                              output_size=s.output_size,
                               style_images=(bpy.path.abspath(s.style_image),) if s.style_image.strip() else (),
                               style_prompt_weight=s.style_prompt_weight)
     return overridden(request, **overrides)

@@ -209,6 +209,8 @@ def cmd_stylize(args) -> int:
     request = scene_state.generate_request(scene, prompt=prompt, backend=args.backend, mix=args.mix,
                                            psa=args.psa, adaptation=args.adaptation, seed=args.seed,
                                            ip2p_model=args.ip2p_model, style_images=style_images,
+                                           depth_model=getattr(args, "depth_model", None),
+                                           one_step_model=getattr(args, "one_step_model", None),
                                            style_prompt_weight=args.style_prompt_weight,
                                            output_size=args.output_size, dark_outside=args.dark_outside)
     _check_request_prompt(request)

@@ -113,6 +113,10 @@ def _parser():
                   "PSA adaptation, 0 keep my look .. 1 whatever this surface can show (default: the scene's)",
                   type=float)
     st.add_argument("--ip2p-model", help="InstructPix2Pix weights folder (default: the add-on preferences')")
+    st.add_argument("--depth-model", help="the depth adapter's folder: InstructPix2Pix follows the object's depth "
+                                          "(default: the model manager's, where it is ready)")
+    st.add_argument("--one-step-model", help="the one-step model's folder for --backend one-step (default: the "
+                                             "model manager's, where it is ready)")
     ranged_option(st, "--output-size", "output_size",
                   "long side of the final projector image, 0 for the projector's native frame (default: the "
                   "scene's)")

@@ -18,7 +18,7 @@ from ...lapig_core.diffusion import pipeline_folder as pf
 from .jobs import JobCancelled, WorkerJob
 
 DOWNLOADING = "downloading"
-CLASS_OF_KIND = {"ip2p": "StableDiffusionInstructPix2PixPipeline", "img2img": None}
+CLASS_OF_KIND = {"ip2p": "StableDiffusionInstructPix2PixPipeline", "img2img": None, "depth-adapter": "T2IAdapter"}
 
 
 @dataclass
@@ -124,20 +124,21 @@ def model_row(key: str, root: str, own_folder: str = "", slot: DownloadSlot = DO
         return ModelRow(entry, DOWNLOADING, fetch.model_folder(root, key), job.message, job.progress)
     if own_folder:
         try:
-            pf.check_pipeline(own_folder, CLASS_OF_KIND.get(entry.kind))
+            pf.check_layout(own_folder, entry.layout, CLASS_OF_KIND.get(entry.kind))
         except catalogue.ModelError as exc:
             return ModelRow(entry, pf.DAMAGED, own_folder, str(exc), own_folder=True)
         size = pf.weights_bytes(own_folder)
         return ModelRow(entry, pf.READY, own_folder, f"ready: your folder {own_folder} ({_gb(size)} of weights)",
                         own_folder=True)
     folder = fetch.model_folder(root, key)
-    state = pf.folder_state(folder, fetch.partial_folder(root, key))
+    state = pf.folder_state(folder, fetch.partial_folder(root, key), entry.layout)
     if state.state == pf.READY:
         line = f"ready: {_gb(state.size_bytes)} at {folder}"
     elif state.state == pf.DAMAGED:
         line = f"damaged: {state.why}"
     else:
-        line = f"absent{': ' + state.why if state.why else ''} (size: listed when the download starts)"
+        size = entry.size_hint or "listed when the download starts"
+        line = f"absent{': ' + state.why if state.why else ''} (size: {size})"
     return ModelRow(entry, state.state, folder, line)
 
 
@@ -151,7 +152,7 @@ def use_folder(key: str, folder: str) -> str:
     """The user's folder for a model, checked to be a pipeline of its kind; ModelError otherwise."""
     entry = catalogue.model(key)
     folder = os.path.abspath(os.path.expanduser(folder or ""))
-    pf.check_pipeline(folder, CLASS_OF_KIND.get(entry.kind))
+    pf.check_layout(folder, entry.layout, CLASS_OF_KIND.get(entry.kind))
     return folder
 
 

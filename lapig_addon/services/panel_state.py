@@ -188,6 +188,26 @@ def models_status(state: SceneState) -> StepStatus:
 _AVAILABILITY: dict = {}  # (backend, options) -> (checked at, available, reason): draw() runs on every redraw
 
 
+DIFFUSION_BACKENDS = ("one-step", "instruct-pix2pix")  # the looks the one-step preview stands for
+
+
+def fast_path_problem(backend: str, model_folder: str) -> str:
+    """Why typing makes no preview (services/prompt_preview; '' : it does): no one-step model ready, or a look
+    that is not a diffusion one."""
+    if not model_folder:
+        return "the one-step model (SD-Turbo) is not ready in the add-on preferences"
+    if backend not in DIFFUSION_BACKENDS:
+        return f"the '{backend}' look has no one-step preview (choose 'one-step' or 'instruct-pix2pix')"
+    return ""
+
+
+def fast_path_line(request: GenerateRequest) -> str:
+    """The Stylize panel's line where the prompt's preview follows the typing ('' where it does not)."""
+    if fast_path_problem(request.backend, request.one_step_model):
+        return ""
+    return "The projector previews the prompt as you type (SD-Turbo, no PSA); Generate makes the result with PSA"
+
+
 def backend_warning(request: GenerateRequest) -> str:
     """Why the request's backend cannot run here ('' when it can); Generate then falls back."""
     options = request.backend_options()

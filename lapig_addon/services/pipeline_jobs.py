@@ -292,11 +292,12 @@ def psa_settings_from(request: GenerateRequest) -> PSASettings:
     return PSASettings(adaptation=request.adaptation, seed=request.seed)
 
 
-def look_geometry(store, capture: str, backend: str, mix: str, prompt: str):
+def look_geometry(store, capture: str, backend: str, mix: str, prompt: str, depth: bool = False):
     """What the looks of the world follow (on the main thread: Blender's ray casts): the object as the projector
     sees it at the capture's working frame, or "capture" (no 3D model: the captured surface stands in); None where
-    the look reads no geometry (a style mix, another backend)."""
-    if mix or backend != DEFAULT_BACKEND or not prompt:
+    the look reads no geometry (a style mix, another backend). depth: InstructPix2Pix with its depth adapter, which
+    reads the object's depth."""
+    if mix or not prompt or (backend != DEFAULT_BACKEND and not depth):
         return None
     reader = getattr(store, "look_geometry", None)
     if reader is None:
@@ -344,7 +345,7 @@ class GenerateJob(WorkerJob):
             if r.backend != backend:
                 notes.append(f"a style image is chosen: the look comes from it ('{backend}' backend), "
                              f"not from '{r.backend}'")
-        geometry = look_geometry(store, folder, backend, mix, prompt)
+        geometry = look_geometry(store, folder, backend, mix, prompt, "depth_adapter" in r.backend_options())
         return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend, "geometry": geometry,
                 "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
                 "dark_outside": r.dark_outside, "output_frame": output,

@@ -15,6 +15,7 @@ PROJECTOR_SPACE = "projector-space"  # Rig.strategy: one projector's models, in 
 JOINT = "joint"  # Rig.strategy: several projectors' joint model, in the camera's pixels
 
 IP2P_BACKEND = "instruct-pix2pix"  # lapig_core.lgst's name for it (not imported here: it needs torch)
+ONE_STEP_BACKEND = "one-step"  # the one-step model's look (SD-Turbo), lapig_core/lgst/one_step_backend
 ARBITRARY_BACKEND = "arbitrary"  # the reference-image backend, which a chosen style image uses
 
 
@@ -106,6 +107,8 @@ class GenerateRequest:
     adaptation: float  # PSA: 0 keeps the look (brightness too), 1 takes whatever the surface can show
     seed: int
     ip2p_model: str = ""  # where the InstructPix2Pix weights are; '' for the public checkpoint
+    depth_model: str = ""  # the depth adapter's folder where the model manager has it ready ('' : no depth)
+    one_step_model: str = ""  # the one-step model's folder where it is ready (the 'one-step' look's weights)
     dark_outside: bool = True  # black projector pixels where the frame misses the object
     output_size: int = 0  # long side of the final projector image; 0: the projector's native frame
     style_images: tuple = ()  # reference images ('path' or 'path:weight') whose style the look takes
@@ -140,7 +143,14 @@ class GenerateRequest:
         """Options for the LGST backend (and its availability check): where its model is."""
         if self.style_images:
             return {"style_images": tuple(self.style_images), "prompt_weight": self.style_prompt_weight}
-        return {"model": self.ip2p_model} if self.backend == IP2P_BACKEND and self.ip2p_model else {}
+        if self.backend == ONE_STEP_BACKEND:
+            return {"model": self.one_step_model} if self.one_step_model else {}
+        if self.backend != IP2P_BACKEND:
+            return {}
+        options = {"model": self.ip2p_model} if self.ip2p_model else {}
+        if self.depth_model:  # the drawing follows the object's depth (issue 53)
+            options["depth_adapter"] = self.depth_model
+        return options
 
 
 @dataclass(frozen=True)

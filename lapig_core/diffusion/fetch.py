@@ -8,7 +8,8 @@
    breaks mid-file is resumed at once (RETRIES times), a cancel or a failure leaves the .part for the next try.
 3. A file is renamed from .part only when its size and hash match the listing (sha256 for the LFS files, git's
    blob sha1 for the others); a file that does not match is deleted and named in the error.
-4. When every file is there and the folder is a whole pipeline, MANIFEST is written and PARTIAL renamed to the
+4. When every file is there and the folder is a whole pipeline (for one model, an adapter: config.json and its
+   weights, select_model_files), MANIFEST is written and PARTIAL renamed to the
    model's folder. Until then nothing is at that name: a failed or cancelled download never looks ready.
 Nothing is fetched unless the caller says Blender allows online access.
 """
@@ -27,7 +28,7 @@ from typing import Callable
 
 from ..common.locking import FolderLock
 from . import pipeline_folder as pf
-from .catalogue import CatalogueModel, ModelError
+from .catalogue import MODEL, CatalogueModel, ModelError
 from .hub import Hub, RemoteFile
 
 CHUNK = 1 << 20
@@ -101,6 +102,24 @@ def select_files(files: list[RemoteFile], index: dict, half: bool = False) -> li
     return chosen
 
 
+def select_model_files(files: list[RemoteFile], half: bool = False) -> list[RemoteFile]:
+    """One diffusers model's files (the catalogue's MODEL layout): config.json and the weights at the repository's
+    root, chosen as a pipeline component's are (safetensors over .bin, the fp16 copies where half)."""
+    root = [f for f in files if "/" not in f.path and f.path != "config.json" and not f.path.endswith(SKIP_SUFFIXES)
+            and f.path.endswith(pf.WEIGHT_SUFFIXES)]
+    config = [f for f in files if f.path == "config.json"]
+    names = [f.path for f in root]
+    has_safetensors = any(n.endswith(".safetensors") and not _variant(n) for n in names)
+    copies = _half_copies(root) if half else {}
+    chosen = list(config)
+    for f in root:
+        if _variant(f.path) or (has_safetensors and f.path.endswith(".bin")):
+            continue
+        copy = copies.get(f.path)
+        chosen.append(replace(copy, local=f.path) if copy else f)
+    return chosen
+
+
 @dataclass
 class DownloadOutcome:
     key: str
@@ -161,13 +180,18 @@ class Downloader:
         started = time.perf_counter()
         self.report(0.0, f"listing the files of {self.entry.repo_id}")
         listing = self.hub.list_files(self.entry.repo_id, self.revision)
-        index_file = next((f for f in listing if f.path == "model_index.json"), None)
+        one_model = self.entry.layout == MODEL
+        index_name = "config.json" if one_model else "model_index.json"
+        index_file = next((f for f in listing if f.path == index_name), None)
         if index_file is None:
-            raise ModelError(f"'{self.entry.repo_id}' is not a diffusers pipeline: it has no model_index.json")
+            what = "diffusers model" if one_model else "diffusers pipeline"
+            raise ModelError(f"'{self.entry.repo_id}' is not a {what}: it has no {index_name}")
         os.makedirs(self.partial, exist_ok=True)
         self._fetch(index_file)
-        index = pf.read_index(self.partial)
-        files = select_files(listing, index, self.half)
+        if one_model:
+            files = select_model_files(listing, self.half)
+        else:
+            files = select_files(listing, pf.read_index(self.partial), self.half)
         self.total = sum(f.size for f in files)
         self.done = sum(self._have(f) for f in files)
         _write_json(os.path.join(self.partial, pf.PLAN), {"repo_id": self.entry.repo_id, "bytes_total": self.total,
@@ -178,8 +202,8 @@ class Downloader:
         for f in files:
             self._check_cancel()
             self._fetch(f)
-        self.report(0.99, "checking the pipeline")
-        pf.check_pipeline(self.partial)
+        self.report(0.99, "checking the model" if one_model else "checking the pipeline")
+        pf.check_layout(self.partial, self.entry.layout)
         manifest = {"repo_id": self.entry.repo_id, "revision": self.revision, "key": self.entry.key,
                     "files": {f.local_path: {"size": f.size, "source": f.path, "sha256": f.sha256 or pf.sha256_of(
                         os.path.join(self.partial, f.local_path))} for f in files}}

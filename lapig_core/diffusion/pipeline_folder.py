@@ -7,6 +7,8 @@ A diffusers pipeline folder has model_index.json, naming its components ({"unet"
 with its config (config.json, scheduler_config.json, tokenizer_config.json, preprocessor_config.json) and, for
 the networks, its weights. A download writes MANIFEST (each file's size and sha256) once every file is verified;
 the state check compares sizes only (quick enough for the preferences' redraw), verify() compares the hashes.
+One diffusers model (an adapter: the catalogue's MODEL layout) is a folder with config.json, naming its class, and
+its weights beside it.
 """
 from __future__ import annotations
 
@@ -75,6 +77,37 @@ def check_pipeline(folder: str, pipeline_class: str | None = None) -> dict:
     return index
 
 
+def check_model(folder: str, model_class: str | None = None) -> dict:
+    """One diffusers model's folder (config.json naming its class, its weights beside it): its config; ModelError
+    with what is wrong otherwise. model_class: the class it must be (T2IAdapter)."""
+    folder = os.path.abspath(os.path.expanduser(folder or ""))
+    if not os.path.isdir(folder):
+        raise ModelError(f"no folder at {folder}")
+    path = os.path.join(folder, "config.json")
+    if not os.path.isfile(path):
+        what = f"a {model_class}" if model_class else "a diffusers model"
+        raise ModelError(f"{folder} is not {what}: it has no config.json (choose the folder that holds config.json "
+                         f"and diffusion_pytorch_model.*)")
+    try:
+        with open(path, encoding="utf-8") as f:
+            config = json.load(f)
+    except (OSError, ValueError) as exc:
+        raise ModelError(f"{path} cannot be read as JSON ({exc}): the folder is damaged") from None
+    found = config.get("_class_name") if isinstance(config, dict) else None
+    if not found:
+        raise ModelError(f"{path} names no model class: not a diffusers model")
+    if model_class and found != model_class:
+        raise ModelError(f"{folder} holds a {found}, not a {model_class}: choose the folder of that model")
+    if not any(n.endswith(WEIGHT_SUFFIXES) for n in os.listdir(folder)):
+        raise ModelError(f"{folder} is not a whole {found}: it lacks its weights (diffusion_pytorch_model.*)")
+    return config
+
+
+def check_layout(folder: str, layout: str = "pipeline", class_name: str | None = None) -> dict:
+    """check_pipeline or check_model, as the catalogue's layout of that model says."""
+    return check_model(folder, class_name) if layout == "model" else check_pipeline(folder, class_name)
+
+
 def weights_bytes(folder: str) -> int:
     """The bytes of the weight files the pipeline loads (the memory estimate's base)."""
     total = 0
@@ -137,9 +170,10 @@ def _folder_bytes(folder: str) -> int:
     return sum(os.path.getsize(os.path.join(r, n)) for r, _, names in os.walk(folder) for n in names)
 
 
-def folder_state(folder: str, partial: str | None = None) -> FolderState:
+def folder_state(folder: str, partial: str | None = None, layout: str = "pipeline") -> FolderState:
     """The state of a model folder (quick: sizes, not hashes). A downloaded one has a MANIFEST: each listed file
-    must be there with its size; a folder of the user's own has none: it must be a whole pipeline."""
+    must be there with its size; a folder of the user's own has none: it must be a whole pipeline (or model, for
+    the MODEL layout)."""
     partial_bytes = _folder_bytes(partial) if partial and os.path.isdir(partial) else 0
     if not os.path.isdir(folder):
         why = ""
@@ -159,7 +193,7 @@ def folder_state(folder: str, partial: str | None = None) -> FolderState:
                 problems.append(f"{path} has {os.path.getsize(here)} bytes, not {info.get('size')}")
     if not problems:
         try:
-            check_pipeline(folder)
+            check_layout(folder, layout)
         except ModelError as exc:
             problems.append(str(exc))
     size = _folder_bytes(folder)

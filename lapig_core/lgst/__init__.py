@@ -11,12 +11,14 @@ from .base import (BACKENDS, LGSTBackend, LGSTUnavailable, available_backends, b
                    register_backend)
 from .arbitrary_backend import ArbitraryStyleBackend
 from .ip2p_backend import InstructPix2PixBackend
+from .one_step_backend import OneStepBackend
 from .styletransfer_backend import StyleTransferBackend
 
 DEFAULT_BACKEND = "styletransfer"
 register_backend(DEFAULT_BACKEND, StyleTransferBackend)
 register_backend("arbitrary", ArbitraryStyleBackend)  # reference-image styles (style_images=[...])
 register_backend("instruct-pix2pix", InstructPix2PixBackend)  # optional: diffusers + weights, loaded lazily
+register_backend("one-step", OneStepBackend)  # optional: the one-step model (SD-Turbo) of the model manager
 
 
 
@@ -36,6 +38,6 @@ def prepared_backend(backend: str, surface, prompt: str, seed: int = 0, mix=None
     return lgst, fallback
 
 
-__all__ = ["ArbitraryStyleBackend", "BACKENDS", "DEFAULT_BACKEND", "InstructPix2PixBackend", "LGSTBackend", "LGSTUnavailable",
+__all__ = ["ArbitraryStyleBackend", "BACKENDS", "DEFAULT_BACKEND", "InstructPix2PixBackend", "LGSTBackend", "LGSTUnavailable", "OneStepBackend",
            "StyleTransferBackend", "available_backends", "backend_class", "get_backend", "prepared_backend",
            "register_backend"]

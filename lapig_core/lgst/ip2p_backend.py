@@ -6,6 +6,11 @@ Two paths share one loaded pipeline:
 - prepare()/forward(): a few-step deterministic DDIM sampler written here from the pipeline's parts
   (text encoder, VAE, UNet, noise schedule). theta is the prompt embedding, so PSA's gradients reach it.
 
+Depth conditioning (issue 53): with depth_adapter (a T2I-Adapter's folder, lapig_core/diffusion/depth_condition) and
+geometry (the object as the projector sees it), the adapter's features of the object's depth are computed once in
+prepare() and added by the UNet at every step of both paths, so the drawing follows the object's shape; PSA then
+adapts theta as without it (the features are fixed, like the surface).
+
 diffusers/transformers are imported lazily: importing lapig_core.lgst stays light, and machines without
 them (or without the weights) still get the default 'styletransfer' backend. Nothing is downloaded unless
 the caller passes allow_download=True.
@@ -122,10 +127,12 @@ class InstructPix2PixBackend(ThetaBackend):
 
     name = "instruct-pix2pix"
     takes_device = True
+    takes_geometry = True  # the object's depth, for the depth adapter (pipeline.stylize passes it)
 
     def __init__(self, model: str | None = None, allow_download: bool = False, steps: int = 10,
                  guidance: float = 7.5, image_guidance: float = 1.0, size: int = 256, psa_steps: int = 4,
-                 device=None, checkpointing: bool = False):
+                 device=None, checkpointing: bool = False, depth_adapter: str | None = None, geometry=None,
+                 depth_scale: float = 1.0):
         """model: Hub id or local folder (default: 'timbrooks/instruct-pix2pix' in the Hugging Face cache).
         allow_download: let diffusers fetch missing weights (off: never touch the network).
         steps: Euler-Ancestral steps of stylize(); psa_steps: DDIM steps of the differentiable forward().
@@ -133,6 +140,9 @@ class InstructPix2PixBackend(ThetaBackend):
         size: longer side of the image the model works on (the public code uses 256).
         checkpointing: recompute each UNet call in backward instead of storing its activations
         (less memory for PSA on the full model, about one more forward pass of time).
+        depth_adapter: a T2I-Adapter's folder (the depth adapter of the model manager); with geometry (a
+        lgst/world/geometry.LookGeometry, or "capture" where there is no 3D model) the drawing follows the
+        object's depth; depth_scale weighs its features (the adapter pipeline's adapter_conditioning_scale).
         """
         if int(steps) < 1 or int(psa_steps) < 1:
             raise ValueError(f"steps and psa_steps must be >= 1, got {steps} and {psa_steps}")
@@ -144,6 +154,8 @@ class InstructPix2PixBackend(ThetaBackend):
         self.guidance, self.image_guidance = float(guidance), float(image_guidance)
         self.device = _pick_device(device)
         self.checkpointing = bool(checkpointing)
+        self.depth_adapter, self.geometry, self.depth_scale = depth_adapter or None, geometry, float(depth_scale)
+        self._depth: list | None = None  # the adapter's features of the object's depth, fixed in prepare()
         self._theta: list[torch.Tensor] = []
         self._info: dict = {}
 
@@ -188,11 +200,39 @@ class InstructPix2PixBackend(ThetaBackend):
         self._theta = [cond.detach().float().clone().requires_grad_(True)]
         self._anchor = [cond.detach().float().clone()]
         self._seed = int(seed)
+        depth_info = self._prepare_depth(notes)
         self._info = {"backend": self.name, "model": self.model, "prompt": text, "seed": int(seed),
                       "steps": self.steps, "psa_steps": self.psa_steps, "guidance": self.guidance,
                       "image_guidance": self.image_guidance, "size": list(self.work_size),
                       "device": str(self.device), "dtype": str(dtype).replace("torch.", ""),
                       "styles": [], "effects": [], "theta_numel": self._theta[0].numel(), "notes": notes}
+        if depth_info:
+            self._info["depth"] = depth_info
+
+    def _prepare_depth(self, notes: list) -> dict:
+        """The depth adapter's features of the object's depth at the working size (self._depth), or None with a
+        note where there is no depth to follow; what result.json says of it."""
+        self._depth = None
+        if not self.depth_adapter:
+            return {}
+        from ..diffusion import depth_condition
+
+        image = depth_condition.depth_image(self.geometry, *self.work_size)
+        if image is None:
+            notes.append(depth_condition.NO_DEPTH)
+            return {"adapter": self.depth_adapter, "used": False}
+        unet = self.pipe.unet
+        adapter = depth_condition.load_adapter(self.depth_adapter, str(self.device),
+                                               str(unet.dtype).replace("torch.", ""))
+        self._depth = depth_condition.adapter_features(adapter, image, unet, self.depth_scale)
+        self.depth_image = image
+        return {"adapter": self.depth_adapter, "used": True, "scale": self.depth_scale,
+                "on_object": round(float((image[0, 0] > 0).float().mean()), 3)}
+
+    def _depth_residuals(self, batch: int) -> dict:
+        from ..diffusion.depth_condition import residuals
+
+        return {} if self._depth is None else {"down_intrablock_additional_residuals": residuals(self._depth, batch)}
 
     # -- rendering -------------------------------------------------------------------------------
     def _timesteps(self) -> list[int]:
@@ -209,7 +249,7 @@ class InstructPix2PixBackend(ThetaBackend):
         n = 3 if three else 2
         x = torch.cat([torch.cat([latents] * n), torch.cat([img, img, torch.zeros_like(img)][:n])], dim=1)
         emb = torch.cat([cond.to(dtype), uncond, uncond][:n])
-        out = pipe.unet(x, t, encoder_hidden_states=emb, return_dict=False)[0].float()
+        out = pipe.unet(x, t, encoder_hidden_states=emb, return_dict=False, **self._depth_residuals(n))[0].float()
         e_text, e_img = out[0:1], out[1:2]
         e_none = out[2:3] if three else e_img
         return e_none + self.guidance * (e_text - e_img) + self.image_guidance * (e_img - e_none)
@@ -248,11 +288,22 @@ class InstructPix2PixBackend(ThetaBackend):
         self.prepare(surface, prompt, seed=seed, mix=mix)
         pipe = self.pipe
         gen = torch.Generator(device=self.device).manual_seed(int(seed))
-        with torch.no_grad():
-            out = pipe(image=self._image.to(pipe.unet.dtype), prompt_embeds=self._theta[0].detach().to(
-                pipe.unet.dtype), negative_prompt_embeds=self._uncond, num_inference_steps=self.steps,
-                guidance_scale=self.guidance, image_guidance_scale=self.image_guidance, generator=gen,
-                output_type="pt").images
+        hook = None
+        if self._depth is not None:  # the pipeline calls the UNet itself: the depth's features go in with each call
+            def with_depth(module, args, kwargs):
+                sample = args[0] if args else kwargs["sample"]
+                return args, {**kwargs, **self._depth_residuals(sample.shape[0])}
+
+            hook = pipe.unet.register_forward_pre_hook(with_depth, with_kwargs=True)
+        try:
+            with torch.no_grad():
+                out = pipe(image=self._image.to(pipe.unet.dtype), prompt_embeds=self._theta[0].detach().to(
+                    pipe.unet.dtype), negative_prompt_embeds=self._uncond, num_inference_steps=self.steps,
+                    guidance_scale=self.guidance, image_guidance_scale=self.image_guidance, generator=gen,
+                    output_type="pt").images
+        finally:
+            if hook is not None:
+                hook.remove()
         return resize(out.float().clamp(0, 1), self.out_size).to(self.surface.device)
 
     def describe(self):

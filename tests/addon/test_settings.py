@@ -59,6 +59,27 @@ def test_only_instruct_pix2pix_gets_the_weights_folder(state):
     assert _request(state, ip2p_model="/models/ip2p").backend_options() == {}  # styletransfer takes no model
 
 
+def test_a_ready_depth_adapter_goes_to_instruct_pix2pix_and_asks_for_the_geometry(state, monkeypatch):
+    from lapig.lapig_addon.services import pipeline_jobs
+
+    request = _request(state, backend="instruct-pix2pix", depth_model="/models/depth-adapter")
+    assert request.backend_options() == {"depth_adapter": "/models/depth-adapter"}
+    assert _request(state, depth_model="/models/depth-adapter").backend_options() == {}  # styletransfer: none
+    assert _request(state, backend="one-step", one_step_model="/models/sd-turbo",
+                    depth_model="/models/depth-adapter").backend_options() == {"model": "/models/sd-turbo"}
+
+    class Store:
+        def look_geometry(self, w, h):
+            return ("the scene's geometry", w, h)
+
+    monkeypatch.setattr(pipeline_jobs, "frame_size_of", lambda folder: (64, 48))
+    look_geometry = pipeline_jobs.look_geometry
+    assert look_geometry(Store(), "/capture", "instruct-pix2pix", "", "a prompt", depth=True) == \
+        ("the scene's geometry", 64, 48)
+    assert look_geometry(Store(), "/capture", "instruct-pix2pix", "", "a prompt") is None  # no adapter: no rays
+    assert look_geometry(object(), "/capture", "instruct-pix2pix", "", "a prompt", depth=True) == "capture"
+
+
 def test_export_settings_overrides(state):
     scene = state.ExportSettings(path="/blend/projector_image.png", bit_depth=8, crossfade_frames=60)
     assert state.overridden(scene, path="/out/p.png", bit_depth=16, crossfade_frames=None) == \

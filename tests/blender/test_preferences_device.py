@@ -80,9 +80,12 @@ def test_the_model_manager_box_shows_each_model_with_its_licence_state_and_butto
     assert ("prop", "models_folder") in log and ("prop", "hub_token") in log and ("prop", "hub_endpoint") in log
     assert ("label", "InstructPix2Pix (timbrooks/instruct-pix2pix)", "IMPORT") in log
     assert ("label", "SD-Turbo (stabilityai/sd-turbo)", "IMPORT") in log
+    assert ("label", "T2I-Adapter depth (SD 1.5) (TencentARC/t2iadapter_depth_sd15v2)", "IMPORT") in log
     assert any(t.startswith("Licence: MIT") for t in text) and any("Stability AI" in t for t in text)
+    assert any(t.startswith("Licence: Apache-2.0") for t in text)
     assert any(t.startswith("absent (size: listed when the download starts)") for t in text)
-    assert log.count(("operator", "lapig.download_model")) == 2 and ("operator", "lapig.use_model_folder") in log
+    assert any(t.startswith("absent (size: about 309 MB") for t in text)
+    assert log.count(("operator", "lapig.download_model")) == 3 and ("operator", "lapig.use_model_folder") in log
     assert any(t.startswith("Online access is off in Blender") and "Use Folder" in t for t in text)
     from lapig.lapig_core.common.gpu_torch import installed_torch
 
@@ -102,7 +105,7 @@ def test_the_model_manager_box_shows_each_model_with_its_licence_state_and_butto
     monkeypatch.setattr(model_download.DOWNLOADS, "job", Running())
     log = _draw(preferences, str(tmp_path))
     assert ("progress", "diffusion_pytorch_model.safetensors: 25% of 3438 MB (25%)") in log
-    assert ("operator", "lapig.cancel_model_download") in log and log.count(("operator", "lapig.download_model")) == 1
+    assert ("operator", "lapig.cancel_model_download") in log and log.count(("operator", "lapig.download_model")) == 2
 
 
 @pytest.mark.blender

@@ -52,11 +52,13 @@ def _download(hub, root, **kw):
 
 
 def test_the_catalogue_names_each_model_with_its_licence_and_refuses_an_unknown_one():
-    assert catalogue.keys() == ["instruct-pix2pix", "sd-turbo"]
+    assert catalogue.keys() == ["instruct-pix2pix", "sd-turbo", "depth-adapter"]
     ip2p = catalogue.model("timbrooks/instruct-pix2pix")
     assert ip2p.key == "instruct-pix2pix" and ip2p.kind == "ip2p" and "MIT" in ip2p.licence
-    assert catalogue.model("sd-turbo").kind == "img2img" and "Stability AI" in catalogue.model("sd-turbo").licence
-    with pytest.raises(ModelError, match="unknown model 'sdxl': the add-on supports instruct-pix2pix, sd-turbo"):
+    turbo = catalogue.model("sd-turbo")
+    assert turbo.kind == "img2img" and "Stability AI Non-Commercial Research Community License" in turbo.licence
+    with pytest.raises(ModelError, match="unknown model 'sdxl': the add-on supports instruct-pix2pix, sd-turbo, "
+                                         "depth-adapter"):
         catalogue.model("sdxl")
     assert endpoint("", {"HF_ENDPOINT": "http://mirror:8080/"}) == "http://mirror:8080"
     assert endpoint("http://set", {"HF_ENDPOINT": "http://env"}) == "http://set"

@@ -11,10 +11,15 @@ into a fresh models folder. Each *_ok is true only when its check ran and held:
     download is resumed by the next one from its .part file (the hub sees bytes=N-);
   * hash_check_ok: a file the hub sends damaged is refused by its sha256, and nothing looks ready;
   * offline_refused_ok: with Blender's online access off the download is refused before any request.
-Then the downloaded pipelines run on the device the manager picks: preview_seconds is one one-step preview at
-512 px (after a warm-up call, the load excluded), ip2p_seconds_512 one InstructPix2Pix stylize (2 steps) at 512 px
+Then the downloaded pipelines run on the device the manager picks: preview_seconds is the fast path's preview of one
+prompt at 512 px (the 'one-step' look's one UNet call, services/prompt_preview; after a warm-up call, the load
+excluded), pipeline_preview_seconds the same model through diffusers' img2img pipeline (one_step.preview), ip2p_seconds_512 one InstructPix2Pix stylize (2 steps) at 512 px
 through the LGST backend; peak_memory_mb the process's peak resident memory (CUDA: the allocator's peak).
-depth_conditioned_ok is null: depth conditioning (issue 53, item 3) is not built yet.
+A tiny depth adapter (T2I-Adapter, random weights) is downloaded as the catalogue's depth-adapter; then
+  * depth_conditioned_ok: the InstructPix2Pix look at 512 px with the adapter is the same image for the same depth
+    and seed, another for another depth (a ball before a wall, a leaning wall), and not the look without it;
+  * psa_seconds: PSA (PSA_SETTINGS: a short run, its iterations in psa_iterations) on that depth-conditioned look at
+    512 px, against random CompenNeSt/PCNet networks (the time of the steps, not of a good adaptation).
 """
 from __future__ import annotations
 
@@ -27,6 +32,7 @@ import time
 from dataclasses import replace
 
 UNET = "unet/diffusion_pytorch_model.safetensors"
+PSA_STEPS = {"max_iterations": 3, "warm_start_steps": 4}  # PSA_SETTINGS: a short run, for its time per step
 
 
 def _peak_rss_mb() -> float:
@@ -112,8 +118,13 @@ def _runs(ip2p_folder: str, turbo_folder: str, device: str) -> dict:
     out["load_and_first_preview_seconds"] = round(time.perf_counter() - started, 3)
     started = time.perf_counter()
     image = one_step.preview(turbo_folder, surface, "a stained glass window", size=512, choice=device, seed=1)
+    out["pipeline_preview_seconds"] = round(time.perf_counter() - started, 3)
+    look = get_backend("one-step", model=turbo_folder, size=512, device=device)  # the fast path's look
+    look.stylize(surface, "a stained glass", seed=1)  # its first call
+    started = time.perf_counter()
+    fast = look.stylize(surface, "a stained glass window", seed=1)
     out["preview_seconds"] = round(time.perf_counter() - started, 3)
-    out["preview_ok"] = tuple(image.shape) == (1, 3, 512, 512) and bool(torch.isfinite(image).all())
+    out["preview_ok"] = all(tuple(i.shape) == (1, 3, 512, 512) and bool(torch.isfinite(i).all()) for i in (image, fast))
     backend = get_backend("instruct-pix2pix", model=ip2p_folder, size=512, steps=2, psa_steps=1, device=device)
     backend.stylize(surface, "Make it a Claymation")  # the load
     started = time.perf_counter()
@@ -126,6 +137,46 @@ def _runs(ip2p_folder: str, turbo_folder: str, device: str) -> dict:
     else:
         out["peak_memory_mb"] = round(_peak_rss_mb(), 1)
         out["peak_memory_kind"] = "process peak resident memory"
+    return out
+
+
+def _depth_runs(ip2p_folder: str, depth_folder: str, device: str) -> dict:
+    """depth_conditioned_ok and psa_seconds (module docstring)."""
+    import torch
+
+    from ...lapig_core.lgst import get_backend
+    from ...lapig_core.photometric.checkpoints import new_model
+    from ...lapig_core.photometric.surface_models import SurfaceModels
+    from ...lapig_core.psa.adaptation import PSASettings, run_psa
+    from .tiny_pipeline import tiny_geometry
+
+    surface = torch.rand(1, 3, 512, 512, generator=torch.Generator().manual_seed(0))
+    shapes = {shape: tiny_geometry(512, 512, shape) for shape in ("ball", "slope")}
+
+    def look(geometry, adapter=True):
+        backend = get_backend("instruct-pix2pix", model=ip2p_folder, size=512, steps=2, psa_steps=1, device=device,
+                              depth_adapter=depth_folder if adapter else None, geometry=geometry)
+        return backend.stylize(surface, "Make it a stained glass artwork", seed=1), backend
+
+    ball, backend = look(shapes["ball"])
+    same = look(shapes["ball"])[0]
+    slope = look(shapes["slope"])[0]
+    plain = look(shapes["ball"], adapter=False)[0]
+    moved = float((ball - slope).abs().mean())
+    out = {"depth_conditioned_ok": bool(torch.equal(ball, same) and moved > 1e-3
+                                        and float((ball - plain).abs().mean()) > 1e-3
+                                        and backend.describe().get("depth", {}).get("used") is True),
+           "depth_change_mean_abs": round(moved, 5)}
+    surf = surface.to(backend.device)
+    models = SurfaceModels(new_model("CompenNeSt", 1), new_model("PCNet", 2), surf, surf * 0.1, surf * 0.9)
+    models.to(backend.device)
+    backend.prepare(surf, "Make it a stained glass artwork", seed=1)
+    started = time.perf_counter()
+    result = run_psa(backend, models, PSASettings(seed=1, **PSA_STEPS))
+    out["psa_seconds"] = round(time.perf_counter() - started, 3)
+    out["psa_iterations"] = {"warm_start": result.warm_start_steps, "joint": result.iterations}
+    out["psa_ok"] = (tuple(result.target.shape) == (1, 3, 512, 512) and bool(torch.isfinite(result.target).all())
+                     and result.iterations >= 1)
     return out
 
 
@@ -162,6 +213,16 @@ def _real_models(models: str, device: str) -> dict:
         if entry.kind == "img2img":
             run = lambda seed: one_step.preview(row.folder, surface, "a stained glass window", size=512,  # noqa: E731
                                                 choice=device, seed=seed)
+        elif entry.kind == "depth-adapter":  # InstructPix2Pix with it, on a ball before a wall
+            base = model_row("instruct-pix2pix", models)
+            if base.state != "ready":
+                figures["note"] = "InstructPix2Pix is not ready in that folder: the adapter has no UNet to condition"
+                continue
+            from .tiny_pipeline import tiny_geometry
+
+            backend = get_backend("instruct-pix2pix", model=base.folder, size=512, device=device,
+                                  depth_adapter=row.folder, geometry=tiny_geometry(512, 512, "ball"))
+            run = lambda seed: backend.stylize(surface, "Make it a stained glass artwork", seed=seed)  # noqa: E731
         else:
             backend = get_backend("instruct-pix2pix", model=row.folder, size=512, device=device)
             run = lambda seed: backend.stylize(surface, "Make it a stained glass artwork", seed=seed)  # noqa: E731
@@ -179,7 +240,7 @@ def run(args) -> dict:
     from ...lapig_addon.services.model_download import runs_half
     from ...lapig_core.diffusion import catalogue
     from .fake_model_hub import FakeModelHub
-    from .tiny_pipeline import make_tiny_pipeline
+    from .tiny_pipeline import make_tiny_adapter, make_tiny_pipeline
 
     device = getattr(args, "device", None) or "auto"
     out_dir = getattr(args, "out", None)
@@ -187,9 +248,11 @@ def run(args) -> dict:
         os.makedirs(out_dir, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="lapig-bench-diffusion-", dir=out_dir or None) as work:
         repos = {"tiny/ip2p": make_tiny_pipeline(os.path.join(work, "repo-ip2p"), "ip2p"),
-                 "tiny/turbo": make_tiny_pipeline(os.path.join(work, "repo-turbo"), "img2img", fp16_copies=True)}
+                 "tiny/turbo": make_tiny_pipeline(os.path.join(work, "repo-turbo"), "img2img", fp16_copies=True),
+                 "tiny/depth": make_tiny_adapter(os.path.join(work, "repo-depth"))}
         ip2p = replace(catalogue.model("instruct-pix2pix"), repo_id="tiny/ip2p")
         turbo = replace(catalogue.model("sd-turbo"), repo_id="tiny/turbo")
+        depth = replace(catalogue.model("depth-adapter"), repo_id="tiny/depth")
         from ...lapig_core.diffusion import fetch
 
         with FakeModelHub(repos) as hub:
@@ -198,10 +261,10 @@ def run(args) -> dict:
             half = runs_half(device)  # a GPU: the fp16 copies, as the preferences' Download takes them there
             turbo_folder = fetch.download(turbo, os.path.join(work, "download"), True, hub.url, half=half).folder
             summary["turbo_fp16_copies"] = half
-        summary.update(_runs(os.path.join(work, "download", ip2p.key), turbo_folder, device))
-    summary["depth_conditioned_ok"] = None
-    summary["depth_conditioned_reason"] = "depth conditioning (issue 53, item 3) is not built yet"
-    summary["psa_seconds"] = None
+            depth_folder = fetch.download(depth, os.path.join(work, "download"), True, hub.url, half=half).folder
+        ip2p_folder = os.path.join(work, "download", ip2p.key)
+        summary.update(_runs(ip2p_folder, turbo_folder, device))
+        summary.update(_depth_runs(ip2p_folder, depth_folder, device))
     summary["real_models"] = _real_models(getattr(args, "models", "") or os.environ.get("LAPIG_MODELS_DIR", ""),
                                           device)
     return summary

@@ -11,17 +11,25 @@ import json
 import math
 import os
 import sys
+import time
 
 import bpy
 
 zip_path, work, offline_hub = sys.argv[1], sys.argv[2], sys.argv[3]
 module = "bl_ext.user_default.lapig"
+started = time.perf_counter()
+seconds = {}
+
+
+def lap(name: str):
+    seconds[name] = round(time.perf_counter() - started - sum(seconds.values()), 1)
 
 bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
 import addon_utils  # noqa: E402
 
 assert addon_utils.check(module)[1], "the extension did not enable"
 assert "lapig" not in sys.modules and "lapig_core" not in sys.modules, "the repository's package is loaded"
+lap("install")
 model_download = importlib.import_module(module + ".lapig_addon.services.model_download")
 model_manager = importlib.import_module(module + ".lapig_addon.blender.model_manager")
 prefs = bpy.context.preferences.addons[module].preferences
@@ -60,6 +68,8 @@ for key in ("instruct-pix2pix", "depth-adapter"):
     ready[key] = row.folder
     print(f"E2E DOWNLOADED {key}: {said[1]}")
 
+lap("download")
+
 # a tiny rig over a wall, captured at tiny sizes
 bpy.ops.wm.read_homefile(app_template="")  # keeps user extensions and the preferences
 for ob in list(bpy.data.objects):
@@ -75,12 +85,15 @@ s.finetune_iterations = 3  # plumbing, not quality
 s.train_in_background = False
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(work, "stylize.blend"))
 assert bpy.ops.lapig.capture() == {"FINISHED"}
+lap("capture")
 
 # InstructPix2Pix (the downloaded tiny pipeline) with the downloaded depth adapter
 s.backend = "instruct-pix2pix"
 s.use_psa = False  # PSA is the other backends' path; here the look and its compensation
+s.output_size = 32  # the working frame: no second pass at the projector's native frame
 s.prompt = "Make it a stained glass artwork"
 assert bpy.ops.lapig.generate() == {"FINISHED"}
+lap("generate")
 result = bpy.path.abspath(s.result_dir)
 with open(os.path.join(result, "result.json"), encoding="utf-8") as f:
     lgst = json.load(f)["lgst"]
@@ -88,4 +101,5 @@ assert lgst["backend"] == "instruct-pix2pix" and lgst["model"] == ready["instruc
 depth = lgst["depth"]  # the rays the projector casts into the scene found the wall: its depth conditioned the look
 assert depth["used"] and depth["adapter"] == ready["depth-adapter"] and depth["on_object"] > 0, depth
 print("E2E RESULT " + result)
+print("E2E TIMING " + json.dumps(seconds))
 print("E2E OK")

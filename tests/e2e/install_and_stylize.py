@@ -60,7 +60,16 @@ assert bpy.app.online_access
 prefs.hub_endpoint = ""
 ready = {}
 for key in ("instruct-pix2pix", "depth-adapter"):
-    finished, line = press_download(key)  # background mode: execute() runs the download's job to its end
+    if key == "depth-adapter":  # as in Blender's UI: the operator returns at once, a timer steps the job
+        model_manager._in_ui = lambda context: True  # (stepped here: timers never fire in the bpy module)
+    finished, line = press_download(key)  # else background mode: execute() runs the download's job to its end
+    if key == "depth-adapter":
+        assert model_download.model_row(key, model_manager.models_root(prefs)).state == "downloading"
+        ticks = 0
+        while model_manager._step() is not None and ticks < 3000:
+            ticks += 1
+            time.sleep(0.01)
+        print(f"E2E STEPPED {key}: {ticks} timer steps")
     said = model_download.DOWNLOADS.said.get(key)
     assert finished and said and said[0] == "DONE", (line, said)
     row = model_download.model_row(key, model_manager.models_root(prefs))

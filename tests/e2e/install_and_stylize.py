@@ -24,6 +24,7 @@ seconds = {}
 def lap(name: str):
     seconds[name] = round(time.perf_counter() - started - sum(seconds.values()), 1)
 
+
 bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
 import addon_utils  # noqa: E402
 

@@ -19,7 +19,8 @@ import numpy as np
 
 from ..common.psnr import masked_psnr
 from ..common.sheets import labelled_grid
-from ..export.result_files import heat_overlay, read_result_image, read_summary, write_new_result
+from ..export.result_files import (heat_overlay, look_state_files, read_result_image, read_summary,
+                                   write_new_result)
 
 MULTI_KEY = "multi"
 
@@ -76,18 +77,7 @@ def write_joint_result(root, name: str, look, surface: np.ndarray, names, sizes,
             "metrics": metrics,
             "summary_line": line,
             "created": datetime.datetime.now().isoformat(timespec="seconds")}
-    return write_new_result(root, name, images, full, _look_state_file(look)), full
-
-
-def _look_state_file(look) -> dict:
-    """look_state.npz where PSA ran (theta and its tone field): a show makes this very look again from it
-    (lapig_core/show/look_state; torch is here, since PSA ran)."""
-    state = getattr(look, "state", None)
-    if not state:
-        return {}
-    from ..show.look_state import LOOK_STATE_FILE, look_state_bytes
-
-    return {LOOK_STATE_FILE: look_state_bytes(state)}
+    return write_new_result(root, name, images, full, look_state_files(getattr(look, "state", None))), full
 
 
 def projector_images(folder) -> list[tuple[dict, np.ndarray]]:

@@ -21,6 +21,7 @@ from .capture_job import CaptureError
 from .jobs import WorkerJob
 from .pipeline_errors import PipelineError, capture_record, current_capture, hold_capture
 from .ports import Seams
+from .projection import project_and_capture, projection_steps
 from .state import JOINT
 
 

@@ -6,7 +6,8 @@ import bpy
 
 from ..lapig_addon.blender import live_devices, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import BackgroundJobRunner, JobRunnerMixin, cancel_background
-from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, poll_reason, report_notes
+from ..lapig_addon.blender.operator_boundary import (AsksForFolder, ReportsErrors, poll_reason, report_notes,
+                                                     show_in_image_editor)
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
 from ..lapig_addon.services import panel_state
@@ -161,12 +162,8 @@ class LAPIG_OT_show_comparison(ReportsErrors, bpy.types.Operator):
             return {"CANCELLED"}
         image = bpy.data.images.load(path, check_existing=True)
         image.reload()
-        for area in (context.screen.areas if context.screen else []):
-            if area.type == "IMAGE_EDITOR":
-                area.spaces.active.image = image
-                break
-        else:
-            self.report({"INFO"}, f"Comparison loaded as image '{image.name}': open it in an Image Editor")
+        show_in_image_editor(self, context, image, f"Comparison loaded as image '{image.name}': open it in an Image "
+                                                   f"Editor")
         return {"FINISHED"}
 
 

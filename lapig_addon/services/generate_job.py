@@ -91,7 +91,7 @@ class GenerateJob(WorkerJob):
         store = self.seams.store
         state = store.read()
         self.way = generate_way(state.rig)
-        folder = self.way.capture(state, self.capture)
+        folder = self.way.capture(self, state)  # and the way's own refusals, before the request's
         mix = r.mix.strip()
         # before r.problem(): an empty prompt is refused here with the longer reason
         style_only = bool(r.style_images) and not r.prompt.strip()  # a style image needs no prompt
@@ -193,25 +193,31 @@ def generate_way(rig):
 
 
 class ProjectorGenerateWay:
-    """GenerateJob's steps for one projector, in its own pixels: capture(state, explicit) and inputs(job, state,
+    """GenerateJob's steps for one projector, in its own pixels: capture(job, state) and inputs(job, state,
     request inputs) on the main thread; before_work(job): steps whose value is the progress bar's share they took
     (the models trained first where the capture has none); work(job, inputs, report, cancel_event) on the worker
     -> {"folder", "summary", "summary_line", ...}; show(job, output) hands the stored image to the sinks."""
 
     training = None  # the TrainModelsJob run first when the capture has no models yet
 
-    capture = staticmethod(current_capture)
+    output = None  # the output's (width, height), checked with the capture
+
+    def capture(self, job, state):
+        """The capture (current_capture), and the output size, refused now, not after PSA: over native or over the
+        memory budget."""
+        folder = current_capture(state, job.capture)
+        try:
+            self.output = output_frame(job.request.output_size, *state.rig.projector_size)
+            tile_for(*self.output)
+        except OutputSizeError as exc:
+            raise PipelineError(str(exc)) from None
+        return folder
 
     def inputs(self, job, state, request_inputs):
         store, r = job.seams.store, job.request
-        try:  # refused now, not after PSA: an output over native or over the memory budget
-            output = output_frame(r.output_size, *state.rig.projector_size)
-            tile_for(*output)
-        except OutputSizeError as exc:
-            raise PipelineError(str(exc)) from None
         geometry = look_geometry(store, request_inputs["capture"], request_inputs["backend"],
                                  request_inputs["mix"] or "", request_inputs["prompt"])
-        return {"geometry": geometry, "dark_outside": r.dark_outside, "output_frame": output,
+        return {"geometry": geometry, "dark_outside": r.dark_outside, "output_frame": self.output,
                 "bit_depth": store.export_settings().bit_depth, "device": device_choice(store, job.device)}
 
     def before_work(self, job):

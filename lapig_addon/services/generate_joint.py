@@ -38,7 +38,8 @@ class JointGenerateWay:
 
     training = None  # their joint model is fitted at the capture: nothing is trained on the way
 
-    capture = staticmethod(joint_capture)
+    def capture(self, job, state):
+        return joint_capture(state, job.capture)
 
     def inputs(self, job, state, request_inputs):
         if job.request.output_size:

@@ -229,7 +229,6 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     assert faded["projector"]["name"] == "Right" and faded["light"]["projector"]["share"] == 0.4  # its own share
 
 
-@pytest.mark.torch  # refine_job reads the capture through pipeline_jobs, which loads torch
 def test_refine_corrects_every_projectors_image_together_and_the_result_points_at_them(tmp_path):
     """Refine on a rig of several: a weak open-loop result (each image's light at 80 %: a model's error) projected
     by all the projectors at once, captured, corrected jointly; result.json then names the refined images."""

@@ -20,7 +20,6 @@ from lapig.lapig_core.photometric.targets import desired_targets, reachable_mask
 from job_fakes import FakeFactory, FakeSink, FakeStore
 
 ADDON = "lapig.lapig_addon"
-pytestmark = pytest.mark.torch  # refine_job reads the capture through pipeline_jobs, which loads torch
 
 
 def _module(name):

@@ -1,11 +1,13 @@
 """Operators of the artist's path after the capture: train, generate, render, preview, export."""
+import importlib
 import os
 
 import bpy
 
 from ..lapig_addon.blender import live_devices, prompt_preview, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import BackgroundJobRunner, JobRunnerMixin, cancel_background
-from ..lapig_addon.blender.operator_boundary import AsksForFolder, ReportsErrors, poll_reason, report_notes
+from ..lapig_addon.blender.operator_boundary import (AsksForFolder, ReportsErrors, poll_reason, report_notes,
+                                                     show_in_image_editor)
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
 from ..lapig_addon.services import panel_state
@@ -21,12 +23,11 @@ class NeedsTorch:
         return poll_reason(cls, panel_state.torch_blocker())
 
 
-def _pipeline_jobs():
-    """The torch-backed jobs, imported once a button needs them: the add-on enables without torch."""
+def _jobs(name: str):
+    """A torch-backed job's module (train_job, generate_job), imported once a button needs it: the add-on enables
+    without torch."""
     require("torch")
-    from ..lapig_addon.services import pipeline_jobs
-
-    return pipeline_jobs
+    return importlib.import_module(f"..lapig_addon.services.{name}", __package__)
 
 
 class LAPIG_OT_train_models(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
@@ -37,7 +38,7 @@ class LAPIG_OT_train_models(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         scene = context.scene
-        job = _pipeline_jobs().TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
+        job = _jobs("train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
         job.check()  # fail now, with the reason, not on the thread (several projectors: nothing to train)
         return job
 
@@ -55,7 +56,7 @@ class LAPIG_OT_train_background(BackgroundJobRunner, bpy.types.Operator):
         scene = context.scene
         if panel_state.train_blocker(scene_state.read(scene)):  # no torch, no capture: the first look stays
             return None
-        job = _pipeline_jobs().TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
+        job = _jobs("train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
         job.check()
         job.rig_in_use = lambda: live_devices.rig_in_use(job.seams.store.scene)  # their live window stays theirs
         job.device_per_render = True  # no studio scene left between two steps, while the artist works
@@ -91,24 +92,14 @@ class LAPIG_OT_generate(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     def make_job(self, context):
         prompt_preview.stop()  # the fast path's preview must not land on the full PSA run's result
         scene = context.scene
-        seams = scene_seams(scene)
-        if seams.store.read().rig.projector_count > 1:  # several projectors: the joint look and compensation
-            require("torch")
-            from ..lapig_addon.services.multi_generate_job import MultiGenerateJob
-
-            job = MultiGenerateJob(seams, scene_state.generate_request(scene))
-        else:
-            job = _pipeline_jobs().GenerateJob(seams, scene_state.generate_request(scene),
-                                               scene_state.finetune_iterations(scene))
+        job = _jobs("generate_job").GenerateJob(scene_seams(scene), scene_state.generate_request(scene),
+                                                scene_state.finetune_iterations(scene))
         job.check()  # validates prompt and capture on the main thread, with a clear message
         return job
 
     def on_done(self, context, job):
-        if job.result and "multi" in job.result["summary"]:
-            report_notes(self, job.result["summary"].get("notes", []))
-            self.report({"INFO"}, "Generated: " + job.result["summary_line"])
-        elif job.result:
-            report_notes(self, _pipeline_jobs().result_notes(job.result["summary"]))
+        if job.result:
+            report_notes(self, _jobs("generate_job").result_notes(job.result["summary"]))
             self.report({"INFO"}, "Generated: " + job.result["summary_line"])
 
 
@@ -118,7 +109,7 @@ class LAPIG_OT_render_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     bl_label = "Render Real Capture"
 
     def make_job(self, context):
-        require("torch")  # render_job loads pipeline_jobs, as _pipeline_jobs says
+        require("torch")  # as NeedsTorch says
         from ..lapig_addon.services.render_job import RenderResultJob
 
         return RenderResultJob(scene_seams(context.scene))
@@ -172,12 +163,8 @@ class LAPIG_OT_show_comparison(ReportsErrors, bpy.types.Operator):
             return {"CANCELLED"}
         image = bpy.data.images.load(path, check_existing=True)
         image.reload()
-        for area in (context.screen.areas if context.screen else []):
-            if area.type == "IMAGE_EDITOR":
-                area.spaces.active.image = image
-                break
-        else:
-            self.report({"INFO"}, f"Comparison loaded as image '{image.name}': open it in an Image Editor")
+        show_in_image_editor(self, context, image, f"Comparison loaded as image '{image.name}': open it in an Image "
+                                                   f"Editor")
         return {"FINISHED"}
 
 
@@ -230,11 +217,12 @@ class LAPIG_OT_export_mpcdi(ReportsErrors, bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def execute(self, context):
-        from ..lapig_addon.services.multi_export import export_multi
+        from ..lapig_addon.services import export_result
 
-        store = BlenderSceneStore(context.scene)
-        written = export_multi(store, scene_state.export_settings(context.scene), mpcdi=bpy.path.abspath(self.filepath),
-                               images=False, profile=self.profile, mpcdi_version=self.version)
+        written = export_result.export_current(BlenderSceneStore(context.scene),
+                                               scene_state.export_settings(context.scene),
+                                               mpcdi=bpy.path.abspath(self.filepath), images=False,
+                                               profile=self.profile, mpcdi_version=self.version)
         self.report({"INFO"}, f"Exported {written['mpcdi']} (MPCDI {self.version})")
         return {"FINISHED"}
 

@@ -4,7 +4,7 @@ import bpy
 
 from ..lapig_addon.blender import live_devices, scene_state
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
-from ..lapig_addon.blender.operator_boundary import ReportsErrors
+from ..lapig_addon.blender.operator_boundary import ReportsErrors, show_in_image_editor
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
 from ..lapig_addon.rigs import device_list, live_output
 from ..lapig_addon.services import panel_state
@@ -105,12 +105,8 @@ class LAPIG_OT_camera_view(ReportsErrors, bpy.types.Operator):
             return {"FINISHED"}
         live_devices.start_camera_view(context.scene)
         image = live_devices.camera_image()
-        for area in (context.screen.areas if context.screen else []):
-            if area.type == "IMAGE_EDITOR":
-                area.spaces.active.image = image
-                break
-        else:
-            self.report({"INFO"}, f"Camera view in the image '{image.name}': open it in an Image Editor")
+        show_in_image_editor(self, context, image, f"Camera view in the image '{image.name}': open it in an Image "
+                                                   f"Editor")
         return {"FINISHED"}
 
 

@@ -62,6 +62,15 @@ class AsksForFolder(ReportsErrors):
         return {"RUNNING_MODAL"}
 
 
+def show_in_image_editor(operator, context, image, elsewhere: str) -> None:
+    """`image` in the screen's first Image Editor; without one, the INFO line `elsewhere` says where to find it."""
+    for area in (context.screen.areas if context.screen else []):
+        if area.type == "IMAGE_EDITOR":
+            area.spaces.active.image = image
+            return
+    operator.report({"INFO"}, elsewhere)
+
+
 def report_notes(operator, notes):
     """Notes about a result (a cut prompt, a weak match, a fallback) as warnings the user sees."""
     for note in notes:

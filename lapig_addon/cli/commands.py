@@ -28,7 +28,8 @@ def cmd_demo(args) -> int:
     """The README's main job: demo scene -> capture -> models -> prompt -> projector image -> render."""
     from ...lapig_core.lgst.not_understood import check_prompt
     from ..services import export_result
-    from ..services.pipeline_jobs import GenerateJob, TrainModelsJob, result_notes
+    from ..services.generate_job import GenerateJob, result_notes
+    from ..services.train_job import TrainModelsJob
     from ..services.render_job import RenderResultJob
 
     check_prompt(args.prompt)  # now, not after minutes of capture and training (nothing understood: refused)
@@ -166,7 +167,7 @@ def _save_if_asked(args):
 
 
 def cmd_train(args) -> int:
-    from ..services.pipeline_jobs import TrainModelsJob
+    from ..services.train_job import TrainModelsJob
 
     scene = _open_scene(args)
     devices = rig_choice.apply(args, scene)
@@ -185,7 +186,7 @@ def _style_image_specs(specs) -> tuple | None:
         return None
     from ...lapig_core.common.style_image import parse_style_image_spec
 
-    from ..services.pipeline_jobs import check_style_images
+    from ..services.generate_job import check_style_images
 
     out = []
     for spec in specs:
@@ -196,7 +197,11 @@ def _style_image_specs(specs) -> tuple | None:
 
 
 def cmd_stylize(args) -> int:
-    from ..services.pipeline_jobs import GenerateJob, result_notes
+    """stylize: the look and its compensation (one projector: by its models; several: the joint look, PSA on their
+    joint reach, and compensation), then --refine N: the projector image(s) refined on the rig (several: all
+    together); --render: the image(s), refined where they were, shown at once and captured, their figures in the
+    JSON."""
+    from ..services.generate_job import GenerateJob, result_notes
     from ..services.render_job import RenderResultJob
 
     style_images = _style_image_specs(args.style_images)  # a bad image is refused before the .blend opens
@@ -214,30 +219,31 @@ def cmd_stylize(args) -> int:
                                            style_prompt_weight=args.style_prompt_weight,
                                            output_size=args.output_size, dark_outside=args.dark_outside)
     _check_request_prompt(request)
-    if seams.store.read().rig.projector_count > 1:
-        return _stylize_multi(args, seams, request, capture)
     job = GenerateJob(seams, request, _iterations(args, scene), capture=capture, device=args.device)
     out = job.run_to_completion(on_progress=headless.print_progress)
-    summary = dict(out["summary"]["metrics"])
-    if args.refine:  # closed loop on the rig, before the render: the render then captures the refined image
+    summary = out["summary"]
+    figures = dict(summary["metrics"])
+    if args.refine:  # closed loop on the rig, before the render: the render then captures the refined image(s)
         from ..services.refine_job import RefineResultJob
 
-        refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
-        summary["refine"] = refined["refine"]
+        figures["refine"] = RefineResultJob(seams, args.refine).run_to_completion(
+            on_progress=headless.print_progress)["refine"]
+        figures.update(read_summary_of(out["folder"])["metrics"])
     if args.render:
-        summary.update(RenderResultJob(seams).run_to_completion()["metrics"])
+        figures.update(RenderResultJob(seams).run_to_completion()["metrics"])
     _save_if_asked(args)
-    print_notes(result_notes(out["summary"]))
+    print_notes(result_notes(summary))
     if not args.save:
         print_notes([f"this result is not saved into the .blend (no --save): export it with "
                      f"'export --result {out['folder']}'"])
     print(f"Look at {os.path.join(out['folder'], 'comparison.png')}")
-    lgst = out["summary"]["lgst"]
+    lgst = summary["lgst"]
     images = {"style_images": [(i["path"], i["weight"]) for i in lgst.get("style_images", [])]}
     images = images if images["style_images"] else {}
+    several = {key: summary[key] for key in ("projectors", "multi") if key in summary}  # a result of several
     print_json({"result": out["folder"], "styles": lgst.get("styles"), "understood": lgst.get("understood"),
-                "models": (out["summary"].get("models") or {}).get("line"), "device": out["summary"].get("device"),
-                **images, **summary})
+                "models": (summary.get("models") or {}).get("line"), "device": summary.get("device"),
+                **images, **several, **figures})
     return 0
 
 
@@ -249,36 +255,6 @@ def _check_request_prompt(request) -> None:
 
     if request.lgst_backend() == DEFAULT_BACKEND and not request.mix.strip() and request.prompt.strip():
         check_prompt(request.prompt)
-
-
-def _stylize_multi(args, seams, request, capture) -> int:
-    """stylize on a rig of several projectors: the joint look (PSA on their joint reach) and compensation, then
-    --refine N: all the projectors refined together on the rig; --render: every projector's image (refined
-    where it was) shown at once and captured, its figures in the JSON."""
-    from ..services.multi_generate_job import MultiGenerateJob
-
-    out = MultiGenerateJob(seams, request, capture=capture).run_to_completion(on_progress=headless.print_progress)
-    if args.refine:  # the scene's result is the one just made: every projector's image refined together
-        from ..services.refine_job import RefineResultJob
-
-        refined = RefineResultJob(seams, args.refine).run_to_completion(on_progress=headless.print_progress)
-        out["summary"] = read_summary_of(refined["folder"])
-    if args.render:  # after the refinement: the render captures the refined images
-        from ..services.render_job import RenderResultJob
-
-        out["summary"] = RenderResultJob(seams).run_to_completion()
-    _save_if_asked(args)
-    print_notes(out["summary"].get("notes", []))
-    if not args.save:
-        print_notes([f"this result is not saved into the .blend (no --save): export it with "
-                     f"'export --result {out['folder']}'"])
-    print(f"Look at {os.path.join(out['folder'], 'comparison.png')}")
-    summary = out["summary"]
-    refine = {"refine": summary["refine"]} if summary.get("refine") else {}
-    print_json({"result": out["folder"], "projectors": summary["projectors"], "styles": summary["lgst"].get("styles"),
-                "understood": summary["lgst"].get("understood"), "models": summary["models"]["line"],
-                "multi": summary["multi"], **summary["metrics"], **refine})
-    return 0
 
 
 def read_summary_of(folder) -> dict:
@@ -297,21 +273,13 @@ def cmd_export(args) -> int:
     result = os.path.abspath(args.result) if args.result else _scene_result_if_latest(scene)
     settings = scene_state.export_settings(scene, path=os.path.abspath(args.out), bit_depth=args.bit_depth,
                                            crossfade_frames=args.frames)
-    if args.mpcdi or store.read().rig.projector_count > 1:  # several projectors: an image each, and the package
-        from ..services.multi_export import export_multi
-
-        written = export_multi(store, settings, result, mpcdi=os.path.abspath(args.mpcdi) if args.mpcdi else None,
-                               profile=getattr(args, "profile", "2d") or "2d",
-                               mpcdi_version=getattr(args, "mpcdi_version", "2.0") or "2.0")
-        if args.crossfade:  # a folder per projector: <crossfade>/projector_<k>/
-            frames = export_result.export_crossfade(store, os.path.abspath(args.crossfade), settings, result,
-                                                    on_progress=headless.print_progress)
-            written["crossfade_frames"] = len(frames)
-        print_json({"result": result or scene_state.read(scene).result_dir, **written})
-        return 0
-    written = export_result.export_current(store, settings, result)
-    summary = {"result": result, **{k: str(v) for k, v in written.items()}}
-    if args.crossfade:
+    written = export_result.export_current(store, settings, result,
+                                           mpcdi=os.path.abspath(args.mpcdi) if args.mpcdi else None,
+                                           profile=getattr(args, "profile", "2d") or "2d",
+                                           mpcdi_version=getattr(args, "mpcdi_version", "2.0") or "2.0")
+    summary = {"result": result or scene_state.read(scene).result_dir,
+               **{k: str(v) if isinstance(v, os.PathLike) else v for k, v in written.items()}}
+    if args.crossfade:  # several projectors: a folder per projector, <crossfade>/projector_<k>/
         frames = export_result.export_crossfade(store, os.path.abspath(args.crossfade), settings, result,
                                                 on_progress=headless.print_progress)
         summary["crossfade_frames"] = len(frames)

@@ -32,7 +32,7 @@ def joint_cap_steps(job, folder: str, capture: str):
     bit_depth = job.seams.store.export_settings().bit_depth
     out = yield from job.drive(lambda: _work(job.plan, job.light, folder, entries, maps, emitted, bit_depth), False)
     if job.record:  # the main thread: the scene and the lights
-        from .multi_generate_job import show_projector_images
+        from .generate_joint import show_projector_images
 
         job.seams.store.record_result(out["folder"], out["summary"]["summary_line"])
         show_projector_images(job.seams, {"folder": out["folder"], "summary": out["summary"]})

@@ -1,6 +1,6 @@
 """What an export writes from: the result folder chosen (or the scene's), checked against the scene's capture,
-and the add-on's version for the sidecars. Shared by the one-projector export (export_result) and the export of a
-rig of several projectors (multi_export)."""
+and the add-on's version for the sidecars. Shared by the export of one projector and of several (export_result,
+export_joint)."""
 from __future__ import annotations
 
 import os

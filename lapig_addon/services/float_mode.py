@@ -13,9 +13,9 @@ import sys
 def flush_denormals_here() -> None:
     """On a worker thread, before it runs anything: flush-to-zero for it and the torch threads it starts.
 
-    Only where torch is loaded already: the jobs that run torch load it with their module (pipeline_jobs imports
-    lapig_core.pipeline), on the main thread, before their worker starts; a job that needs no torch does not load
-    it here. Never fails: the mode only saves time (weights are scrubbed of subnormals anyway)."""
+    Only where torch is loaded already: the jobs that run torch load it with their module (train_job and
+    generate_job import lapig_core.pipeline), on the main thread, before their worker starts; a job that needs no
+    torch does not load it here. Never fails: the mode only saves time (weights are scrubbed of subnormals anyway)."""
     if "torch" not in sys.modules:
         return
     try:

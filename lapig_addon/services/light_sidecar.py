@@ -31,9 +31,6 @@ def sidecar_fields(folder, k: int = 0) -> dict:
     return {"light": light}
 
 
-several_sidecar_fields = sidecar_fields  # the name Export of several still calls (issue 51's Export fold drops it)
-
-
 def table_rows(report: dict | None) -> list:
     """Every projector's row of the projector table of a light report: one projector's report holds its row, a
     report of several one row each ([] without a report)."""
@@ -50,9 +47,6 @@ def write_table_beside(image_path, folder) -> Path | None:
         return None
     image_path = Path(image_path)
     return write_projector_table(image_path.with_name(image_path.stem + "_projectors.csv"), rows)
-
-
-write_several_table = write_table_beside  # the name Export of several still calls (issue 51's Export fold drops it)
 
 
 def _row(row: dict) -> ProjectorRow:

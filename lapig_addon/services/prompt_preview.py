@@ -119,7 +119,7 @@ def _surface_and_models(folder: str, stamp: tuple, device: str):
     from ...lapig_core.photometric.training_data import SurfaceTensors
     from ...lapig_core.pipeline import first_look_models, object_footprint, saved_models_problem, surface_models
     from .pipeline_errors import PipelineError
-    from .pipeline_jobs import capture_first_look
+    from .train_job import capture_first_look
 
     dev = compute_device.resolve(device)
     problem, saved = saved_models_problem(folder)
@@ -147,7 +147,8 @@ class PromptPreviewJob(WorkerJob):
         self.seams, self.request = seams, request
 
     def prepare(self):
-        from .pipeline_jobs import _setup_stamp, current_capture, device_choice
+        from .pipeline_errors import current_capture
+        from .train_job import _setup_stamp, device_choice
 
         store = self.seams.store
         folder = current_capture(store.read())

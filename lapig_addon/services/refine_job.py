@@ -26,8 +26,7 @@ from . import panel_state
 from .export_result import result_frame
 from .jobs import Job
 from .limits import LIMITS
-from .pipeline_errors import PipelineError, hold_capture, summary_made_on
-from .pipeline_jobs import current_capture
+from .pipeline_errors import PipelineError, current_capture, hold_capture, summary_made_on
 from .ports import Seams
 from .projection import projection_session
 from .refine_lines import record_refinement, refine_line

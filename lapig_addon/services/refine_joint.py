@@ -14,8 +14,8 @@ import numpy as np
 from ...lapig_core.export.result_files import read_result_image, write_result
 from ...lapig_core.refine.loop import RefineError, RefineSettings
 from . import panel_state
-from .multi_generate_job import MultiPipelineError, multi_capture
-from .pipeline_errors import PipelineError, summary_made_on
+from .generate_joint import joint_model_steps, show_projector_images
+from .pipeline_errors import PipelineError, joint_capture, summary_made_on
 from .refine_lines import record_refinement, refine_line
 
 REFINED_SUFFIX = "_refined"
@@ -32,27 +32,10 @@ def joint_inputs(seams, doing: str = "refinement") -> tuple[str, str]:
     if seams.devices is None or not seams.devices.opens_several:
         raise PipelineError(f"{doing} of several projectors needs a rig that shows them all at once (the virtual "
                             f"rig, or a real one with a window on each projector's display)")
-    try:
-        capture = multi_capture(state)
-    except MultiPipelineError as exc:
-        raise PipelineError(str(exc)) from None
+    capture = joint_capture(state)
     if not is_multi_result(state.result_dir):
         raise PipelineError("the scene's result is of one projector; the rig has several: generate again first")
     return state.result_dir, capture
-
-
-def joint_model_steps(capture: str):
-    """Steps whose value is (the capture of several, without its pairs, and its joint model: its first look's, else
-    fitted now)."""
-    from ...lapig_core.multi.capture_set import load_multi_capture
-    from ...lapig_core.multi.first_look import fit_joint_first_look, load_joint_model
-
-    cs = load_multi_capture(capture, pairs=False)
-    model = load_joint_model(cs.setup_dir)
-    if model is None or model.count != cs.count:
-        yield 0.04, "fitting the joint model"
-        model = fit_joint_first_look(load_multi_capture(capture)).model
-    return cs, model
 
 
 def exposed_capture(device, sizes):
@@ -134,8 +117,6 @@ class JointRefineWay:
     @staticmethod
     def record(seams, folder: str, summary: dict, record: dict, image) -> dict:
         """The refined result into the scene (the main thread): its line, and each image to the sinks of several."""
-        from .multi_generate_job import show_projector_images
-
         seams.store.record_result(folder, summary["summary_line"])
         show_projector_images(seams, {"folder": folder, "summary": summary})
         return {"folder": folder, "refine": record, "line": refine_line(record).lstrip("; ")}

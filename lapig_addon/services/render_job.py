@@ -14,8 +14,7 @@ from ...lapig_core.common.steps import mapped_steps
 from ...lapig_core.export.result_files import output_name, read_output_image, read_summary, write_result
 from . import panel_state
 from .jobs import Job
-from .pipeline_jobs import current_capture
-from .pipeline_errors import PipelineError, hold_capture
+from .pipeline_errors import PipelineError, current_capture, hold_capture
 from .ports import Seams
 from .projection import projection_steps, register_at
 from .ways import chosen_way

@@ -18,7 +18,8 @@ import numpy as np
 
 from ...lapig_core.common.steps import run_to_end
 from .pipeline_errors import summary_made_on
-from .refine_joint import exposed_capture, joint_inputs, joint_model_steps
+from .generate_joint import joint_model_steps
+from .refine_joint import exposed_capture, joint_inputs
 
 
 def render_valid(capture: str) -> np.ndarray:

@@ -79,23 +79,42 @@ def write_new_result(root, name: str, images: dict, summary: dict, files: dict |
     return scratch.move_to_new_folder(name)
 
 
-def write_result(folder, images: dict, summary: dict) -> Path:
+def look_state_files(state) -> dict:
+    """The look's theta and tone field where PSA left them, as write_new_result's files (look_state.npz): a show
+    makes this very look again from it, not from the prompt and PSA run once more (lapig_core/show/look_state;
+    torch is loaded, since PSA ran)."""
+    if not state:
+        return {}
+    from ..show.look_state import LOOK_STATE_FILE, look_state_bytes
+
+    return {LOOK_STATE_FILE: look_state_bytes(state)}
+
+
+def write_result(folder, images: dict, summary: dict, sheet=None) -> Path:
     """Write images into a result folder (new, or adding to one), then its comparison sheet and
-    result.json. images: name -> (H, W, 3) in [0,1] (names from IMAGES, with '_nopsa' variants)."""
+    result.json. images: name -> (H, W, 3) in [0,1] (names from IMAGES, with '_nopsa' variants).
+    sheet(folder, images, summary) -> (tiles, columns): the sheet of every image the folder now holds, the ones written
+    before included (None: one projector's, COMPARISON; a result of several keeps its own unless its caller gives
+    one: multi/result_files.write_rendered, look, predicted and rendered in camera space)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     for name, img in images.items():
         write_png(folder / f"{name}.png", img, bit_depth=BIT_DEPTH)
-    # the sheet shows every image the folder now holds, the ones written before included; a result of several
-    # projectors keeps its own (multi/result_files: look, predicted and rendered in camera space)
-    tiles = [] if "multi" in summary else [(images[n] if n in images else read_result_image(folder, n), lab)
-                                           for n, lab in COMPARISON if (folder / f"{n}.png").is_file()]
+    if sheet is None and "multi" not in summary:
+        sheet = _projector_sheet
+    tiles, columns = sheet(folder, images, summary) if sheet is not None else ([], 0)
     if tiles:
-        cols = 3 if len(tiles) == 6 else 2
         write_png(folder / "comparison.png", labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles],
-                                                           columns=cols, cell=256, title=summary.get("prompt", "")))
+                                                           columns=columns, cell=256, title=summary.get("prompt", "")))
     atomic_write_bytes(folder / "result.json", json.dumps(summary, indent=2, default=json_default_or_str).encode("utf-8"))
     return folder
+
+
+def _projector_sheet(folder: Path, images: dict, summary: dict) -> tuple[list, int]:
+    """One projector's sheet: with and without PSA side by side (target, simulated, rendered where made)."""
+    tiles = [(images[n] if n in images else read_result_image(folder, n), lab)
+             for n, lab in COMPARISON if (folder / f"{n}.png").is_file()]
+    return tiles, 3 if len(tiles) == 6 else 2
 
 
 def as_stored(img: np.ndarray) -> np.ndarray:

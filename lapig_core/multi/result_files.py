@@ -19,7 +19,8 @@ import numpy as np
 
 from ..common.psnr import masked_psnr
 from ..common.sheets import labelled_grid
-from ..export.result_files import heat_overlay, read_result_image, read_summary, write_new_result
+from ..export.result_files import (heat_overlay, look_state_files, read_result_image, read_summary,
+                                   write_new_result, write_result)
 
 MULTI_KEY = "multi"
 
@@ -76,18 +77,7 @@ def write_joint_result(root, name: str, look, surface: np.ndarray, names, sizes,
             "metrics": metrics,
             "summary_line": line,
             "created": datetime.datetime.now().isoformat(timespec="seconds")}
-    return write_new_result(root, name, images, full, _look_state_file(look)), full
-
-
-def _look_state_file(look) -> dict:
-    """look_state.npz where PSA ran (theta and its tone field): a show makes this very look again from it
-    (lapig_core/show/look_state; torch is here, since PSA ran)."""
-    state = getattr(look, "state", None)
-    if not state:
-        return {}
-    from ..show.look_state import LOOK_STATE_FILE, look_state_bytes
-
-    return {LOOK_STATE_FILE: look_state_bytes(state)}
+    return write_new_result(root, name, images, full, look_state_files(getattr(look, "state", None))), full
 
 
 def projector_images(folder) -> list[tuple[dict, np.ndarray]]:
@@ -141,30 +131,19 @@ def rendered_metrics(rendered: dict, folder, valid: np.ndarray) -> dict:
 def write_rendered(folder, rendered: dict, summary: dict) -> Path:
     """Add Render Real Capture's images (rendered.png, rendered_nopsa.png) to a result of several, rebuild its
     comparison sheet with them (look, predicted and rendered side by side), then result.json last: `summary`
-    with its metrics already updated. Written in place, each file whole (write_result's rule)."""
-    import json
+    with its metrics already updated. Written in place, each file whole (export/result_files.write_result)."""
+    return write_result(folder, rendered, summary, sheet=_rendered_sheet)
 
-    from ..common.atomic import atomic_write_bytes
-    from ..common.imageio import write_png
-    from ..common.jsonable import json_default_or_str
-    from ..export.result_files import BIT_DEPTH
 
-    folder = Path(folder)
-    for name, image in rendered.items():
-        write_png(folder / f"{name}.png", image, bit_depth=BIT_DEPTH)
-    read = lambda n: rendered[n] if n in rendered else read_result_image(folder, n)  # noqa: E731
-    rows = [("look", "look" + (" with PSA" if "look_nopsa" in _present(folder) else "")),
+def _rendered_sheet(folder: Path, rendered: dict, summary: dict) -> tuple[list, int]:
+    """The sheet of a rendered result of several: look, predicted and rendered (with PSA, then without where
+    made), then each projector's image; the rendered ones from memory, the others read back."""
+    present = {p.stem for p in folder.glob("*.png")}
+    rows = [("look", "look" + (" with PSA" if "look_nopsa" in present else "")),
             ("predicted", "predicted capture"), ("rendered", "rendered in Cycles")]
-    if "rendered_nopsa" in rendered or (folder / "rendered_nopsa.png").is_file():
+    if "rendered_nopsa" in present:
         rows += [("look_nopsa", "look without PSA"), ("predicted_nopsa", "predicted without PSA"),
                  ("rendered_nopsa", "rendered without PSA")]
-    tiles = [(read(n), lab) for n, lab in rows if (folder / f"{n}.png").is_file() or n in rendered]
-    tiles += [(read(Path(p["image"]).stem), p["name"]) for p in summary.get("projectors") or []]
-    write_png(folder / "comparison.png", labelled_grid([t for t, _ in tiles], [lab for _, lab in tiles], columns=3,
-                                                       cell=256, title=summary.get("prompt", "")))
-    atomic_write_bytes(folder / "result.json", json.dumps(summary, indent=2, default=json_default_or_str).encode("utf-8"))
-    return folder
-
-
-def _present(folder) -> set:
-    return {p.stem for p in Path(folder).glob("*.png")}
+    read = lambda n: rendered[n] if n in rendered else read_result_image(folder, n)  # noqa: E731
+    tiles = [(read(n), lab) for n, lab in rows if n in present]
+    return tiles + [(read(Path(p["image"]).stem), p["name"]) for p in summary.get("projectors") or []], 3

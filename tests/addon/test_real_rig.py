@@ -67,16 +67,16 @@ def test_a_real_rig_captures_on_a_worker_thread_and_records_what_it_measured(rig
     assert got["caught"] == got["bad"] > 0 and got["false_alarms"] == 0
 
 
-@pytest.mark.torch  # pipeline_jobs loads torch
+@pytest.mark.torch
 def test_another_camera_is_another_rig_so_the_capture_is_stale(rig):
     seams, hardware = rig
-    real_rig, pipeline_jobs = _module("rigs.real_rig"), _module("services.pipeline_jobs")
+    real_rig, pipeline_errors = _module("rigs.real_rig"), _module("services.pipeline_errors")
     folder = str(_module("services.capture_job").CaptureJob(seams, seams.store.capture_settings(
         train_count=2, test_count=0)).run_to_completion()["setup_dir"])
-    assert pipeline_jobs.current_capture(seams.store.read(), folder) == folder
+    assert pipeline_errors.current_capture(seams.store.read(), folder) == folder
     seams.store.factory = real_rig.RealRigFactory(real_rig.RigSpec(name="gallery rig", display="1", camera="2"))
-    with pytest.raises(pipeline_jobs.PipelineError, match="changed since: capture again"):
-        pipeline_jobs.current_capture(seams.store.read(), folder)
+    with pytest.raises(pipeline_errors.PipelineError, match="changed since: capture again"):
+        pipeline_errors.current_capture(seams.store.read(), folder)
 
 
 def test_a_display_of_another_resolution_is_refused_before_any_frame(tmp_path, state):

@@ -20,7 +20,6 @@ from lapig.lapig_core.photometric.targets import desired_targets, reachable_mask
 from job_fakes import FakeFactory, FakeSink, FakeStore
 
 ADDON = "lapig.lapig_addon"
-pytestmark = pytest.mark.torch  # refine_job reads the capture through pipeline_jobs, which loads torch
 
 
 def _module(name):
@@ -164,10 +163,10 @@ def test_a_cancelled_refinement_lets_go_of_the_capture_only_once_its_camera_is_c
 def test_a_changed_rig_or_a_moved_object_is_refused_and_nothing_written(tmp_path):
     seams = _seams(tmp_path)
     folder = _result(seams, tmp_path)
-    refine_job, pipeline_jobs = _module("services.refine_job"), _module("services.pipeline_jobs")
+    refine_job, pipeline_errors = _module("services.refine_job"), _module("services.pipeline_errors")
     before = sorted(os.listdir(folder))
     seams.devices.moved = True  # another camera: the capture is stale
-    with pytest.raises(pipeline_jobs.PipelineError, match="moved: capture again"):
+    with pytest.raises(pipeline_errors.PipelineError, match="moved: capture again"):
         refine_job.RefineResultJob(seams, 2).run_to_completion()
     seams.devices.moved = False
     original = seams.devices._device
@@ -179,10 +178,10 @@ def test_a_changed_rig_or_a_moved_object_is_refused_and_nothing_written(tmp_path
         return _Entered(cm, device)
 
     seams.devices._device = shifted
-    with pytest.raises(pipeline_jobs.PipelineError, match="moved since the capture"):
+    with pytest.raises(pipeline_errors.PipelineError, match="moved since the capture"):
         refine_job.RefineResultJob(seams, 2).run_to_completion()
     assert sorted(os.listdir(folder)) == before
-    with pytest.raises(pipeline_jobs.PipelineError, match="Refinement steps"):
+    with pytest.raises(pipeline_errors.PipelineError, match="Refinement steps"):
         refine_job.RefineResultJob(seams, 99)
 
 

@@ -60,7 +60,7 @@ def test_only_instruct_pix2pix_gets_the_weights_folder(state):
 
 
 def test_a_ready_depth_adapter_goes_to_instruct_pix2pix_and_asks_for_the_geometry(state, monkeypatch):
-    from lapig.lapig_addon.services import pipeline_jobs
+    from lapig.lapig_addon.services import generate_job
 
     request = _request(state, backend="instruct-pix2pix", depth_model="/models/depth-adapter")
     assert request.backend_options() == {"depth_adapter": "/models/depth-adapter"}
@@ -72,8 +72,8 @@ def test_a_ready_depth_adapter_goes_to_instruct_pix2pix_and_asks_for_the_geometr
         def look_geometry(self, w, h):
             return ("the scene's geometry", w, h)
 
-    monkeypatch.setattr(pipeline_jobs, "frame_size_of", lambda folder: (64, 48))
-    look_geometry = pipeline_jobs.look_geometry
+    monkeypatch.setattr(generate_job, "frame_size_of", lambda folder: (64, 48))
+    look_geometry = generate_job.look_geometry
     assert look_geometry(Store(), "/capture", "instruct-pix2pix", "", "a prompt", depth=True) == \
         ("the scene's geometry", 64, 48)
     assert look_geometry(Store(), "/capture", "instruct-pix2pix", "", "a prompt") is None  # no adapter: no rays

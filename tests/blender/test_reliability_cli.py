@@ -227,7 +227,7 @@ def test_a_deleted_projector_or_camera_is_refused_before_stylizing(capfd, projec
 def test_a_rig_deleted_while_generating_leaves_no_result(project, unchanged):
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
+    from lapig.lapig_addon.services.generate_job import GenerateJob
 
     bpy.ops.wm.open_mainfile(filepath=project.blend)
     scene = bpy.context.scene

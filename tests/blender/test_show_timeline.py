@@ -259,7 +259,7 @@ def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(ca
     from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.cli.main import main
     from lapig.lapig_addon.services import show_source
-    from lapig.lapig_addon.services.pipeline_jobs import GenerateJob
+    from lapig.lapig_addon.services.generate_job import GenerateJob
 
     scene = captured
     for prompt in ("stained glass", "ink wash"):

@@ -35,7 +35,8 @@ from ...lapig_addon.blender import result_preview, scene_state
 from ...lapig_addon.blender.scene_store import scene_seams
 from ...lapig_addon.cli import headless
 from ...lapig_addon.services import warmup
-from ...lapig_addon.services.pipeline_jobs import GenerateJob, TrainModelsJob
+from ...lapig_addon.services.generate_job import GenerateJob
+from ...lapig_addon.services.train_job import TrainModelsJob
 from ...lapig_addon.services.render_job import RenderResultJob
 from .io_count import counted_io
 

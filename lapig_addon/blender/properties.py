@@ -169,6 +169,8 @@ SHOW_MOTIONS = [
     ("rise", "Rise", "A wave rises through the look"),
     ("pulse", "Pulse", "The look's strength pulses"),
     ("colour_cycle", "Colour cycle", "The look's colours cycle"),
+    ("world", "Its own time", "A look of the world moves by itself: water flows, fire flickers, clouds drift, "
+                              "plants sway (at its Speed slider; Amount 0.5 is that speed)"),
 ]
 
 

@@ -308,6 +308,20 @@ def look_geometry(store, capture: str, backend: str, mix: str, prompt: str):
     return geometry if geometry is not None else "capture"
 
 
+def kept_look_parameters(state: SceneState, prompt: str, backend: str) -> dict | None:
+    """The scene's result's edited sliders where Generate makes the same world look again (services/look_edit)."""
+    from ...lapig_core.export.result_files import read_summary
+    from .look_edit import parameters_for_generate
+
+    if not state.result_dir:
+        return None
+    try:
+        summary = read_summary(state.result_dir)
+    except (OSError, ValueError):
+        return None
+    return parameters_for_generate(summary, prompt, backend)
+
+
 class GenerateJob(WorkerJob):
     """Prompt -> stylized target (with and without PSA) -> compensated projector image."""
 
@@ -345,8 +359,12 @@ class GenerateJob(WorkerJob):
                 notes.append(f"a style image is chosen: the look comes from it ('{backend}' backend), "
                              f"not from '{r.backend}'")
         geometry = look_geometry(store, folder, backend, mix, prompt)
+        options = r.backend_options()
+        kept = None if mix else kept_look_parameters(state, prompt, backend)
+        if kept is not None:  # the same prompt again: the sliders as the artist left them
+            options["look_parameters"] = kept
         return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend, "geometry": geometry,
-                "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
+                "backend_options": options, "mix": mix or None, "psa": r.psa, "seed": r.seed,
                 "dark_outside": r.dark_outside, "output_frame": output,
                 "settings": psa_settings_from(r),
                 "results": self.result_root or os.path.join(store.data_root(), "results"),

@@ -53,7 +53,7 @@ class Motion:
 
 FAMILY_MOTION = {
     "water": Motion("flow", (0.3, 1.0), 0.35),
-    "fire": Motion("flicker", rate=1.5, amount=0.35),
+    "fire": Motion("flicker", rate=0.6, amount=0.35),
     "sky_space": Motion("flow", (1.0, 0.15), 0.12),
     "weather": Motion("flow", (1.0, 0.1), 0.1),
     "plants": Motion("sway", rate=0.25, amount=0.12),
@@ -65,8 +65,8 @@ PATTERN_MOTION = {
     "caustics": Motion("flicker", rate=0.5, amount=0.25),
     "underwater": Motion("flicker", rate=0.3, amount=0.2),
     "reaction": Motion("sway", rate=0.2, amount=0.08),   # coral, lichen: a slow stir
-    "embers": Motion("flicker", rate=1.0, amount=0.12),
-    "candle": Motion("flicker", rate=2.0, amount=0.2),
+    "embers": Motion("flicker", rate=0.4, amount=0.12),
+    "candle": Motion("flicker", rate=0.8, amount=0.2),
 }
 MATERIAL_MOTION = {
     "bubbles": Motion("flow", (0.05, -1.0), 0.4),
@@ -109,7 +109,7 @@ def samples(material, u, v, features: float, seed: int, clock: Clock | None) -> 
         angle = clock.angle(m.rate)
         k = features * 0.7  # the warp's noise a little coarser than the pattern's features
         x, y = u * k, v * k
-        radius = 1.2
+        radius = 0.6  # noise units the warp's field turns through per loop: a frame's step stays small
         ox, oy = radius * (math.cos(angle) - 1.0), radius * math.sin(angle)
         size = m.amount / max(features, 1e-6)
         du = noise.fbm(x + ox + 3.1, y + oy, seed + 301, 3) - noise.fbm(x + 3.1, y, seed + 301, 3)

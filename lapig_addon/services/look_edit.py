@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 
 from ...lapig_core.lgst import DEFAULT_BACKEND
-from ...lapig_core.lgst.world.parameters import BY_NAME, PARAMETERS, LookParameters
+from ...lapig_core.look_parameters import BY_NAME, PARAMETERS, LookParameters
 from .jobs import WorkerJob
 from .pipeline_errors import PipelineError, hold_capture
 from .ports import Seams

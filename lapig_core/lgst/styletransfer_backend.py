@@ -70,7 +70,7 @@ class StyleTransferBackend(ThetaBackend):
         looks: False maps prompts to the 26 styles only (no looks, colours or moods), as before.
         geometry: the object as the projector sees it (world.geometry.LookGeometry, at any size): the looks of the
         world follow it (crevices, tops, downhill, metres); None: the image alone, as before.
-        look_parameters: a world look's sliders as result.json keeps them (world/parameters.LookParameters' dict;
+        look_parameters: a world look's sliders as result.json keeps them (look_parameters.LookParameters' dict;
         keys it lacks: the plan's); ValueError with one line for a bad one. Other looks have none.
         """
         if not 0.0 <= blend <= 1.0:
@@ -248,7 +248,7 @@ class StyleTransferBackend(ThetaBackend):
             rgb = [c.rgb for c in plan.entry_colours] if strength > 0 else None
         stages = []
         if plan.medium_kind == "world":  # the world composition makes its own colours (the named ones recolour it)
-            from .world.parameters import LookParameters
+            from ..look_parameters import LookParameters
             from .world.stage import world_stage
 
             look = LookParameters.from_dict(look_parameters, LookParameters.from_plan(plan.world, seed))

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""A world look's sliders (world/parameters) and its own time (world/moving): the plan's values draw the look as
-before, each slider changes it, a bad value is one line; frame 0 of a moving world look is the still look, a step of
+"""A world look's sliders (lapig_core/look_parameters) and its own time (lgst/world/moving): the plan's values draw
+the look as before, each slider changes it, a bad value is one line; frame 0 of a moving world look is the still look, a step of
 time a small change for every family, and a show moves it on its timeline."""
 import importlib.util
 import math
@@ -13,7 +13,7 @@ pytestmark = pytest.mark.torch
 
 from lapig.lapig_core.lgst.world import catalog, compose  # noqa: E402
 from lapig.lapig_core.lgst.world.moving import Clock, motion_of  # noqa: E402
-from lapig.lapig_core.lgst.world.parameters import PARAMETERS, LookParameters, problem  # noqa: E402
+from lapig.lapig_core.look_parameters import PARAMETERS, LookParameters, problem  # noqa: E402
 from lapig.lapig_core.lgst.world.stage import world_stage  # noqa: E402
 
 H, W = 48, 64

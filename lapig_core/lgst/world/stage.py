@@ -17,7 +17,7 @@ from ..looks.stage import Stage, tensor
 from . import cells, moving, noise, shapes
 from .catalog import Material
 from .moving import Clock
-from .parameters import LookParameters
+from ...look_parameters import LookParameters
 from .compose import Composition
 from .patterns import PATTERNS, _smooth, _u01
 from .ramps import blackbody_colours, ramp

@@ -2,17 +2,18 @@
 """A world look's few main parameters, the sliders of the Stylize panel (issue 50, item 4), in Blender's node words
 where they fit (Noise: Scale, Detail, Roughness, Distortion; Hue/Saturation; Seed) and speed on the show's timeline.
 
-The prompt plan gives their start values (compose.py: "fine" and "huge" the scale, "dense" and "sparse" the density;
-the seed Generate's); an artist then moves them and the look is drawn again from them, with no new prompt. They are
+The prompt plan gives their start values (lgst/world/compose.py: "fine" and "huge" the scale, "dense" and "sparse"
+the density; the seed Generate's); an artist then moves them and the look is drawn again from them, with no new prompt. They are
 not PSA's theta: PSA moves how the look is lit and coloured, these say what it is (where its stones are, how big).
-Plain Python (no torch): services/limits.py reads the ranges from here, the panel's properties too.
+Plain Python, no torch (outside lgst/, whose package loads torch): services/limits.py reads the ranges from here
+and the panel's properties take them from there, in the torch-free tier too.
 
     params = LookParameters.from_plan(comp, seed=3)     # the plan's choice
     params = params.edited({"scale": 2.0})              # ValueError: one line naming the slider and its range
     params.to_dict() / LookParameters.from_dict(d)      # result.json's lgst.look_parameters
 
 Adding a parameter: a Parameter in PARAMETERS (its range and what it does, in one line), its field in
-LookParameters, and where stage.render reads it."""
+LookParameters, and where lgst/world/stage.render reads it."""
 from __future__ import annotations
 
 import math

@@ -108,8 +108,10 @@ def remake(summary: dict, folder: str, cs, models, params: LookParameters, outpu
     state = load_look_state(folder)
     if state is not None:  # theta and the tone field as PSA left them (their shapes do not depend on the sliders)
         adapted.load_state({**lgst.state(), **{k: [t.to(models.device) for t in v] for k, v in state.items()}})
-    with torch.no_grad():
-        chosen, plain = without_psa(adapted, models), without_psa(lgst, models)
+    with torch.no_grad():  # the look drawn once at the working frame; with and without the tone field
+        base = lgst.forward()
+        chosen = without_psa(_Drawn(adapted.field.apply(base), adapted), models)
+        plain = without_psa(_Drawn(base, lgst), models)
         if dark_outside and cs.projector_valid is not None:
             mask = on_object_mask(cs.projector_valid).to(models.device)
             chosen, plain = darkened_outside(chosen, mask, models), darkened_outside(plain, mask, models)
@@ -121,6 +123,19 @@ def remake(summary: dict, folder: str, cs, models, params: LookParameters, outpu
         images.update(target_native=as_image(native.target), projector_native=as_image(native.projector_image))
     return {"images": images, "simulated_psnr": metrics.psnr(images["simulated"], images["target"]),
             "simulated_psnr_nopsa": metrics.psnr(images["simulated_nopsa"], images["target_nopsa"])}
+
+
+class _Drawn:
+    """A look already drawn, as without_psa takes one (its image and its backend's state)."""
+
+    def __init__(self, image, look):
+        self.image, self.look = image, look
+
+    def forward(self):
+        return self.image
+
+    def state(self):
+        return self.look.state()
 
 
 def folder_setup(cs):

@@ -95,3 +95,26 @@ def test_a_bad_value_or_a_look_without_sliders_is_one_line_and_changes_nothing(s
     styled.run_to_completion()
     with pytest.raises(pipeline_errors.PipelineError, match="the result's look has no sliders"):
         look_edit.EditLookJob(seams, {"scale": 2}).run_to_completion()
+
+
+def test_a_show_with_a_moving_world_look_exports_frame_by_frame(seams, generated, tmp_path):
+    from lapig.lapig_core.optics.projector_model import ProjectorModel
+
+    show_plan, show_source, show_jobs = _module("show_plan"), _module("show_source"), _module("show_jobs")
+    _module("look_edit").EditLookJob(seams, {"speed": 2.0}).run_to_completion()
+    plan = show_plan.ShowPlan(looks=(show_plan.ShowLook(result_dir=generated, hold_s=0.4, motion="world",
+                                                        motion_period_s=2.0),), fps=10.0)
+    assert plan.problem() == ""
+    size = (64, 48)  # the fake rig's projector
+    source = show_source.ShowSource(plan, projectors=(ProjectorModel(width=size[0], height=size[1], gamma=2.2),),
+                                    capture_dir=seams.store.capture_dir)
+    assert show_source.uses_producer(source)
+    out = show_jobs.ShowExportJob(source, str(tmp_path / "export"), "png").run_to_completion()
+    assert out["frames"] == 4
+    from lapig.lapig_core.common.imageio import read_image
+
+    folder = tmp_path / "export" / "show"
+    frames = [read_image(folder / n) for n in sorted(os.listdir(folder)) if n.endswith(".png")]
+    assert len(frames) == 4 and frames[0].shape == (size[1], size[0], 3)
+    steps = [float(np.abs(a.astype(np.float32) - b.astype(np.float32)).mean()) for a, b in zip(frames, frames[1:])]
+    assert all(s > 1e-4 for s in steps), steps  # it moves every frame

@@ -384,6 +384,7 @@ def _look_sliders(layout, s):
     row.enabled = not _job_running()
     row.operator("lapig.edit_look", icon="FILE_REFRESH")
     row.operator("lapig.edit_look", text="Reset", icon="LOOP_BACK").reset = True
+    box.operator("lapig.look_nodes", icon="NODETREE")
 
 
 class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):

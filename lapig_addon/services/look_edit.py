@@ -231,4 +231,23 @@ class EditLookJob(WorkerJob):
         return output
 
 
-__all__ = ["EditLookJob", "PARAMETERS", "edited_parameters", "parameters_for_generate", "remake", "world_record"]
+def node_recipe_of(summary: dict) -> dict:
+    """The result's world look as a recipe of shader nodes (lgst/world/node_recipe) with its sliders; PipelineError
+    for a look without sliders."""
+    from ...lapig_core.lgst.world.catalog import by_name
+    from ...lapig_core.lgst.world.node_recipe import node_recipe
+
+    found = world_record(summary)
+    if found is None:
+        raise PipelineError("only a look of the world (a material, a plant, water, fire, the sky) becomes a node "
+                            "group: generate one first")
+    record, params = found
+    material = by_name().get(record["world"]["base"])
+    if material is None:
+        raise PipelineError(f"the look names a material '{record['world']['base']}' this version does not have")
+    named = (record.get("colour_layers") or {}).get("0")
+    return node_recipe(material, params, named)
+
+
+__all__ = ["EditLookJob", "PARAMETERS", "edited_parameters", "node_recipe_of", "parameters_for_generate", "remake",
+           "world_record"]

@@ -32,6 +32,18 @@ def test_a_slider_set_makes_the_result_image_again(captured):
     assert np.abs(_target(folder) - before).mean() > 0.01
     summary = json.load(open(os.path.join(folder, "result.json"), encoding="utf-8"))
     assert summary["lgst"]["look_parameters"]["scale"] == 2.5 and "Scale 1 -> 2.5" in s.result_summary
+    # the look as a shader node group, with the slider's scale, in the object's own material
+    assert bpy.ops.lapig.look_nodes() == {"FINISHED"}
+    group = bpy.data.node_groups["LAPIG look: cobblestones"]
+    texture = group.nodes["LAPIG texture"]
+    assert texture.bl_idname == "ShaderNodeTexVoronoi" and texture.feature == "DISTANCE_TO_EDGE"
+    from lapig.lapig_core.lgst.world.catalog import by_name
+
+    assert texture.inputs["Scale"].default_value == pytest.approx(by_name()["cobblestones"].scale * 2.5, rel=1e-4)
+    from lapig.lapig_addon.blender.look_nodes import _own_material
+
+    own = _own_material(scene_state.rig_objects(captured)[2])  # not the preview's, where it shows one
+    assert any(n.bl_idname == "ShaderNodeGroup" and n.node_tree == group for n in own.node_tree.nodes)
     assert bpy.ops.lapig.edit_look(reset=True) == {"FINISHED"}
     assert s.look_scale == pytest.approx(1.0)  # the sliders follow the result
     s.prompt, s.style_override = "", "charcoal_wash:1"

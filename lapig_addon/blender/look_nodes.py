@@ -54,7 +54,8 @@ def add_to_material(obj, group) -> bpy.types.Node | None:
     material = _own_material(obj) if obj is not None else None
     if material is None:
         return None
-    material.use_nodes = True
+    if material.node_tree is None:  # an old material without nodes (use_nodes goes in Blender 6)
+        material.use_nodes = True
     node = material.node_tree.nodes.new("ShaderNodeGroup")
     node.node_tree, node.label = group, group.name
     node.location = (-600.0, 300.0)

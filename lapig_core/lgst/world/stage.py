@@ -115,10 +115,6 @@ def _layer(material: Material, u, v, seed: int, scale: float, density: float, p:
     return rgb * light, f, t
 
 
-def _flows(material: Material, clock: Clock | None) -> bool:
-    return clock is not None and not clock.still() and moving.motion_of(material).kind == "flow"
-
-
 def hue_saturation(rgb: torch.Tensor, hue_degrees: float, saturation: float) -> torch.Tensor:
     """(3, h, w) turned round the grey axis by `hue_degrees` and its colour scaled by `saturation` about its
     luminance (Blender's Hue/Saturation node, in the look's own values); (0, 1): as it is."""
@@ -220,10 +216,9 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
         out = out * (1 - amount) + rgb * amount
     grain = comp.base.options.get("grain", 0.35)
     if grain:  # grains, pores and fibres a few pixels across: cells of their own shade, not smooth noise
-        at = [(u, v, 1.0)]
-        if _flows(comp.base, clock):  # the grain runs with the water
-            at = moving.samples(comp.base, u, v, comp.base.scale * comp.scale, seed, clock)
-        fine = sum(w * (cells.worley(su * 150, sv * 150, seed + 91, jitter=1.0).cell_id - 0.5) for su, sv, w in at)
+        # it stays where it is while the look moves: a grain a few pixels across carried by a flow would shimmer
+        # from frame to frame at the working frame (cells finer than its pixels)
+        fine = cells.worley(u * 150, v * 150, seed + 91, jitter=1.0).cell_id - 0.5
         out = out * (1 + p["grain"] * grain * (look.roughness if look is not None else 1.0) * fine)
     if "dirt" in comp.weathering:
         grime = _u01(noise.fbm(u * 6, v * 6, seed + 71, 5))

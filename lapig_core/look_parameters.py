@@ -3,8 +3,9 @@
 where they fit (Noise: Scale, Detail, Roughness, Distortion; Hue/Saturation; Seed) and speed on the show's timeline.
 
 The prompt plan gives their start values (lgst/world/compose.py: "fine" and "huge" the scale, "dense" and "sparse"
-the density; the seed Generate's); an artist then moves them and the look is drawn again from them, with no new prompt. They are
-not PSA's theta: PSA moves how the look is lit and coloured, these say what it is (where its stones are, how big).
+the density; the seed Generate's); an artist then moves them and the look is drawn again from them, with no new
+prompt. They are not PSA's theta: PSA moves how the look is lit and coloured, these say what it is (where its stones
+are, how big).
 Plain Python, no torch (outside lgst/, whose package loads torch): services/limits.py reads the ranges from here
 and the panel's properties take them from there, in the torch-free tier too.
 

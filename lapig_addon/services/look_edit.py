@@ -15,26 +15,9 @@ import re
 from ...lapig_core.lgst import DEFAULT_BACKEND
 from ...lapig_core.look_parameters import BY_NAME, PARAMETERS, LookParameters
 from .jobs import WorkerJob
+from .look_record import parameters_for_generate, plan_parameters, world_record  # noqa: F401 (theirs to import)
 from .pipeline_errors import PipelineError, hold_capture
 from .ports import Seams
-
-
-def world_record(summary: dict) -> tuple[dict, LookParameters] | None:
-    """(the look's record, its parameters) of a result of a world look; None for a look of another kind."""
-    lgst = summary.get("lgst") or {}
-    if summary.get("backend", DEFAULT_BACKEND) != DEFAULT_BACKEND or "multi" in summary:
-        return None
-    record, values = lgst.get("look_record"), lgst.get("look_parameters")
-    if not record or values is None:
-        return None
-    return record, LookParameters.from_dict(values)
-
-
-def plan_parameters(record: dict, seed: int) -> LookParameters:
-    """The parameters the prompt plan chose (what Reset goes back to)."""
-    world = record["world"]
-    return LookParameters(scale=float(world.get("scale", 1.0)), density=float(world.get("density", 0.0)),
-                          seed=int(seed))
 
 
 def edited_parameters(summary: dict, changes: dict | None, reset: bool = False) -> LookParameters:
@@ -50,14 +33,6 @@ def edited_parameters(summary: dict, changes: dict | None, reset: bool = False) 
         return base.edited(dict(changes or {}))
     except ValueError as exc:
         raise PipelineError(str(exc)) from None
-
-
-def parameters_for_generate(summary: dict | None, prompt: str, backend: str) -> dict | None:
-    """The edited parameters a Generate of the same prompt keeps (the scene's result's); None otherwise."""
-    if not summary or backend != DEFAULT_BACKEND or (summary.get("prompt") or "").strip() != prompt.strip():
-        return None
-    found = world_record(summary)
-    return found[1].to_dict() if found is not None else None
 
 
 def edit_note(before: LookParameters, after: LookParameters) -> str:

@@ -311,7 +311,7 @@ def look_geometry(store, capture: str, backend: str, mix: str, prompt: str):
 def kept_look_parameters(state: SceneState, prompt: str, backend: str) -> dict | None:
     """The scene's result's edited sliders where Generate makes the same world look again (services/look_edit)."""
     from ...lapig_core.export.result_files import read_summary
-    from .look_edit import parameters_for_generate
+    from .look_record import parameters_for_generate
 
     if not state.result_dir:
         return None

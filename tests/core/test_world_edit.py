@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """A world look's sliders (lapig_core/look_parameters) and its own time (lgst/world/moving): the plan's values draw
-the look as before, each slider changes it, a bad value is one line; frame 0 of a moving world look is the still look, a step of
-time a small change for every family, and a show moves it on its timeline."""
+the look as before, each slider changes it, a bad value is one line; frame 0 of a moving world look is the still
+look, a step of time a small change for every family, and a show moves it on its timeline."""
 import importlib.util
 import math
 

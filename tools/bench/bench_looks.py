@@ -20,7 +20,8 @@ Sheet: out/bench_looks/sheet.png (every prompt's target, its structure and its c
 slider_to_preview_seconds: one slider moved (Scale) -> the look's new preview image at 800 x 600, as the Stylize
 panel's sliders make it (services/look_edit.remake: the look drawn again from its record, no prompt model, no PSA,
 then compensated by the first look's classical model at that size), on a capture of the device check's rig
-(the device check's fake rig captured with an 800 x 600 projector, 8 pairs); slider_to_preview_changed says the image did change (mean absolute difference).
+(the device check's fake rig captured with an 800 x 600 projector, 8 pairs); slider_to_preview_changed says the image
+did change (mean absolute difference).
 
 --psa: also `psa_gain_db` per family: on the device check's capture (tools/bench/fixtures/device_check, the fake
 rig's, 128 x 96) with the pretrained networks and the per-pixel model's choice, as the app's first Generate,
@@ -391,4 +392,5 @@ def run(args) -> dict:
             if rendered else None,
             "families": families, "per_prompt": per_prompt, "wall_self_structure": round(wall_structure, 4),
             "sheet": sheet(rendered, os.path.join(out, "sheet.png")),
-            **unseen, **psa, **slider, "bench_total_s": round(time.perf_counter() - t0, 1), "machine": platform.processor() or platform.machine()}
+            **unseen, **psa, **slider, "bench_total_s": round(time.perf_counter() - t0, 1),
+            "machine": platform.processor() or platform.machine()}

@@ -103,6 +103,55 @@ class LAPIG_OT_generate(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
             self.report({"INFO"}, "Generated: " + job.result["summary_line"])
 
 
+def _look_edit():
+    require("torch")
+    from ..lapig_addon.services import look_edit
+
+    return look_edit
+
+
+class LAPIG_OT_edit_look(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
+    """Draw the world look again with the sliders' values and compensate it (no new prompt, no Train)"""
+    bl_idname = "lapig.edit_look"
+    bl_label = "Update Look"
+    reset: bpy.props.BoolProperty(name="Reset", default=False, options={"SKIP_SAVE"},
+                                  description="Back to the values the prompt gave")
+
+    def make_job(self, context):
+        scene = context.scene
+        changes = {} if self.reset else scene_state.look_slider_values(scene)
+        job = _look_edit().EditLookJob(scene_seams(scene), changes, reset=self.reset)
+        job.check()  # a bad value or a look without sliders: one line, before any work
+        return job
+
+    def on_done(self, context, job):
+        if job.result:
+            self.report({"INFO"}, "Look: " + job.result["summary_line"])
+            result_preview.apply_mode(context.scene, context.scene.lapig.preview_mode, report=None)
+
+
+class LAPIG_OT_look_nodes(NeedsTorch, ReportsErrors, bpy.types.Operator):
+    """Make the world look a shader node group (Noise, Voronoi, Brick or Wave with the sliders' values, its colour
+    ramp) and add it to the object's material, for the node editor"""
+    bl_idname = "lapig.look_nodes"
+    bl_label = "Look as Node Group"
+
+    def execute(self, context):
+        from ..lapig_addon.blender import look_nodes
+        from ..lapig_core.export.result_files import read_summary
+
+        scene = context.scene
+        state = scene_state.read(scene)
+        blocker = panel_state.result_blocker(state)
+        if blocker:
+            raise ValueError(blocker)
+        group = look_nodes.build_group(_look_edit().node_recipe_of(read_summary(state.result_dir)))
+        node = look_nodes.add_to_material(scene_state.rig_objects(scene)[2], group)
+        where = f"added to the material '{node.id_data.name}'" if node is not None else "in the file's node groups"
+        self.report({"INFO"}, f"Node group '{group.name}' {where}")
+        return {"FINISHED"}
+
+
 class LAPIG_OT_render_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     """Project the generated image with Cycles and capture it, to see the real result"""
     bl_idname = "lapig.render_result"
@@ -244,7 +293,7 @@ class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
 
 
 CLASSES = (LAPIG_OT_train_models, LAPIG_OT_train_background, LAPIG_OT_cancel_background_train,
-           LAPIG_OT_generate, LAPIG_OT_render_result, LAPIG_OT_refine_result,
+           LAPIG_OT_generate, LAPIG_OT_edit_look, LAPIG_OT_look_nodes, LAPIG_OT_render_result, LAPIG_OT_refine_result,
            LAPIG_OT_preview_mode,
            LAPIG_OT_show_comparison, LAPIG_OT_export_image, LAPIG_OT_export_mpcdi, LAPIG_OT_export_crossfade)
 

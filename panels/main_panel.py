@@ -369,6 +369,25 @@ class LAPIG_PT_stylize(LapigPanel, bpy.types.Panel):
         row.scale_y = 1.4
         row.enabled = not blocked and not _job_running()
         row.operator("lapig.generate", icon="BRUSH_DATA")
+        if scene_state.look_sliders_shown(context.scene):
+            _look_sliders(layout, s)
+
+
+def _look_sliders(layout, s):
+    """A world look's few parameters (lapig_core/look_parameters): a change makes the look again once the slider
+    rests (blender/look_sliders), without a new prompt."""
+    from ..lapig_core.look_parameters import PARAMETERS
+
+    box = layout.box()
+    box.label(text="Look", icon="TEXTURE")
+    col = box.column(align=True)
+    for p in PARAMETERS:
+        col.prop(s, f"look_{p.name}")
+    row = box.row(align=True)
+    row.enabled = not _job_running()
+    row.operator("lapig.edit_look", icon="FILE_REFRESH")
+    row.operator("lapig.edit_look", text="Reset", icon="LOOP_BACK").reset = True
+    box.operator("lapig.look_nodes", icon="NODETREE")
 
 
 class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):

@@ -17,6 +17,7 @@ _MODULES = (
     "...panels",
     ".live_devices",
     ".modal_runner",
+    ".look_sliders",
     ".show_timeline",
     "..cli.blender_command",
 )

@@ -175,6 +175,8 @@ SHOW_MOTIONS = [
     ("rise", "Rise", "A wave rises through the look"),
     ("pulse", "Pulse", "The look's strength pulses"),
     ("colour_cycle", "Colour cycle", "The look's colours cycle"),
+    ("world", "Its own time", "A look of the world moves by itself: water flows, fire flickers, clouds drift, "
+                              "plants sway (at its Speed slider; Amount 0.5 is that speed)"),
 ]
 
 
@@ -370,6 +372,30 @@ class LapigSceneSettings(bpy.types.PropertyGroup):
     job_progress: FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR")
     job_message: StringProperty(name="Status")
 
+
+def _look_slider_changed(self, context):
+    from . import look_sliders
+
+    look_sliders.slider_changed(context)
+
+
+def _look_slider_properties() -> dict:
+    """A world look's sliders (lapig_core/look_parameters) as look_<name>, their ranges from services/limits."""
+    from ...lapig_core.look_parameters import PARAMETERS, LookParameters
+
+    props, defaults = {}, LookParameters()
+    for p in PARAMETERS:
+        kind = IntProperty if p.integer else FloatProperty
+        extra = {} if p.integer else {"step": p.step * 100, "precision": 2 if p.step < 1 else 0}
+        props[f"look_{p.name}"] = kind(name=p.label, description=p.tip, default=getattr(defaults, p.name),
+                                       **LIMITS[f"look_{p.name}"].bounds(), update=_look_slider_changed, **extra)
+    props["look_sliders_result"] = StringProperty(
+        name="Sliders' result", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS,
+        description="The result whose world look the sliders show ('' when it has none)")
+    return props
+
+
+LapigSceneSettings.__annotations__.update(_look_slider_properties())
 
 CLASSES = (LapigProjectorSettings, LapigCameraSettings, LapigRealRigSettings, LapigExtraProjector, LapigShowLook,
            LapigSceneSettings)

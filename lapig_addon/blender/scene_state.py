@@ -381,6 +381,41 @@ def record_result(scene, folder, summary_line: str, reach_message: str = ""):
     s.result_dir, s.result_summary = storage.stored_path(folder), summary_line
     s.result_reach_message = reach_message
     s.result_fingerprint = read_rig(scene).fingerprint
+    record_look_sliders(scene, folder)  # a world look's sliders follow its result
+
+
+def look_slider_values(scene) -> dict:
+    """The world look's sliders as the panel holds them ({name: value}, lapig_core/look_parameters)."""
+    from ...lapig_core.look_parameters import PARAMETERS
+
+    return {p.name: getattr(scene.lapig, f"look_{p.name}") for p in PARAMETERS}
+
+
+def look_sliders_shown(scene) -> bool:
+    """Whether the sliders stand for the scene's result (a world look's; set by record_look_sliders)."""
+    s = scene.lapig
+    return bool(s.look_sliders_result) and s.look_sliders_result == s.result_dir
+
+
+def record_look_sliders(scene, folder) -> None:
+    """The sliders set to the world look of the result in `folder` (result.json's lgst.look_parameters), without
+    running their update (which would make it again); none shown for a look of another kind."""
+    import json
+
+    s = scene.lapig
+    try:
+        with open(os.path.join(folder, "result.json"), encoding="utf-8") as f:
+            values = (json.load(f).get("lgst") or {}).get("look_parameters")
+    except (OSError, ValueError):
+        values = None
+    if not isinstance(values, dict):
+        s.look_sliders_result = ""
+        return
+    for name, value in values.items():
+        key = f"look_{name}"
+        if key in s.bl_rna.properties:
+            s[key] = int(value) if s.bl_rna.properties[key].type == "INT" else float(value)
+    s.look_sliders_result = storage.stored_path(folder)
 
 
 def record_preview_mode(scene, mode: str):

@@ -23,7 +23,7 @@ from ...lapig_core.pipeline import (as_image, first_look_models, output_at, save
 from ...lapig_core.photometric import first_look
 from ...lapig_core.psa.adaptation import PSASettings, loss_maps
 from ...lapig_core.export.result_files import (as_stored, folder_name, heat_overlay, look_state_files,
-                                               write_new_result)
+                                               read_summary, write_new_result)
 from . import panel_state, warmup
 from .export_result import result_frame
 from .jobs import THREAD_PREFIX, WorkerJob
@@ -72,6 +72,19 @@ def look_geometry(store, capture: str, backend: str, mix: str, prompt: str, dept
     return geometry if geometry is not None else "capture"
 
 
+def kept_look_parameters(state, prompt: str, backend: str) -> dict | None:
+    """The scene's result's edited sliders where Generate makes the same world look again (services/look_edit)."""
+    from .look_record import parameters_for_generate
+
+    if not state.result_dir:
+        return None
+    try:
+        summary = read_summary(state.result_dir)
+    except (OSError, ValueError):
+        return None
+    return parameters_for_generate(summary, prompt, backend)
+
+
 class GenerateJob(WorkerJob):
     """Prompt -> the look (with and without PSA) -> each projector's compensated image."""
 
@@ -107,8 +120,12 @@ class GenerateJob(WorkerJob):
             if r.backend != backend:
                 notes.append(f"a style image is chosen: the look comes from it ('{backend}' backend), "
                              f"not from '{r.backend}'")
+        options = r.backend_options()
+        kept = None if mix else kept_look_parameters(state, prompt, backend)
+        if kept is not None:  # the same prompt again: the sliders as the artist left them
+            options["look_parameters"] = kept
         job = {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend,
-               "backend_options": r.backend_options(), "mix": mix or None, "psa": r.psa, "seed": r.seed,
+               "backend_options": options, "mix": mix or None, "psa": r.psa, "seed": r.seed,
                "settings": PSASettings(adaptation=r.adaptation, seed=r.seed),
                "results": self.result_root or os.path.join(store.data_root(), "results"),
                "name": folder_name(prompt or mix or style_name(r.style_images), datetime.datetime.now())}

@@ -51,6 +51,16 @@ LIMITS = {  # keyed by the scene property's name (blender/properties.py) where t
 }
 
 
+def _look_sliders() -> dict:
+    """A world look's sliders (lapig_core/look_parameters: plain Python, no torch), as scene properties look_<name>."""
+    from ...lapig_core.look_parameters import PARAMETERS
+
+    return {f"look_{p.name}": Limit(p.label, p.low, p.high) for p in PARAMETERS}
+
+
+LIMITS.update(_look_sliders())
+
+
 def first_problem(values: dict) -> str:
     """The first setting (LIMITS name -> value) out of its range, said ('' when all are in)."""
     for name, value in values.items():

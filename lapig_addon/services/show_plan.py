@@ -13,7 +13,7 @@ import os
 from dataclasses import dataclass, field, replace
 
 TRANSITIONS = ("dissolve", "morph")
-MOTIONS = ("none", "drift", "rise", "pulse", "colour_cycle")
+MOTIONS = ("none", "drift", "rise", "pulse", "colour_cycle", "world")  # world: a world look's own time
 MARKER_NAME_MAX = 63  # Blender keeps 63 characters of a marker's name
 
 

@@ -45,6 +45,16 @@ def stylize_mix(surface: torch.Tensor, mix, internal_size: int = 512, blend: flo
     return (1.0 - blend) * styled + blend * surface
 
 
+def look_record(plan) -> dict:
+    """What rebuilds a world look without the prompt model (result.json's lgst.look_record): the composition by
+    its materials' names, the colours each layer takes, the texture and the mood."""
+    entry = getattr(plan, "entry", None)
+    return {"world": plan.world.to_dict(), "texture": plan.texture or (entry.texture if entry is not None else None),
+            "mood": plan.mood or (entry.mood if entry is not None else None),
+            "colour_layers": {str(k): [list(map(float, c)) for c in v]
+                              for k, v in (plan.world_colour_layers or {}).items()}}
+
+
 class StyleTransferBackend(ThetaBackend):
     """Offline backend: MiniLM picks a style mix for the prompt, the torch style net renders it."""
 
@@ -52,7 +62,7 @@ class StyleTransferBackend(ThetaBackend):
 
     def __init__(self, internal_size: int = 512, blend: float = 0.15, top_k: int = 3,
                  temperature: float | None = None, jitter: float = 0.0, effects: str | list = "auto",
-                 looks: bool = True, geometry=None):
+                 looks: bool = True, geometry=None, look_parameters: dict | None = None):
         """internal_size: the style net's working resolution (its styles were trained near 512 px).
         blend: share of the input surface mixed back in, so the content stays recognisable.
         jitter: std of seeded noise added to theta at prepare (0 = the mix exactly; >0 for PSA restarts).
@@ -60,6 +70,8 @@ class StyleTransferBackend(ThetaBackend):
         looks: False maps prompts to the 26 styles only (no looks, colours or moods), as before.
         geometry: the object as the projector sees it (world.geometry.LookGeometry, at any size): the looks of the
         world follow it (crevices, tops, downhill, metres); None: the image alone, as before.
+        look_parameters: a world look's sliders as result.json keeps them (look_parameters.LookParameters' dict;
+        keys it lacks: the plan's); ValueError with one line for a bad one. Other looks have none.
         """
         if not 0.0 <= blend <= 1.0:
             raise ValueError(f"blend must be in [0, 1], got {blend}")
@@ -67,6 +79,7 @@ class StyleTransferBackend(ThetaBackend):
         self.temperature, self.jitter, self.effects_spec = temperature, float(jitter), effects
         self.looks = bool(looks)
         self.geometry = geometry
+        self.look_parameters = dict(look_parameters or {})
         self._theta: list[torch.Tensor] = []
         self._anchor: list[torch.Tensor] = []
         self._stages: list = []
@@ -140,7 +153,7 @@ class StyleTransferBackend(ThetaBackend):
         gen = torch.Generator().manual_seed(int(seed))
         if plan.medium_kind == "style":
             self._prepare_style_net(plan.styles, gen)
-        self._stages = self._build_stages(plan, seed, self.geometry)
+        self._stages = self._build_stages(plan, seed, self.geometry, self.look_parameters)
         for stage in self._stages:
             for key, value, scale in stage.tensors():
                 self._add_theta(value.to(self.surface.device), gen, scale)
@@ -153,6 +166,10 @@ class StyleTransferBackend(ThetaBackend):
                       "understood": plan.understood(), "understood_line": plan.summary(),
                       "internal_size": self.internal_size, "blend": self.blend,
                       "theta_numel": sum(t.numel() for t in self._theta), "notes": notes}
+        controls = self.world_controls()
+        if controls is not None:  # the sliders, and what rebuilds the look without the prompt model
+            self._info["look_parameters"] = controls.look.to_dict()
+            self._info["look_record"] = look_record(plan)
         if self.geometry is not None and plan.medium_kind == "world":  # what shaped the look, and from what
             self._info["geometry"] = self.geometry.to_dict()
             if self.geometry.note:
@@ -181,8 +198,41 @@ class StyleTransferBackend(ThetaBackend):
             for t in params[name]:
                 self._add_theta(t, gen, None)  # CIN tensors: relative distance (None)
 
+    def world_controls(self):
+        """The world stage's sliders and clock (world/stage.WorldControls), or None for a look of another kind."""
+        return next((st.world for st in self._stages if hasattr(st, "world")), None)
+
+    def prepare_from_record(self, surface, record: dict, prompt: str = "", seed: int = 0):
+        """prepare() for a world look from its result's record (look_record), without the prompt model: the
+        composition, its colours, texture and mood as the plan chose them; the sliders from look_parameters."""
+        from .prompt_plan import PromptPlan
+        from .world.compose import Composition
+
+        if surface.ndim != 4 or surface.shape[:2] != (1, 3):
+            raise ValueError(f"surface must be (1,3,H,W), got {tuple(surface.shape)}")
+        plan = PromptPlan(prompt=prompt, embedder="", medium_kind="world",
+                          world=Composition.from_dict(record["world"]),
+                          world_colour_layers={int(k): [tuple(c) for c in v]
+                                               for k, v in (record.get("colour_layers") or {}).items()},
+                          texture=record.get("texture"), mood=record.get("mood"))
+        self._effects = effects_for_prompt(prompt) if self.effects_spec == "auto" else list(self.effects_spec or [])
+        self.plan = plan
+        self.surface = surface.detach().float().clamp(0, 1)
+        self.size = tuple(self.surface.shape[-2:])
+        self._layers, self._theta, self._anchor, self._scales = [], [], [], []
+        gen = torch.Generator().manual_seed(int(seed))
+        self._stages = self._build_stages(plan, seed, self.geometry, self.look_parameters)
+        for stage in self._stages:
+            for key, value, scale in stage.tensors():
+                self._add_theta(value.to(self.surface.device), gen, scale)
+                stage.params[key] = self._theta[-1]
+        self._info = {"backend": self.name, "prompt": prompt, "seed": int(seed), "styles": [],
+                      "looks": [st.label() for st in self._stages], "effects": [e.label() for e in self._effects],
+                      "look_parameters": self.world_controls().look.to_dict(), "look_record": dict(record),
+                      "theta_numel": sum(t.numel() for t in self._theta), "notes": []}
+
     @staticmethod
-    def _build_stages(plan, seed: int = 0, geometry=None) -> list:
+    def _build_stages(plan, seed: int = 0, geometry=None, look_parameters: dict | None = None) -> list:
         """The look chain after the medium: the look medium, the named colours, the texture, the mood."""
         from .looks import BY_NAME, palette_stage
 
@@ -198,9 +248,12 @@ class StyleTransferBackend(ThetaBackend):
             rgb = [c.rgb for c in plan.entry_colours] if strength > 0 else None
         stages = []
         if plan.medium_kind == "world":  # the world composition makes its own colours (the named ones recolour it)
+            from ..look_parameters import LookParameters
             from .world.stage import world_stage
 
-            stages.append(world_stage(plan.world, plan.world_colour_layers or None, seed=seed, geometry=geometry))
+            look = LookParameters.from_dict(look_parameters, LookParameters.from_plan(plan.world, seed))
+            stages.append(world_stage(plan.world, plan.world_colour_layers or None, seed=seed, geometry=geometry,
+                                      look=look))
             rgb = None
         medium = BY_NAME.get(plan.look) if plan.medium_kind == "look" else None
         if medium is not None:

@@ -33,6 +33,7 @@ references, render_at, the field with the working frame's guide) and compensated
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -176,7 +177,8 @@ def look_from_result(look, models, cancel_event=None, fingerprint: str | None = 
     keyed = keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
                                    psa=record["psa"],
                                    psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
-                                   state=state, cancel_event=cancel_event, surface=surface)
+                                   state=state, cancel_event=cancel_event, surface=surface,
+                                   look_parameters=record.get("look_parameters"))
     keyed.offset = refine_offset(folder) if folder.exists() else None
     if keyed.offset is not None and tuple(keyed.offset.shape[-2:]) != tuple(models.s.shape[-2:]):
         keyed.offset = None  # refined at another working frame: not this capture's correction
@@ -185,14 +187,16 @@ def look_from_result(look, models, cancel_event=None, fingerprint: str | None = 
 
 def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix=None, psa: bool = True,
                            psa_settings: PSASettings | None = None, state: dict | None = None,
-                           cancel_event=None, surface: torch.Tensor | None = None) -> KeyedLook:
+                           cancel_event=None, surface: torch.Tensor | None = None,
+                           look_parameters: dict | None = None) -> KeyedLook:
     """The look of a prompt on this surface as Generate makes it: the backend prepared on the white-lit
     surface (`surface`, (1,3,H,W) at the working frame; default the models' I+), then `state` loaded (theta and
-    the tone field) or PSA run with `psa_settings`."""
-    from ..lgst import prepared_backend
+    the tone field) or PSA run with `psa_settings`. look_parameters: a world look's edited sliders (result.json's)."""
+    from ..lgst import DEFAULT_BACKEND, prepared_backend
     from ..pipeline import with_device
 
-    options = with_device(backend, None, models.device)
+    options = with_device(backend, {"look_parameters": look_parameters}
+                          if look_parameters and backend == DEFAULT_BACKEND else None, models.device)
     lgst, _ = prepared_backend(backend, models.i_max if surface is None else surface, prompt, seed=seed, mix=mix,
                                options=options)
     adapted = AdaptedLook(lgst, models.i_min, models.i_max)
@@ -204,6 +208,28 @@ def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix
     with torch.no_grad():
         base = lgst.forward().detach()
     return KeyedLook(lgst, adapted.state(), base, getattr(lgst, "name", ""))
+
+
+@contextlib.contextmanager
+def world_time(keyed: KeyedLook, motion, t: float, index: int = 0):
+    """The keyed world look's stage set to time `t` of `motion` for a moment (the 'world' motion: the look's own
+    time, water flowing, fire flickering; amount 0.5 runs at the look's Speed slider, 1 twice as fast)."""
+    from ..lgst.world.moving import Clock
+
+    controls = keyed.backend.world_controls() if hasattr(keyed.backend, "world_controls") else None
+    if controls is None:
+        raise ShowError(f"look {index + 1}: the 'world' motion moves a look of the world (a material, a plant, "
+                        "water, fire, the sky); give this look another motion")
+    controls.clock = Clock(float(t), float(motion.period_s), controls.look.speed * 2.0 * float(motion.amount))
+    try:
+        yield
+    finally:
+        controls.clock = None
+
+
+@contextlib.contextmanager
+def _nothing():
+    yield
 
 
 def _as_frame(t: torch.Tensor) -> np.ndarray:
@@ -432,9 +458,9 @@ class FrameMaker:
             motion = self.show.looks[i].motion
             params = self._params.get(key) if not adapt else None
             if params is None:
-                working = apply_motion(self.keyed(i).base, motion, t)
+                working = self._moved(i, t, at_output=False)
                 params = self.adapt(working, self._field_of(i)) if adapt else self._field_of(i)
-            return apply_motion(self.base(i), motion, t), params
+            return self._moved(i, t, at_output=True), params
         if kind == "morph":
             i, j, w = key[1], key[2], key[3]
             params = self._params.get(key) if not adapt else None
@@ -448,15 +474,31 @@ class FrameMaker:
             return (working if working is not None else self._morph_image(i, j, w, None)), params
         raise ShowError(f"no recipe for a {kind} frame")
 
+    def _moved(self, i: int, t: float, at_output: bool) -> torch.Tensor:
+        """Look i's image moved to `t` seconds, at the working frame or at the output size: a world look drawn
+        again at that time (the 'world' motion), any other look's image moved by its preset."""
+        motion = self.show.looks[i].motion
+        if motion.preset != "world":
+            return apply_motion(self.base(i) if at_output else self.keyed(i).base, motion, t)
+        keyed = self.keyed(i)
+        with world_time(keyed, motion, t, i):
+            with torch.no_grad():
+                return (keyed.backend.render_at(self.white) if at_output and self.native
+                        else keyed.backend.forward()).detach()
+
     def _morph_image(self, i, j, w, surface):
         """The in-between image; a moving look stands where its hold leaves it (look i at the end of its hold,
         look j at its start), so the morph starts and lands on the frames beside it."""
         end_t = self.schedule.hold_end_t(i)
-        move_a = (lambda x: apply_motion(x, self.show.looks[i].motion, end_t)) if self.show.looks[i].motion else None
-        move_b = (lambda x: apply_motion(x, self.show.looks[j].motion, 0.0)) if self.show.looks[j].motion else None
+        motion_a, motion_b = self.show.looks[i].motion, self.show.looks[j].motion
+        world_a = motion_a is not None and motion_a.preset == "world"
+        move_a = (lambda x: apply_motion(x, motion_a, end_t)) if motion_a and not world_a else None
+        move_b = (lambda x: apply_motion(x, motion_b, 0.0)) if motion_b and motion_b.preset != "world" else None
         native = surface is not None
-        return morph_base(self.keyed(i), self.keyed(j), w, surface, base_a=self.base(i) if native else None,
-                          base_b=self.base(j) if native else None, move_a=move_a, move_b=move_b)
+        base_a = self._moved(i, end_t, at_output=True) if world_a and native else (self.base(i) if native else None)
+        with world_time(self.keyed(i), motion_a, end_t, i) if world_a else _nothing():  # a world look at its end
+            return morph_base(self.keyed(i), self.keyed(j), w, surface, base_a=base_a,
+                              base_b=self.base(j) if native else None, move_a=move_a, move_b=move_b)
 
     def _compensated_dissolve(self, key: tuple) -> np.ndarray:
         """The dissolve's frame compensated as a target of its own: the two ends' targets mixed in linear

@@ -81,7 +81,10 @@ def read_result_record(folder) -> dict:
     return {"prompt": summary.get("prompt", ""), "backend": summary.get("backend") or "styletransfer",
             "seed": int(summary.get("seed") or 0), "mix": summary.get("style_mix_override"),
             "psa": bool(psa), "psa_settings": settings,
-            "dark_outside": bool(summary.get("dark_outside", False)), "fingerprint": summary.get("fingerprint")}
+            "dark_outside": bool(summary.get("dark_outside", False)), "fingerprint": summary.get("fingerprint"),
+            # a world look's sliders as the artist left them (lapig_core/look_parameters), and what rebuilds it
+            "look_parameters": (summary.get("lgst") or {}).get("look_parameters"),
+            "look_record": (summary.get("lgst") or {}).get("look_record")}
 
 
 def refine_offset(folder) -> torch.Tensor | None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-MOTION_PRESETS = ("drift", "rise", "pulse", "colour_cycle")
+MOTION_PRESETS = ("drift", "rise", "pulse", "colour_cycle", "world")  # world: a world look's own time
 TRANSITION_KINDS = ("dissolve", "morph")
 
 

@@ -5,6 +5,8 @@
     rise          a soft band of light rises over the object (the rest dimmed) and wraps round
     pulse         the light breathes: dimmed and back, in linear light
     colour_cycle  the hues swing round the grey axis and back (a rotation in linear RGB)
+    world         a look of the world's own time (lgst/world/moving: water flows, fire flickers): not an image
+                  op; frames.py draws the look again at t (frames.world_time)
 
 Each acts on the look's image, before its tone field, by differentiable image ops; not on theta.
 Why the image: theta means something different in every backend (a style network's normalisation, a
@@ -98,7 +100,7 @@ PRESETS = {"drift": drift, "rise": rise, "pulse": pulse, "colour_cycle": colour_
 
 def apply_motion(image: torch.Tensor, motion, t: float) -> torch.Tensor:
     """`image` (1,3,H,W) in [0, 1] moved by `motion` (model.Motion) at `t` seconds; None: unchanged."""
-    if motion is None:
+    if motion is None or motion.preset == "world":  # a world look's own time: frames.py draws it again at t
         return image
     phase = (float(t) / float(motion.period_s)) % 1.0
     return PRESETS[motion.preset](image, float(motion.amount), phase).clamp(0, 1)

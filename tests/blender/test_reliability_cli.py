@@ -378,10 +378,12 @@ def test_an_unexpected_error_in_an_operator_is_one_line(project, monkeypatch, ca
 
 def test_the_panel_properties_have_the_ranges_the_command_line_checks(lapig_registered):
     from lapig.lapig_addon.services.limits import LIMITS
+    from lapig.lapig_core.look_parameters import PARAMETERS
 
     properties = bpy.context.scene.lapig.bl_rna.properties
     shared = [name for name in LIMITS if name in properties]
-    assert len(shared) == 12  # every ranged scene setting (crossfade_fps: the live crossfade); a rename shows here
+    # every ranged scene setting (crossfade_fps: the live crossfade) and a world look's sliders; a rename shows here
+    assert len(shared) == 12 + len(PARAMETERS)
     for name in shared:
         limit = LIMITS[name]
         assert properties[name].hard_min == pytest.approx(limit.low), name

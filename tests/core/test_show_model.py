@@ -50,4 +50,4 @@ def test_malformed_data_is_refused_not_run():
         Show.from_dict({"fps": 30, "looks": [{"prompt": "no result key"}], "transitions": []})
     with pytest.raises(ShowError, match="JSON object"):
         Show.from_dict(["not", "a", "show"])
-    assert set(model.MOTION_PRESETS) == {"drift", "rise", "pulse", "colour_cycle"}
+    assert set(model.MOTION_PRESETS) == {"drift", "rise", "pulse", "colour_cycle", "world"}

@@ -17,6 +17,12 @@ level of 0.02), at 320 x 240.
       white-lit surface at that size), over the prompts.
 Sheet: out/bench_looks/sheet.png (every prompt's target, its structure and its checks).
 
+slider_to_preview_seconds: one slider moved (Scale) -> the look's new preview image at 800 x 600, as the Stylize
+panel's sliders make it (services/look_edit.remake: the look drawn again from its record, no prompt model, no PSA,
+then compensated by the first look's classical model at that size), on a capture of the device check's rig
+(the device check's fake rig captured with an 800 x 600 projector, 8 pairs); slider_to_preview_changed says the image
+did change (mean absolute difference).
+
 --psa: also `psa_gain_db` per family: on the device check's capture (tools/bench/fixtures/device_check, the fake
 rig's, 128 x 96) with the pretrained networks and the per-pixel model's choice, as the app's first Generate,
 every prompt stylized without PSA and with it (the app's settings, the iteration cap at 20), and the gain of the
@@ -305,6 +311,40 @@ def psa_gains(cases: list[Case], out: str) -> dict:
             "psa_iterations_cap": PSA_ITERATIONS}
 
 
+SLIDER_PROMPT = "old cobblestones"
+SLIDER_SIZE = (800, 600)
+
+
+def slider_to_preview(out: str) -> dict:
+    """One slider change -> the new preview image at 800 x 600 (module docstring), timed; bpy-free."""
+    import tempfile
+
+    from ...lapig_addon.services.look_edit import remake
+    from ...lapig_core.capture.dataset import load_capture_set
+    from ...lapig_core.look_parameters import LookParameters
+    from ...lapig_core.photometric.classical import ClassicalModel
+    from ...lapig_core.pipeline import first_look_models, stylize
+    from .device_fixture import make_fixture
+
+    with tempfile.TemporaryDirectory() as folder:  # the capture, and a result folder without look_state.npz
+        setup = make_fixture(Path(folder) / "capture", train=8, test=0, projector=SLIDER_SIZE, camera=(400, 300))
+        cs = load_capture_set(str(setup))
+        models = first_look_models(cs, ClassicalModel.fit(cs.prj_train, cs.cam_train))
+        res = stylize(cs, models, SLIDER_PROMPT, psa=False, seed=0)
+        summary = {"prompt": SLIDER_PROMPT, "backend": "styletransfer", "seed": 0, "lgst": res.describe}
+        start = LookParameters.from_dict(res.describe["look_parameters"])
+        before = remake(summary, folder, cs, models, start, SLIDER_SIZE)
+        t = time.perf_counter()
+        after = remake(summary, folder, cs, models, start.edited({"scale": 1.6}), SLIDER_SIZE)
+        seconds = time.perf_counter() - t
+    a, b = before["images"]["projector_native"], after["images"]["projector_native"]
+    return {"slider_to_preview_seconds": round(seconds, 3), "slider_to_preview_size": list(SLIDER_SIZE),
+            "slider_to_preview_prompt": SLIDER_PROMPT, "slider_to_preview_shape": list(a.shape),
+            "slider_to_preview_changed": round(float(np.abs(after["images"]["target_native"]
+                                                            - before["images"]["target_native"]).mean()), 4),
+            "slider_to_preview_projector_changed": round(float(np.abs(a - b).mean()), 4)}
+
+
 def run(args) -> dict:
     import torch
 
@@ -332,6 +372,7 @@ def run(args) -> dict:
         f["checks_pass"] += all(v["pass"] for v in r.checks.values())
     out = os.path.abspath(getattr(args, "out", None) or "out/bench_looks")
     psa = psa_gains(cases, out) if getattr(args, "psa", False) else {}
+    slider = slider_to_preview(out)
     held_back = [r for r in rendered if r.case.unseen]
     unseen = {} if not held_back else {
         "unseen_prompts": len(held_back),
@@ -351,4 +392,5 @@ def run(args) -> dict:
             if rendered else None,
             "families": families, "per_prompt": per_prompt, "wall_self_structure": round(wall_structure, 4),
             "sheet": sheet(rendered, os.path.join(out, "sheet.png")),
-            **unseen, **psa, "bench_total_s": round(time.perf_counter() - t0, 1), "machine": platform.processor() or platform.machine()}
+            **unseen, **psa, **slider, "bench_total_s": round(time.perf_counter() - t0, 1),
+            "machine": platform.processor() or platform.machine()}

@@ -22,8 +22,9 @@ PRUNED = ("cam/raw/train", "cam/raw/test", "cam/raw/sl")
 
 
 def make_fixture(root=FIXTURE, working_size: int = WORKING_SIZE, train: int = TRAIN, test: int = TEST,
-                 seed: int = 0) -> Path:
-    """Capture the fake rig into `root` (replaced) and prune it; returns the setup's folder."""
+                 seed: int = 0, projector=PROJECTOR, camera=CAMERA) -> Path:
+    """Capture the fake rig into `root` (replaced) and prune it; returns the setup's folder (projector, camera:
+    other sizes, as bench looks' slider figure takes an 800 x 600 projector)."""
     from ...lapig_core.capture.fake_device import FakeDevice
     from ...lapig_core.capture.sequence import GeometryChecks, run_capture
     from ...lapig_core.capture.settings import CaptureSettings
@@ -31,7 +32,7 @@ def make_fixture(root=FIXTURE, working_size: int = WORKING_SIZE, train: int = TR
     root = Path(root)
     if root.exists():
         shutil.rmtree(root)
-    device = FakeDevice(projector_size=PROJECTOR, camera_size=CAMERA, seed=seed)
+    device = FakeDevice(projector_size=tuple(projector), camera_size=tuple(camera), seed=seed)
     settings = CaptureSettings(out_dir=str(root), setup_name=SETUP, train_count=train, test_count=test,
                                working_size=working_size, chunk=8, seed=seed)
     checks = GeometryChecks(coverage=device.coverage, exact_projector_to_camera=device.exact_projector_to_camera)

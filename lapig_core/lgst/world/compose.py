@@ -58,6 +58,24 @@ class Composition:
                 "words": [[w, what] for w, what in self.words]}
 
 
+    @classmethod
+    def from_dict(cls, d: dict) -> "Composition":
+        """The composition a to_dict() describes (its materials by name); ValueError naming an unknown one."""
+        from .catalog import by_name
+
+        known = by_name()
+
+        def material(name):
+            if name not in known:
+                raise ValueError(f"the look names a material '{name}' this version does not have")
+            return known[name]
+
+        return cls(material(d["base"]), material(d["second"]) if d.get("second") else None,
+                   [material(n) for n in d.get("overlays") or []], float(d.get("scale", 1.0)),
+                   float(d.get("density", 0.0)), list(d.get("weathering") or []),
+                   [tuple(w) for w in d.get("words") or []])
+
+
 _TOKEN = re.compile(r"[^\W\d_]+(?:-[^\W\d_]+)*")
 
 

@@ -7,12 +7,17 @@ coverage, the dirt, and an exposure. The scale and the seed are not theta: PSA c
 coloured, not where its stones are."""
 from __future__ import annotations
 
+import math
+from dataclasses import replace
+
 import numpy as np
 import torch
 
 from ..looks.stage import Stage, tensor
-from . import cells, noise, shapes
+from . import cells, moving, noise, shapes
 from .catalog import Material
+from .moving import Clock
+from ...look_parameters import LookParameters
 from .compose import Composition
 from .patterns import PATTERNS, _smooth, _u01
 from .ramps import blackbody_colours, ramp
@@ -66,22 +71,61 @@ def named_stops(material: Material, colours: list) -> list:
     return base.clamp(0, 1).tolist()
 
 
-def _layer(material: Material, u, v, seed: int, scale: float, density: float, p: dict, key: str):
+def _distorted(u, v, features: float, seed: int, amount: float):
+    """The coordinates warped by noise at the pattern's own scale (Blender's Noise Distortion); 0: as they are."""
+    if not amount:
+        return u, v
+    k = max(features * 0.5, 1e-6)
+    du = noise.fbm(u * k + 5.3, v * k, seed + 401, 3)
+    dv = noise.fbm(u * k, v * k + 9.1, seed + 402, 3)
+    return u + amount * 0.5 * du / k, v + amount * 0.5 * dv / k
+
+
+def _layer(material: Material, u, v, seed: int, scale: float, density: float, p: dict, key: str,
+           look: LookParameters | None = None, clock: Clock | None = None):
+    look = look or LookParameters()
+    density = density + moving.density_offset(material, clock)  # what grows, grows over the loop
     options = dict(material.options)
     if "density" in options or material.pattern in ("leaves", "flowers", "drops", "snowflakes"):
         options["density"] = max(0.1, min(1.0, options.get("density", 0.8) + density))
     if "threshold" in options:  # denser: the pattern's patches grow
         options["threshold"] = options["threshold"] - 0.4 * density
-    f = PATTERNS[material.pattern](u, v, material.scale * scale, seed, options)
-    t = f["t"]
-    detail = options.get("detail", 0.18)
-    if detail:  # the material's own fine detail, in its own colours (pores, fibres, grains, flicker)
-        fine_scale = max(material.scale * scale * 8, 90.0)
-        t = t + detail * noise.fbm(u * fine_scale, v * fine_scale, seed + 97, 3) * (0.4 + t)
+    features = material.scale * scale
+    u, v = _distorted(u, v, features, seed, look.distortion)
+    detail = options.get("detail", 0.18) * look.detail
+    fields = []
+    for su, sv, weight in moving.samples(material, u, v, features, seed, clock):  # one, at rest
+        f = PATTERNS[material.pattern](su, sv, features, seed, options)
+        t = f["t"]
+        if detail:  # the material's own fine detail, in its own colours (pores, fibres, grains, flicker)
+            fine_scale = max(features * 8, 90.0)
+            t = t + detail * noise.fbm(su * fine_scale, sv * fine_scale, seed + 97, 3) * (0.4 + t)
+        fields.append((weight, t, f))
+    if len(fields) == 1:
+        _, t, f = fields[0]
+    else:  # a flow's two copies, faded into each other
+        t = sum(w * t for w, t, _ in fields)
+        f = {k: sum(w * g[k] for w, _, g in fields) for k in ("t", "light", "cover")}
     t = (0.5 + (t - 0.5) * p[f"{key}_contrast"]).clamp(0, 1)
     rgb = ramp(t, p[f"{key}_colours"].clamp(0, 1))
     light = 1 + p[f"{key}_relief"] * (f["light"] - 1)
+    sheen = moving.light(material, u, v, seed, clock)
+    if sheen is not None:  # light passing over it, or a fire's breath
+        light = light * sheen
     return rgb * light, f, t
+
+
+def hue_saturation(rgb: torch.Tensor, hue_degrees: float, saturation: float) -> torch.Tensor:
+    """(3, h, w) turned round the grey axis by `hue_degrees` and its colour scaled by `saturation` about its
+    luminance (Blender's Hue/Saturation node, in the look's own values); (0, 1): as it is."""
+    if hue_degrees:
+        from ...show.motion import hue_rotation
+
+        rgb = torch.einsum("ij,jhw->ihw", hue_rotation(math.radians(hue_degrees), rgb), rgb)
+    if saturation != 1.0:
+        lum = (rgb * torch.tensor([0.299, 0.587, 0.114], dtype=rgb.dtype, device=rgb.device).view(3, 1, 1)).sum(0)
+        rgb = lum + saturation * (rgb - lum)
+    return rgb
 
 
 GROWTH_PATTERNS = ("leaves", "clouds", "reaction", "grass")   # what grows: it starts in joints and crevices
@@ -142,19 +186,23 @@ def shaped_cover(overlay: Material, cover: torch.Tensor, geo: dict) -> torch.Ten
 
 
 def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=None, geometry=None,
-           geo: dict | None = None) -> torch.Tensor:
+           geo: dict | None = None, look: LookParameters | None = None, clock: Clock | None = None) -> torch.Tensor:
     """The composition at h x w, (1, 3, h, w) in 0..1; shaped by the object where `geometry` (geometry.LookGeometry,
-    as the projector sees the object) is given (geo: its maps at this size, made once by the stage)."""
+    as the projector sees the object) is given (geo: its maps at this size, made once by the stage).
+    look: the sliders (parameters.LookParameters; its scale, density and seed stand for the composition's and
+    `seed`); clock: the look's time (moving.Clock; None or t = 0: the still look)."""
+    if look is not None:
+        comp, seed = replace(comp, scale=look.scale, density=look.density), look.seed
     if geo is None and geometry is not None:
         geo = _geometry_maps(geometry, h, w, device)
     u, v = (geo["u"], geo["v"]) if geo is not None else coordinates(h, w, device)
-    out, base_f, base_t = _layer(comp.base, u, v, seed, comp.scale, comp.density, p, "base")
+    out, base_f, base_t = _layer(comp.base, u, v, seed, comp.scale, comp.density, p, "base", look, clock)
     if comp.second is not None:
-        second, _, _ = _layer(comp.second, u, v, seed + 7, comp.scale, comp.density, p, "second")
+        second, _, _ = _layer(comp.second, u, v, seed + 7, comp.scale, comp.density, p, "second", look, clock)
         mask = _smooth(0.42, 0.58, _u01(noise.fbm(u * 4, v * 4, seed + 61, 5, gain=0.6)))
         out = out * (1 - mask) + second * mask
     for i, overlay in enumerate(comp.overlays):
-        rgb, f, _ = _layer(overlay, u, v, seed + 11 + i, comp.scale, comp.density, p, f"overlay{i}")
+        rgb, f, _ = _layer(overlay, u, v, seed + 11 + i, comp.scale, comp.density, p, f"overlay{i}", look, clock)
         cover = f["cover"]
         if comp.base.pattern in ("masonry", "stones", "hex_tiles", "checker", "cracks") and overlay.pattern in (
                 "leaves", "clouds", "grass"):
@@ -168,8 +216,10 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
         out = out * (1 - amount) + rgb * amount
     grain = comp.base.options.get("grain", 0.35)
     if grain:  # grains, pores and fibres a few pixels across: cells of their own shade, not smooth noise
+        # it stays where it is while the look moves: a grain a few pixels across carried by a flow would shimmer
+        # from frame to frame at the working frame (cells finer than its pixels)
         fine = cells.worley(u * 150, v * 150, seed + 91, jitter=1.0).cell_id - 0.5
-        out = out * (1 + p["grain"] * grain * fine)
+        out = out * (1 + p["grain"] * grain * (look.roughness if look is not None else 1.0) * fine)
     if "dirt" in comp.weathering:
         grime = _u01(noise.fbm(u * 6, v * 6, seed + 71, 5))
         crevice = _smooth(0.4, 0.0, base_t)
@@ -183,12 +233,24 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
         out = (out.clamp(0, 1) ** 1.35) * 0.85 + 0.5 * glints
     if "glow" in comp.weathering:
         out = out * 1.25 + 0.1 * out ** 2
+    if look is not None:
+        out = hue_saturation(out, look.hue, look.saturation)
     return (out * p["exposure"]).clamp(0, 1).unsqueeze(0)
 
 
-def world_stage(comp: Composition, colours: list | None = None, seed: int = 0, geometry=None) -> Stage:
+class WorldControls:
+    """What a world stage draws besides theta, set between renders: the sliders and the look's time."""
+
+    def __init__(self, look: LookParameters, clock: Clock | None = None):
+        self.look, self.clock = look, clock
+
+
+def world_stage(comp: Composition, colours: list | None = None, seed: int = 0, geometry=None,
+                look: LookParameters | None = None) -> Stage:
     """The look Stage of a composition (named colours, if any, recolour the base), shaped by the object's
-    geometry (geometry.LookGeometry) where it is given."""
+    geometry (geometry.LookGeometry) where it is given; look: its sliders (None: the plan's, with `seed`).
+    stage.world (WorldControls) holds the sliders and the clock the stage draws with."""
+    controls = WorldControls(look or LookParameters.from_plan(comp, seed))
     params, scales = {}, {}
 
     def layer(key, material, named=None):
@@ -222,7 +284,9 @@ def world_stage(comp: Composition, colours: list | None = None, seed: int = 0, g
         if geometry is not None:
             key = (h, w, str(x.device))
             geo = maps.get(key) or maps.setdefault(key, _geometry_maps(geometry, h, w, x.device))
-        return render(comp, p, h, w, seed=seed, device=x.device, geo=geo)
+        return render(comp, p, h, w, seed=seed, device=x.device, geo=geo, look=controls.look, clock=controls.clock)
 
     note = comp.line() + (f"; shaped by the {geometry.source}" if geometry is not None else "")
-    return Stage("world", "medium", fn, params, scales, note=note)
+    stage = Stage("world", "medium", fn, params, scales, note=note)
+    stage.world = controls
+    return stage

@@ -178,6 +178,8 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
         out = out * (1 - p["dirt"] * (0.5 * grime + 0.6 * crevice)).clamp(0.2, 1)
     if "wet" in comp.weathering:
         glints = _smooth(0.82, 0.95, _u01(noise.fbm(u * 40, v * 40, seed + 81, 3)))
+        # a wet relief shines where it faces the light: the crowns of cobbles, the rims of scales
+        glints = torch.maximum(glints, 0.7 * _smooth(1.12, 1.3, base_f["light"]))
         if geo is not None:  # wet glints run down in drips
             glints = _smear_downhill(glints, geo["downhill"], steps=8)
         out = (out.clamp(0, 1) ** 1.35) * 0.85 + 0.5 * glints

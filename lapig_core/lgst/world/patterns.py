@@ -541,14 +541,24 @@ def reaction(u, v, s, seed, o):
 
 
 def cave_art(u, v, s, seed, o):
-    """Cave paintings: ochre and charcoal figures and hand stencils on rough limestone (t 0..0.5 rock,
-    above the paint)."""
-    rock = 0.2 + 0.3 * _u01(noise.fbm(u * s * 2, v * s * 2, seed + 51, 6))
-    figure = shapes.scatter(u * s * 0.7, v * s * 0.7, "leaf", seed + 5, density=0.55, size=1.3, turn=0.3)
-    hand = shapes.scatter(u * s * 1.1, v * s * 1.1, "flower", seed + 6, density=0.2, size=0.7)
-    paint = torch.maximum(figure["coverage"], hand["coverage"])
-    worn = _smooth(0.2, 0.6, _u01(noise.fbm(u * s * 5, v * s * 5, seed + 52, 3)))
-    return _out(rock * (1 - paint * worn) + paint * worn * (0.7 + 0.3 * figure["id"]))
+    """Cave paintings: bison and horses in red and yellow ochre, outlined in charcoal, hand stencils blown round in
+    ochre, and rows of dots, on rough limestone, worn away in places (t 0..0.5 the rock, above it the ochre)."""
+    rock = 0.12 + 0.38 * _u01(noise.fbm(u * s * 2, v * s * 2, seed + 51, 6, gain=0.6))
+    beasts = shapes.scatter(u * s * 0.8, v * s * 0.8, "beast", seed + 5, density=o.get("density", 0.7), size=1.0,
+                            turn=0.08, softness=0.02)
+    hands = shapes.scatter(u * s * 1.6, v * s * 1.6 + 0.5, "hand", seed + 6, density=0.25, size=0.8, turn=0.15,
+                           softness=0.03)
+    spray = shapes.scatter(u * s * 1.6, v * s * 1.6 + 0.5, "disc", seed + 6, density=0.25, size=1.1, turn=0.0,
+                           softness=0.12)["coverage"] * (1 - hands["coverage"])  # the ochre blown round the hand
+    dots = shapes.scatter(u * s * 9, v * s * 9, "disc", seed + 7, density=0.18, size=0.35, softness=0.08)["coverage"]
+    worn = _smooth(0.22, 0.42, _u01(noise.fbm(u * s * 6, v * s * 6, seed + 52, 4)))
+    body = beasts["coverage"]
+    outline = body * (1 - _smooth(0.0, 0.25, beasts["depth"]))  # the charcoal line round each animal
+    paint = torch.maximum(torch.maximum(body, 0.85 * spray), 0.9 * dots) * worn
+    ochre = 0.78 + 0.22 * torch.where(body > 0.5, beasts["id"], torch.full_like(body, 0.3))  # red to yellow
+    t = rock * (1 - paint) + paint * ochre
+    light = 1 - 0.8 * outline * worn
+    return _out(t, light)
 
 
 PATTERNS = {f.__name__: f for f in (speckle, veins, strata, stones, cracks, clouds, mud, drifts, turbulent, ridges, bark, woodgrain,

@@ -507,12 +507,17 @@ def _tone_field_summary(res) -> dict | None:
     return field.summary() if field is not None and res.with_psa is not None else None
 
 
-def _look_state_file(chosen) -> dict:
+def _look_state_file(chosen, geometry=None) -> dict:
     """The look's theta and tone field as the result keeps them (look_state.npz): a show makes this very look
-    again from it, not from the prompt and PSA run once more (lapig_core/show/look_state)."""
+    again from it, not from the prompt and PSA run once more (lapig_core/show/look_state); and the object's
+    geometry the look was shaped by (look_geometry.npz), so the show's look is shaped as this one."""
+    from ...lapig_core.lgst.world.geometry import GEOMETRY_FILE, LookGeometry, geometry_bytes
     from ...lapig_core.show.look_state import LOOK_STATE_FILE, look_state_bytes
 
-    return {LOOK_STATE_FILE: look_state_bytes(chosen.state)} if chosen.state else {}
+    files = {LOOK_STATE_FILE: look_state_bytes(chosen.state)} if chosen.state else {}
+    if isinstance(geometry, LookGeometry):  # "capture" is not kept: the captured surface gives it again
+        files[GEOMETRY_FILE] = geometry_bytes(geometry)
+    return files
 
 
 def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
@@ -567,7 +572,8 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     if missed:  # last: the panel shows what follows " | " on a line of its own
         line += f" | {missed}"
     summary["summary_line"] = line  # Refine on the rig adds its figures to it
-    folder = str(write_new_result(job["results"], job["name"], images, summary, _look_state_file(chosen)))
+    folder = str(write_new_result(job["results"], job["name"], images, summary,
+                                  _look_state_file(chosen, job.get("geometry") if res.describe.get("geometry") else None)))
     # the finest projector image as the folder now holds it (read_output_image's values), for the sinks
     projector = as_stored(images.get("projector_native", images["projector"]))
     return {"folder": folder, "summary": summary, "summary_line": line, "projector": projector}

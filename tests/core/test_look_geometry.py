@@ -238,3 +238,43 @@ def test_a_uv_map_lays_the_look_on_the_object_as_a_texture_in_metres():
     def along(img, axis):  # how little the shade changes along an axis: the grain runs that way
         return float(np.abs(np.diff(img.numpy(), axis=axis)).mean())
     assert along(turned, 0) < along(turned, 1) and along(plain, 1) < along(plain, 0)
+
+
+def test_a_result_keeps_its_geometry_and_a_show_makes_its_look_again_shaped_by_it(tmp_path):
+    """look_geometry.npz beside result.json: read back whole (a damaged one reads as none), and the show's look of
+    the result (look_from_result) is shaped by it as the still look was; "capture" makes it from the surface."""
+    import json
+
+    from show_fakes import fake_models
+
+    from lapig.lapig_core.show.frames import look_from_result
+    from lapig.lapig_core.show.model import Look
+
+    models = fake_models()
+    h, w = models.i_max.shape[-2:]
+    step, _ = _geometry()  # the box on the floor: crevices, tops and walls
+    path = tmp_path / lg.GEOMETRY_FILE
+    path.write_bytes(lg.geometry_bytes(step))
+    back = lg.load_geometry(path)
+    assert back.mapping == step.mapping and back.source == "scene" and back.metres_across == step.metres_across
+    assert all(np.array_equal(getattr(back, n), getattr(step, n), equal_nan=True) for n in lg._ARRAYS)
+    (tmp_path / "damaged.npz").write_bytes(b"not a zip")
+    assert lg.load_geometry(tmp_path / "damaged.npz") is None and lg.load_geometry(tmp_path / "none.npz") is None
+
+    def result(name, source, keep):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "result.json").write_text(json.dumps({
+            "prompt": "ivy growing over old bricks", "backend": "styletransfer", "seed": 0, "psa": False,
+            "lgst": {"geometry": {"source": source}} if source else {}}))
+        if keep:
+            (folder / lg.GEOMETRY_FILE).write_bytes(lg.geometry_bytes(step))
+        return look_from_result(Look(str(folder)), models)
+
+    shaped, plain, captured = result("kept", "scene", True), result("before", None, False), \
+        result("capture", "capture", False)
+    assert shaped.backend.geometry is not None and shaped.backend.geometry.source == "scene"
+    assert plain.backend.geometry is None
+    assert captured.backend.geometry is not None and captured.backend.geometry.source == "capture"
+    assert shaped.base.shape == plain.base.shape == (1, 3, h, w)
+    assert float((shaped.base - plain.base).abs().mean()) > 0.02  # the object shapes the show's look too

@@ -271,3 +271,42 @@ def look_coordinates(geometry: LookGeometry, h: int, w: int):
     u = np.where(g.valid, g.surface_u * scale, u_img)
     v = np.where(g.valid, g.surface_v * scale, v_img)
     return torch.as_tensor(u, dtype=torch.float32), torch.as_tensor(v, dtype=torch.float32)
+
+
+GEOMETRY_FILE = "look_geometry.npz"  # beside result.json: the geometry the look was shaped by
+_ARRAYS = ("valid", "depth", "up", "downhill", "cavity", "curvature", "surface_u", "surface_v")
+_FORMAT = 1
+
+
+def geometry_bytes(geometry: LookGeometry) -> bytes:
+    """The geometry as the bytes of look_geometry.npz (numpy arrays and a few numbers, no pickled objects): a result
+    keeps it, so a look made again from the result (a show's) is shaped as the still look was."""
+    import io
+
+    arrays = {name: np.asarray(getattr(geometry, name)) for name in _ARRAYS if getattr(geometry, name) is not None}
+    arrays.update(format=np.array(_FORMAT), metres_across=np.array(geometry.metres_across),
+                  source=np.array(geometry.source), note=np.array(geometry.note), mapping=np.array(geometry.mapping))
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **arrays)
+    return buffer.getvalue()
+
+
+def load_geometry(path) -> LookGeometry | None:
+    """The geometry saved at `path` (geometry_bytes), or None where there is none or it is of another format or
+    damaged: the look is then made without it, as before the file was kept."""
+    import os
+    import zipfile
+
+    if not os.path.isfile(path):
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if int(data["format"]) != _FORMAT:
+                return None
+            arrays = {name: (np.array(data[name]) if name in data.files else None) for name in _ARRAYS}
+            if any(arrays[name] is None for name in _ARRAYS if name != "up"):
+                return None
+            return LookGeometry(**arrays, metres_across=float(data["metres_across"]), source=str(data["source"]),
+                                note=str(data["note"]), mapping=str(data["mapping"]))
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+        return None

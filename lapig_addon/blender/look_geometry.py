@@ -87,3 +87,21 @@ def projector_look_geometry(scene, projector_obj, model, width: int, height: int
         return None
     return from_hits(points, normals, up, *intrinsics(model, width, height),
                      note=f"shaped by the scene's geometry as {projector_obj.name} sees it", uv=uv)
+
+
+class _Frame:
+    """What preview.caster_model reads of an image: its size."""
+
+    def __init__(self, width: int, height: int):
+        self.size = (width, height)
+
+
+def camera_look_geometry(scene, camera_obj, width: int, height: int):
+    """The object as the rig's camera sees it at width x height (a rig of several projectors makes its look in the
+    camera's space): the camera's rays cast as a projector's, by its lens, sensor fit and shift; None where they
+    land on nothing."""
+    from .preview import caster_model
+
+    if camera_obj is None or camera_obj.type != "CAMERA" or camera_obj.data.type != "PERSP":
+        return None
+    return projector_look_geometry(scene, camera_obj, caster_model(camera_obj, _Frame(width, height)), width, height)

@@ -21,6 +21,7 @@ from ...lapig_core.export.result_files import folder_name
 from ...lapig_core.multi.capture_set import FIRST_LOOK, MODELS, is_multi
 from . import panel_state
 from .jobs import WorkerJob
+from .pipeline_jobs import camera_look_geometry
 from .ports import Seams
 from .state import GenerateRequest
 
@@ -86,8 +87,12 @@ class MultiGenerateJob(WorkerJob):
                          "one projector)")
         if self.working_size is None:
             self.working_size = store.capture_settings().working_size
+        options = r.backend_options()
+        geometry = camera_look_geometry(store, backend, mix, prompt, self.working_size)  # main thread: ray casts
+        if geometry is not None:
+            options["geometry"] = geometry
         return {"capture": folder, "prompt": prompt, "notes": notes, "backend": backend,
-                "backend_options": r.backend_options(), "mix": mix or None, "seed": r.seed,
+                "backend_options": options, "mix": mix or None, "seed": r.seed,
                 "psa": bool(r.psa), "adaptation": r.adaptation,
                 "results": self.result_root or os.path.join(store.data_root(), "results"),
                 "name": folder_name(prompt or mix or "style", datetime.datetime.now())}

@@ -308,6 +308,18 @@ def look_geometry(store, capture: str, backend: str, mix: str, prompt: str):
     return geometry if geometry is not None else "capture"
 
 
+def camera_look_geometry(store, backend: str, mix: str, prompt: str, long_side: int):
+    """A rig of several projectors: the object as its camera sees it (on the main thread), for a look of the world
+    made in the camera's space; None where the look reads none, or the store has no 3D model to cast."""
+    reader = getattr(store, "camera_look_geometry", None)
+    if mix or backend != DEFAULT_BACKEND or not prompt or reader is None:
+        return None
+    try:
+        return reader(long_side)
+    except ValueError:  # the rays land on nothing the scene can render
+        return None
+
+
 class GenerateJob(WorkerJob):
     """Prompt -> stylized target (with and without PSA) -> compensated projector image."""
 

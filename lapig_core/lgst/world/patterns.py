@@ -213,6 +213,24 @@ def masonry(u, v, s, seed, o):
     return _out(t, light, cover=1 - b["joint"])
 
 
+def plates(u, v, s, seed, o):
+    """Riveted steel plates (a ship's hull, a boiler, a bridge): plates in staggered rows, each a shade of its own
+    and mottled, dark seams, and a row of domed rivets inside each long seam (t 0 in the seams)."""
+    ratio = o.get("ratio", 3.0)
+    b = tilings.bricks(u * s, v * s, seed, ratio=ratio, mortar=o.get("seam", 0.025))
+    fx, fy = b["across"], b["shade"]  # 0..1 along and down the plate
+    pitch = o.get("rivets", 10.0)  # rivets along a plate's length
+    dx = (torch.remainder(fx * pitch, 1.0) - 0.5) / pitch * ratio  # from the nearest rivet, in plate heights
+    dy = torch.where(fy < 0.5, fy - 0.09, fy - 0.91)
+    r = 0.045
+    rivet = torch.sigmoid((r - torch.sqrt(dx * dx + dy * dy + 1e-9)) / 0.01)
+    facing = (-(dx * 0.6 + dy * 0.8) / r).clamp(-1, 1)  # the dome lit on its upper left
+    mottle = _u01(noise.fbm(u * s * 2, v * s * 2, seed + 14, 4))
+    t = (1 - b["joint"]) * (0.4 + 0.3 * b["id"] + 0.3 * mottle) + 0.3 * rivet
+    light = (1.0 - 0.12 * fy) * (1 + 1.2 * rivet * facing)  # each plate's lap shades its lower edge
+    return _out(t, light)
+
+
 def hex_tiles(u, v, s, seed, o):
     h = tilings.hexagons(u * s, v * s, seed, grout=o.get("grout", 0.06))
     t = (1 - h["joint"]) * (0.55 + 0.25 * h["id"] + 0.2 * (1 - h["shade"]) * o.get("dome", 0.0))
@@ -562,7 +580,7 @@ def cave_art(u, v, s, seed, o):
 
 
 PATTERNS = {f.__name__: f for f in (speckle, veins, strata, stones, cracks, clouds, mud, drifts, turbulent, ridges, bark, woodgrain,
-                                    masonry, hex_tiles, checker, weave, twill, knit, tartan, circuit, scales, hammered,
+                                    masonry, plates, hex_tiles, checker, weave, twill, knit, tartan, circuit, scales, hammered,
                                     brushed, corrugated, patches, chainmail, leaves, flowers, drops, snowflakes, grass,
                                     dunes, rosettes, stripes, eyes, honeycomb, craters, flames, embers, candle, stars,
                                     nebula, galaxy, aurora, waves, caustics, ripples, underwater, falls, reaction,

@@ -156,10 +156,10 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
     for i, overlay in enumerate(comp.overlays):
         rgb, f, _ = _layer(overlay, u, v, seed + 11 + i, comp.scale, comp.density, p, f"overlay{i}")
         cover = f["cover"]
-        if comp.base.pattern in ("masonry", "stones", "hex_tiles", "checker", "cracks") and overlay.pattern in (
-                "leaves", "clouds", "grass"):
+        if comp.base.pattern in ("masonry", "stones", "hex_tiles", "checker", "cracks", "plates") and (
+                overlay.pattern in ("leaves", "clouds", "grass") or overlay.name == "rust"):
             # growth follows the joints: what grows on a wall starts in its mortar and spreads from there (lichen
-            # grows on the faces of the stones themselves)
+            # grows on the faces of the stones themselves); rust starts at a hull's seams and rivets
             joint = _smooth(0.35, 0.0, base_t)
             cover = (cover * (0.45 + 0.9 * joint)).clamp(0, 1)
         if geo is not None:

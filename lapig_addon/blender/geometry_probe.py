@@ -18,9 +18,10 @@ def renderable_objects(scene):
     return [ob for ob in scene.objects if ob.type in RENDERABLE and not ob.hide_render]
 
 
-def scene_bvh(objects, depsgraph) -> BVHTree:
-    """One BVH of every object's evaluated triangles, in world space."""
-    verts, tris, offset = [], [], 0
+def scene_triangles(objects, depsgraph, uvs: bool = False):
+    """Every object's evaluated triangles in world space: (vertices (V, 3), triangles (T, 3) of vertex indices,
+    and with `uvs` each triangle's corners in its mesh's active UV map (T, 3, 2), NaN for a mesh without one)."""
+    verts, tris, tri_uvs, offset = [], [], [], 0
     for ob in objects:
         if ob.type not in RENDERABLE:
             continue
@@ -37,6 +38,16 @@ def scene_bvh(objects, depsgraph) -> BVHTree:
             mesh.vertices.foreach_get("co", co)
             tri = np.empty(len(mesh.loop_triangles) * 3, np.int64)
             mesh.loop_triangles.foreach_get("vertices", tri)
+            if uvs:
+                corner_uv = np.full((len(mesh.loop_triangles), 3, 2), np.nan)
+                layer = mesh.uv_layers.active
+                if layer is not None and len(mesh.loop_triangles):
+                    loops = np.empty(len(mesh.loop_triangles) * 3, np.int64)
+                    mesh.loop_triangles.foreach_get("loops", loops)
+                    uv = np.empty(len(layer.data) * 2, np.float64)
+                    layer.data.foreach_get("uv", uv)
+                    corner_uv = uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
+                tri_uvs.append(corner_uv)
         finally:
             ev.to_mesh_clear()
         m = np.array(ob.matrix_world)
@@ -46,7 +57,13 @@ def scene_bvh(objects, depsgraph) -> BVHTree:
         offset += len(co)
     if not verts:
         raise ValueError("there is nothing to render: the scene has no visible geometry")
-    return BVHTree.FromPolygons(np.concatenate(verts).tolist(), np.concatenate(tris).tolist())
+    return np.concatenate(verts), np.concatenate(tris), (np.concatenate(tri_uvs) if uvs else None)
+
+
+def scene_bvh(objects, depsgraph) -> BVHTree:
+    """One BVH of every object's evaluated triangles, in world space."""
+    verts, tris, _ = scene_triangles(objects, depsgraph)
+    return BVHTree.FromPolygons(verts.tolist(), tris.tolist())
 
 
 class CameraProjection:

@@ -68,6 +68,20 @@ class BlenderSceneStore:
         projector = scene_state.rig_objects(self.scene)[0]
         return projector_look_geometry(self.scene, projector, scene_state.projector_model(projector), width, height)
 
+    def camera_look_geometry(self, long_side: int):
+        """As look_geometry, from the rig's camera at its resolution scaled to a long side of `long_side` (the
+        looks of a rig of several projectors are made in the camera's space)."""
+        if scene_state.uses_real_rig(self.scene):
+            return None
+        from .look_geometry import camera_look_geometry
+
+        camera = scene_state.rig_objects(self.scene)[1]
+        if camera is None:
+            return None
+        c = scene_state.camera_settings(camera)
+        scale = min(1.0, long_side / max(c.width, c.height))
+        return camera_look_geometry(self.scene, camera, max(8, round(c.width * scale)), max(8, round(c.height * scale)))
+
     def record_capture(self, folder, fingerprint: str, transport: str = ""):
         scene_state.record_capture(self.scene, folder, fingerprint, transport)
 

@@ -85,6 +85,14 @@ def kept_look_parameters(state, prompt: str, backend: str) -> dict | None:
     return parameters_for_generate(summary, prompt, backend)
 
 
+def geometry_files(geometry) -> dict:
+    """look_geometry.npz, as write_new_result's files, where the look was shaped by the object's geometry ("capture"
+    is not kept: the captured surface gives it again)."""
+    from ...lapig_core.lgst.world.geometry import GEOMETRY_FILE, LookGeometry, geometry_bytes
+
+    return {GEOMETRY_FILE: geometry_bytes(geometry)} if isinstance(geometry, LookGeometry) else {}
+
+
 class GenerateJob(WorkerJob):
     """Prompt -> the look (with and without PSA) -> each projector's compensated image."""
 
@@ -382,7 +390,10 @@ def save_stylize_result(job: dict, cs, models, res, native=None) -> dict:
     if missed:  # last: the panel shows what follows " | " on a line of its own
         line += f" | {missed}"
     summary["summary_line"] = line  # Refine on the rig adds its figures to it
-    folder = str(write_new_result(job["results"], job["name"], images, summary, look_state_files(chosen.state)))
+    files = look_state_files(chosen.state)
+    if res.describe.get("geometry"):  # the object's geometry the look was shaped by: a show's look is shaped as this
+        files.update(geometry_files(job.get("geometry")))
+    folder = str(write_new_result(job["results"], job["name"], images, summary, files))
     # the finest projector image as the folder now holds it (read_output_image's values), for the sinks
     projector = as_stored(images.get("projector_native", images["projector"]))
     return {"folder": folder, "summary": summary, "summary_line": line, "projector": projector}

@@ -33,6 +33,21 @@ def joint_model_steps(capture: str):
     return cs, model
 
 
+def camera_look_geometry(store, backend: str, mix: str, prompt: str, long_side: int):
+    """The object as the rig's camera sees it (on the main thread), for a look of the world made in the camera's
+    space; None where the look reads none, or the store has no 3D model to cast (the port's optional
+    camera_look_geometry)."""
+    from ...lapig_core.lgst import DEFAULT_BACKEND
+
+    reader = getattr(store, "camera_look_geometry", None)
+    if mix or backend != DEFAULT_BACKEND or not prompt or reader is None:
+        return None
+    try:
+        return reader(long_side)
+    except ValueError:  # the rays land on nothing the scene can render
+        return None
+
+
 class JointGenerateWay:
     """GenerateJob's steps for a rig of several projectors (see generate_job.ProjectorGenerateWay)."""
 
@@ -47,6 +62,10 @@ class JointGenerateWay:
                                            "(Output size applies to one projector)")
         if job.working_size is None:
             job.working_size = job.seams.store.capture_settings().working_size
+        geometry = camera_look_geometry(job.seams.store, request_inputs["backend"], request_inputs["mix"] or "",
+                                        request_inputs["prompt"], job.working_size)  # main thread: ray casts
+        if geometry is not None:
+            request_inputs["backend_options"]["geometry"] = geometry
         return {}
 
     def before_work(self, job):

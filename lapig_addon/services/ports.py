@@ -84,6 +84,10 @@ class SceneStore(Protocol):
         (lapig_core/lgst/world/geometry.LookGeometry), or None where there is no 3D model to read (a real rig):
         the look then follows the captured surface. Optional: a store without it counts as None."""
 
+    def camera_look_geometry(self, long_side: int):
+        """As look_geometry, the object as the rig's camera sees it (a rig of several projectors makes its look in
+        the camera's space), at the camera's aspect and a long side of `long_side`. Optional, as look_geometry."""
+
     def record_capture(self, folder: str, fingerprint: str, transport: str = "") -> None: ...
 
     def record_coverage(self, names, shares, reached: float) -> None:

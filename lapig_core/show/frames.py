@@ -47,7 +47,7 @@ from ..export.projector_image import blend_linear_light
 from ..native_output import compensate_frame, device_tile
 from ..psa.adaptation import PSASettings, _style_loss, keep_light_loss, proxy_psa_loss, run_psa
 from ..psa.tone_field import AdaptedLook, ToneField
-from .look_state import KeyedLook, load_look_state, read_result_record, refine_offset
+from .look_state import KeyedLook, load_look_state, read_result_record, refine_offset, result_geometry
 from .model import Show, ShowError
 from .morph import lerp_list, mix_linear, morph_base
 from .motion import apply_motion
@@ -174,10 +174,11 @@ def look_from_result(look, models, cancel_event=None, fingerprint: str | None = 
         record = {"prompt": look.prompt, "backend": look.backend, "seed": look.seed, "mix": None, "psa": True,
                   "psa_settings": {}}
     state = load_look_state(folder) if folder.exists() else None
+    geometry = result_geometry(folder, record) if folder.exists() else None  # shaped as the still look was
     keyed = keyed_look_from_prompt(models, record["prompt"], record["backend"], record["seed"], record["mix"],
                                    psa=record["psa"],
                                    psa_settings=_psa_settings(record["psa_settings"], record["seed"]),
-                                   state=state, cancel_event=cancel_event, surface=surface,
+                                   state=state, cancel_event=cancel_event, surface=surface, geometry=geometry,
                                    look_parameters=record.get("look_parameters"))
     keyed.offset = refine_offset(folder) if folder.exists() else None
     if keyed.offset is not None and tuple(keyed.offset.shape[-2:]) != tuple(models.s.shape[-2:]):
@@ -187,18 +188,25 @@ def look_from_result(look, models, cancel_event=None, fingerprint: str | None = 
 
 def keyed_look_from_prompt(models, prompt: str, backend: str, seed: int = 0, mix=None, psa: bool = True,
                            psa_settings: PSASettings | None = None, state: dict | None = None,
-                           cancel_event=None, surface: torch.Tensor | None = None,
+                           cancel_event=None, surface: torch.Tensor | None = None, geometry=None,
                            look_parameters: dict | None = None) -> KeyedLook:
     """The look of a prompt on this surface as Generate makes it: the backend prepared on the white-lit
     surface (`surface`, (1,3,H,W) at the working frame; default the models' I+), then `state` loaded (theta and
-    the tone field) or PSA run with `psa_settings`. look_parameters: a world look's edited sliders (result.json's)."""
+    the tone field) or PSA run with `psa_settings`. geometry: what a look of the world is shaped by, as
+    pipeline.stylize takes it (a LookGeometry, "capture" or None); look_parameters: a world look's edited sliders
+    (result.json's)."""
     from ..lgst import DEFAULT_BACKEND, prepared_backend
     from ..pipeline import with_device
 
     options = with_device(backend, {"look_parameters": look_parameters}
                           if look_parameters and backend == DEFAULT_BACKEND else None, models.device)
-    lgst, _ = prepared_backend(backend, models.i_max if surface is None else surface, prompt, seed=seed, mix=mix,
-                               options=options)
+    surface = models.i_max if surface is None else surface
+    if geometry is not None and backend == DEFAULT_BACKEND and not mix:
+        from ..lgst.world.geometry import from_capture
+
+        options["geometry"] = from_capture(surface[0].permute(1, 2, 0).cpu().numpy()) \
+            if isinstance(geometry, str) else geometry
+    lgst, _ = prepared_backend(backend, surface, prompt, seed=seed, mix=mix, options=options)
     adapted = AdaptedLook(lgst, models.i_min, models.i_max)
     if state is None:
         settings = psa_settings or PSASettings(seed=seed)

@@ -84,7 +84,20 @@ def read_result_record(folder) -> dict:
             "dark_outside": bool(summary.get("dark_outside", False)), "fingerprint": summary.get("fingerprint"),
             # a world look's sliders as the artist left them (lapig_core/look_parameters), and what rebuilds it
             "look_parameters": (summary.get("lgst") or {}).get("look_parameters"),
-            "look_record": (summary.get("lgst") or {}).get("look_record")}
+            "look_record": (summary.get("lgst") or {}).get("look_record"),
+            "geometry": ((summary.get("lgst") or {}).get("geometry") or {}).get("source")}
+
+
+def result_geometry(folder, record: dict):
+    """What the result's look of the world was shaped by, for making it again: the geometry it kept
+    (look_geometry.npz), "capture" where the captured surface stood in (made again from the surface), or None
+    (no geometry: an art look, a result of before the geometry was kept)."""
+    from ..lgst.world.geometry import GEOMETRY_FILE, load_geometry
+
+    kept = load_geometry(Path(folder) / GEOMETRY_FILE)
+    if kept is not None:
+        return kept
+    return "capture" if record.get("geometry") == "capture" else None
 
 
 def refine_offset(folder) -> torch.Tensor | None:

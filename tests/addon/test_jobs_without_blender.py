@@ -6,6 +6,7 @@ import ast
 import importlib
 import json
 import pathlib
+import os
 import threading
 
 import numpy as np
@@ -172,7 +173,6 @@ def test_a_capture_named_explicitly_must_be_of_this_rig(seams, tmp_path):
 def test_generate_refuses_a_prompt_it_does_not_understand_and_changes_nothing(seams):
     """Issue 50: bad input and a prompt of which nothing is understood get one line; no result, no record."""
     import importlib.util
-    import os
 
     from lapig.lapig_addon.services.errors import one_line
 
@@ -202,3 +202,34 @@ def test_without_a_3d_model_the_world_look_follows_the_captured_surface_and_says
     assert lgst["understood"]["medium"]["kind"] == "world" and lgst["geometry"]["source"] == "capture"
     assert any(n.startswith("no 3D model of the object") for n in out["summary"]["notes"] + lgst["notes"])
     assert lgst["understood"]["generators"][:2] == ["clouds (concrete)", "clouds (moss)"]
+
+
+@pytest.mark.torch
+def test_a_world_look_shaped_by_the_scene_keeps_its_geometry_in_the_result(seams):
+    """The store's look geometry (Blender's ray casts; here a wall 3 m ahead, a step back on its right half) shapes
+    the look and is kept beside result.json, so a show makes the look again shaped by it; the captured surface
+    standing in is not kept (the surface gives it again)."""
+    import numpy as np
+
+    from lapig.lapig_core.lgst.world.geometry import GEOMETRY_FILE, from_hits, load_geometry
+
+    generate_job = _module("generate_job")
+    _capture(seams)
+
+    def wall(width, height):
+        ys, xs = np.mgrid[0:height, 0:width] + 0.5
+        depth = np.where(xs < width / 2, 3.0, 4.0)
+        f = float(width)
+        points = np.stack([(xs - width / 2) / f * depth, (ys - height / 2) / f * depth, depth], -1)
+        normals = np.broadcast_to(np.array([0.0, 0.0, -1.0]), points.shape).copy()
+        return from_hits(points, normals, np.array([0.0, -1.0, 0.0]), f, f, width / 2, height / 2)
+
+    seams.store.look_geometry = wall
+    out = generate_job.GenerateJob(seams, seams.store.generate_request(prompt="old bricks", psa=False)).run_to_completion()
+    assert out["summary"]["lgst"]["geometry"]["source"] == "scene"
+    kept = load_geometry(os.path.join(out["folder"], GEOMETRY_FILE))
+    assert kept is not None and kept.source == "scene" and kept.shape == wall(*kept.shape[::-1]).shape
+    del seams.store.look_geometry
+    out = generate_job.GenerateJob(seams, seams.store.generate_request(prompt="old bricks", psa=False)).run_to_completion()
+    assert out["summary"]["lgst"]["geometry"]["source"] == "capture"
+    assert not os.path.exists(os.path.join(out["folder"], GEOMETRY_FILE))

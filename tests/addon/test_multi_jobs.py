@@ -433,3 +433,36 @@ def test_a_show_of_several_makes_its_morph_and_motion_per_projector_and_exports_
     assert all(np.array_equal(made[0][k], faded[0][k]) for k in range(2))  # the holds: the stored images
     mid = 5  # frames 1..8 dissolve (w = 1/9 .. 8/9): frame 5 at 5/9, between the keys at 1/2 and 3/4
     assert any(np.abs(made[mid][k].astype(float) - faded[mid][k]).mean() > 50 for k in range(2))
+
+
+@pytest.mark.torch
+def test_a_world_look_of_several_projectors_is_shaped_by_the_object_as_the_camera_sees_it(multi):
+    """GenerateJob of several reads the store's camera-space geometry (Blender's casts from the rig's camera; here a wall
+    with a step) on the main thread and hands it to the look of the world; without one the look reads none."""
+    from lapig.lapig_core.lgst.world.geometry import from_hits
+
+    seams, store = multi
+    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
+    asked = []
+
+    def wall(long_side):
+        asked.append(long_side)
+        width, height = long_side, long_side * CAMERA[1] // CAMERA[0]
+        ys, xs = np.mgrid[0:height, 0:width] + 0.5
+        depth = np.where(xs < width / 2, 3.0, 4.0)
+        f = float(width)
+        points = np.stack([(xs - width / 2) / f * depth, (ys - height / 2) / f * depth, depth], -1)
+        normals = np.broadcast_to(np.array([0.0, 0.0, -1.0]), points.shape).copy()
+        return from_hits(points, normals, np.array([0.0, -1.0, 0.0]), f, f, width / 2, height / 2)
+
+    def generate(prompt):
+        request = _module("state").GenerateRequest(prompt, "styletransfer", "", False, 0.5, 0)
+        job = _module("generate_job").GenerateJob(seams, request, working_size=48)
+        assert job.run() == "DONE", job.error
+        return json.loads(open(os.path.join(job.result["folder"], "result.json")).read())
+
+    store.camera_look_geometry = wall
+    assert generate("old bricks")["lgst"]["geometry"]["source"] == "scene" and asked == [48]
+    assert "geometry" not in generate("Make it a stained glass artwork")["lgst"]  # an art look reads none
+    del store.camera_look_geometry
+    assert "geometry" not in generate("old bricks")["lgst"]

@@ -31,6 +31,10 @@ def test_the_projector_sees_the_objects_crevices_tops_and_downhill(lapig_registe
     assert np.abs(g.up[on]).mean() < 0.3  # walls: neither tops nor undersides
     assert np.median(g.downhill[on][:, 1]) > 0.8  # water runs down the image
     assert 0.5 < float(np.nanmedian(g.depth[on])) < 20
+    # the demo's meshes have UV maps: the look lies on them in metres (the frame about as wide as the metres across)
+    assert g.mapping == "uv" and 0.5 < np.ptp(g.surface_u[on]) / g.metres_across < 1.5
+    seen = BlenderSceneStore(scene).camera_look_geometry(64)  # a rig of several: from the camera
+    assert seen is not None and seen.shape == (48, 64) and seen.valid.mean() > 0.3
     if shape == "corner":  # the crease between the walls holds the crevice
         column = np.argmax((g.cavity * on).sum(0))
         assert g.cavity[on].max() > 0.5 and abs(column - 32) < 12, (column, g.cavity.max())

@@ -207,3 +207,74 @@ def test_geometry_refuses_rays_that_land_on_nothing():
         lg.from_hits(nothing, nothing, np.array([0, -1.0, 0]), 10, 10, 2, 2)
     with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
         lg.from_capture(np.zeros((4, 4)))
+
+
+def _wall_facing(depth=3.0):
+    """A flat wall `depth` m ahead, facing the projector: points and normals in projector coordinates."""
+    ys, xs = np.mgrid[0:H, 0:W] + 0.5
+    points = np.stack([(xs - W / 2) / F * depth, (ys - H / 2) / F * depth, np.full(xs.shape, depth)], -1)
+    normals = np.broadcast_to(np.array([0.0, 0.0, -1.0]), points.shape).copy()
+    return points, normals, np.array([0.0, -1.0, 0.0])
+
+
+def test_a_uv_map_lays_the_look_on_the_object_as_a_texture_in_metres():
+    """Where the object has a UV map, the surface coordinates follow it (turned a quarter: the grain of wood runs
+    down the wall, not across), scaled to metres; without one, or collapsed to a point, box mapping stays."""
+    points, normals, up = _wall_facing()
+    metres_x, metres_y = points[..., 0], points[..., 1]
+    uv = np.stack([metres_y / 2.0, metres_x / 2.0], -1)  # one UV unit: 2 m, its u running down the wall
+    g = lg.from_hits(points, normals, up, F, F, W / 2, H / 2, uv=uv)
+    assert g.mapping == "uv" and g.to_dict()["mapping"] == "uv"
+    assert np.allclose(g.surface_u, metres_y, atol=1e-4)  # u follows the map: down the wall, in metres
+    assert np.allclose(np.abs(np.diff(g.surface_v, axis=1)), np.abs(np.diff(metres_x, axis=1)), atol=1e-4)
+    box = lg.from_hits(points, normals, up, F, F, W / 2, H / 2)
+    assert box.mapping == "box" and np.allclose(np.diff(box.surface_u, axis=1), np.diff(metres_x, axis=1), atol=1e-4)
+    collapsed = lg.from_hits(points, normals, up, F, F, W / 2, H / 2, uv=np.zeros_like(uv))
+    assert collapsed.mapping == "box"
+    wood = compose("oak wood planks")
+    turned = render(wood, _params(wood), H, W, geo=None, geometry=g)[0].mean(0)
+    plain = render(wood, _params(wood), H, W, geo=None, geometry=box)[0].mean(0)
+
+    def along(img, axis):  # how little the shade changes along an axis: the grain runs that way
+        return float(np.abs(np.diff(img.numpy(), axis=axis)).mean())
+    assert along(turned, 0) < along(turned, 1) and along(plain, 1) < along(plain, 0)
+
+
+def test_a_result_keeps_its_geometry_and_a_show_makes_its_look_again_shaped_by_it(tmp_path):
+    """look_geometry.npz beside result.json: read back whole (a damaged one reads as none), and the show's look of
+    the result (look_from_result) is shaped by it as the still look was; "capture" makes it from the surface."""
+    import json
+
+    from show_fakes import fake_models
+
+    from lapig.lapig_core.show.frames import look_from_result
+    from lapig.lapig_core.show.model import Look
+
+    models = fake_models()
+    h, w = models.i_max.shape[-2:]
+    step, _ = _geometry()  # the box on the floor: crevices, tops and walls
+    path = tmp_path / lg.GEOMETRY_FILE
+    path.write_bytes(lg.geometry_bytes(step))
+    back = lg.load_geometry(path)
+    assert back.mapping == step.mapping and back.source == "scene" and back.metres_across == step.metres_across
+    assert all(np.array_equal(getattr(back, n), getattr(step, n), equal_nan=True) for n in lg._ARRAYS)
+    (tmp_path / "damaged.npz").write_bytes(b"not a zip")
+    assert lg.load_geometry(tmp_path / "damaged.npz") is None and lg.load_geometry(tmp_path / "none.npz") is None
+
+    def result(name, source, keep):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "result.json").write_text(json.dumps({
+            "prompt": "ivy growing over old bricks", "backend": "styletransfer", "seed": 0, "psa": False,
+            "lgst": {"geometry": {"source": source}} if source else {}}))
+        if keep:
+            (folder / lg.GEOMETRY_FILE).write_bytes(lg.geometry_bytes(step))
+        return look_from_result(Look(str(folder)), models)
+
+    shaped, plain, captured = result("kept", "scene", True), result("before", None, False), \
+        result("capture", "capture", False)
+    assert shaped.backend.geometry is not None and shaped.backend.geometry.source == "scene"
+    assert plain.backend.geometry is None
+    assert captured.backend.geometry is not None and captured.backend.geometry.source == "capture"
+    assert shaped.base.shape == plain.base.shape == (1, 3, h, w)
+    assert float((shaped.base - plain.base).abs().mean()) > 0.02  # the object shapes the show's look too

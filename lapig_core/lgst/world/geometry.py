@@ -12,8 +12,9 @@ Projector coordinates are OpenCV's: x right, y down, z along the projector's axi
     downhill    (H, W, 2) the image direction water runs along the surface (unit, x and y in pixels)
     cavity      (H, W) 0..1: how far the pixel lies in a crevice (farther than its surroundings)
     curvature   (H, W) the normal's spread per pixel: > 0 convex (edges, ridges), < 0 concave (creases)
-    surface_u, surface_v  (H, W) metres across the surface (box mapping in a frame upright to gravity), so bricks
-                keep their size in metres at any distance
+    surface_u, surface_v  (H, W) metres across the surface, so bricks keep their size in metres at any distance:
+                the object's UV map where it has one (scaled to metres; wood grain then runs along its u, as a
+                texture would), else box mapping in a frame upright to gravity
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ class LookGeometry:
     metres_across: float   # the frame's width in metres at the object's median depth (1.0 for a capture)
     source: str            # "scene" (the 3D model) or "capture" (the captured surface alone)
     note: str = ""
+    mapping: str = "box"   # how surface_u, surface_v were made: "uv" (the object's UV map), "box", "image"
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -48,6 +50,7 @@ class LookGeometry:
         """What result.json says of it."""
         v = self.valid
         return {"source": self.source, "note": self.note, "size": [int(self.shape[1]), int(self.shape[0])],
+                "mapping": self.mapping,
                 "on_object": round(float(v.mean()), 3),
                 "depth_m": [round(float(np.nanmin(self.depth[v])), 3), round(float(np.nanmax(self.depth[v])), 3)]
                 if v.any() and self.source == "scene" else None,
@@ -128,10 +131,40 @@ def upright_frame(up: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return right, up, np.cross(right, up)
 
 
-def from_hits(points, normals, up, fx: float, fy: float, cx: float, cy: float, note: str = "") -> LookGeometry:
+def uv_in_metres(uv, points, valid) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(u, v, where) the UV map in metres, v downwards: one factor for the whole frame, the median of metres per UV
+    unit between neighbouring pixels (a seam between islands is an outlier the median leaves out); None where under
+    half of the object has UVs, or they do not change across it (a map collapsed to a point)."""
+    if uv is None:
+        return None
+    uv = np.asarray(uv, np.float64)
+    has = valid & np.isfinite(uv).all(-1)
+    if has.sum() < max(16, 0.5 * valid.sum()):
+        return None
+    ratios = []
+    for axis in (0, 1):
+        both = np.take(has, range(1, has.shape[axis]), axis) & np.take(has, range(has.shape[axis] - 1), axis)
+        duv = np.linalg.norm(np.diff(uv, axis=axis), axis=-1)
+        dm = np.linalg.norm(np.diff(points, axis=axis), axis=-1)
+        ok = both & (duv > 1e-9) & np.isfinite(dm)
+        ratios.append((dm[ok] / duv[ok]))
+    ratios = np.concatenate(ratios)
+    if len(ratios) < 0.25 * has.sum():  # most neighbours share one UV: no map to follow
+        return None
+    per_unit = float(np.median(ratios))
+    if not np.isfinite(per_unit) or per_unit <= 0:
+        return None
+    u = np.where(has, uv[..., 0] * per_unit, 0.0)
+    v = np.where(has, -uv[..., 1] * per_unit, 0.0)  # UV's v runs up the texture; the looks' v runs down
+    return u.astype(np.float32), v.astype(np.float32), has
+
+
+def from_hits(points, normals, up, fx: float, fy: float, cx: float, cy: float, note: str = "",
+              uv=None) -> LookGeometry:
     """The geometry from where each projector pixel lands (points, NaN where it lands on nothing) and the surface's
     normal there (turned towards the projector), both (H, W, 3) in projector coordinates; `up` the world's up in
-    the same coordinates; fx, fy, cx, cy the projector's intrinsics at this size (pixels)."""
+    the same coordinates; fx, fy, cx, cy the projector's intrinsics at this size (pixels); uv (H, W, 2): where each
+    lands in the object's UV map (NaN where it has none), or None."""
     points = np.asarray(points, np.float64)
     normals = np.asarray(normals, np.float64)
     valid = np.isfinite(points).all(-1) & np.isfinite(normals).all(-1) & (points[..., 2] > 0)
@@ -176,9 +209,14 @@ def from_hits(points, normals, up, fx: float, fy: float, cx: float, cy: float, n
     side = ~top & (a_r > a_a)
     su = np.where(top, pr, np.where(side, pa, pr)).astype(np.float32)
     sv = np.where(top, pa, pu).astype(np.float32)
+    mapping = "box"
+    mapped = uv_in_metres(uv, points, valid)
+    if mapped is not None:  # the object's own UV map: the look lies on it as a texture would
+        mu, mv, has = mapped
+        su, sv, mapping = np.where(has, mu, su), np.where(has, mv, sv), "uv"
     across = float(w) * median / fx
     return LookGeometry(valid, np.where(valid, depth, np.nan).astype(np.float32), up_share, downhill, cavity,
-                        curvature, su, sv, across, "scene", note)
+                        curvature, su, sv, across, "scene", note, mapping)
 
 
 def from_capture(surface_rgb) -> LookGeometry:
@@ -198,7 +236,7 @@ def from_capture(surface_rgb) -> LookGeometry:
     downhill[..., 1] = 1.0
     return LookGeometry(np.ones((h, w), bool), np.ones((h, w), np.float32), None, downhill, cavity,
                         np.zeros((h, w), np.float32), (u * long_side / w).astype(np.float32),
-                        (v * long_side / w).astype(np.float32), 1.0, "capture", CAPTURE_NOTE)
+                        (v * long_side / w).astype(np.float32), 1.0, "capture", CAPTURE_NOTE, "image")
 
 
 def resized(geometry: LookGeometry, h: int, w: int) -> LookGeometry:
@@ -217,7 +255,7 @@ def resized(geometry: LookGeometry, h: int, w: int) -> LookGeometry:
     return LookGeometry(valid, r(geometry.depth, True), None if geometry.up is None else r(geometry.up),
                         _unit(downhill).astype(np.float32), r(geometry.cavity),
                         r(geometry.curvature) * geometry.shape[1] / w, r(geometry.surface_u), r(geometry.surface_v),
-                        geometry.metres_across, geometry.source, geometry.note)
+                        geometry.metres_across, geometry.source, geometry.note, geometry.mapping)
 
 
 def look_coordinates(geometry: LookGeometry, h: int, w: int):
@@ -233,3 +271,42 @@ def look_coordinates(geometry: LookGeometry, h: int, w: int):
     u = np.where(g.valid, g.surface_u * scale, u_img)
     v = np.where(g.valid, g.surface_v * scale, v_img)
     return torch.as_tensor(u, dtype=torch.float32), torch.as_tensor(v, dtype=torch.float32)
+
+
+GEOMETRY_FILE = "look_geometry.npz"  # beside result.json: the geometry the look was shaped by
+_ARRAYS = ("valid", "depth", "up", "downhill", "cavity", "curvature", "surface_u", "surface_v")
+_FORMAT = 1
+
+
+def geometry_bytes(geometry: LookGeometry) -> bytes:
+    """The geometry as the bytes of look_geometry.npz (numpy arrays and a few numbers, no pickled objects): a result
+    keeps it, so a look made again from the result (a show's) is shaped as the still look was."""
+    import io
+
+    arrays = {name: np.asarray(getattr(geometry, name)) for name in _ARRAYS if getattr(geometry, name) is not None}
+    arrays.update(format=np.array(_FORMAT), metres_across=np.array(geometry.metres_across),
+                  source=np.array(geometry.source), note=np.array(geometry.note), mapping=np.array(geometry.mapping))
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **arrays)
+    return buffer.getvalue()
+
+
+def load_geometry(path) -> LookGeometry | None:
+    """The geometry saved at `path` (geometry_bytes), or None where there is none or it is of another format or
+    damaged: the look is then made without it, as before the file was kept."""
+    import os
+    import zipfile
+
+    if not os.path.isfile(path):
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if int(data["format"]) != _FORMAT:
+                return None
+            arrays = {name: (np.array(data[name]) if name in data.files else None) for name in _ARRAYS}
+            if any(arrays[name] is None for name in _ARRAYS if name != "up"):
+                return None
+            return LookGeometry(**arrays, metres_across=float(data["metres_across"]), source=str(data["source"]),
+                                note=str(data["note"]), mapping=str(data["mapping"]))
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+        return None

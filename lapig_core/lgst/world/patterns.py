@@ -55,12 +55,42 @@ def strata(u, v, s, seed, o):
 def stones(u, v, s, seed, o):
     """Cobbles, pebbles, boulders: rounded stones of their own shade, dark gaps between them."""
     c = cells.worley(u * s, v * s, seed, jitter=o.get("jitter", 0.85))
-    gap = o.get("gap", 0.12)
-    stone = _smooth(gap * 0.5, gap * 1.5, c.edge)
-    mottle = _u01(noise.fbm(u * s * 3, v * s * 3, seed + 6, 4))
+    # the joint's width in cell units, but never wider than a share of the frame: huge boulders keep sharp joints
+    gap = min(o.get("gap", 0.12), 0.025 * s)
+    # rounded stones: the joint, and the rim of each stone falling away into it (r: 0 at its point, 1 at its border)
+    r = c.f1 / (c.f1 + 0.5 * c.edge + 1e-6)
+    rim = min(o.get("round", 0.1), 0.04 * s)  # the rim too stays narrow in the frame
+    stone = _smooth(gap * 0.5, gap * 1.5, c.edge) * _smooth(1.0, 1.0 - rim, r)
+    # the stone's own surface: mottled at its own size, and pitted and weathered at a size of the frame's, so a
+    # boulder the frame's size is rough rock, not a smooth blur
+    fine = max(s * 3, 30.0)
+    mottle = 0.6 * _u01(noise.fbm(u * s * 3, v * s * 3, seed + 6, 4)) + \
+        0.4 * _u01(noise.fbm(u * fine, v * fine, seed + 5, 4, gain=0.6))
     t = stone * (0.3 + 0.45 * c.cell_id + 0.25 * mottle)
-    light = 0.75 + 0.5 * (1 - (c.f1 * 1.4).clamp(0, 1) ** 2) * stone - 0.25 * c.to_centre_y.clamp(-1, 1)
-    return _out(t, light)
+    # big stones (a few across the frame) show their fissures: thin dark lines where ridged noise crests
+    big = min(1.0, max(0.0, (6.0 - s) / 4.0))
+    if big > 0:
+        f = max(s * 2.5, 7.0)
+        fx, fy = noise.warp(u * f, v * f, seed + 3, amount=0.3, octaves=2)
+        fissure = _smooth(0.93, 0.99, 1 - noise.fbm(fx, fy, seed + 4, 3, gain=0.45).abs())
+        t = t * (1 - 0.6 * big * fissure)
+    return _out(t, 0.5 + 0.8 * _dome_light(c) * stone)
+
+
+LIGHT_FROM = (-0.45, -0.55, 0.7)  # the light a relief is shaded by: from the upper left, in front (x right, y down)
+
+
+def _dome_light(c) -> torch.Tensor:
+    """Lambert's shading 0..1 of each cell drawn as a rounded dome (a stone, a scale, a dent's rim), lit from the
+    upper left: r goes from 0 at the cell's point to 1 at its border, the dome's normal leans out along r."""
+    r = (c.f1 / (c.f1 + 0.5 * c.edge + 1e-6)).clamp(0, 0.999)
+    tilt = r ** 3  # flat-topped: the slope is in the outer rim, so a big stone's shading stays at its edge
+    h = torch.sqrt(1 - tilt * tilt)
+    d = torch.sqrt(c.to_centre_x ** 2 + c.to_centre_y ** 2 + 1e-9)
+    nx, ny = c.to_centre_x / d * tilt, c.to_centre_y / d * tilt
+    lx, ly, lz = LIGHT_FROM
+    norm = math.sqrt(lx * lx + ly * ly + lz * lz)
+    return ((nx * lx + ny * ly + h * lz) / norm).clamp(0, 1)
 
 
 def cracks(u, v, s, seed, o):
@@ -90,6 +120,47 @@ def clouds(u, v, s, seed, o):
     if o.get("sparkle"):  # snow and frost glint: ice crystals catching the light
         t = (t + o["sparkle"] * shapes.stars(u * s * 12, v * s * 12, seed + 5, density=0.3, size=0.09)).clamp(0, 1)
     return _out(t, cover=cover)
+
+
+def mud(u, v, s, seed, o):
+    """Mud: lumpy wet ground (warped fBm as its height, shaded by its slope, clods and grit on it) with puddles in
+    its hollows, smooth and dark, shining where they mirror the sky (t 0 the puddle's depth, 1 the drier tops)."""
+    x, y = noise.warp(u * s, v * s, seed, amount=o.get("warp", 0.6), octaves=4)
+
+    def height(dx, dy):
+        return _u01(noise.fbm(x + dx, y + dy, seed + 8, 5, gain=0.55))
+
+    h = height(0.0, 0.0)
+    lx, ly, _ = LIGHT_FROM
+    slope = (height(0.04 * lx, 0.04 * ly) - h) / 0.04  # rising towards the light: lit
+    clods = cells.worley(u * s * 5, v * s * 5, seed + 2, jitter=1.0)
+    lumpy = 0.25 * (_dome_light(clods) - 0.5)
+    water = o.get("puddles", 0.42)
+    puddle = _smooth(water + 0.03, water - 0.03, h)
+    ground = (0.35 + 0.65 * _smooth(water - 0.05, 0.8, h)).clamp(0, 1)
+    sky = _u01(noise.fbm(u * 2, v * 2, seed + 9, 3))  # what the still water mirrors
+    t = ground * (1 - puddle) + puddle * (0.12 + 0.2 * sky)
+    sheen = 0.7 * _smooth(0.2, 0.55, slope)  # mud is wet: the slopes facing the light shine
+    light = (1 + 0.9 * slope.clamp(-0.6, 0.6) + lumpy + sheen) * (1 - puddle) + puddle * (0.9 + 0.7 * sky ** 2)
+    return _out(t, light)
+
+
+def drifts(u, v, s, seed, o):
+    """Snow: soft drifts (a smooth warped height, its slopes turned from the light in blue shade: t through the
+    ramp's cold end), a fine crust, and crystals glinting."""
+    x, y = noise.warp(u * s, v * s * 1.6, seed, amount=0.5, octaves=3)
+
+    def height(dx, dy):
+        return _u01(noise.fbm(x + dx, y + dy, seed + 8, 4, gain=0.45))
+
+    h = height(0.0, 0.0)
+    lx, ly, _ = LIGHT_FROM
+    slope = (height(0.05 * lx, 0.05 * ly) - h) / 0.05
+    crust = _u01(noise.fbm(u * s * 10, v * s * 10, seed + 3, 3))
+    t = 0.72 + 0.9 * slope.clamp(-0.6, 0.4) + 0.12 * (crust - 0.5)
+    t = t + o.get("sparkle", 1.0) * shapes.stars(u * s * 14, v * s * 14, seed + 5, density=0.3, size=0.09)
+    # over another material it lies thick where it drifted and thin to nothing on the crests between
+    return _out(t, cover=_smooth(0.3, 0.48, h))
 
 
 def turbulent(u, v, s, seed, o):
@@ -140,6 +211,24 @@ def masonry(u, v, s, seed, o):
     t = (1 - b["joint"]) * (0.35 + 0.4 * b["id"] + 0.25 * mottle)
     light = 1.0 - 0.18 * (b["shade"] - 0.5)
     return _out(t, light, cover=1 - b["joint"])
+
+
+def plates(u, v, s, seed, o):
+    """Riveted steel plates (a ship's hull, a boiler, a bridge): plates in staggered rows, each a shade of its own
+    and mottled, dark seams, and a row of domed rivets inside each long seam (t 0 in the seams)."""
+    ratio = o.get("ratio", 3.0)
+    b = tilings.bricks(u * s, v * s, seed, ratio=ratio, mortar=o.get("seam", 0.025))
+    fx, fy = b["across"], b["shade"]  # 0..1 along and down the plate
+    pitch = o.get("rivets", 10.0)  # rivets along a plate's length
+    dx = (torch.remainder(fx * pitch, 1.0) - 0.5) / pitch * ratio  # from the nearest rivet, in plate heights
+    dy = torch.where(fy < 0.5, fy - 0.09, fy - 0.91)
+    r = 0.045
+    rivet = torch.sigmoid((r - torch.sqrt(dx * dx + dy * dy + 1e-9)) / 0.01)
+    facing = (-(dx * 0.6 + dy * 0.8) / r).clamp(-1, 1)  # the dome lit on its upper left
+    mottle = _u01(noise.fbm(u * s * 2, v * s * 2, seed + 14, 4))
+    t = (1 - b["joint"]) * (0.4 + 0.3 * b["id"] + 0.3 * mottle) + 0.3 * rivet
+    light = (1.0 - 0.12 * fy) * (1 + 1.2 * rivet * facing)  # each plate's lap shades its lower edge
+    return _out(t, light)
 
 
 def hex_tiles(u, v, s, seed, o):
@@ -470,18 +559,28 @@ def reaction(u, v, s, seed, o):
 
 
 def cave_art(u, v, s, seed, o):
-    """Cave paintings: ochre and charcoal figures and hand stencils on rough limestone (t 0..0.5 rock,
-    above the paint)."""
-    rock = 0.2 + 0.3 * _u01(noise.fbm(u * s * 2, v * s * 2, seed + 51, 6))
-    figure = shapes.scatter(u * s * 0.7, v * s * 0.7, "leaf", seed + 5, density=0.55, size=1.3, turn=0.3)
-    hand = shapes.scatter(u * s * 1.1, v * s * 1.1, "flower", seed + 6, density=0.2, size=0.7)
-    paint = torch.maximum(figure["coverage"], hand["coverage"])
-    worn = _smooth(0.2, 0.6, _u01(noise.fbm(u * s * 5, v * s * 5, seed + 52, 3)))
-    return _out(rock * (1 - paint * worn) + paint * worn * (0.7 + 0.3 * figure["id"]))
+    """Cave paintings: bison and horses in red and yellow ochre, outlined in charcoal, hand stencils blown round in
+    ochre, and rows of dots, on rough limestone, worn away in places (t 0..0.5 the rock, above it the ochre)."""
+    rock = 0.12 + 0.38 * _u01(noise.fbm(u * s * 2, v * s * 2, seed + 51, 6, gain=0.6))
+    beasts = shapes.scatter(u * s * 0.8, v * s * 0.8, "beast", seed + 5, density=o.get("density", 0.7), size=1.0,
+                            turn=0.08, softness=0.02)
+    hands = shapes.scatter(u * s * 1.6, v * s * 1.6 + 0.5, "hand", seed + 6, density=0.25, size=0.8, turn=0.15,
+                           softness=0.03)
+    spray = shapes.scatter(u * s * 1.6, v * s * 1.6 + 0.5, "disc", seed + 6, density=0.25, size=1.1, turn=0.0,
+                           softness=0.12)["coverage"] * (1 - hands["coverage"])  # the ochre blown round the hand
+    dots = shapes.scatter(u * s * 9, v * s * 9, "disc", seed + 7, density=0.18, size=0.35, softness=0.08)["coverage"]
+    worn = _smooth(0.22, 0.42, _u01(noise.fbm(u * s * 6, v * s * 6, seed + 52, 4)))
+    body = beasts["coverage"]
+    outline = body * (1 - _smooth(0.0, 0.25, beasts["depth"]))  # the charcoal line round each animal
+    paint = torch.maximum(torch.maximum(body, 0.85 * spray), 0.9 * dots) * worn
+    ochre = 0.78 + 0.22 * torch.where(body > 0.5, beasts["id"], torch.full_like(body, 0.3))  # red to yellow
+    t = rock * (1 - paint) + paint * ochre
+    light = 1 - 0.8 * outline * worn
+    return _out(t, light)
 
 
-PATTERNS = {f.__name__: f for f in (speckle, veins, strata, stones, cracks, clouds, turbulent, ridges, bark, woodgrain,
-                                    masonry, hex_tiles, checker, weave, twill, knit, tartan, circuit, scales, hammered,
+PATTERNS = {f.__name__: f for f in (speckle, veins, strata, stones, cracks, clouds, mud, drifts, turbulent, ridges, bark, woodgrain,
+                                    masonry, plates, hex_tiles, checker, weave, twill, knit, tartan, circuit, scales, hammered,
                                     brushed, corrugated, patches, chainmail, leaves, flowers, drops, snowflakes, grass,
                                     dunes, rosettes, stripes, eyes, honeycomb, craters, flames, embers, candle, stars,
                                     nebula, galaxy, aurora, waves, caustics, ripples, underwater, falls, reaction,

@@ -50,7 +50,41 @@ def snowflake(px, py):
     return torch.minimum(arm, branch) - 0.035
 
 
-SHAPES = {"leaf": leaf, "flower": flower, "disc": disc, "drop": drop, "snowflake": snowflake}
+def _ellipse(px, py, cx, cy, rx, ry):
+    return (torch.sqrt(((px - cx) / rx) ** 2 + ((py - cy) / ry) ** 2 + 1e-9) - 1) * min(rx, ry)
+
+
+def _capsule(px, py, ax, ay, bx, by, r):
+    """The distance to the segment a-b, less r."""
+    dx, dy = bx - ax, by - ay
+    h = (((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy)).clamp(0, 1)
+    return torch.sqrt((px - ax - h * dx) ** 2 + (py - ay - h * dy) ** 2 + 1e-9) - r
+
+
+def beast(px, py):
+    """A four-legged animal in profile, as the cave painters drew bison and horses: a heavy body with a hump, a
+    low head, horns, legs and a tail; about 1 long, facing +x."""
+    d = _ellipse(px, py, 0.0, 0.0, 0.4, 0.15)
+    d = torch.minimum(d, _ellipse(px, py, 0.16, -0.08, 0.2, 0.13))   # the hump over the shoulders
+    d = torch.minimum(d, _ellipse(px, py, 0.4, 0.04, 0.11, 0.08))    # the head, held low
+    d = torch.minimum(d, _capsule(px, py, 0.42, -0.04, 0.5, -0.14, 0.02))  # a horn
+    for x0, x1 in ((-0.26, -0.3), (-0.16, -0.12), (0.16, 0.2), (0.25, 0.24)):
+        d = torch.minimum(d, _capsule(px, py, x0, 0.1, x1, 0.36, 0.035))
+    return torch.minimum(d, _capsule(px, py, -0.35, -0.02, -0.45, 0.16, 0.018))  # the tail
+
+
+def hand(px, py):
+    """A hand with its fingers spread, fingers up (the stencils blown round a hand on the rock), about 0.8 tall."""
+    d = _ellipse(px, py, 0.0, 0.12, 0.16, 0.18)
+    for angle, length in ((-0.55, 0.28), (-0.2, 0.36), (0.05, 0.38), (0.3, 0.35), (0.58, 0.27)):
+        tx, ty = 0.12 * math.sin(angle), 0.05 - 0.1 * math.cos(angle)
+        d = torch.minimum(d, _capsule(px, py, tx, ty, tx + length * math.sin(angle), ty - length * math.cos(angle),
+                                      0.045))
+    return torch.minimum(d, _capsule(px, py, 0.12, 0.18, 0.32, 0.02, 0.05))  # the thumb
+
+
+SHAPES = {"leaf": leaf, "flower": flower, "disc": disc, "drop": drop, "snowflake": snowflake, "beast": beast,
+          "hand": hand}
 
 
 def scatter(x, y, shape: str, seed=0, density=0.8, size=0.9, size_spread=0.3, turn=1.0, softness=0.04) -> dict:

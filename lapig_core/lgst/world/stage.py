@@ -204,10 +204,10 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
     for i, overlay in enumerate(comp.overlays):
         rgb, f, _ = _layer(overlay, u, v, seed + 11 + i, comp.scale, comp.density, p, f"overlay{i}", look, clock)
         cover = f["cover"]
-        if comp.base.pattern in ("masonry", "stones", "hex_tiles", "checker", "cracks") and overlay.pattern in (
-                "leaves", "clouds", "grass"):
+        if comp.base.pattern in ("masonry", "stones", "hex_tiles", "checker", "cracks", "plates") and (
+                overlay.pattern in ("leaves", "clouds", "grass") or overlay.name == "rust"):
             # growth follows the joints: what grows on a wall starts in its mortar and spreads from there (lichen
-            # grows on the faces of the stones themselves)
+            # grows on the faces of the stones themselves); rust starts at a hull's seams and rivets
             joint = _smooth(0.35, 0.0, base_t)
             cover = (cover * (0.45 + 0.9 * joint)).clamp(0, 1)
         if geo is not None:
@@ -228,6 +228,8 @@ def render(comp: Composition, p: dict, h: int, w: int, seed: int = 0, device=Non
         out = out * (1 - p["dirt"] * (0.5 * grime + 0.6 * crevice)).clamp(0.2, 1)
     if "wet" in comp.weathering:
         glints = _smooth(0.82, 0.95, _u01(noise.fbm(u * 40, v * 40, seed + 81, 3)))
+        # a wet relief shines where it faces the light: the crowns of cobbles, the rims of scales
+        glints = torch.maximum(glints, 0.7 * _smooth(1.12, 1.3, base_f["light"]))
         if geo is not None:  # wet glints run down in drips
             glints = _smear_downhill(glints, geo["downhill"], steps=8)
         out = (out.clamp(0, 1) ** 1.35) * 0.85 + 0.5 * glints

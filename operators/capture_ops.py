@@ -5,8 +5,8 @@ from ..lapig_addon.blender.modal_runner import JobRunnerMixin, cancel_background
 from ..lapig_addon.blender.operator_boundary import AsksForFolder, poll_reason
 from ..lapig_addon.blender.scene_store import scene_seams
 from ..lapig_addon.services.background_jobs import train_after_capture
-from ..lapig_addon.services.capture_job import CaptureJob, check_rig
-from ..lapig_addon.services.panel_state import capture_deps_blocker
+from ..lapig_addon.services.capture.capture_job import CaptureJob, check_rig
+from ..lapig_addon.services.panel.panel_state import capture_deps_blocker
 from ..lapig_core.capture.dataset import load_capture_set, setup_dir_of, summarize
 from ..lapig_core.optics.working_frame import check_aspect
 from ..lapig_core.common.deps import require

@@ -3,7 +3,7 @@ import bpy
 from ..lapig_addon.blender import light_plan_run, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
 from ..lapig_addon.blender.operator_boundary import ReportsErrors
-from ..lapig_addon.services.panel_state import rig_blocker
+from ..lapig_addon.services.panel.panel_state import rig_blocker
 
 
 class LAPIG_OT_light_report(JobRunnerMixin, bpy.types.Operator):

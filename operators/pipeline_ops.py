@@ -10,7 +10,7 @@ from ..lapig_addon.blender.operator_boundary import (AsksForFolder, ReportsError
                                                      show_in_image_editor)
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
-from ..lapig_addon.services import panel_state
+from ..lapig_addon.services.panel import panel_state
 from ..lapig_core.common.deps import require
 
 
@@ -105,7 +105,7 @@ class LAPIG_OT_generate(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
 
 def _look_edit():
     require("torch")
-    from ..lapig_addon.services import look_edit
+    from ..lapig_addon.services.generate import look_edit
 
     return look_edit
 
@@ -159,7 +159,7 @@ class LAPIG_OT_render_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         require("torch")  # as NeedsTorch says
-        from ..lapig_addon.services.render_job import RenderResultJob
+        from ..lapig_addon.services.render.render_job import RenderResultJob
 
         return RenderResultJob(scene_seams(context.scene))
 
@@ -176,7 +176,7 @@ class LAPIG_OT_refine_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         require("torch")
-        from ..lapig_addon.services.refine_job import RefineResultJob
+        from ..lapig_addon.services.refine.refine_job import RefineResultJob
 
         return RefineResultJob(scene_seams(context.scene), scene_state.refine_steps(context.scene))
 
@@ -230,7 +230,7 @@ class LAPIG_OT_export_image(ReportsErrors, bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def execute(self, context):
-        from ..lapig_addon.services import export_result
+        from ..lapig_addon.services.export import export_result
 
         settings = scene_state.export_settings(context.scene, path=self.filepath or None)
         written = export_result.export_current(BlenderSceneStore(context.scene), settings)
@@ -266,7 +266,7 @@ class LAPIG_OT_export_mpcdi(ReportsErrors, bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
     def execute(self, context):
-        from ..lapig_addon.services import export_result
+        from ..lapig_addon.services.export import export_result
 
         written = export_result.export_current(BlenderSceneStore(context.scene),
                                                scene_state.export_settings(context.scene),
@@ -282,7 +282,7 @@ class LAPIG_OT_export_crossfade(AsksForFolder, bpy.types.Operator):
     bl_label = "Export Crossfade"
 
     def execute(self, context):
-        from ..lapig_addon.services import export_result
+        from ..lapig_addon.services.export import export_result
 
         paths = export_result.export_crossfade(BlenderSceneStore(context.scene), bpy.path.abspath(self.directory),
                                                scene_state.export_settings(context.scene))

@@ -2,7 +2,7 @@ import bpy
 
 from ..lapig_addon.blender import preview, projector_nodes, scene_state
 from ..lapig_addon.blender.operator_boundary import ReportsErrors
-from ..lapig_addon.services.panel_state import rig_blocker
+from ..lapig_addon.services.panel.panel_state import rig_blocker
 
 
 class LAPIG_OT_preview_toggle(ReportsErrors, bpy.types.Operator):

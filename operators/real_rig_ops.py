@@ -7,8 +7,8 @@ from ..lapig_addon.blender.modal_runner import JobRunnerMixin
 from ..lapig_addon.blender.operator_boundary import ReportsErrors, show_in_image_editor
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
 from ..lapig_addon.rigs import device_list, live_output
-from ..lapig_addon.services import panel_state
-from ..lapig_addon.services.rig_check import RigCheckJob
+from ..lapig_addon.services.panel import panel_state
+from ..lapig_addon.services.capture.rig_check import RigCheckJob
 
 _ITEMS = {"display": [], "camera": []}  # Blender needs the enum strings to stay referenced
 NOTHING = ("NONE", "Nothing found yet: Find Displays and Cameras", "")

@@ -1,6 +1,6 @@
 """Operators of the show (issue 38): the list of looks (add, remove, move), Bake Show (the previz on the timeline),
 Export Show and Play Show. Thin: the scene is read and written through blender/scene_state and
-blender/show_timeline, the work is services/show_jobs and rigs/live_output's jobs."""
+blender/show_timeline, the work is services/show/show_jobs and rigs/live_output's jobs."""
 import os
 
 import bpy

@@ -3,9 +3,9 @@ Light Report's figures (from the result's light_report.json) and its warnings.""
 import bpy
 
 from ..lapig_addon.blender import scene_state, ui_text
-from ..lapig_addon.services import light_report
-from ..lapig_addon.services.dose_cap import DoseCapJob
-from ..lapig_addon.services.light_report_job import LightReportJob
+from ..lapig_addon.services.light import light_report
+from ..lapig_addon.services.light.dose_cap import DoseCapJob
+from ..lapig_addon.services.light.light_report_job import LightReportJob
 from .main_panel import LapigPanel, _job_running, _lines, _progress
 
 

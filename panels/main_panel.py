@@ -3,9 +3,9 @@ import bpy
 from ..lapig_addon.blender import live_devices, scene_state, storage, ui_text, warm_start
 from ..lapig_addon.blender.modal_runner import SLOTS, active_job
 from ..lapig_addon.rigs import camera_view, device_list, live_output
-from ..lapig_addon.services import panel_state
+from ..lapig_addon.services.panel import panel_state
 from ..lapig_addon.services.background_jobs import background_line
-from ..lapig_addon.services.rig_check import last_check
+from ..lapig_addon.services.capture.rig_check import last_check
 from ..lapig_core.common.deps import missing_required
 
 STATE_ICONS = {"DONE": "CHECKMARK", "STALE": "ERROR", "MISSING": "DOT"}

@@ -106,7 +106,7 @@ def evaluate_refine(cs, models, rig_objects, setup_dir, images, iterations) -> t
     factory of the rig's objects), then captured once more with a fresh noise draw: (figures, images). The
     figures are metrics.evaluate's, as with_psa's, beside the loop's record; the native image refined too."""
     from ..lapig_addon.blender.cycles_factory import CyclesDeviceFactory
-    from ..lapig_addon.services.refine_job import refine_rounds
+    from ..lapig_addon.services.refine.refine_job import refine_rounds
     from ..lapig_core.common.steps import run_to_end
     from ..lapig_core.photometric.choice import load_choice
     from ..lapig_core.photometric.classical import ClassicalModel

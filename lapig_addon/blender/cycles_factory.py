@@ -11,7 +11,7 @@ import contextlib
 from ...lapig_core.capture.settings import CaptureError, CaptureSettings
 from ...lapig_core.optics.camera_model import CameraResponse
 from ...lapig_core.rig.simulated import optics_meta
-from ..services.panel_state import rig_blocker
+from ..services.panel.panel_state import rig_blocker
 from ..services.ports import RigIdentity
 from . import preview, scene_state
 from .cycles_device import CyclesCaptureDevice

@@ -1,7 +1,7 @@
 """The light report and the dose cap of the scene's rig and look (bpy): SceneLight (one projector, its own frame)
 or JointSceneLight (every projector over the camera's pixels), chosen by the rig's strategy (scene_light), reads
 the rig on the main thread and renders the maps as job steps (one Cycles render a step);
-services/light_report_job (the Light Report button and the `report` command: report_job) and services/dose_cap
+services/light/light_report_job (the Light Report button and the `report` command: report_job) and services/light/dose_cap
 (Limit Look to the Dose: cap_job) turn them into the report, the capped look and their files on a worker thread."""
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import numpy as np
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.steps import run_to_end
 from ...lapig_core.photometry import units
-from ..services import light_report
-from ..services.light_joint import joint_lumens
+from ..services.light import light_report
+from ..services.light.light_joint import joint_lumens
 from ..services.state import JOINT, PROJECTOR_SPACE
 from ..services.ways import chosen_way
 from . import light_render, rig, scene_state
@@ -53,9 +53,9 @@ def scene_light(scene, plan, width: int = 160):
 
 
 def report_job(scene, plan, folder: str | None, width: int = 160, maps_dir: str | None = None):
-    """The Light Report as a job (services/light_report_job.LightReportJob): the report of the scene's look
+    """The Light Report as a job (services/light/light_report_job.LightReportJob): the report of the scene's look
     (folder: its result; None: a white frame, nothing written there), its maps `width` pixels wide."""
-    from ..services.light_report_job import LightReportJob
+    from ..services.light.light_report_job import LightReportJob
 
     return LightReportJob(plan, scene_light(scene, plan, width), folder or None, maps_dir)
 
@@ -63,7 +63,7 @@ def report_job(scene, plan, folder: str | None, width: int = 160, maps_dir: str 
 def write_capped(path, scene, plan, folder) -> dict:
     """The result's projector image limited to the plan's lux limit on the marked region, written to path (the
     command line's --cap-out: one projector's frame, rendered and computed here); what the cap did."""
-    from ..services.dose_cap import capped_look
+    from ..services.light.dose_cap import capped_look
 
     if plan.limit is None:
         raise ValueError("limiting the look needs a conservation category")
@@ -77,10 +77,10 @@ def write_capped(path, scene, plan, folder) -> dict:
 
 
 def cap_job(scene, plan, folder: str | None = None, record: bool = True, measure_psnr: bool = False):
-    """Limit Look to the Dose as a job (services/dose_cap.DoseCapJob) on the scene's seams: its result (or
+    """Limit Look to the Dose as a job (services/light/dose_cap.DoseCapJob) on the scene's seams: its result (or
     `folder`), its capture's lock, its rig's device factory; a rig of several projectors limits every projector's
-    light by one factor (services/dose_cap_joint)."""
-    from ..services.dose_cap import DoseCapJob
+    light by one factor (services/light/dose_cap_joint)."""
+    from ..services.light.dose_cap import DoseCapJob
     from .scene_store import scene_seams
 
     if plan.limit is None:
@@ -91,7 +91,7 @@ def cap_job(scene, plan, folder: str | None = None, record: bool = True, measure
 
 class SceneLight:
     """The scene's light from its projector in lux, as the report and the dose cap need it
-    (services/light_report_job.ReportLight, services/dose_cap.LightRenders): the rig read when made, on the main
+    (services/light/light_report_job.ReportLight, services/light/dose_cap.LightRenders): the rig read when made, on the main
     thread, and every input checked; the Cycles renders as steps, each on Blender's main thread, into passes a
     worker turns into maps (light_report.plan_maps)."""
 
@@ -151,7 +151,7 @@ def studio_steps(studio, progress, label: str):
 
 
 def apply_projector(scene, plan) -> tuple[dict, list[str]]:
-    """Set the scene's projector to the plan's model (services/light_report.projector_settings); the
+    """Set the scene's projector to the plan's model (services/light/light_report.projector_settings); the
     brightness, resolution and lens are part of the rig's fingerprint, so the capture goes stale."""
     projector = scene_state.rig_objects(scene)[0]
     if projector is None:
@@ -165,7 +165,7 @@ class JointSceneLight:
     """The light of a rig of several projectors over its camera's pixels (issue 36; the joint strategy): each
     projector's maps from a LightStudio viewed from the rig's camera (light_render's view), so their light adds
     pixel by pixel; the room's light rendered once, with the first. Each projector at its own lumens
-    (services/light_joint.joint_lumens: the plan's are the first's, the others' in proportion to their own light
+    (services/light/light_joint.joint_lumens: the plan's are the first's, the others' in proportion to their own light
     power); a result's look as each projector shows its image of it (result.json's projectors[k].image), rendered
     as the light it emits. Read on the main thread when made; steps() renders, one Cycles render a step."""
 

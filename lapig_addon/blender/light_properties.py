@@ -1,6 +1,6 @@
 """The Light sub-panel's settings, per scene (scene.lapig_light): the projector model or its lumens, the
 room's lux, the object's conservation category and the show's schedule. scene_state.light_plan reads
-them into services/light_report.LightPlan, which checks them."""
+them into services/light/light_report.LightPlan, which checks them."""
 from __future__ import annotations
 
 import bpy

@@ -145,7 +145,7 @@ def projector_job(scene, window_factory=None) -> live_output.OpenWindowJob:
             return real_rig._projector_window(display)
     rig = scene_state.read_rig(scene)
     if rig.strategy == JOINT:  # a joint result has an image per projector: every window at once, presenting together
-        from ..services.panel_state import projectors_blocker
+        from ..services.panel.panel_state import projectors_blocker
         from ...lapig_core.multi.result_files import is_multi_result
 
         problem = projectors_blocker(rig)

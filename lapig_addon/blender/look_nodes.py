@@ -1,4 +1,4 @@
-"""A world look as a shader node group (services/look_edit.node_recipe_of: the recipe, bpy-free): the texture node
+"""A world look as a shader node group (services/generate/look_edit.node_recipe_of: the recipe, bpy-free): the texture node
 with the sliders' Scale, Detail, Roughness, Distortion and seed, the look's colour ramp and a Hue/Saturation node,
 into a group with a Color output; a Group node of it is added to the object's material, not connected, for the
 artist to wire where it belongs."""

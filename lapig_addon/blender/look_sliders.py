@@ -1,5 +1,5 @@
 """A world look's sliders in the UI: a change, once the slider rests, runs Update Look (operators/pipeline_ops
-LAPIG_OT_edit_look: services/look_edit.EditLookJob). A drag sends many changes: the timer starts again at each, so
+LAPIG_OT_edit_look: services/generate/look_edit.EditLookJob). A drag sends many changes: the timer starts again at each, so
 the look is made once the hand stops, and waits while another job runs. Scripts, background mode and the bpy module
 set the sliders and call bpy.ops.lapig.edit_look() themselves."""
 import bpy

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The preferences' model manager: Download, Cancel, Use Folder and Remove for each diffusion model, and its box.
 
-The download is services/model_download's job in its slot, stepped by a bpy.app.timers function in Blender's UI
+The download is services/install/model_download's job in its slot, stepped by a bpy.app.timers function in Blender's UI
 (as Install torch: it outlives the preferences window); a script, background mode and the bpy module run it to
 the end in execute(). It goes online only where Blender allows it (bpy.app.online_access).
 """
@@ -12,8 +12,8 @@ import os
 import bpy
 
 from ...lapig_core.diffusion import catalogue, fetch
-from ..services import model_download
-from ..services.model_download import DOWNLOADS, DownloadRequest, ModelDownloadJob
+from ..services.install import model_download
+from ..services.install.model_download import DOWNLOADS, DownloadRequest, ModelDownloadJob
 from . import torch_installer
 from .operator_boundary import ReportsErrors
 

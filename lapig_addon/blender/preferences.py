@@ -8,9 +8,9 @@ import bpy
 
 from ...lapig_core.common.deps import INSTALL_DOC, check_dependencies, install_command
 from ...lapig_core.common.gpu_torch import gpu_advice, installed_torch, nvidia_gpu_present
-from ..services import torch_builds
-from ..services.bundle_status import bundle_lines, read_bundle
-from ..services.torch_install import SLOT as TORCH_INSTALL
+from ..services.install import torch_builds
+from ..services.panel.bundle_status import bundle_lines, read_bundle
+from ..services.install.torch_install import SLOT as TORCH_INSTALL
 from . import model_manager, torch_installer, ui_text
 from .preferences_access import addon_package as _addon_package
 from .preferences_access import compute_device  # noqa: F401 (scene_state reads it from here)
@@ -176,7 +176,7 @@ def _draw_torch(layout, prefs, fit):
 def ip2p_model() -> str:
     """The InstructPix2Pix weights folder: the preferences' own folder, else the model manager's download where it
     is ready ('' when neither, or when the add-on is registered without being enabled, as in the bpy module)."""
-    from ..services.model_download import ready_folder
+    from ..services.install.model_download import ready_folder
 
     addon = bpy.context.preferences.addons.get(_addon_package())
     if not (addon and addon.preferences):
@@ -190,7 +190,7 @@ def ip2p_model() -> str:
 def ready_model(key: str) -> str:
     """A catalogue model's folder where it is ready: the preferences' own folder for it (Use Folder), else the model
     manager's download ('' when neither is ready, or when the add-on is registered without being enabled)."""
-    from ..services.model_download import ready_folder
+    from ..services.install.model_download import ready_folder
 
     addon = bpy.context.preferences.addons.get(_addon_package())
     if not (addon and addon.preferences):

@@ -1,8 +1,8 @@
 """Project images onto the rendered surface and capture them, for scripts and benchmarks that hold the
-rig's objects: services/projection through the Cycles device factory of those objects."""
+rig's objects: services/capture/projection through the Cycles device factory of those objects."""
 from __future__ import annotations
 
-from ..services.projection import project_and_capture, register_at  # noqa: F401 (register_at re-exported)
+from ..services.capture.projection import project_and_capture, register_at  # noqa: F401 (register_at re-exported)
 from .cycles_factory import CyclesDeviceFactory
 
 

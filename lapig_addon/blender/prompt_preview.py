@@ -1,13 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The fast path in Blender (issue 53, item 4): the prompt property's update and the timer that steps
-services/prompt_preview, whose debounce and cancel hold all the logic. Only where the one-step model is ready in the
-model manager and the look is a diffusion one (services/prompt_preview.fast_path_problem): otherwise typing a prompt
+services/generate/prompt_preview, whose debounce and cancel hold all the logic. Only where the one-step model is ready in the
+model manager and the look is a diffusion one (services/generate/prompt_preview.fast_path_problem): otherwise typing a prompt
 does what it always did. Generate stops the preview (the full PSA run's result must not be overwritten)."""
 from __future__ import annotations
 
 import bpy
 
-from ..services.prompt_preview import PreviewRequest, PromptPreview, PromptPreviewJob, fast_path_problem
+from ..services.generate.prompt_preview import PreviewRequest, PromptPreview, PromptPreviewJob, fast_path_problem
 from .timer_jobs import STEP_S, redraw
 
 _session: dict = {}  # 'preview': this session's PromptPreview, 'scene': the name of the scene it previews

@@ -182,7 +182,7 @@ SHOW_MOTIONS = [
 
 class LapigShowLook(bpy.types.PropertyGroup):
     """One look of the show (issue 38): a result, its hold, its transition to the next look and its motion.
-    Read by blender/scene_state.read_show into services/show_plan.ShowLook."""
+    Read by blender/scene_state.read_show into services/show/show_plan.ShowLook."""
     name: StringProperty(name="Name", description="The look's name on the timeline's markers", update=_show_changed)
     result_dir: StringProperty(name="Result", subtype="DIR_PATH", options=RELATIVE_PATH_OPTIONS, update=_show_changed,
                                description="The result folder whose look this is")

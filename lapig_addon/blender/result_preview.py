@@ -17,7 +17,7 @@ from ...lapig_core.common.resample import resize_image
 from ...lapig_core.optics.projector_model import frame_from_working_image
 from ...lapig_core.export.result_files import read_output_image
 from ...lapig_core.multi.result_files import problem_areas
-from ..services.panel_state import preview_blocker
+from ..services.panel.panel_state import preview_blocker
 from ..services.state import JOINT
 from . import preview, projector_nodes, scene_state
 from .scene_state import projector_model

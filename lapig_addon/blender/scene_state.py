@@ -33,7 +33,7 @@ def projector_size(obj) -> tuple[int, int]:
 
 
 def write_projector_settings(obj, settings: dict) -> None:
-    """Set the projector's settings by name (services/light_report.projector_settings: a real model's)."""
+    """Set the projector's settings by name (services/light/light_report.projector_settings: a real model's)."""
     p = obj.lapig_projector
     for name, value in settings.items():
         setattr(p, name, value)
@@ -443,7 +443,7 @@ def light_plan(scene):
     """The Light sub-panel's settings (scene.lapig_light) as a services.light_report.LightPlan; its
     problem() says what is wrong with them."""
     from ...lapig_core.photometry.dose import ConservationLimit, Schedule
-    from ..services.light_report import LightPlan
+    from ..services.light.light_report import LightPlan
 
     s = scene.lapig_light
     limit = None
@@ -464,9 +464,9 @@ def scene_fps(scene) -> float:
 
 
 def read_show(scene):
-    """The show of scene.lapig.show_looks as a services/show_plan.ShowPlan, at the scene's frame rate, starting
+    """The show of scene.lapig.show_looks as a services/show/show_plan.ShowPlan, at the scene's frame rate, starting
     at the scene's first frame; a look's result folder is found again beside a moved .blend ('' when gone)."""
-    from ..services.show_plan import ShowLook, ShowPlan
+    from ..services.show.show_plan import ShowLook, ShowPlan
 
     looks = tuple(ShowLook(result_dir=storage.resolve_result_dir(item.result_dir) if item.result_dir else "",
                            name=item.name, hold_s=item.hold_s, transition=item.transition,
@@ -488,7 +488,7 @@ def add_show_look(scene, folder: str, name: str = "", **settings) -> int:
     for key, value in settings.items():
         setattr(item, key, value)
     if not name:
-        from ..services.show_plan import look_name
+        from ..services.show.show_plan import look_name
 
         name = look_name(folder)
     item.name = name
@@ -498,7 +498,7 @@ def add_show_look(scene, folder: str, name: str = "", **settings) -> int:
 
 
 def remove_show_look(scene, index: int) -> bool:
-    from ..services.show_plan import index_after_removal
+    from ..services.show.show_plan import index_after_removal
 
     s = scene.lapig
     if not 0 <= index < len(s.show_looks):
@@ -511,7 +511,7 @@ def remove_show_look(scene, index: int) -> bool:
 
 def move_show_look(scene, index: int, direction: int) -> int:
     """Move look `index` one place up (-1) or down (+1); its new index (the active one)."""
-    from ..services.show_plan import moved
+    from ..services.show.show_plan import moved
 
     s = scene.lapig
     _, target = moved(range(len(s.show_looks)), index, direction)

@@ -7,7 +7,7 @@ import bpy
 from . import scene_state, storage
 from .cycles_factory import CyclesDeviceFactory
 from .result_sinks import ProjectorLightSink
-from ..services.export_result import result_frame
+from ..services.export.export_result import result_frame
 from ..services.ports import Seams
 
 

@@ -14,7 +14,7 @@ import os
 import bpy
 from bpy.app.handlers import persistent
 
-from ..services.show_source import FRAME_NAME
+from ..services.show.show_source import FRAME_NAME
 from . import projector_nodes, scene_state, storage
 
 SEQUENCE_PREFIX = projector_nodes.SHOW_IMAGE_PREFIX
@@ -128,10 +128,10 @@ def is_wired(scene) -> bool:
 # ------------------------------------------------------------------ the show's jobs, read on the main thread
 
 def show_source(scene, bit_depth: int | None = None, use_producer: bool = True, compensated_dissolves: bool = True):
-    """The show of the scene as the jobs take it (services/show_source.ShowSource): the plan, every projector's
+    """The show of the scene as the jobs take it (services/show/show_source.ShowSource): the plan, every projector's
     model, the export's bit depth (or `bit_depth`), the scene's capture. compensated_dissolves=False: dissolves
     crossfade the looks' images (a live show: no compensation while it plays)."""
-    from ..services.show_source import ShowSource
+    from ..services.show.show_source import ShowSource
 
     state = scene_state.read(scene)
     models = tuple(scene_state.projector_model(p) for p in scene_state.rig_projectors(scene))
@@ -142,9 +142,9 @@ def show_source(scene, bit_depth: int | None = None, use_producer: bool = True, 
 
 
 def blocker(scene) -> str:
-    """Why the scene's show cannot be baked, exported or played ('' when it can): services/show_plan.show_blocker."""
-    from ..services.panel_state import rig_blocker
-    from ..services.show_plan import show_blocker
+    """Why the scene's show cannot be baked, exported or played ('' when it can): services/show/show_plan.show_blocker."""
+    from ..services.panel.panel_state import rig_blocker
+    from ..services.show.show_plan import show_blocker
 
     state = scene_state.read(scene)
     return rig_blocker(state.rig) or show_blocker(scene_state.read_show(scene), state)
@@ -157,8 +157,8 @@ def _checked(scene) -> None:
 
 
 def bake_job(scene, use_producer: bool = True):
-    """Bake Show's job (services/show_jobs.BakeShowJob), checked: its frames go to baked_folder()."""
-    from ..services.show_jobs import BakeShowJob
+    """Bake Show's job (services/show/show_jobs.BakeShowJob), checked: its frames go to baked_folder()."""
+    from ..services.show.show_jobs import BakeShowJob
 
     _checked(scene)
     job = BakeShowJob(show_source(scene, use_producer=use_producer), baked_folder())
@@ -239,10 +239,10 @@ def show_sound(scene) -> str | None:
 
 
 def export_job(scene, out_dir: str, codec: str, bit_depth: int | None = None, use_producer: bool = True):
-    """Export Show's job (services/show_jobs.ShowExportJob), checked before any file is written; the scene's
+    """Export Show's job (services/show/show_jobs.ShowExportJob), checked before any file is written; the scene's
     sound strips in the show's range go into the video (mixed down here, on the main thread)."""
-    from ..services.export_source import addon_version
-    from ..services.show_jobs import ShowExportJob
+    from ..services.export.export_source import addon_version
+    from ..services.show.show_jobs import ShowExportJob
     from . import scene_store
 
     _checked(scene)

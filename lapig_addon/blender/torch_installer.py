@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The preferences' Install torch buttons: they start services/torch_install's job in the session's install slot.
+"""The preferences' Install torch buttons: they start services/install/torch_install's job in the session's install slot.
 
 In Blender's UI a bpy.app.timers function steps the job (it outlives the preferences window, and LAPIG's own
 jobs go on meanwhile: Capture needs no torch); a script, background mode and the bpy module run it to the end
@@ -11,15 +11,15 @@ import sys
 
 import bpy
 
-from ..services import torch_builds, torch_install
-from ..services.torch_install import SLOT, TorchInstallJob
+from ..services.install import torch_builds, torch_install
+from ..services.install.torch_install import SLOT, TorchInstallJob
 from .operator_boundary import ReportsErrors
 
 from .timer_jobs import STEP_S, in_ui, redraw, timer_step
 
 
 def target_folder() -> str:
-    """The user's scripts/modules folder: where torch goes (services/torch_install says why)."""
+    """The user's scripts/modules folder: where torch goes (services/install/torch_install says why)."""
     return bpy.utils.user_resource("SCRIPTS", path="modules", create=True)
 
 

@@ -1,7 +1,7 @@
-"""The sidebar's width, UI scale and font metrics, for services/text_fit: what a panel's line can hold."""
+"""The sidebar's width, UI scale and font metrics, for services/panel/text_fit: what a panel's line can hold."""
 from __future__ import annotations
 
-from ..services import text_fit
+from ..services.panel import text_fit
 
 
 def ui_scale(context) -> float:

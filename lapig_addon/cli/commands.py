@@ -14,7 +14,7 @@ from ...lapig_core.common.sheets import labelled_grid
 from ..blender import addon, result_preview, scene_state, storage
 from ..blender.scene_store import BlenderSceneStore, scene_seams
 from ..services.errors import one_line
-from ..services.panel_state import rig_blocker
+from ..services.panel.panel_state import rig_blocker
 from . import headless, rig_choice
 from .output import print_json, print_notes
 
@@ -27,10 +27,10 @@ def _ensure_registered():
 def cmd_demo(args) -> int:
     """The README's main job: demo scene -> capture -> models -> prompt -> projector image -> render."""
     from ...lapig_core.lgst.not_understood import check_prompt
-    from ..services import export_result
-    from ..services.generate_job import GenerateJob, result_notes
-    from ..services.train_job import TrainModelsJob
-    from ..services.render_job import RenderResultJob
+    from ..services.export import export_result
+    from ..services.generate.generate_job import GenerateJob, result_notes
+    from ..services.train.train_job import TrainModelsJob
+    from ..services.render.render_job import RenderResultJob
 
     check_prompt(args.prompt)  # now, not after minutes of capture and training (nothing understood: refused)
     _ensure_registered()
@@ -167,7 +167,7 @@ def _save_if_asked(args):
 
 
 def cmd_train(args) -> int:
-    from ..services.train_job import TrainModelsJob
+    from ..services.train.train_job import TrainModelsJob
 
     scene = _open_scene(args)
     devices = rig_choice.apply(args, scene)
@@ -186,7 +186,7 @@ def _style_image_specs(specs) -> tuple | None:
         return None
     from ...lapig_core.common.style_image import parse_style_image_spec
 
-    from ..services.generate_job import check_style_images
+    from ..services.generate.generate_job import check_style_images
 
     out = []
     for spec in specs:
@@ -201,8 +201,8 @@ def cmd_stylize(args) -> int:
     joint reach, and compensation), then --refine N: the projector image(s) refined on the rig (several: all
     together); --render: the image(s), refined where they were, shown at once and captured, their figures in the
     JSON."""
-    from ..services.generate_job import GenerateJob, result_notes
-    from ..services.render_job import RenderResultJob
+    from ..services.generate.generate_job import GenerateJob, result_notes
+    from ..services.render.render_job import RenderResultJob
 
     style_images = _style_image_specs(args.style_images)  # a bad image is refused before the .blend opens
     prompt = args.prompt if args.prompt is not None else ("" if style_images else None)
@@ -224,7 +224,7 @@ def cmd_stylize(args) -> int:
     summary = out["summary"]
     figures = dict(summary["metrics"])
     if args.refine:  # closed loop on the rig, before the render: the render then captures the refined image(s)
-        from ..services.refine_job import RefineResultJob
+        from ..services.refine.refine_job import RefineResultJob
 
         figures["refine"] = RefineResultJob(seams, args.refine).run_to_completion(
             on_progress=headless.print_progress)["refine"]
@@ -264,7 +264,7 @@ def read_summary_of(folder) -> dict:
 
 
 def cmd_export(args) -> int:
-    from ..services import export_result
+    from ..services.export import export_result
 
     if args.crossfade and not os.path.isdir(os.path.dirname(os.path.abspath(args.crossfade))):
         raise ValueError(f"--crossfade: the folder above {args.crossfade} does not exist")  # before any file
@@ -290,7 +290,7 @@ def cmd_export(args) -> int:
 def _scene_result_if_latest(scene) -> str:
     """The scene's result, unless a later stylize (one without --save) made a newer one: a pipeline that
     stylizes and then exports means that one, so say how to choose instead of exporting the old look."""
-    from ..services import export_result
+    from ..services.export import export_result
 
     recorded = scene_state.read(scene).result_dir
     newest = export_result.newest_result(os.path.join(storage.data_root()[0], "results"))
@@ -307,7 +307,7 @@ def _chosen_capture(args, store) -> str | None:
     instead of training on the old capture."""
     if args.capture:
         return os.path.abspath(args.capture)
-    from ..services.captures import newest_capture
+    from ..services.capture.captures import newest_capture
 
     state = store.read()
     recorded = state.capture_dir
@@ -365,7 +365,7 @@ def _play_timeline(scene, display: str, displays=None) -> int:
 def _several_displays(args, store, count: int, whose: str = "the rig") -> list:
     """The displays of a rig of several (--display 1,2,.. or the scene's real rig's), one per projector of
     `whose` (the rig, or the result played)."""
-    from ..services.panel_state import projectors_blocker
+    from ..services.panel.panel_state import projectors_blocker
 
     rig = store.read().rig
     displays = [d.strip() for d in args.display.split(",")] if args.display else list(rig.displays)
@@ -384,7 +384,7 @@ def cmd_show(args) -> int:
     show."""
     from ...lapig_core.multi.result_files import is_multi_result
     from ..rigs import live_output
-    from ..services import crossfade, export_result
+    from ..services.export import crossfade, export_result
 
     scene = _open_scene(args)
     store = BlenderSceneStore(scene)

@@ -7,7 +7,7 @@ import bpy
 
 from ..blender import demo_scene, rig
 from ..blender.scene_store import scene_seams
-from ..services.capture_job import CaptureJob, CaptureSettings
+from ..services.capture.capture_job import CaptureJob, CaptureSettings
 from .output import print_progress  # noqa: F401 (re-exported)
 
 

@@ -206,9 +206,9 @@ def _codec_help() -> str:
 
 
 def _show_export(args) -> int:
-    """show-export: the codec is checked before the .blend opens (services/show_source, no bpy)."""
+    """show-export: the codec is checked before the .blend opens (services/show/show_source, no bpy)."""
     from ...lapig_core.export.codecs import FFMPEG_ENV
-    from ..services.show_source import codec_problem
+    from ..services.show.show_source import codec_problem
 
     args.codec = args.codec.lower()
     if getattr(args, "ffmpeg", None):  # the video writer reads it on the worker thread

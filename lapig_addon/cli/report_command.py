@@ -1,6 +1,6 @@
 """`python -m lapig_addon report`: the light plan of the scene's rig and look, as JSON.
 
-Every input is checked before the .blend opens (services/light_report.LightPlan.problem). The maps are
+Every input is checked before the .blend opens (services/light/light_report.LightPlan.problem). The maps are
 rendered with the light as the scene has it and scaled to the plan's lumens (light adds linearly), so the
 scene is not changed unless --apply --save asks for it.
 """
@@ -14,7 +14,7 @@ import os
 def _work():
     global dose, units, light_report, print_json
     from ...lapig_core.photometry import dose, units
-    from ..services import light_report
+    from ..services.light import light_report
     from .output import print_json
 
 

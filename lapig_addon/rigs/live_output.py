@@ -241,7 +241,7 @@ def skew_figures(played: dict, window, fps: float, several: bool) -> dict:
 class CrossfadeJob(WorkerJob):
     """Play a result's crossfade on the open projector window at ``fps``, on a worker thread (Esc in
     Blender stops it; the window keeps the frame it was showing). A result of several on the windows of several
-    (a LockedWindowsSink): each projector's crossfade on its own window (services/crossfade), every frame
+    (a LockedWindowsSink): each projector's crossfade on its own window (services/export/crossfade), every frame
     presented together; the figures add `max_skew_frames`."""
 
     title = "LAPIG crossfade"
@@ -253,7 +253,7 @@ class CrossfadeJob(WorkerJob):
 
     def prepare(self):
         from ...lapig_core.multi.result_files import is_multi_result
-        from ..services import crossfade
+        from ..services.export import crossfade
 
         several = self.sink.several_projectors
         if is_multi_result(self.folder) != several:  # the result's images and the windows open: one each or one
@@ -292,7 +292,7 @@ def late_share(played: dict) -> dict:
 
 
 class ShowPlayJob(WorkerJob):
-    """Play the show (services/show_source.ShowSource) on the open projector window at the show's frame rate, the
+    """Play the show (services/show/show_source.ShowSource) on the open projector window at the show's frame rate, the
     frames made ahead on a worker thread (play's _ahead); late frames are counted ({'frames', 'seconds',
     'late_frames', 'late_frame_pct'}). Esc in Blender stops it; the window keeps its frame.
 
@@ -323,7 +323,7 @@ class ShowPlayJob(WorkerJob):
         return self.source
 
     def work(self, source, report, cancel_event):
-        from ..services import show_source
+        from ..services.show import show_source
 
         count = source.frame_count
 

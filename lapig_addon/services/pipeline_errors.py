@@ -6,7 +6,7 @@ from ...lapig_core.capture.dataset import DatasetError, frame_size_of, read_setu
 from ...lapig_core.capture.staging import hold_root
 from ...lapig_core.export.result_files import read_summary
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
-from . import panel_state
+from .panel import panel_state
 
 
 class PipelineError(ValueError):

@@ -7,7 +7,7 @@
   recorded it (Train's rendered choice, Render Real Capture), and gives the rig's identity.
   Blender's is blender/cycles_factory.CyclesDeviceFactory; a real projector and camera are one more.
 - ResultSink: receives a generated projector frame. Blender's light and preview is
-  blender/result_sinks.ProjectorLightSink; the exported file is services/sinks.ProjectorImageFile;
+  blender/result_sinks.ProjectorLightSink; the exported file is services/export/sinks.ProjectorImageFile;
   a live projector window is one more.
 
 Nothing here imports bpy: tests/addon drives the jobs end to end with fakes of all three.

@@ -8,8 +8,9 @@ from .state import JOINT, PROJECTOR_SPACE
 
 
 def chosen_way(rig, projector_space, joint):
-    """The way for `rig`'s strategy. A way given as 'module:Name' (relative to this package) is imported only
-    when it is chosen, so one projector's steps never load the joint model's code."""
+    """The way for `rig`'s strategy. A way given as 'module:Name' (the module relative to lapig_addon.services,
+    e.g. 'render.render_joint') is imported only when it is chosen, so one projector's steps never load the joint
+    model's code."""
     way = {PROJECTOR_SPACE: projector_space, JOINT: joint}[rig.strategy]
     if isinstance(way, str):
         module, name = way.split(":")

@@ -4,7 +4,7 @@
 The look is the model card's image-to-image recipe written out so that it is differentiable in theta (the prompt's
 embedding): the lit surface's latents noised to the timestep of `strength` (SD-Turbo: 2 steps x strength 0.5, t=499
 of 1000, trailing spacing) with noise fixed by the seed, one UNet call without guidance, its clean-latent estimate
-decoded. The preview as the prompt is typed (services/prompt_preview) is this backend's stylize(): one UNet call;
+decoded. The preview as the prompt is typed (services/generate/prompt_preview) is this backend's stylize(): one UNet call;
 Generate runs PSA on the same look. The pipeline is lapig_core/diffusion/one_step's (loaded once, memory checked).
 """
 from __future__ import annotations

@@ -28,7 +28,7 @@ def state():
 
 @pytest.fixture
 def panel_state():
-    return importlib.import_module(ADDON + ".services.panel_state")
+    return importlib.import_module(ADDON + ".services.panel.panel_state")
 
 
 @pytest.fixture

@@ -247,13 +247,13 @@ def test_a_failed_background_job_is_said_in_the_panel(tmp_path):
 
 def test_a_capture_done_in_blenders_ui_starts_train_when_the_option_is_on(seams):
     background_jobs = _module("background_jobs")
-    capture = _module("capture_job").CaptureJob(seams, seams.store.capture_settings(train_count=2, test_count=0))
+    capture = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings(train_count=2, test_count=0))
     capture.run()
     assert capture.state == "DONE"
     assert background_jobs.train_after_capture(capture, in_ui=True, enabled=True)
     assert not background_jobs.train_after_capture(capture, in_ui=True, enabled=False)  # the option off
     assert not background_jobs.train_after_capture(capture, in_ui=False, enabled=True)  # a script, the CLI
-    cancelled = _module("capture_job").CaptureJob(seams, seams.store.capture_settings())
+    cancelled = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings())
     cancelled.step()
     cancelled.stop()
     assert not background_jobs.train_after_capture(cancelled, in_ui=True, enabled=True)
@@ -279,10 +279,10 @@ def _models_files(captured):
 @pytest.mark.parametrize("main_thread", [False, True], ids=["real-rig-thread", "cycles-main-thread"])
 def test_generate_while_train_runs_in_the_background_uses_the_first_look_and_after_it_trains_choice(seams,
                                                                                                       main_thread):
-    train_job, generate_job = _module("train_job"), _module("generate_job")
+    train_job, generate_job = _module("train.train_job"), _module("generate.generate_job")
     background_jobs = _module("background_jobs")
     seams.devices.main_thread = main_thread
-    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    captured = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     store, slots = seams.store, background_jobs.JobSlots()
     train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout = 0
@@ -328,8 +328,8 @@ def test_generate_while_train_runs_in_the_background_uses_the_first_look_and_aft
 
 @pytest.mark.torch
 def test_a_background_train_cancelled_while_paused_leaves_the_first_look_as_it_was(seams):
-    train_job, background_jobs = _module("train_job"), _module("background_jobs")
-    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    train_job, background_jobs = _module("train.train_job"), _module("background_jobs")
+    captured = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     before, models_before = _models_files(captured), seams.store.models
     slots = background_jobs.JobSlots()
     train = train_job.TrainModelsJob(seams, 2)
@@ -346,8 +346,8 @@ def test_a_background_train_cancelled_while_paused_leaves_the_first_look_as_it_w
 
 @pytest.mark.torch
 def test_a_train_cancelled_while_paused_at_pcnets_last_report_saves_nothing(seams):
-    train_job = _module("train_job")
-    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    train_job = _module("train.train_job")
+    captured = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     before, models_before = _models_files(captured), seams.store.models
 
     class PausedAtPCNet(train_job.TrainModelsJob):
@@ -372,8 +372,8 @@ def test_a_train_cancelled_while_paused_at_pcnets_last_report_saves_nothing(seam
 def test_a_cancelled_train_lets_go_of_the_capture_only_once_its_camera_is_closed(seams):
     """Esc while the rendered choice's camera grabs on its own thread: a background job that resumed on the
     lock meanwhile would open the same camera."""
-    train_job = _module("train_job")
-    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    train_job = _module("train.train_job")
+    captured = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     grabs = seams.devices.grab_gate = threading.Event()  # the camera's grab blocks until set
     train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout = 0
@@ -388,9 +388,9 @@ def test_a_cancelled_train_lets_go_of_the_capture_only_once_its_camera_is_closed
 
 @pytest.mark.torch
 def test_a_background_train_waits_for_the_artists_live_window_before_it_opens_the_rig(seams):
-    train_job, background_jobs = _module("train_job"), _module("background_jobs")
+    train_job, background_jobs = _module("train.train_job"), _module("background_jobs")
     seams.devices.main_thread = True
-    _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     slots, in_use = background_jobs.JobSlots(), ["close the projector window"]
     train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout, train.rig_in_use = 0, lambda: in_use[0]
@@ -489,11 +489,11 @@ def test_a_synchronous_run_in_the_ui_waits_for_the_pause_then_resumes_the_backgr
 
 @pytest.mark.torch
 def test_in_the_background_a_main_thread_device_is_opened_and_closed_within_each_render_step(seams):
-    train_job = _module("train_job")
+    train_job = _module("train.train_job")
     from lapig.lapig_core.photometric.choice import RENDERED_JUDGE
 
     seams.devices.main_thread = True  # Cycles: its studio is a scene of its own in the artist's file
-    captured = _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    captured = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     train = train_job.TrainModelsJob(seams, 2)
     train.poll_timeout, train.device_per_render = 0, True
     train.check()
@@ -510,9 +510,9 @@ def test_in_the_background_a_main_thread_device_is_opened_and_closed_within_each
 def test_trains_choice_computes_its_compensations_off_a_main_thread_rig(seams, monkeypatch):
     """With Cycles (a main-thread rig) the rendered choice's steps run on Blender's thread: CompenNeSt's pass
     over the held-back images (the compensations it renders) must run on the training's worker thread."""
-    train_job = _module("train_job")
+    train_job = _module("train.train_job")
     seams.devices.main_thread = True
-    _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     choice = importlib.import_module("lapig.lapig_core.photometric.choice")
     verification, computed_on = choice.verification, []
 

@@ -4,7 +4,7 @@ import json
 
 
 def _status():
-    return importlib.import_module("lapig.lapig_addon.services.bundle_status")
+    return importlib.import_module("lapig.lapig_addon.services.panel.bundle_status")
 
 
 def test_a_checkout_without_bundle_json_says_the_packages_come_from_blenders_python(tmp_path):

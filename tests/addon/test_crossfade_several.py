@@ -74,7 +74,7 @@ def _mid(k):
 
 
 def test_export_crossfade_of_several_writes_each_projectors_crossfade_in_its_own_gamma(tmp_path):
-    export_result = _module("services.export_result")
+    export_result = _module("services.export.export_result")
     folder = _multi_result(tmp_path / "result")
     out = tmp_path / "fades"
     heard = []
@@ -100,7 +100,7 @@ def test_export_crossfade_of_several_writes_each_projectors_crossfade_in_its_own
 
 
 def test_a_result_of_several_without_psa_images_fades_from_black(tmp_path):
-    export_result = _module("services.export_result")
+    export_result = _module("services.export.export_result")
     folder = _multi_result(tmp_path / "result", nopsa=False)
     paths = export_result.export_crossfade(Store(), str(tmp_path / "fades"), _settings(frames=3), folder)
     first = read_image(paths[0])
@@ -108,7 +108,7 @@ def test_a_result_of_several_without_psa_images_fades_from_black(tmp_path):
 
 
 def test_export_crossfade_of_several_refuses_another_rig_and_leaves_no_folder(tmp_path):
-    export_result = _module("services.export_result")
+    export_result = _module("services.export.export_result")
     folder = _multi_result(tmp_path / "result")
     out = tmp_path / "fades"
     out.mkdir()

@@ -19,8 +19,8 @@ def _module(name):
 def test_train_and_generate_say_which_device_ran_and_read_the_choice_on_the_main_thread(seams, monkeypatch):
     import torch
 
-    train_job, generate_job = _module("train_job"), _module("generate_job")
-    _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    train_job, generate_job = _module("train.train_job"), _module("generate.generate_job")
+    _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     store, asked = seams.store, []
 
     def preference():
@@ -38,8 +38,8 @@ def test_train_and_generate_say_which_device_ran_and_read_the_choice_on_the_main
 
 @pytest.mark.torch
 def test_the_commands_device_stands_over_the_preference(seams, monkeypatch):
-    train_job, pipeline_errors = _module("train_job"), _module("pipeline_errors")
-    _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    train_job, pipeline_errors = _module("train.train_job"), _module("pipeline_errors")
+    _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     monkeypatch.setattr(seams.store, "compute_device", lambda: "not a device")  # would be refused if read
     trained = train_job.TrainModelsJob(seams, 2, device="cpu").run_to_completion()
     assert trained["device"].startswith("CPU: ")

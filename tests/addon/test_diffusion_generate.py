@@ -16,7 +16,7 @@ def captured(seams):
     pytest.importorskip("torch")
     pytest.importorskip("diffusers")
     pytest.importorskip("transformers")
-    capture_job = importlib.import_module(f"{ADDON}.services.capture_job")
+    capture_job = importlib.import_module(f"{ADDON}.services.capture.capture_job")
     capture_job.CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     return seams
 
@@ -27,7 +27,7 @@ def _generate(seams, tmp_path, geometry_shape=None):
     ip2p, depth = make_tiny_pipeline(tmp_path / "ip2p", "ip2p"), make_tiny_adapter(tmp_path / "depth")
     if geometry_shape:  # as BlenderSceneStore.look_geometry casts the projector's rays
         seams.store.look_geometry = lambda w, h: tiny_geometry(h, w, geometry_shape)
-    jobs = importlib.import_module(f"{ADDON}.services.generate_job")
+    jobs = importlib.import_module(f"{ADDON}.services.generate.generate_job")
     request = seams.store.generate_request(backend="instruct-pix2pix", ip2p_model=ip2p, depth_model=depth, psa=False,
                                            prompt="Make it a stained glass artwork")
     out = jobs.GenerateJob(seams, request, 2).run_to_completion()

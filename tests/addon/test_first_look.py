@@ -17,7 +17,7 @@ def _module(name):
 
 
 def _captured(seams):
-    return _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    return _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
 
 
 def _summary(folder):
@@ -26,7 +26,7 @@ def _summary(folder):
 
 @pytest.mark.torch
 def test_generate_after_capture_uses_the_first_look_and_says_so(seams, monkeypatch):
-    generate_job, train_job, panel_state = _module("generate_job"), _module("train_job"), _module("panel_state")
+    generate_job, train_job, panel_state = _module("generate.generate_job"), _module("train.train_job"), _module("panel.panel_state")
     from lapig.lapig_core.photometric import first_look
 
     captured = _captured(seams)
@@ -54,7 +54,7 @@ def test_generate_after_capture_uses_the_first_look_and_says_so(seams, monkeypat
 
 @pytest.mark.torch
 def test_train_says_how_far_the_networks_are_from_the_first_look_and_generate_uses_its_choice(seams):
-    train_job, generate_job = _module("train_job"), _module("generate_job")
+    train_job, generate_job = _module("train.train_job"), _module("generate.generate_job")
     captured = _captured(seams)
     store = seams.store
     train_job.TrainModelsJob(seams, 2).run_to_completion()
@@ -104,7 +104,7 @@ def test_a_cancel_while_fitting_the_first_look_keeps_the_capture_and_the_whole_f
     from lapig.lapig_core.capture.dataset import load_capture_set
     from lapig.lapig_core.photometric import first_look
 
-    capture_job = _module("capture_job")
+    capture_job = _module("capture.capture_job")
     started, fit = threading.Event(), first_look.fit_first_look
 
     def fit_when_seen(*args):  # the test knows the fit is under way before it cancels

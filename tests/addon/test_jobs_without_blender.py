@@ -28,12 +28,13 @@ def _module(name):
 def test_services_import_neither_bpy_nor_the_blender_side():
     """Not at module level, not inside a function: every import statement of services/ is read."""
     offending = []
-    for path in sorted(SERVICES.glob("*.py")):
+    for path in sorted(SERVICES.rglob("*.py")):
+        package = ["lapig", "lapig_addon", *path.relative_to(SERVICES.parent).parent.parts]
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.Import):
                 modules = [alias.name for alias in node.names]
-            elif isinstance(node, ast.ImportFrom):  # relative: resolved from lapig_addon/services
-                base = ["lapig", "lapig_addon", "services"][:max(3 - node.level + 1, 0)] if node.level else []
+            elif isinstance(node, ast.ImportFrom):  # relative: resolved from the module's own package
+                base = package[:len(package) - node.level + 1] if node.level else []
                 modules = [".".join(base + ([node.module] if node.module else []))]
                 if node.module is None:
                     modules = [m + "." + alias.name for m in modules for alias in node.names]
@@ -42,27 +43,27 @@ def test_services_import_neither_bpy_nor_the_blender_side():
             for module in modules:
                 parts = module.split(".")
                 if parts[0] == "bpy" or "blender" in parts:
-                    offending.append(f"{path.name}:{node.lineno} imports {module}")
-    assert len(list(SERVICES.glob("*.py"))) > 10
+                    offending.append(f"{path.relative_to(SERVICES)}:{node.lineno} imports {module}")
+    assert len(list(SERVICES.rglob("*.py"))) > 10
     assert offending == []
 
 
 @pytest.mark.torch
 def test_every_service_loads_with_bpy_blocked():
-    for path in sorted(SERVICES.glob("*.py")):
+    for path in sorted(SERVICES.rglob("*.py")):
         if path.stem != "__init__":
-            _module(path.stem)
+            _module(".".join(path.relative_to(SERVICES).with_suffix("").parts))
 
 
 def _capture(seams, **settings):
-    job = _module("capture_job").CaptureJob(seams, seams.store.capture_settings(**settings))
+    job = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings(**settings))
     return job, job.run_to_completion()
 
 
 @pytest.mark.torch
 def test_capture_train_generate_render_and_export_without_blender(seams, tmp_path):
     store, factory, sink = seams.store, seams.devices, seams.sinks[0]
-    train_job, generate_job, export_result = _module("train_job"), _module("generate_job"), _module("export_result")
+    train_job, generate_job, export_result = _module("train.train_job"), _module("generate.generate_job"), _module("export.export_result")
 
     # Capture: the device runs on a worker thread (a real camera's blocking grab() must not freeze the UI)
     job, captured = _capture(seams)
@@ -103,7 +104,7 @@ def test_capture_train_generate_render_and_export_without_blender(seams, tmp_pat
     np.testing.assert_array_equal(frame.image, read_output_image(out["folder"], "projector"))
 
     # Render Real Capture through the same device factory
-    rendered = _module("render_job").RenderResultJob(seams).run_to_completion()
+    rendered = _module("render.render_job").RenderResultJob(seams).run_to_completion()
     assert 5 < rendered["metrics"]["rendered_psnr"] < 60 and factory.opened == factory.closed == 3
 
     # Export: the file holds the pixels the sinks were shown
@@ -114,7 +115,7 @@ def test_capture_train_generate_render_and_export_without_blender(seams, tmp_pat
 
 
 def test_a_cancelled_capture_leaves_no_data_set_and_records_nothing(seams):
-    job = _module("capture_job").CaptureJob(seams, seams.store.capture_settings())
+    job = _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings())
     while job.step() and not job.message.startswith("structured light"):
         pass
     job.stop()  # cancels, then waits for the device's worker thread to close the device
@@ -138,8 +139,8 @@ def test_a_device_that_takes_time_to_settle_is_waited_for(seams):
 
 @pytest.mark.torch
 def test_the_jobs_refuse_with_the_step_to_do_first(seams):
-    capture_job, pipeline_errors = _module("capture_job"), _module("pipeline_errors")
-    train_job, generate_job = _module("train_job"), _module("generate_job")
+    capture_job, pipeline_errors = _module("capture.capture_job"), _module("pipeline_errors")
+    train_job, generate_job = _module("train.train_job"), _module("generate.generate_job")
     store = seams.store
     with pytest.raises(pipeline_errors.PipelineError, match="Capture the surface first"):
         train_job.TrainModelsJob(seams).check()
@@ -176,7 +177,7 @@ def test_generate_refuses_a_prompt_it_does_not_understand_and_changes_nothing(se
 
     from lapig.lapig_addon.services.errors import one_line
 
-    generate_job = _module("generate_job")
+    generate_job = _module("generate.generate_job")
     store = seams.store
     _capture(seams)
     recorded = list(store.recorded)
@@ -195,7 +196,7 @@ def test_generate_refuses_a_prompt_it_does_not_understand_and_changes_nothing(se
 
 @pytest.mark.torch
 def test_without_a_3d_model_the_world_look_follows_the_captured_surface_and_says_so(seams):
-    generate_job = _module("generate_job")
+    generate_job = _module("generate.generate_job")
     _capture(seams)
     out = generate_job.GenerateJob(seams, seams.store.generate_request(prompt="mossy concrete", psa=False)).run_to_completion()
     lgst = out["summary"]["lgst"]
@@ -213,7 +214,7 @@ def test_a_world_look_shaped_by_the_scene_keeps_its_geometry_in_the_result(seams
 
     from lapig.lapig_core.lgst.world.geometry import GEOMETRY_FILE, from_hits, load_geometry
 
-    generate_job = _module("generate_job")
+    generate_job = _module("generate.generate_job")
     _capture(seams)
 
     def wall(width, height):

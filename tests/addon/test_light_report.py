@@ -13,12 +13,12 @@ from lapig.lapig_core.photometry import dose
 
 @pytest.fixture
 def lr():
-    return importlib.import_module("lapig.lapig_addon.services.light_report")
+    return importlib.import_module("lapig.lapig_addon.services.light.light_report")
 
 
 @pytest.fixture
 def sidecar():
-    return importlib.import_module("lapig.lapig_addon.services.light_sidecar")
+    return importlib.import_module("lapig.lapig_addon.services.light.light_sidecar")
 
 
 def _maps(white=400.0, room=20.0, region_rows=slice(0, 8)):
@@ -109,7 +109,7 @@ def test_export_adds_the_light_figures_and_the_table(lr, sidecar, tmp_path):
 def test_the_capped_look_is_a_result_of_its_own(tmp_path):
     from lapig.lapig_core.export.result_files import write_result
 
-    dc = importlib.import_module("lapig.lapig_addon.services.dose_cap")
+    dc = importlib.import_module("lapig.lapig_addon.services.light.dose_cap")
     free = tmp_path / "20261204_look"
     frame = np.full((12, 16, 3), 0.8, np.float32)
     write_result(free, {"projector": frame[:8, :8], "projector_native": frame, "target": frame[:8, :8]},
@@ -201,9 +201,9 @@ def test_limit_look_to_the_dose_is_a_job_under_the_captures_lock_and_measures_on
     from lapig.lapig_core.common.locking import FolderLock
     from lapig.lapig_core.export.result_files import read_output_image, read_summary, write_new_result
 
-    lr = importlib.import_module("lapig.lapig_addon.services.light_report")
-    dc = importlib.import_module("lapig.lapig_addon.services.dose_cap")
-    capture_job = importlib.import_module("lapig.lapig_addon.services.capture_job")
+    lr = importlib.import_module("lapig.lapig_addon.services.light.light_report")
+    dc = importlib.import_module("lapig.lapig_addon.services.light.dose_cap")
+    capture_job = importlib.import_module("lapig.lapig_addon.services.capture.capture_job")
     captured = capture_job.CaptureJob(seams, seams.store.capture_settings(train_count=4, test_count=0)).run_to_completion()
     model = seams.store.projector_model()
     look = np.full((model.height, model.width, 3), 0.9, np.float32)
@@ -301,8 +301,8 @@ def test_light_report_is_a_job_whose_arithmetic_and_files_are_off_the_main_threa
 
     from lapig.lapig_core.photometry import light_maps
 
-    job_module = importlib.import_module("lapig.lapig_addon.services.light_report_job")
-    lr = importlib.import_module("lapig.lapig_addon.services.light_report")
+    job_module = importlib.import_module("lapig.lapig_addon.services.light.light_report_job")
+    lr = importlib.import_module("lapig.lapig_addon.services.light.light_report")
     model = ProjectorModel(64, 48)
     folder = _report_folder(tmp_path, model)
     light = _ReportLight(model)
@@ -362,8 +362,8 @@ def test_light_report_is_a_job_whose_arithmetic_and_files_are_off_the_main_threa
 def test_a_cancelled_light_report_leaves_the_previous_report_as_it_was(tmp_path):
     """Esc between two renders: the job ends there, nothing is computed or written, the report files of the last
     run stay byte for byte."""
-    job_module = importlib.import_module("lapig.lapig_addon.services.light_report_job")
-    lr = importlib.import_module("lapig.lapig_addon.services.light_report")
+    job_module = importlib.import_module("lapig.lapig_addon.services.light.light_report_job")
+    lr = importlib.import_module("lapig.lapig_addon.services.light.light_report")
     model = ProjectorModel(64, 48)
     folder = _report_folder(tmp_path, model)
     for i, name in enumerate(REPORT_FILES):

@@ -13,12 +13,12 @@ from lapig.lapig_core.photometry.light_passes import ProjectorLightMaps, project
 
 @pytest.fixture
 def lr():
-    return importlib.import_module("lapig.lapig_addon.services.light_report")
+    return importlib.import_module("lapig.lapig_addon.services.light.light_report")
 
 
 @pytest.fixture
 def lj():
-    return importlib.import_module("lapig.lapig_addon.services.light_joint")
+    return importlib.import_module("lapig.lapig_addon.services.light.light_joint")
 
 
 def _maps(white_left, white_right, room=0.0):
@@ -131,7 +131,7 @@ def test_the_dose_cap_job_of_several_writes_a_limited_result_of_its_own(lr, lj, 
 
     state = importlib.import_module("lapig.lapig_addon.services.state")
     store = SimpleNamespace(read=state.SceneState, export_settings=lambda: SimpleNamespace(bit_depth=16))
-    job = importlib.import_module("lapig.lapig_addon.services.dose_cap").DoseCapJob(
+    job = importlib.import_module("lapig.lapig_addon.services.light.dose_cap").DoseCapJob(
         SimpleNamespace(store=store, devices=None), plan, Light(), str(folder), record=False)
     assert job.run() == "DONE", job.error
     out = job.result

@@ -1,4 +1,4 @@
-"""A world look's sliders (services/look_edit): a change re-makes the scene's result from its record, with no
+"""A world look's sliders (services/generate/look_edit): a change re-makes the scene's result from its record, with no
 capture, no Train, no prompt model and no PSA; result.json keeps the values, so a later Generate of the same
 prompt and a show's rebuild use them; a bad value or a look without sliders is one line. bpy blocked; the fake
 rig of job_fakes."""
@@ -29,9 +29,9 @@ def _image(folder, name):
 
 @pytest.fixture
 def generated(seams):
-    _module("capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
+    _module("capture.capture_job").CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     request = seams.store.generate_request(prompt="old cobblestones", psa=True)
-    out = _module("generate_job").GenerateJob(seams, request, 2).run_to_completion()
+    out = _module("generate.generate_job").GenerateJob(seams, request, 2).run_to_completion()
     return out["folder"]
 
 
@@ -39,7 +39,7 @@ def test_a_slider_remakes_the_look_without_prompt_model_training_or_psa(seams, g
     from lapig.lapig_core.lgst import prompt_plan
     from lapig.lapig_core.psa import adaptation
 
-    look_edit, generate_job = _module("look_edit"), _module("generate_job")
+    look_edit, generate_job = _module("generate.look_edit"), _module("generate.generate_job")
     before = _summary(generated)
     assert before["lgst"]["look_parameters"]["scale"] == 1.0 and before["lgst"]["look_record"]["world"]["base"]
     target, projector = _image(generated, "target"), _image(generated, "projector")
@@ -47,7 +47,7 @@ def test_a_slider_remakes_the_look_without_prompt_model_training_or_psa(seams, g
 
     def never(*a, **k):
         raise AssertionError("the edit ran the prompt model, Train or PSA")
-    for module, name in ((prompt_plan, "plan_prompt"), (_module("train_job"), "train_models"), (adaptation, "run_psa")):
+    for module, name in ((prompt_plan, "plan_prompt"), (_module("train.train_job"), "train_models"), (adaptation, "run_psa")):
         monkeypatch.setattr(module, name, never)
     out = look_edit.EditLookJob(seams, {"scale": 2.5, "hue": 40}).run_to_completion()
     assert out["folder"] == generated  # updated in place: Export and the show read the edited look
@@ -67,7 +67,7 @@ def test_a_slider_remakes_the_look_without_prompt_model_training_or_psa(seams, g
 def test_the_edited_values_carry_into_a_later_generate_and_a_show(seams, generated):
     from lapig.lapig_core.show.look_state import read_result_record
 
-    look_edit, generate_job = _module("look_edit"), _module("generate_job")
+    look_edit, generate_job = _module("generate.look_edit"), _module("generate.generate_job")
     look_edit.EditLookJob(seams, {"scale": 0.5, "seed": 7}).run_to_completion()
     assert read_result_record(generated)["look_parameters"]["scale"] == 0.5  # the show's rebuild reads them
     same = seams.store.generate_request(prompt="old cobblestones", psa=False)
@@ -84,13 +84,13 @@ def test_the_edited_values_carry_into_a_later_generate_and_a_show(seams, generat
 
 
 def test_a_bad_value_or_a_look_without_sliders_is_one_line_and_changes_nothing(seams, generated):
-    look_edit, pipeline_errors = _module("look_edit"), _module("pipeline_errors")
+    look_edit, pipeline_errors = _module("generate.look_edit"), _module("pipeline_errors")
     before = open(os.path.join(generated, "result.json")).read()
     with pytest.raises(pipeline_errors.PipelineError) as exc:
         look_edit.EditLookJob(seams, {"scale": 40}).run_to_completion()
     assert str(exc.value) == "Scale must be between 0.2 and 5, got 40"
     assert open(os.path.join(generated, "result.json")).read() == before
-    styled = _module("generate_job").GenerateJob(seams, seams.store.generate_request(mix="charcoal_wash:1",
+    styled = _module("generate.generate_job").GenerateJob(seams, seams.store.generate_request(mix="charcoal_wash:1",
                                                                                       psa=False), 2)
     styled.run_to_completion()
     with pytest.raises(pipeline_errors.PipelineError, match="the result's look has no sliders"):
@@ -100,8 +100,8 @@ def test_a_bad_value_or_a_look_without_sliders_is_one_line_and_changes_nothing(s
 def test_a_show_with_a_moving_world_look_exports_frame_by_frame(seams, generated, tmp_path):
     from lapig.lapig_core.optics.projector_model import ProjectorModel
 
-    show_plan, show_source, show_jobs = _module("show_plan"), _module("show_source"), _module("show_jobs")
-    _module("look_edit").EditLookJob(seams, {"speed": 2.0}).run_to_completion()
+    show_plan, show_source, show_jobs = _module("show.show_plan"), _module("show.show_source"), _module("show.show_jobs")
+    _module("generate.look_edit").EditLookJob(seams, {"speed": 2.0}).run_to_completion()
     plan = show_plan.ShowPlan(looks=(show_plan.ShowLook(result_dir=generated, hold_s=0.4, motion="world",
                                                         motion_period_s=2.0),), fps=10.0)
     assert plan.problem() == ""

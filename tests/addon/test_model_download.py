@@ -25,7 +25,7 @@ def tiny_repo(tmp_path_factory):
 
 @pytest.fixture
 def md():
-    return importlib.import_module("lapig.lapig_addon.services.model_download")
+    return importlib.import_module("lapig.lapig_addon.services.install.model_download")
 
 
 @pytest.fixture

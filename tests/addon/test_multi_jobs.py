@@ -96,7 +96,7 @@ def multi(tmp_path):
 
 def test_the_capture_job_records_the_capture_its_coverage_and_the_first_look(multi):
     seams, store = multi
-    job = _module("capture_job").CaptureJob(seams, store.capture_settings())
+    job = _module("capture.capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "DONE", job.error
     assert os.path.isfile(os.path.join(store.capture_dir, "models", "joint_model.npz"))
     names, shares, reached = store.coverage
@@ -110,7 +110,7 @@ def test_a_rig_that_captures_one_projector_refuses_several_in_one_line(tmp_path)
     ports, state = _module("ports"), _module("state")
     store = MultiStore(state, tmp_path / "data")
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR), multi=False))
-    job = _module("capture_job").CaptureJob(seams, store.capture_settings())
+    job = _module("capture.capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "FAILED"
     assert str(job.error) == ("fake rig of two cannot capture several projectors yet: remove the other projectors, "
                               "or capture them with the virtual rig")
@@ -118,7 +118,7 @@ def test_a_rig_that_captures_one_projector_refuses_several_in_one_line(tmp_path)
 
 
 def test_the_panel_decides_on_a_rig_of_several(tmp_path):
-    panel_state, state = _module("panel_state"), _module("state")
+    panel_state, state = _module("panel.panel_state"), _module("state")
     one = state.Rig(projector="P", camera="C", target="T")
     assert one.projector_count == 1 and panel_state.one_projector_blocker(one) == ""
     assert panel_state.projectors_blocker(one) == ""
@@ -160,7 +160,7 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     from lapig.lapig_core.multi.stylize import JointLook
 
     seams, store = multi
-    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture.capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     target = np.full(cs.together.shape, 0.4, np.float32)  # a flat grey look: no torch needed
@@ -168,7 +168,7 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     folder, _ = write_joint_result(tmp_path / "results", "grey", look, target, cs.names, cs.sizes,
                                    {"prompt": "grey", "capture": str(cs.setup_dir)}, model.reached.any(axis=0))
     store.result = str(folder)
-    export = _module("export_result")
+    export = _module("export.export_result")
     state = _module("state")
     settings = state.ExportSettings(path=str(tmp_path / "out" / "grey.png"), bit_depth=16, crossfade_frames=4)
     (tmp_path / "out").mkdir()
@@ -211,21 +211,21 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
               "projectors": [{"name": "Left", "lumens": 2000.0, "share": 0.6},
                              {"name": "Right", "lumens": 2000.0, "share": 0.4}],
               "projector_table_rows": [{**row, "name": "Left"}, {**row, "name": "Right"}]}
-    _module("light_report").write_report(str(folder), report)
+    _module("light.light_report").write_report(str(folder), report)
     written = export.export_current(store, settings)
     sidecar = json.loads(open(written["sidecars"][1]).read())
     assert sidecar["light"]["lumens"] == 4000 and sidecar["light"]["projector"]["share"] == 0.4
     table = open(written["table"]).read()
     assert os.path.basename(written["table"]) == "grey_projectors.csv" and "Left" in table and "Right" in table
     # the one export of the scene's result takes the same path for a result of several
-    assert _module("export_result").export_current(store, settings)["images"] == written["images"]
+    assert _module("export.export_result").export_current(store, settings)["images"] == written["images"]
     blocked = tmp_path / "out" / "grey_1.png" / "rig.mpcdi"
     with pytest.raises(OSError, match="cannot write the MPCDI package"):
         export.export_current(store, state.ExportSettings(str(tmp_path / "out" / "again.png"), 16, 4),
                             mpcdi=str(blocked))
     assert not (tmp_path / "out" / "again_1.png").exists()  # the package first: nothing written on its failure
     # Export Crossfade of the result of several: a folder per projector, each its own crossfade (issue 36)
-    frames = _module("export_result").export_crossfade(store, str(tmp_path / "fade"), settings)
+    frames = _module("export.export_result").export_crossfade(store, str(tmp_path / "fade"), settings)
     assert len(frames) == 8 and sorted(os.listdir(tmp_path / "fade")) == ["projector_1", "projector_2"]
     faded = json.loads((tmp_path / "fade" / "projector_2" / "crossfade.json").read_text())
     assert faded["projector"]["name"] == "Right" and faded["light"]["projector"]["share"] == 0.4  # its own share
@@ -259,7 +259,7 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
 
     store, sink = Store(state, tmp_path / "data"), Sink()
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)), (sink,))
-    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture.capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     lo, hi = reach(model)
@@ -274,12 +274,12 @@ def test_refine_corrects_every_projectors_image_together_and_the_result_points_a
                                    model.reached.any(axis=0))
     store.result = str(folder)
     scene = store.read()
-    panel_state = _module("panel_state")
+    panel_state = _module("panel.panel_state")
     assert panel_state.refine_blocker(scene) == ""  # Refine lets a rig of several through now
     assert panel_state.render_blocker(scene) == ""  # Render Real Capture too
     # the crossfade and the preview modes still want one projector
     assert panel_state.single_result_blocker(scene) == "Works with one projector for now; the rig has 2"
-    job = _module("refine_job").RefineResultJob(seams, 4)
+    job = _module("refine.refine_job").RefineResultJob(seams, 4)
     assert job.run() == "DONE", job.error
     record = job.result["refine"]
     assert record["refined_psnr"] > record["open_loop_psnr"] + 3.0, record
@@ -318,7 +318,7 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
     ports, state = _module("ports"), _module("state")
     store = MultiStore(state, tmp_path / "data")
     seams = ports.Seams(store, MultiFactory(ports, fake_rig.side_by_side_rig(CAMERA, PROJECTOR, noise=0.002)))
-    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture.capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     cs = load_multi_capture(store.capture_dir, pairs=False)
     model = load_joint_model(cs.setup_dir)
     lo, hi = reach(model)
@@ -329,7 +329,7 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
                                    {"prompt": "look", "capture": str(cs.setup_dir), "summary_line": "look"},
                                    model.reached.any(axis=0))
     store.result = str(folder)
-    job = _module("render_job").RenderResultJob(seams)
+    job = _module("render.render_job").RenderResultJob(seams)
     assert job.run() == "DONE", job.error
     m = job.result["metrics"]
     print("rendered", m["rendered_psnr"], "vs predicted", m["rendered_vs_predicted_psnr"], "simulated",
@@ -346,14 +346,14 @@ def test_render_real_capture_of_several_shows_every_image_at_once_and_scores_it_
     assert saved["summary_line"].endswith(f"; no PSA; rendered in Cycles {m['rendered_psnr']:.1f} dB against the look")
     assert store.result == str(folder)
     # rendered again: one figure in the line, the newest
-    assert _module("render_job").RenderResultJob(seams).run() == "DONE"
+    assert _module("render.render_job").RenderResultJob(seams).run() == "DONE"
     assert json.loads((folder / "result.json").read_text())["summary_line"].count("rendered in Cycles") == 1
     sheet = read_image(folder / "comparison.png")
     assert sheet.shape[1] == 3 * 256  # look, predicted, rendered; the projectors below
     # the left and right halves are each lit by their own projector: both bright where the look is
     assert rendered[:, : CAMERA[0] // 3].mean() > 0.02 and rendered[:, -CAMERA[0] // 3:].mean() > 0.02
     # a refinement afterwards keeps the sheet of several (look, predicted, rendered; the projectors below)
-    assert _module("refine_job").RefineResultJob(seams, 1).run() == "DONE"
+    assert _module("refine.refine_job").RefineResultJob(seams, 1).run() == "DONE"
     assert read_image(folder / "comparison.png").shape == sheet.shape
 
 
@@ -363,9 +363,9 @@ def test_generate_adapts_the_look_to_the_joint_reach_when_asked(multi, psa):
     """GenerateJob of several passes the request's PSA on: with it the folder keeps the look without PSA beside the
     adapted one, and result.json says what PSA did; without it, one look and 'no PSA'."""
     seams, store = multi
-    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture.capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     request = _module("state").GenerateRequest("Make it a stained glass artwork", "styletransfer", "", psa, 0.5, 0)
-    job = _module("generate_job").GenerateJob(seams, request, working_size=48)
+    job = _module("generate.generate_job").GenerateJob(seams, request, working_size=48)
     assert job.run() == "DONE", job.error
     folder = job.result["folder"]
     saved = json.loads(open(os.path.join(folder, "result.json")).read())
@@ -385,15 +385,15 @@ def test_a_show_of_several_makes_its_morph_and_motion_per_projector_and_exports_
     by lapig_core's producer on the joint reach (show/joint_setup), one frame per projector; the holds are the
     looks' own images, the in-betweens new ones; Export Show writes one sequence per projector."""
     seams, store = multi
-    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture.capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     folders = []
     for prompt in ("Make it a stained glass artwork", "Make it a charcoal sketch"):
         request = _module("state").GenerateRequest(prompt, "styletransfer", "", True, 0.5, 0)
-        job = _module("generate_job").GenerateJob(seams, request, working_size=48)
+        job = _module("generate.generate_job").GenerateJob(seams, request, working_size=48)
         assert job.run() == "DONE", job.error
         folders.append(job.result["folder"])
         assert os.path.isfile(os.path.join(job.result["folder"], "look_state.npz"))  # PSA's state, for the show
-    show_plan, show_source, show_jobs = _module("show_plan"), _module("show_source"), _module("show_jobs")
+    show_plan, show_source, show_jobs = _module("show.show_plan"), _module("show.show_source"), _module("show.show_jobs")
     plan = show_plan.ShowPlan(looks=(
         show_plan.ShowLook(result_dir=folders[0], hold_s=0.3, transition="morph", transition_s=0.4),
         show_plan.ShowLook(result_dir=folders[1], hold_s=0.5, motion="drift", motion_amount=0.6)), fps=10.0)
@@ -442,7 +442,7 @@ def test_a_world_look_of_several_projectors_is_shaped_by_the_object_as_the_camer
     from lapig.lapig_core.lgst.world.geometry import from_hits
 
     seams, store = multi
-    assert _module("capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
+    assert _module("capture.capture_job").CaptureJob(seams, store.capture_settings()).run() == "DONE"
     asked = []
 
     def wall(long_side):
@@ -457,7 +457,7 @@ def test_a_world_look_of_several_projectors_is_shaped_by_the_object_as_the_camer
 
     def generate(prompt):
         request = _module("state").GenerateRequest(prompt, "styletransfer", "", False, 0.5, 0)
-        job = _module("generate_job").GenerateJob(seams, request, working_size=48)
+        job = _module("generate.generate_job").GenerateJob(seams, request, working_size=48)
         assert job.run() == "DONE", job.error
         return json.loads(open(os.path.join(job.result["folder"], "result.json")).read())
 

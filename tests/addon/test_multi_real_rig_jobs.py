@@ -67,7 +67,7 @@ def _seams(tmp_path, displays=("1", "2")):
 
 def test_the_capture_job_opens_a_window_per_display_and_one_camera_on_a_worker(tmp_path):
     seams, store, hardware = _seams(tmp_path)
-    job = _module("services.capture_job").CaptureJob(seams, store.capture_settings())
+    job = _module("services.capture.capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "DONE", job.error
     assert sorted(hardware.opened) == ["1", "2"] and threading.main_thread().name not in hardware.threads
     meta = job.result["meta"]
@@ -79,7 +79,7 @@ def test_the_capture_job_opens_a_window_per_display_and_one_camera_on_a_worker(t
 
 def test_the_rig_check_says_each_projectors_lines(tmp_path):
     seams, store, hardware = _seams(tmp_path)
-    check = _module("services.rig_check").RigCheckJob(seams, store.capture_settings()).run_to_completion()
+    check = _module("services.capture.rig_check").RigCheckJob(seams, store.capture_settings()).run_to_completion()
     names = [line.name for line in check.lines]
     assert names[:5] == ["Left: Latency", "Left: Frame code", "Left: Exposure", "Left: Gray ramp", "Left: Gamma"]
     assert names[5:] == [n.replace("Left", "Right") for n in names[:5]]
@@ -88,7 +88,7 @@ def test_the_rig_check_says_each_projectors_lines(tmp_path):
 
 def test_two_projectors_on_one_display_open_no_window(tmp_path):
     seams, store, hardware = _seams(tmp_path, displays=("1", "1"))
-    job = _module("services.capture_job").CaptureJob(seams, store.capture_settings())
+    job = _module("services.capture.capture_job").CaptureJob(seams, store.capture_settings())
     assert job.run() == "FAILED"
     assert str(job.error) == "Projectors 'Left' and 'Right' are both on display '1': give each its own display"
     assert hardware.opened == [] and store.capture_dir == ""
@@ -127,7 +127,7 @@ def test_a_result_of_several_goes_to_the_live_windows_in_one_presentation(tmp_pa
     from lapig.lapig_core.export.result_files import write_result
 
     live_output, ports = _module("rigs.live_output"), _module("services.ports")
-    generate_joint = _module("services.generate_joint")
+    generate_joint = _module("services.generate.generate_joint")
     windows = [SimulatedWindow((64, 48)), SimulatedWindow((64, 48))]
     sink = live_output.LockedWindowsSink(LockedWindows(windows))
     folder = tmp_path / "result"

@@ -145,7 +145,7 @@ def test_capture_waits_for_numpy_and_opencv_not_for_torch(state, panel_state, ca
 
 
 def test_train_says_an_install_runs_then_to_restart_where_this_session_cannot_use_it(panel_state, monkeypatch):
-    from lapig.lapig_addon.services.torch_install import SLOT, InstallOutcome
+    from lapig.lapig_addon.services.install.torch_install import SLOT, InstallOutcome
 
     dep = type("Dep", (), {"package": "torch"})()
     monkeypatch.setattr(panel_state, "missing_required", lambda: [dep])

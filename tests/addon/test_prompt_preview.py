@@ -11,7 +11,7 @@ ADDON = "lapig.lapig_addon"
 
 
 def _preview_module():
-    return importlib.import_module(f"{ADDON}.services.prompt_preview")
+    return importlib.import_module(f"{ADDON}.services.generate.prompt_preview")
 
 
 class Clock:
@@ -97,7 +97,7 @@ def test_the_fast_path_only_with_a_ready_one_step_model_and_a_diffusion_look():
     assert "not ready" in problem("one-step", "")
     assert "no one-step preview" in problem("styletransfer", "/models/sd-turbo")
     state = importlib.import_module(f"{ADDON}.services.state")
-    panel_state = importlib.import_module(f"{ADDON}.services.panel_state")
+    panel_state = importlib.import_module(f"{ADDON}.services.panel.panel_state")
     request = state.GenerateRequest(prompt="ink", backend="one-step", mix="", psa=True, adaptation=0.5, seed=0,
                                     one_step_model="/models/sd-turbo")
     assert panel_state.fast_path_line(request).startswith("The projector previews the prompt as you type")
@@ -110,7 +110,7 @@ def test_a_preview_of_the_captured_surface_through_the_one_step_model(seams, tmp
     pytest.importorskip("transformers")
     from lapig.tools.bench.tiny_pipeline import make_tiny_pipeline
 
-    capture_job = importlib.import_module(f"{ADDON}.services.capture_job")
+    capture_job = importlib.import_module(f"{ADDON}.services.capture.capture_job")
     capture_job.CaptureJob(seams, seams.store.capture_settings()).run_to_completion()
     model = make_tiny_pipeline(tmp_path / "sd-turbo", "img2img")
     preview_module = _preview_module()

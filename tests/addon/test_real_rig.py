@@ -54,7 +54,7 @@ def rig(tmp_path, state):
 
 def test_a_real_rig_captures_on_a_worker_thread_and_records_what_it_measured(rig):
     seams, hardware = rig
-    job = _module("services.capture_job").CaptureJob(seams, seams.store.capture_settings())
+    job = _module("services.capture.capture_job").CaptureJob(seams, seams.store.capture_settings())
     meta = job.run_to_completion()["meta"]
     assert threading.main_thread().name not in hardware.threads  # Blender stays responsive
     assert meta["rig"]["name"] == "gallery rig" and meta["rig"]["devices"]["camera"] == "camera 0 (auto)"
@@ -71,7 +71,7 @@ def test_a_real_rig_captures_on_a_worker_thread_and_records_what_it_measured(rig
 def test_another_camera_is_another_rig_so_the_capture_is_stale(rig):
     seams, hardware = rig
     real_rig, pipeline_errors = _module("rigs.real_rig"), _module("services.pipeline_errors")
-    folder = str(_module("services.capture_job").CaptureJob(seams, seams.store.capture_settings(
+    folder = str(_module("services.capture.capture_job").CaptureJob(seams, seams.store.capture_settings(
         train_count=2, test_count=0)).run_to_completion()["setup_dir"])
     assert pipeline_errors.current_capture(seams.store.read(), folder) == folder
     seams.store.factory = real_rig.RealRigFactory(real_rig.RigSpec(name="gallery rig", display="1", camera="2"))
@@ -80,7 +80,7 @@ def test_another_camera_is_another_rig_so_the_capture_is_stale(rig):
 
 
 def test_a_display_of_another_resolution_is_refused_before_any_frame(tmp_path, state):
-    real_rig, capture_job, ports = _module("rigs.real_rig"), _module("services.capture_job"), _module("services.ports")
+    real_rig, capture_job, ports = _module("rigs.real_rig"), _module("services.capture.capture_job"), _module("services.ports")
     hardware = SimulatedHardware(window_size=(80, 60))
     factory = real_rig.RealRigFactory(real_rig.RigSpec(), hardware.window, hardware.camera_of,
                                       expected_size=PROJECTOR_SIZE, clock=hardware.clock)
@@ -162,8 +162,8 @@ def test_a_projection_on_the_real_rig_is_calibrated_and_verified_like_a_capture(
     """Train's rendered choice and Render Real Capture project through setup_device: the rig measures its
     latency and finds its code again (no health checks), 16-bit frames go out as 8-bit."""
     seams, hardware = rig
-    projection = _module("services.projection")
-    folder = str(_module("services.capture_job").CaptureJob(seams, seams.store.capture_settings(
+    projection = _module("services.capture.projection")
+    folder = str(_module("services.capture.capture_job").CaptureJob(seams, seams.store.capture_settings(
         train_count=2, test_count=0)).run_to_completion()["setup_dir"])
     images = np.random.default_rng(2).random((3, 24, 32, 3)).astype(np.float32)
     registered, raw = projection.project_and_capture(seams.devices, folder, images, bit_depth=16)

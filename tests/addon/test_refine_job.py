@@ -39,7 +39,7 @@ def _seams(tmp_path, simulated=False, main_thread=False):
 def _result(seams, tmp_path, weak=0.75, native=True):
     """A captured setup and a result on it whose projector image is a weak open-loop compensation (its light
     scaled by `weak`): what a model's error leaves for the rig's captures to correct."""
-    captured = _module("services.capture_job").CaptureJob(
+    captured = _module("services.capture.capture_job").CaptureJob(
         seams, seams.store.capture_settings(train_count=12, test_count=0)).run_to_completion()
     cs = load_capture_set(captured["setup_dir"])
     model = ClassicalModel.fit(cs.prj_train, cs.cam_train)
@@ -62,7 +62,7 @@ def _result(seams, tmp_path, weak=0.75, native=True):
 def test_refinement_writes_the_refined_result_and_the_sinks_show_it(tmp_path):
     seams = _seams(tmp_path)
     folder = _result(seams, tmp_path)
-    job = _module("services.refine_job").RefineResultJob(seams, 4)
+    job = _module("services.refine.refine_job").RefineResultJob(seams, 4)
     out = job.run_to_completion()
     rec = out["refine"]
     assert rec["refined_psnr"] > rec["open_loop_psnr"] + 3, rec  # the weak image corrected on the rig
@@ -77,7 +77,7 @@ def test_refinement_writes_the_refined_result_and_the_sinks_show_it(tmp_path):
     line = seams.store.result[1]
     assert line.startswith("test look; simulated 30.0 dB; refined ") and "floor" in line
     # the export's sidecar carries the figures
-    written = _module("services.export_result").export_current(seams.store, seams.store.export_settings())
+    written = _module("services.export.export_result").export_current(seams.store, seams.store.export_settings())
     sidecar = json.loads(pathlib.Path(written["sidecar"]).read_text())
     assert sidecar["refine"]["refined_psnr"] == rec["refined_psnr"]
     # the device was opened once for every round of captures, and closed
@@ -100,7 +100,7 @@ def test_the_classical_fit_is_a_worker_step_on_a_main_thread_rig(tmp_path, monke
         return fit(cls, *args, **kwargs)
 
     monkeypatch.setattr(classical, "fit", classmethod(fit_and_say_where))
-    rec = _module("services.refine_job").RefineResultJob(seams, 2).run_to_completion()["refine"]
+    rec = _module("services.refine.refine_job").RefineResultJob(seams, 2).run_to_completion()["refine"]
     assert rec["refined_psnr"] > rec["open_loop_psnr"]
     assert fitted_on and threading.main_thread() not in fitted_on, "the classical model was fitted on the main thread"
 
@@ -108,7 +108,7 @@ def test_the_classical_fit_is_a_worker_step_on_a_main_thread_rig(tmp_path, monke
 def test_refinement_runs_through_a_simulated_real_rig(tmp_path):
     seams = _seams(tmp_path, simulated=True)
     folder = _result(seams, tmp_path, native=False)  # a result at the working frame only
-    rec = _module("services.refine_job").RefineResultJob(seams, 3).run_to_completion()["refine"]
+    rec = _module("services.refine.refine_job").RefineResultJob(seams, 3).run_to_completion()["refine"]
     assert rec["refined_psnr"] > rec["open_loop_psnr"] + 3, rec
     assert rec["frame"] == "working" and output_name(folder, "projector") == "projector_refined"
     device = seams.devices.last[0]
@@ -119,7 +119,7 @@ def test_a_cancelled_refinement_leaves_the_result_as_it_was(tmp_path):
     seams = _seams(tmp_path)
     folder = _result(seams, tmp_path)
     before = {p: pathlib.Path(folder, p).read_bytes() for p in sorted(os.listdir(folder))}
-    job = _module("services.refine_job").RefineResultJob(seams, 4)
+    job = _module("services.refine.refine_job").RefineResultJob(seams, 4)
     seen = []
     # Esc at the first poll: the fake rig is so fast that waiting for "step 1/" let the worker finish first
     state = job.run(on_progress=lambda p, m: seen.append(m), should_cancel=lambda: bool(seen))
@@ -146,7 +146,7 @@ def test_a_cancelled_refinement_lets_go_of_the_capture_only_once_its_camera_is_c
     seams = _seams(tmp_path)
     _result(seams, tmp_path)
     grabs = seams.devices.grab_gate = threading.Event()  # the camera's grab blocks until set
-    job = _module("services.refine_job").RefineResultJob(seams, 4)
+    job = _module("services.refine.refine_job").RefineResultJob(seams, 4)
     job.poll_timeout = 0.01
     while seams.devices.opened < 2 and job.step():  # the capture's, then the refinement's
         pass
@@ -163,7 +163,7 @@ def test_a_cancelled_refinement_lets_go_of_the_capture_only_once_its_camera_is_c
 def test_a_changed_rig_or_a_moved_object_is_refused_and_nothing_written(tmp_path):
     seams = _seams(tmp_path)
     folder = _result(seams, tmp_path)
-    refine_job, pipeline_errors = _module("services.refine_job"), _module("services.pipeline_errors")
+    refine_job, pipeline_errors = _module("services.refine.refine_job"), _module("services.pipeline_errors")
     before = sorted(os.listdir(folder))
     seams.devices.moved = True  # another camera: the capture is stale
     with pytest.raises(pipeline_errors.PipelineError, match="moved: capture again"):

@@ -29,7 +29,7 @@ def _rig(tmp_path, state, hardware, spec=None):
 
 
 def _check(seams):
-    job = _module("services.rig_check").RigCheckJob(seams, seams.store.capture_settings())
+    job = _module("services.capture.rig_check").RigCheckJob(seams, seams.store.capture_settings())
     return job.run_to_completion()
 
 
@@ -45,7 +45,7 @@ def test_an_incomplete_rig_says_what_to_choose_and_opens_nothing(tmp_path, state
     assert RigSpec(display="1", camera="").problem(camera=False) == ""  # nor the live window a camera
     hardware = SimulatedHardware()
     seams = _rig(tmp_path, state, hardware, RigSpec(display="", camera="0"))
-    job = _module("services.capture_job").CaptureJob(seams, seams.store.capture_settings())
+    job = _module("services.capture.capture_job").CaptureJob(seams, seams.store.capture_settings())
     assert job.run() == "FAILED" and "Choose the projector's display" in str(job.error)
     assert hardware.screen is None  # no window was opened
     assert _check(seams).problems[0].startswith("Choose the projector's display")
@@ -57,7 +57,7 @@ def test_the_capture_blocker_of_a_real_rig_names_the_missing_device(state, panel
     assert panel_state.rig_blocker(rig) == ""  # the objects are there: preview and export still work
     assert panel_state.device_blocker(rig) == "Choose the camera: an index"
     with pytest.raises(Exception, match="Choose the camera"):
-        _module("services.capture_job").check_rig(type("Store", (), {"read": lambda self: state.SceneState(rig=rig)})())
+        _module("services.capture.capture_job").check_rig(type("Store", (), {"read": lambda self: state.SceneState(rig=rig)})())
 
 
 # ------------------------------------------------------------------------------------ the rig check
@@ -75,7 +75,7 @@ def test_the_rig_check_measures_on_a_worker_thread_and_says_a_line_per_check(tmp
     assert 100 <= latency_ms < 300  # the simulated camera's 0.1 s and its jitter, at its frame pace
     assert lines["Frame code"].text == "verified, top and bottom bands"
     assert lines["Gamma"].text.startswith(("1.", "2.", "3.", "4."))
-    rig_check = _module("services.rig_check")
+    rig_check = _module("services.capture.rig_check")
     assert rig_check.last_check(check.rig_key) is check and rig_check.last_check("another rig") is None
     assert hardware.screen.timeline  # it showed frames, and captured nothing: no data set was written
     assert not (tmp_path / "data").exists()
@@ -237,7 +237,7 @@ def result_folder(tmp_path):
 
 def test_the_crossfade_plays_on_the_live_window_and_ends_on_the_look(tmp_path, state, result_folder):
     live, ports, export_result = _module("rigs.live_output"), _module("services.ports"), _module(
-        "services.export_result")
+        "services.export.export_result")
     store = FakeStore(state, tmp_path, None)
     window = FakeWindow()
     sink = live.open_live(1, window_factory=lambda display: window)

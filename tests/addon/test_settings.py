@@ -60,7 +60,7 @@ def test_only_instruct_pix2pix_gets_the_weights_folder(state):
 
 
 def test_a_ready_depth_adapter_goes_to_instruct_pix2pix_and_asks_for_the_geometry(state, monkeypatch):
-    from lapig.lapig_addon.services import generate_job
+    from lapig.lapig_addon.services.generate import generate_job
 
     request = _request(state, backend="instruct-pix2pix", depth_model="/models/depth-adapter")
     assert request.backend_options() == {"depth_adapter": "/models/depth-adapter"}

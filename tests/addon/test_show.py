@@ -23,7 +23,7 @@ def _module(name):
 
 
 def _plan(looks, fps=10.0, **kw):
-    show_plan = _module("services.show_plan")
+    show_plan = _module("services.show.show_plan")
     return show_plan.ShowPlan(looks=tuple(show_plan.ShowLook(**look) for look in looks), fps=fps, **kw)
 
 
@@ -47,7 +47,7 @@ def results(tmp_path):
 
 
 def _source(plan, bit_depth=8, projectors=1):
-    show_source = _module("services.show_source")
+    show_source = _module("services.show.show_source")
     model = ProjectorModel(width=SIZE[0], height=SIZE[1], gamma=2.2)
     return show_source.ShowSource(plan, projectors=(model,) * projectors, bit_depth=bit_depth, use_producer=False)
 
@@ -93,7 +93,7 @@ def test_a_show_that_cannot_play_says_why_in_one_line(looks, fps, said):
 
 
 def test_the_list_moves_and_removes_like_the_panel_buttons():
-    show_plan = _module("services.show_plan")
+    show_plan = _module("services.show.show_plan")
     assert show_plan.moved(["a", "b", "c"], 2, -1) == (["a", "c", "b"], 1)
     assert show_plan.moved(["a", "b", "c"], 0, -1) == (["a", "b", "c"], 0)  # at the top: stays
     assert show_plan.moved(["a", "b", "c"], 2, +1) == (["a", "b", "c"], 2)
@@ -103,7 +103,7 @@ def test_the_list_moves_and_removes_like_the_panel_buttons():
 
 
 def test_a_new_look_is_named_after_its_prompt(results, tmp_path):
-    show_plan = _module("services.show_plan")
+    show_plan = _module("services.show.show_plan")
     folders, _ = results
     assert show_plan.look_name(folders[1]) == "look 1"
     assert show_plan.look_name(str(tmp_path / "no_result")) == "no_result"
@@ -114,7 +114,7 @@ def test_a_new_look_is_named_after_its_prompt(results, tmp_path):
 
 
 def test_a_look_is_stale_when_its_capture_is_not_the_scenes_or_older(results, state):
-    show_plan = _module("services.show_plan")
+    show_plan = _module("services.show.show_plan")
     folders, capture = results
     plan = _plan([dict(result_dir=f, hold_s=1.0) for f in folders])
     assert show_plan.stale_looks(plan, capture, "fp") == []
@@ -146,7 +146,7 @@ def test_holds_are_the_looks_exported_pixels_and_a_dissolve_mixes_in_linear_ligh
     from lapig.lapig_core.export.result_files import read_output_image
     from lapig.lapig_core.optics.projector_model import quantised_frame
 
-    show_source = _module("services.show_source")
+    show_source = _module("services.show.show_source")
     folders, _ = results
     plan = _plan([dict(result_dir=folders[0], hold_s=0.3, transition_s=0.4), dict(result_dir=folders[1], hold_s=0.3)])
     frames = list(show_source.frames(_source(plan, bit_depth=16)))
@@ -179,7 +179,7 @@ def test_a_stored_dissolve_is_compensated_at_its_keys_on_the_scene_capture(tmp_p
     from lapig.lapig_core.show.frames import ShowSetup
     from lapig.tools.bench.device_fixture import FIXTURE
 
-    show_source = _module("services.show_source")
+    show_source = _module("services.show.show_source")
     shutil.copytree(FIXTURE, tmp_path / "fixture")
     cs = load_capture_set(tmp_path / "fixture")
     fit_first_look(cs, setup_dir_of(cs))
@@ -212,7 +212,7 @@ def test_a_stored_dissolve_is_compensated_at_its_keys_on_the_scene_capture(tmp_p
 def test_an_8_bit_dissolve_is_the_linear_light_mix_of_the_8_bit_looks(tmp_path):
     from lapig.lapig_core.export.result_files import write_result
 
-    show_source = _module("services.show_source")
+    show_source = _module("services.show.show_source")
     rng = np.random.default_rng(4)
     folders = [str(write_result(tmp_path / f"r{i}", {"projector": rng.random((SIZE[1], SIZE[0], 3)).astype(np.float32)},
                                 {"prompt": "noise"})) for i in range(2)]
@@ -226,7 +226,7 @@ def test_an_8_bit_dissolve_is_the_linear_light_mix_of_the_8_bit_looks(tmp_path):
 
 
 def test_the_adapter_hands_the_plan_to_the_show_producer_where_it_is_here(results):
-    show_source = _module("services.show_source")
+    show_source = _module("services.show.show_source")
     if not show_source.has_producer():
         pytest.skip("lapig_core.show is not merged in this build")
     folders, _ = results
@@ -244,7 +244,7 @@ def test_the_adapter_hands_the_plan_to_the_show_producer_where_it_is_here(result
 def test_bake_show_writes_a_png_sequence_per_projector_whole(results, tmp_path):
     from lapig.lapig_core.common.imageio import read_image
 
-    show_jobs = _module("services.show_jobs")
+    show_jobs = _module("services.show.show_jobs")
     folders, _ = results
     plan = _plan([dict(result_dir=f, hold_s=0.1, transition_s=0.0) for f in folders])
     folder = tmp_path / "data" / "shows" / "show"
@@ -270,7 +270,7 @@ def _cancel_midway(job):
 
 
 def test_a_cancelled_bake_or_export_leaves_nothing_and_the_previous_output_as_it_was(results, tmp_path):
-    show_jobs = _module("services.show_jobs")
+    show_jobs = _module("services.show.show_jobs")
     folders, _ = results
     plan = _plan([dict(result_dir=f, hold_s=2.0, transition_s=1.0) for f in folders], fps=30.0)
     folder = tmp_path / "data" / "shows" / "show"
@@ -287,7 +287,7 @@ def test_a_cancelled_bake_or_export_leaves_nothing_and_the_previous_output_as_it
 
 
 def test_export_show_writes_each_projector_and_a_sidecar(results, tmp_path):
-    show_jobs = _module("services.show_jobs")
+    show_jobs = _module("services.show.show_jobs")
     folders, _ = results
     plan = _plan([dict(result_dir=f, hold_s=0.2, transition_s=0.1) for f in folders[:2]])
     out = show_jobs.ShowExportJob(_source(plan, bit_depth=16), str(tmp_path / "export"), "png",
@@ -301,7 +301,7 @@ def test_export_show_writes_each_projector_and_a_sidecar(results, tmp_path):
 
 
 def test_export_show_refuses_bad_input_in_one_line_before_any_file(results, tmp_path, monkeypatch):
-    show_jobs, show_source = _module("services.show_jobs"), _module("services.show_source")
+    show_jobs, show_source = _module("services.show.show_jobs"), _module("services.show.show_source")
     folders, _ = results
     good = _plan([dict(result_dir=folders[0], hold_s=0.5)])
     out = tmp_path / "export"
@@ -386,7 +386,7 @@ def test_the_producer_is_asked_at_the_projectors_size_and_gamma_and_its_cancel_i
     and nothing is written."""
     import types
 
-    show_source, show_jobs = _module("services.show_source"), _module("services.show_jobs")
+    show_source, show_jobs = _module("services.show.show_source"), _module("services.show.show_jobs")
     folders, capture = results
     asked, stop = {}, threading.Event()
 
@@ -421,7 +421,7 @@ def test_export_show_writes_a_frame_locked_video_with_the_show_in_its_sidecar(re
     one holds the exact pixels (OpenCV decodes to BGR)."""
     import cv2
 
-    show_jobs, show_source = _module("services.show_jobs"), _module("services.show_source")
+    show_jobs, show_source = _module("services.show.show_jobs"), _module("services.show.show_source")
     if show_source.codec_problem(codec):
         pytest.skip(show_source.codec_problem(codec))
     folders, _ = results
@@ -458,7 +458,7 @@ def test_export_show_puts_the_scenes_sound_in_the_video_and_removes_its_temporar
     import subprocess
     import wave
 
-    show_jobs, show_source = _module("services.show_jobs"), _module("services.show_source")
+    show_jobs, show_source = _module("services.show.show_jobs"), _module("services.show.show_source")
     if show_source.codec_problem("h264"):
         pytest.skip(show_source.codec_problem("h264"))
     folders, _ = results
@@ -482,12 +482,12 @@ def test_export_show_puts_the_scenes_sound_in_the_video_and_removes_its_temporar
 def test_the_show_lists_every_video_codec_and_png():
     from lapig.lapig_core.export import codecs
 
-    show_source = _module("services.show_source")
+    show_source = _module("services.show.show_source")
     assert show_source.CODECS == codecs.NAMES + ("png",)
 
 
 def test_16_bit_show_frames_go_into_h264_at_8_bits_and_the_job_says_so(results, tmp_path):
-    show_jobs, show_source = _module("services.show_jobs"), _module("services.show_source")
+    show_jobs, show_source = _module("services.show.show_jobs"), _module("services.show.show_source")
     if show_source.codec_problem("h264"):
         pytest.skip(show_source.codec_problem("h264"))
     folders, _ = results

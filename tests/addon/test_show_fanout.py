@@ -1,4 +1,4 @@
-"""The show's frames made once and written per projector at the same time (services/show_fanout): every writer gets
+"""The show's frames made once and written per projector at the same time (services/show/show_fanout): every writer gets
 its projector's frames in order, and a failure or a cancel on either side stops both sides without a hang."""
 import importlib
 import threading
@@ -6,7 +6,7 @@ import threading
 import numpy as np
 import pytest
 
-fanout = importlib.import_module("lapig.lapig_addon.services.show_fanout")
+fanout = importlib.import_module("lapig.lapig_addon.services.show.show_fanout")
 
 
 def _frames(count, made, stop_at=None):

@@ -29,7 +29,7 @@ def _multi_result(folder, levels):
 
 @pytest.fixture
 def show(tmp_path):
-    show_plan, show_source = _module("services.show_plan"), _module("services.show_source")
+    show_plan, show_source = _module("services.show.show_plan"), _module("services.show.show_source")
     folders = [_multi_result(tmp_path / f"look{i}", levels) for i, levels in enumerate(LEVELS)]
     plan = show_plan.ShowPlan(looks=(show_plan.ShowLook(result_dir=folders[0], hold_s=0.2, transition_s=0.2),
                                      show_plan.ShowLook(result_dir=folders[1], hold_s=0.2)), fps=50.0)

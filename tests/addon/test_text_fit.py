@@ -1,4 +1,4 @@
-"""Lines that fit a sidebar panel (services/text_fit), measured here with a fixed width per character."""
+"""Lines that fit a sidebar panel (services/panel/text_fit), measured here with a fixed width per character."""
 import importlib
 
 import pytest
@@ -8,7 +8,7 @@ CHAR = 6.0  # pixels per character at UI scale 1, about Blender's 11-point font
 
 @pytest.fixture
 def text_fit():
-    return importlib.import_module("lapig.lapig_addon.services.text_fit")
+    return importlib.import_module("lapig.lapig_addon.services.panel.text_fit")
 
 
 def fit_at(text_fit, region_width, scale=1.0):

@@ -9,9 +9,8 @@ import time
 import pytest
 
 from lapig.tools.bench.fake_torch_index import FAKE_VERSION, LocalIndex, isolated_pip_env, make_fake_torch_wheel
-from lapig.lapig_addon.services import torch_builds, torch_install
-from lapig.lapig_addon.services.torch_install import (InstallPlan, PipProgress, TorchInstallJob, plan_from_index,
-                                                     plan_from_wheel)
+from lapig.lapig_addon.services.install import torch_builds, torch_install
+from lapig.lapig_addon.services.install.torch_install import (InstallPlan, PipProgress, TorchInstallJob, plan_from_index, plan_from_wheel)
 
 
 @pytest.fixture

@@ -27,7 +27,7 @@ def test_a_background_train_pauses_between_cycles_renders_and_finishes_the_rende
     from lapig.lapig_addon.blender.capture_studio import STUDIO_NAME
     from lapig.lapig_addon.blender.modal_runner import SLOTS
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.train_job import TrainModelsJob
+    from lapig.lapig_addon.services.train.train_job import TrainModelsJob
     from lapig.lapig_core.capture.dataset import resolve_setup
     from lapig.lapig_core.common.locking import FolderLock
     from lapig.lapig_core.photometric import choice
@@ -69,7 +69,7 @@ def test_a_background_train_pauses_between_cycles_renders_and_finishes_the_rende
 def test_the_panels_cancel_stops_the_background_train(captured_with_tests):
     from lapig.lapig_addon.blender.modal_runner import SLOTS
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.train_job import TrainModelsJob
+    from lapig.lapig_addon.services.train.train_job import TrainModelsJob
 
     scene = captured_with_tests
     # what Capture's on_done calls after a capture in the UI: without Blender's UI it starts nothing

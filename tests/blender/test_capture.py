@@ -6,7 +6,7 @@ import pytest
 
 
 def _settings(tmp_path, **kw):
-    from lapig.lapig_addon.services.capture_job import CaptureSettings
+    from lapig.lapig_addon.services.capture.capture_job import CaptureSettings
 
     base = dict(out_dir=str(tmp_path / "data"), setup_name="panel", train_count=4, test_count=2,
                 working_size=64, chunk=8, check_grid_step=2)
@@ -64,7 +64,7 @@ def test_capture_writes_a_registered_dataset_and_restores_the_scene(small_setup,
 @pytest.mark.blender
 def test_cancel_in_the_middle_restores_the_scene(small_setup, tmp_path):
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.capture_job import CaptureJob
+    from lapig.lapig_addon.services.capture.capture_job import CaptureJob
 
     scene, projector, camera, target = small_setup
     before = _user_state(scene)
@@ -125,7 +125,7 @@ def test_studio_leaves_no_temporary_folder_even_when_the_scene_cannot_be_restore
 @pytest.mark.blender
 def test_object_outside_the_projector_is_refused_with_the_coverage(small_setup, tmp_path):
     from lapig.lapig_addon.cli import headless
-    from lapig.lapig_addon.services.capture_job import CaptureError
+    from lapig.lapig_addon.services.capture.capture_job import CaptureError
 
     scene, projector, camera, target = small_setup
     before = _user_state(scene)
@@ -161,7 +161,7 @@ def test_capture_operator_on_unsaved_file_uses_a_temporary_folder(small_setup):
     import shutil
 
     from lapig.lapig_addon.blender import scene_state, storage
-    from lapig.lapig_addon.services.panel_state import capture_status
+    from lapig.lapig_addon.services.panel.panel_state import capture_status
 
     scene = small_setup[0]
     s = scene.lapig

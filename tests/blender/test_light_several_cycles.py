@@ -27,7 +27,7 @@ def _mean_lux(scene, plan):
 
 def test_two_stacked_projectors_give_twice_the_lux_of_one(lapig_registered, tmp_path):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services.light_report import LightPlan
+    from lapig.lapig_addon.services.light.light_report import LightPlan
 
     scene, projector, camera, target = _statue_lit_from_the_front_left(tmp_path, swing_deg=0.0)
     plan = LightPlan(lumens=2000)
@@ -46,7 +46,7 @@ def test_two_stacked_projectors_give_twice_the_lux_of_one(lapig_registered, tmp_
 
 def test_the_light_report_of_two_projectors_names_each_ones_share(lapig_registered, tmp_path):
     from lapig.lapig_addon.blender import light_plan_run
-    from lapig.lapig_addon.services.light_report import LightPlan
+    from lapig.lapig_addon.services.light.light_report import LightPlan
     from lapig.lapig_core.common.imageio import read_image, write_png
     from lapig.lapig_core.photometry import dose
 

@@ -43,7 +43,7 @@ def _realistic(**kw):
 def test_the_light_transport_mode_is_in_the_fingerprint_and_a_change_says_why_the_capture_is_stale(
         lapig_registered, tmp_path):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.panel import panel_state
 
     scene, projector, camera, target = _setup(tmp_path, "panel")
     state = scene_state.read(scene)

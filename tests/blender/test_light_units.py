@@ -192,7 +192,7 @@ def test_limit_look_to_the_dose_pauses_the_background_train_and_holds_the_captur
 
     from lapig.lapig_addon.blender import light_render, scene_state
     from lapig.lapig_addon.blender.modal_runner import SLOTS
-    from lapig.lapig_addon.services import light_report
+    from lapig.lapig_addon.services.light import light_report
     from lapig.lapig_core.common.locking import LOCK_FILE, FolderLock, holder_of
 
     scene, projector = small_setup[:2]
@@ -280,7 +280,7 @@ def test_light_report_is_a_job_that_pauses_the_background_train_and_reports_as_b
     from lapig.lapig_addon.blender import light_render
     from lapig.lapig_addon.blender.modal_runner import SLOTS
     from lapig.lapig_addon.cli import report_command
-    from lapig.lapig_addon.services import light_report
+    from lapig.lapig_addon.services.light import light_report
 
     scene, folder = _report_scene(small_setup, tmp_path)
 
@@ -327,7 +327,7 @@ def test_the_light_panel_shows_the_reports_progress_and_says_why_its_buttons_are
 
     from lapig.lapig_addon.blender.modal_runner import SLOTS
     from lapig.lapig_addon.services.jobs import Job
-    from lapig.lapig_addon.services.light_report_job import LightReportJob
+    from lapig.lapig_addon.services.light.light_report_job import LightReportJob
     from lapig.operators.light_ops import LAPIG_OT_light_report
     from lapig.panels.light_panel import LAPIG_PT_light
 

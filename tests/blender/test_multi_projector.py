@@ -233,7 +233,7 @@ def test_a_projector_aimed_away_stops_the_capture_by_name_and_keeps_the_previous
 @pytest.mark.blender
 def test_two_projectors_on_one_display_of_a_real_rig_are_one_line(statue):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.panel import panel_state
 
     scene = statue[0]
     assert bpy.ops.lapig.add_projector() == {"FINISHED"}

@@ -38,7 +38,7 @@ def test_the_device_preference_and_the_cuda_command(lapig_registered, monkeypatc
 @pytest.mark.blender
 def test_the_torch_box_says_what_is_installed_and_offers_the_install_button(lapig_registered, monkeypatch):
     from lapig.lapig_addon.blender import preferences, torch_installer
-    from lapig.lapig_addon.services import torch_install
+    from lapig.lapig_addon.services.install import torch_install
     from lapig.lapig_core.common.gpu_torch import TorchBuild
 
     monkeypatch.setattr(preferences, "installed_torch", lambda: TorchBuild(False))
@@ -72,7 +72,7 @@ def _sentences(log):
 def test_the_model_manager_box_shows_each_model_with_its_licence_state_and_buttons(lapig_registered, monkeypatch,
                                                                                   tmp_path):
     from lapig.lapig_addon.blender import model_manager, preferences, torch_installer
-    from lapig.lapig_addon.services import model_download
+    from lapig.lapig_addon.services.install import model_download
 
     monkeypatch.setattr(torch_installer, "online_access", lambda: False)
     log = _draw(preferences, str(tmp_path))
@@ -146,6 +146,6 @@ def test_download_in_a_script_runs_to_the_end_and_the_model_is_ready(lapig_regis
         assert bpy.ops.lapig.download_model(model="instruct-pix2pix") == {"FINISHED"}
     folder = tmp_path / "models" / "instruct-pix2pix"
     assert (folder / "model_index.json").is_file() and (folder / ".lapig-model.json").is_file()
-    from lapig.lapig_addon.services.model_download import ready_folder
+    from lapig.lapig_addon.services.install.model_download import ready_folder
 
     assert ready_folder("instruct-pix2pix", str(tmp_path / "models")) == str(folder)

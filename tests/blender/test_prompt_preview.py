@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The fast path's Blender side (issue 53, item 4): the prompt property's update hands each change to
-services/prompt_preview and registers the timer, only where the one-step model is ready and the look is a diffusion
+services/generate/prompt_preview and registers the timer, only where the one-step model is ready and the look is a diffusion
 one; Generate stops it. (The debounce and the preview itself: tests/addon/test_prompt_preview.py; this tier may
 have no torch, so the backend stays the default one and the look's check is stood in for.)"""
 import bpy

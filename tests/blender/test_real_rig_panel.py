@@ -188,8 +188,8 @@ def test_the_real_rigs_tools_say_so_on_a_virtual_rig(small_setup, op):
 
 def test_check_and_capture_through_the_operators_on_simulated_hardware(small_setup, hardware):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services import panel_state
-    from lapig.lapig_addon.services.rig_check import last_check
+    from lapig.lapig_addon.services.panel import panel_state
+    from lapig.lapig_addon.services.capture.rig_check import last_check
 
     scene = small_setup[0]
     s = scene.lapig
@@ -229,7 +229,7 @@ def test_check_and_capture_through_the_operators_on_simulated_hardware(small_set
 def test_a_camera_that_does_not_open_is_the_checks_one_sentence(small_setup, monkeypatch, tmp_path):
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.rigs import real_rig
-    from lapig.lapig_addon.services.rig_check import last_check
+    from lapig.lapig_addon.services.capture.rig_check import last_check
 
     hw = Hardware()  # the simulated window; the camera is the rig's own (OpenCV), on a file that is not there
     monkeypatch.setattr(real_rig, "_projector_window", hw.window)
@@ -249,7 +249,7 @@ def test_a_camera_that_does_not_open_is_the_checks_one_sentence(small_setup, mon
 @pytest.mark.torch  # without torch the panel names the missing package first
 def test_the_virtual_capture_goes_stale_when_the_scene_switches_to_a_real_rig(small_setup, tmp_path):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.panel import panel_state
 
     scene = small_setup[0]
     rig = scene_state.read(scene).rig

@@ -15,7 +15,7 @@ def test_refinement_through_cycles_corrects_the_open_loop_image(lapig_registered
     from lapig.lapig_addon.blender import rig, scene_state
     from lapig.lapig_addon.blender.cycles_factory import CyclesDeviceFactory
     from lapig.lapig_addon.cli import headless
-    from lapig.lapig_addon.services.refine_job import refine_rounds
+    from lapig.lapig_addon.services.refine.refine_job import refine_rounds
     from lapig.lapig_core.common.steps import run_to_end
     from lapig.lapig_core.capture.dataset import load_capture_set
     from lapig.lapig_core.photometric.box_solve import box_compensate

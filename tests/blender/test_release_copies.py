@@ -50,7 +50,7 @@ def _sidecar(path):
 
 def test_the_releases_blend_of_one_projector_opens_with_its_capture_and_result(lapig_registered, tmp_path):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.panel import panel_state
 
     folder = _copy("one", tmp_path)
     bpy.ops.wm.open_mainfile(filepath=str(folder / "wall.blend"))

@@ -203,7 +203,7 @@ def test_wrong_values_are_refused_before_any_work(capfd, project, unchanged, tmp
 def test_a_capture_too_large_is_refused_before_allocating_from_any_caller(project, tmp_path):
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.cli import headless
-    from lapig.lapig_addon.services.capture_job import CaptureError
+    from lapig.lapig_addon.services.capture.capture_job import CaptureError
 
     bpy.ops.wm.open_mainfile(filepath=project.blend)
     scene = bpy.context.scene
@@ -227,7 +227,7 @@ def test_a_deleted_projector_or_camera_is_refused_before_stylizing(capfd, projec
 def test_a_rig_deleted_while_generating_leaves_no_result(project, unchanged):
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.generate_job import GenerateJob
+    from lapig.lapig_addon.services.generate.generate_job import GenerateJob
 
     bpy.ops.wm.open_mainfile(filepath=project.blend)
     scene = bpy.context.scene
@@ -351,7 +351,8 @@ def test_ctrl_c_during_torch_work_stops_cleanly(project, unchanged, argv, marker
 
 
 def test_an_unexpected_error_in_an_operator_is_one_line(project, monkeypatch, capfd, tmp_path):
-    from lapig.lapig_addon.services import capture_job, export_result
+    from lapig.lapig_addon.services.capture import capture_job
+    from lapig.lapig_addon.services.export import export_result
 
     bpy.ops.wm.open_mainfile(filepath=project.blend)
 

@@ -112,7 +112,7 @@ def _pixels(path):
 
 def test_the_baked_show_renders_without_the_addon_and_after_a_move(show_scene, tmp_path):
     from lapig.lapig_addon.blender import projector_nodes, scene_state, show_timeline
-    from lapig.lapig_addon.services.show_jobs import BakeShowJob
+    from lapig.lapig_addon.services.show.show_jobs import BakeShowJob
 
     scene = show_scene
     source = show_timeline.show_source(scene, use_producer=False)  # the looks' stored images: plain numpy
@@ -166,7 +166,7 @@ def test_a_still_result_after_a_show_takes_the_light_back(show_scene):
     from lapig.lapig_addon.blender import projector_nodes, scene_state, show_timeline
     from lapig.lapig_addon.blender.result_sinks import ProjectorLightSink
     from lapig.lapig_addon.services.ports import ProjectorFrame
-    from lapig.lapig_addon.services.show_jobs import BakeShowJob
+    from lapig.lapig_addon.services.show.show_jobs import BakeShowJob
 
     scene = show_scene
     out = BakeShowJob(show_timeline.show_source(scene, use_producer=False), show_timeline.baked_folder()).run_to_completion()
@@ -258,8 +258,8 @@ def test_a_show_of_generated_looks_is_baked_and_exported_through_the_producer(ca
     from lapig.lapig_addon.blender import projector_nodes, scene_state, show_timeline
     from lapig.lapig_addon.blender.scene_store import scene_seams
     from lapig.lapig_addon.cli.main import main
-    from lapig.lapig_addon.services import show_source
-    from lapig.lapig_addon.services.generate_job import GenerateJob
+    from lapig.lapig_addon.services.show import show_source
+    from lapig.lapig_addon.services.generate.generate_job import GenerateJob
 
     scene = captured
     for prompt in ("stained glass", "ink wash"):

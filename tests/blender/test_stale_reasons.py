@@ -7,7 +7,7 @@ pytestmark = pytest.mark.blender
 
 def test_a_projector_resolution_changed_after_the_capture_is_named(small_setup, tmp_path):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.panel import panel_state
 
     scene, projector, _, _ = small_setup
     state = scene_state.read(scene)

@@ -28,7 +28,7 @@ def _psa_fast(scene):
 
 
 def test_whole_path_through_the_operators(captured, tmp_path):
-    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.panel import panel_state
     from lapig.lapig_addon.blender import preview, scene_state
 
     scene = captured
@@ -106,7 +106,7 @@ def test_whole_path_through_the_operators(captured, tmp_path):
 
 def _generate_blocker(scene):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.panel import panel_state
 
     return panel_state.generate_blocker(scene_state.read(scene), scene_state.generate_request(scene))
 
@@ -173,7 +173,7 @@ def test_moved_blend_finds_its_data_again(captured, tmp_path):
 def test_cancelled_generate_changes_nothing(captured):
     from lapig.lapig_addon.blender import projector_nodes, scene_state
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.generate_job import GenerateJob
+    from lapig.lapig_addon.services.generate.generate_job import GenerateJob
 
     scene = captured
     s = scene.lapig
@@ -189,9 +189,9 @@ def test_cancelled_generate_changes_nothing(captured):
 
 def test_unavailable_backend_falls_back_with_a_message(captured, tmp_path):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_addon.services import panel_state
+    from lapig.lapig_addon.services.panel import panel_state
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.generate_job import GenerateJob
+    from lapig.lapig_addon.services.generate.generate_job import GenerateJob
 
     scene = captured
     request = scene_state.generate_request(scene, backend="instruct-pix2pix", psa=False,
@@ -205,7 +205,7 @@ def test_unavailable_backend_falls_back_with_a_message(captured, tmp_path):
 def test_cancelled_render_leaves_the_scene_as_it_was(captured):
     from lapig.lapig_addon.blender import capture_studio, projector_nodes
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.render_job import RenderResultJob
+    from lapig.lapig_addon.services.render.render_job import RenderResultJob
 
     scene = captured
     s = scene.lapig
@@ -228,7 +228,7 @@ def test_generate_from_a_style_image_records_it(captured, tmp_path):
 
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.generate_job import GenerateJob, PipelineError
+    from lapig.lapig_addon.services.generate.generate_job import GenerateJob, PipelineError
 
     scene = captured
     gray = (np.random.default_rng(0).random((40, 48)) * 255).astype(np.uint8)  # grayscale: converted, said
@@ -275,7 +275,7 @@ def test_train_chooses_the_compensator_by_rendering_both(captured_with_tests):
 def test_a_cancel_while_rendering_the_choice_keeps_pcnets_choice(captured_with_tests):
     from lapig.lapig_addon.blender import scene_state
     from lapig.lapig_addon.blender.scene_store import scene_seams
-    from lapig.lapig_addon.services.train_job import TrainModelsJob
+    from lapig.lapig_addon.services.train.train_job import TrainModelsJob
     from lapig.lapig_core.photometric import choice
 
     scene = captured_with_tests

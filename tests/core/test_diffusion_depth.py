@@ -47,7 +47,7 @@ def test_the_depth_adapter_is_in_the_catalogue_with_its_licence_and_downloads_as
     assert sorted(os.listdir(folder)) == [".lapig-model.json", "config.json", "diffusion_pytorch_model.bin"]
     assert pf.folder_state(folder, layout=catalogue.MODEL).state == pf.READY and pf.verify(folder) == []
     assert any("checking the model" in line for line in downloaded["lines"])
-    from lapig.lapig_addon.services.model_download import model_row, use_folder
+    from lapig.lapig_addon.services.install.model_download import model_row, use_folder
 
     row = model_row("depth-adapter", downloaded["root"])
     assert row.state == "ready" and row.folder == folder
@@ -57,7 +57,7 @@ def test_the_depth_adapter_is_in_the_catalogue_with_its_licence_and_downloads_as
 
 
 def test_a_folder_that_is_not_an_adapter_is_one_line(downloaded, tmp_path):
-    from lapig.lapig_addon.services.model_download import use_folder
+    from lapig.lapig_addon.services.install.model_download import use_folder
 
     with pytest.raises(ModelError, match=r"is not a T2IAdapter: it has no config\.json"):
         use_folder("depth-adapter", str(tmp_path))

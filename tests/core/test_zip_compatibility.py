@@ -18,7 +18,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from lapig.lapig_addon.services import bundle_status
+from lapig.lapig_addon.services.panel import bundle_status
 from lapig.tools import bundle
 
 # a zip's wheels as the package index names them (one of each kind: a CPython-only build, an abi3 build, a

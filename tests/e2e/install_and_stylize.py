@@ -31,7 +31,7 @@ import addon_utils  # noqa: E402
 assert addon_utils.check(module)[1], "the extension did not enable"
 assert "lapig" not in sys.modules and "lapig_core" not in sys.modules, "the repository's package is loaded"
 lap("install")
-model_download = importlib.import_module(module + ".lapig_addon.services.model_download")
+model_download = importlib.import_module(module + ".lapig_addon.services.install.model_download")
 model_manager = importlib.import_module(module + ".lapig_addon.blender.model_manager")
 prefs = bpy.context.preferences.addons[module].preferences
 prefs.models_folder = os.path.join(work, "models")

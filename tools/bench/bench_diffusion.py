@@ -12,7 +12,7 @@ into a fresh models folder. Each *_ok is true only when its check ran and held:
   * hash_check_ok: a file the hub sends damaged is refused by its sha256, and nothing looks ready;
   * offline_refused_ok: with Blender's online access off the download is refused before any request.
 Then the downloaded pipelines run on the device the manager picks: preview_seconds is the fast path's preview of one
-prompt at 512 px (the 'one-step' look's one UNet call, services/prompt_preview; after a warm-up call, the load
+prompt at 512 px (the 'one-step' look's one UNet call, services/generate/prompt_preview; after a warm-up call, the load
 excluded), pipeline_preview_seconds the same model through diffusers' img2img pipeline (one_step.preview), ip2p_seconds_512 one InstructPix2Pix stylize (2 steps) at 512 px
 through the LGST backend; peak_memory_mb the process's peak resident memory (CUDA: the allocator's peak).
 A tiny depth adapter (T2I-Adapter, random weights) is downloaded as the catalogue's depth-adapter; then
@@ -186,7 +186,7 @@ def _real_models(models: str, device: str) -> dict:
     warm-up; InstructPix2Pix: one stylize with its 10 steps after a warm-up)."""
     import torch
 
-    from ...lapig_addon.services.model_download import model_row
+    from ...lapig_addon.services.install.model_download import model_row
     from ...lapig_core.diffusion import catalogue, device_fit, one_step
     from ...lapig_core.diffusion.catalogue import ModelError
     from ...lapig_core.lgst import get_backend
@@ -237,7 +237,7 @@ def _real_models(models: str, device: str) -> dict:
 
 
 def run(args) -> dict:
-    from ...lapig_addon.services.model_download import runs_half
+    from ...lapig_addon.services.install.model_download import runs_half
     from ...lapig_core.diffusion import catalogue
     from .fake_model_hub import FakeModelHub
     from .tiny_pipeline import make_tiny_adapter, make_tiny_pipeline

@@ -34,10 +34,10 @@ from ...lapig_core.photometry import dose, light_maps, presets, units
 from ...lapig_addon.blender import demo_scene, light_render, rig, scene_state
 from ...lapig_addon.blender.scene_store import scene_seams
 from ...lapig_addon.cli import headless
-from ...lapig_addon.services import light_report
-from ...lapig_addon.services.generate_job import GenerateJob
-from ...lapig_addon.services.train_job import TrainModelsJob
-from ...lapig_addon.services.projection import project_and_capture
+from ...lapig_addon.services.light import light_report
+from ...lapig_addon.services.generate.generate_job import GenerateJob
+from ...lapig_addon.services.train.train_job import TrainModelsJob
+from ...lapig_addon.services.capture.projection import project_and_capture
 
 PANEL_LUMENS = 3000.0
 PANEL_DISTANCE = 2.5

@@ -18,7 +18,7 @@ level of 0.02), at 320 x 240.
 Sheet: out/bench_looks/sheet.png (every prompt's target, its structure and its checks).
 
 slider_to_preview_seconds: one slider moved (Scale) -> the look's new preview image at 800 x 600, as the Stylize
-panel's sliders make it (services/look_edit.remake: the look drawn again from its record, no prompt model, no PSA,
+panel's sliders make it (services/generate/look_edit.remake: the look drawn again from its record, no prompt model, no PSA,
 then compensated by the first look's classical model at that size), on a capture of the device check's rig
 (the device check's fake rig captured with an 800 x 600 projector, 8 pairs); slider_to_preview_changed says the image
 did change (mean absolute difference).
@@ -284,9 +284,15 @@ def psa_gains(cases: list[Case], out: str) -> dict:
         adapted = metrics.psnr(as_image(res.with_psa.simulated), as_image(res.with_psa.target))
         return without, adapted, res
 
+    from ...lapig_core.lgst.not_understood import PromptNotUnderstood
+
     rows, tiles, labels = [], [], []
     for case in cases:
-        without, adapted, res = one(case.text)
+        try:
+            without, adapted, res = one(case.text)
+        except PromptNotUnderstood as exc:  # refused in one line (counted by the suite's figures): no PSA to run
+            rows.append({"prompt": case.text, "family": case.family, "refused": str(exc)})
+            continue
         rows.append({"prompt": case.text, "family": case.family, "without_db": round(without, 3),
                      "with_psa_db": round(adapted, 3), "gain_db": round(adapted - without, 3),
                      "retention": res.style_retention()})
@@ -301,11 +307,13 @@ def psa_gains(cases: list[Case], out: str) -> dict:
                        "gain_db": round(adapted - without, 3)})
     families = {}
     for row in rows:
-        families.setdefault(row["family"], []).append(row["gain_db"])
+        if "gain_db" in row:
+            families.setdefault(row["family"], []).append(row["gain_db"])
     write_png(os.path.join(out, "psa_sheet.png"), labelled_grid(tiles, labels, columns=8, cell=180,
               title="bench looks --psa: target and simulated capture, without and with PSA (device check capture)"))
     return {"psa_gain_db": {f: round(statistics.mean(g), 3) for f, g in sorted(families.items())},
-            "psa_gain_db_all": round(statistics.mean(r["gain_db"] for r in rows), 3),
+            "psa_gain_db_all": round(statistics.mean(r["gain_db"] for r in rows if "gain_db" in r), 3),
+            "psa_refused": [r["prompt"] for r in rows if "refused" in r],
             "psa_gain_db_neural": round(statistics.mean(r["gain_db"] for r in neural), 3),
             "psa_rows": rows, "psa_neural": neural, "psa_capture": str(FIXTURE),
             "psa_iterations_cap": PSA_ITERATIONS}
@@ -319,7 +327,7 @@ def slider_to_preview(out: str) -> dict:
     """One slider change -> the new preview image at 800 x 600 (module docstring), timed; bpy-free."""
     import tempfile
 
-    from ...lapig_addon.services.look_edit import remake
+    from ...lapig_addon.services.generate.look_edit import remake
     from ...lapig_core.capture.dataset import load_capture_set
     from ...lapig_core.look_parameters import LookParameters
     from ...lapig_core.photometric.classical import ClassicalModel

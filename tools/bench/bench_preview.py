@@ -35,9 +35,9 @@ from ...lapig_addon.blender import result_preview, scene_state
 from ...lapig_addon.blender.scene_store import scene_seams
 from ...lapig_addon.cli import headless
 from ...lapig_addon.services import warmup
-from ...lapig_addon.services.generate_job import GenerateJob
-from ...lapig_addon.services.train_job import TrainModelsJob
-from ...lapig_addon.services.render_job import RenderResultJob
+from ...lapig_addon.services.generate.generate_job import GenerateJob
+from ...lapig_addon.services.train.train_job import TrainModelsJob
+from ...lapig_addon.services.render.render_job import RenderResultJob
 from .io_count import counted_io
 
 # the first Generate is the cold one; the rest are warm, on prompts whose PSA runs to different lengths

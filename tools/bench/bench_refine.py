@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from ...lapig_addon.blender.cycles_factory import CyclesDeviceFactory
-from ...lapig_addon.services.projection import projection_session
+from ...lapig_addon.services.capture.projection import projection_session
 from ...lapig_core.common.atomic import atomic_write_bytes
 from ...lapig_core.common.imageio import write_png
 from ...lapig_core.common.psnr import masked_psnr

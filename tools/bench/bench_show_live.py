@@ -38,8 +38,8 @@ def _looks(out) -> list:
 
 
 def _source(folders):
-    from ...lapig_addon.services.show_plan import ShowLook, ShowPlan
-    from ...lapig_addon.services.show_source import ShowSource
+    from ...lapig_addon.services.show.show_plan import ShowLook, ShowPlan
+    from ...lapig_addon.services.show.show_source import ShowSource
     from ...lapig_core.optics.projector_model import ProjectorModel
 
     plan = ShowPlan(tuple(ShowLook(f, name=f"look {i}", hold_s=1.0, transition_s=1.0) for i, f in enumerate(folders)),
@@ -50,7 +50,7 @@ def _source(folders):
 
 def _frame_make_ms(source) -> float:
     """The median time to make one dissolve frame, the worker thread alone."""
-    from ...lapig_addon.services import show_source
+    from ...lapig_addon.services.show import show_source
 
     dissolve = next(s for s in source.plan.segments() if s.kind == "dissolve")
     times = []

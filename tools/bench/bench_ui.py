@@ -308,8 +308,8 @@ def projector_window_stalls(out: str) -> dict:
 def install_to_import(out: str) -> dict:
     """Install torch as the button does (CPU build, the index replaced by a local one with a fake torch wheel)
     into a fresh folder, stepped as the preferences' timer steps it: the seconds until torch imports."""
-    from ...lapig_addon.services import torch_builds
-    from ...lapig_addon.services.torch_install import TorchInstallJob, plan_from_index
+    from ...lapig_addon.services.install import torch_builds
+    from ...lapig_addon.services.install.torch_install import TorchInstallJob, plan_from_index
     from .fake_torch_index import LocalIndex, isolated_pip_env, make_fake_torch_wheel
 
     os.makedirs(out, exist_ok=True)

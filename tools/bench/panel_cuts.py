@@ -12,7 +12,7 @@ import contextlib
 import os
 from types import SimpleNamespace
 
-from ...lapig_addon.services import text_fit
+from ...lapig_addon.services.panel import text_fit
 from .panel_layout import MeasuringLayout, RNAChecks
 
 WIDTHS = (250, 350, 500)
@@ -138,7 +138,7 @@ def _real(scene):
 @contextlib.contextmanager
 def _without_torch():
     """torch as missing as in a Blender without it: the dependency check and the style backend's check."""
-    from ...lapig_addon.services import panel_state
+    from ...lapig_addon.services.panel import panel_state
     from ...lapig_core.common import deps
 
     real = deps.check_dependencies

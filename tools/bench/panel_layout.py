@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 
-from ...lapig_addon.services import text_fit
+from ...lapig_addon.services.panel import text_fit
 
 U = text_fit.UNIT
 

@@ -1,7 +1,7 @@
 """Would a network per projector earn its cost on a rig of several? (issue 36, BENCHMARKS "Several projectors")
 Each projector of bench multi's bust (a) alone, as a one-projector rig at its pose: the app's own capture and
 Train, which fine-tunes CompenNeSt on that projector's captures and renders it against the classical model on
-held-out frames (lapig_addon/services/train_job, "Train chooses the compensator by rendering both").
+held-out frames (lapig_addon/services/train/train_job, "Train chooses the compensator by rendering both").
 Where the classical model wins alone, a network of that projector cannot help the joint compensation either.
 A projector at the bust's side lights much the camera does not see (the camera sees 21-29 % of what it lights),
 below the one-projector capture's 30 % guard; here that guard is lowered to 15 %, for this measurement only.

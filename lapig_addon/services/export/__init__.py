@@ -1,0 +1,1 @@
+"""Export: the projector images and their sidecars, crossfades, MPCDI packages."""

@@ -1,0 +1,1 @@
+"""Refine: the closed-loop refinement job and its two ways."""

@@ -1,0 +1,1 @@
+"""Render Real Capture: the job and its two ways."""

@@ -1,0 +1,1 @@
+"""The show: its plan, its source, each projector's writer, the bake and export jobs."""

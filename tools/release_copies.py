@@ -1,6 +1,6 @@
 """Make the saved copies of what a release writes: a .blend of one projector and one of two, each with its
 capture, a result and the exported files, made by that release's own code (issue 51 item 3). The tests
-(tests/blender/test_release_copies.py, tests/core/test_release_copies.py) open them with the code of today.
+(tests/blender/test_release_copies_in_blender.py, tests/core/test_release_copies.py) open them with the code of today.
 
     git worktree add /tmp/release <commit>
     .venv/bin/python tools/release_copies.py --release /tmp/release --out tests/data/release_<version>

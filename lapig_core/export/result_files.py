@@ -79,17 +79,6 @@ def write_new_result(root, name: str, images: dict, summary: dict, files: dict |
     return scratch.move_to_new_folder(name)
 
 
-def look_state_files(state) -> dict:
-    """The look's theta and tone field where PSA left them, as write_new_result's files (look_state.npz): a show
-    makes this very look again from it, not from the prompt and PSA run once more (lapig_core/show/look_state;
-    torch is loaded, since PSA ran)."""
-    if not state:
-        return {}
-    from ..show.look_state import LOOK_STATE_FILE, look_state_bytes
-
-    return {LOOK_STATE_FILE: look_state_bytes(state)}
-
-
 def write_result(folder, images: dict, summary: dict, sheet=None) -> Path:
     """Write images into a result folder (new, or adding to one), then its comparison sheet and
     result.json. images: name -> (H, W, 3) in [0,1] (names from IMAGES, with '_nopsa' variants).

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..common.psnr import masked_psnr
 from ..common.sheets import labelled_grid
-from ..export.result_files import (heat_overlay, look_state_files, read_result_image, read_summary,
+from ..export.result_files import (heat_overlay, read_result_image, read_summary,
                                    write_new_result, write_result)
 
 MULTI_KEY = "multi"
@@ -77,6 +77,8 @@ def write_joint_result(root, name: str, look, surface: np.ndarray, names, sizes,
             "metrics": metrics,
             "summary_line": line,
             "created": datetime.datetime.now().isoformat(timespec="seconds")}
+    from ..show.look_state import look_state_files  # torch: loaded, since the look ran
+
     return write_new_result(root, name, images, full, look_state_files(getattr(look, "state", None))), full
 
 

@@ -115,3 +115,11 @@ def refine_offset(folder) -> torch.Tensor | None:
     if refined.shape != open_loop.shape:
         return None
     return torch.from_numpy(np.ascontiguousarray(refined - open_loop, dtype=np.float32)).permute(2, 0, 1)[None]
+
+
+def look_state_files(state) -> dict:
+    """The look's theta and tone field where PSA left them, as write_new_result's files (look_state.npz): a show
+    makes this very look again from it, not from the prompt and PSA run once more."""
+    if not state:
+        return {}
+    return {LOOK_STATE_FILE: look_state_bytes(state)}

@@ -1,6 +1,6 @@
 """The captures and results release 0.1.0 wrote (tests/data/release_0_1_0, made by tools/release_copies.py) are
 read by today's lapig_core as they are: no migration was needed (issue 51 item 3). The Blender side (its .blend
-files, the export of its results to the same pixels, a new look on its captures): tests/blender/test_release_copies.py.
+files, the export of its results to the same pixels, a new look on its captures): tests/blender/test_release_copies_in_blender.py.
 """
 import json
 import pathlib

@@ -21,7 +21,8 @@ from ....lapig_core.native_output import OutputSizeError, output_frame, tile_for
 from ....lapig_core.pipeline import (as_image, first_look_models, output_at, saved_models_problem, stylize, surface_models)
 from ....lapig_core.photometric import first_look
 from ....lapig_core.psa.adaptation import PSASettings, loss_maps
-from ....lapig_core.export.result_files import (as_stored, folder_name, heat_overlay, look_state_files, read_summary, write_new_result)
+from ....lapig_core.export.result_files import (as_stored, folder_name, heat_overlay, read_summary, write_new_result)
+from ....lapig_core.show.look_state import look_state_files
 from ..panel import panel_state
 from .. import warmup
 from ..export.export_result import result_frame

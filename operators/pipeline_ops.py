@@ -24,7 +24,7 @@ class NeedsTorch:
 
 
 def _jobs(name: str):
-    """A torch-backed job's module (train_job, generate_job), imported once a button needs it: the add-on enables
+    """A torch-backed job's module (train.train_job, generate.generate_job), imported once a button needs it: the add-on enables
     without torch."""
     require("torch")
     return importlib.import_module(f"..lapig_addon.services.{name}", __package__)
@@ -38,7 +38,7 @@ class LAPIG_OT_train_models(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
 
     def make_job(self, context):
         scene = context.scene
-        job = _jobs("train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
+        job = _jobs("train.train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
         job.check()  # fail now, with the reason, not on the thread (several projectors: nothing to train)
         return job
 
@@ -56,7 +56,7 @@ class LAPIG_OT_train_background(BackgroundJobRunner, bpy.types.Operator):
         scene = context.scene
         if panel_state.train_blocker(scene_state.read(scene)):  # no torch, no capture: the first look stays
             return None
-        job = _jobs("train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
+        job = _jobs("train.train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
         job.check()
         job.rig_in_use = lambda: live_devices.rig_in_use(job.seams.store.scene)  # their live window stays theirs
         job.device_per_render = True  # no studio scene left between two steps, while the artist works
@@ -92,14 +92,14 @@ class LAPIG_OT_generate(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     def make_job(self, context):
         prompt_preview.stop()  # the fast path's preview must not land on the full PSA run's result
         scene = context.scene
-        job = _jobs("generate_job").GenerateJob(scene_seams(scene), scene_state.generate_request(scene),
+        job = _jobs("generate.generate_job").GenerateJob(scene_seams(scene), scene_state.generate_request(scene),
                                                 scene_state.finetune_iterations(scene))
         job.check()  # validates prompt and capture on the main thread, with a clear message
         return job
 
     def on_done(self, context, job):
         if job.result:
-            report_notes(self, _jobs("generate_job").result_notes(job.result["summary"]))
+            report_notes(self, _jobs("generate.generate_job").result_notes(job.result["summary"]))
             self.report({"INFO"}, "Generated: " + job.result["summary_line"])
 
 

@@ -2,9 +2,11 @@
 against the rig as it is now), the capture's lock and the result's summary."""
 from __future__ import annotations
 
+import os
+
 from ...lapig_core.capture.dataset import DatasetError, frame_size_of, read_setup_json, resolve_setup
 from ...lapig_core.capture.staging import hold_root
-from ...lapig_core.export.result_files import read_summary
+from ...lapig_core.export.result_files import capture_of_result, read_summary
 from ...lapig_core.optics.working_frame import WorkingFrameError, check_aspect
 from .panel import panel_state
 
@@ -73,6 +75,7 @@ def hold_capture(folder: str, title: str):
 def summary_made_on(folder: str, capture: str) -> dict:
     """The result's summary (result.json), refused where the result was made on another capture than `capture`."""
     summary = read_summary(folder)
-    if summary.get("capture") and summary["capture"] != capture:
+    made_on = capture_of_result(folder, summary)  # found again where the project was moved
+    if made_on and os.path.normpath(made_on) != os.path.normpath(capture):
         raise PipelineError("the result was made on another capture than the scene's: generate again first")
     return summary

@@ -79,6 +79,23 @@ def write_new_result(root, name: str, images: dict, summary: dict, files: dict |
     return scratch.move_to_new_folder(name)
 
 
+def capture_of_result(folder, summary: dict) -> str:
+    """The capture folder a result was made from. result.json records its absolute path; when the project was
+    moved or copied (the .blend with its data folder) that path is gone, and the same capture is found again
+    in the result's own data folder (<data>/results/<result> beside <data>/<object>/setups/<name>): the longest
+    tail of the recorded path, of at least those three parts, that is a folder there. '' where none is."""
+    recorded = str(summary.get("capture") or "")
+    if not recorded or Path(recorded).is_dir():
+        return recorded
+    parts = Path(recorded.replace("\\", "/")).parts
+    data = Path(folder).resolve().parent.parent
+    for start in range(1, len(parts) - 2):
+        moved = data.joinpath(*parts[start:])
+        if moved.is_dir():
+            return str(moved)
+    return recorded
+
+
 def write_result(folder, images: dict, summary: dict, sheet=None) -> Path:
     """Write images into a result folder (new, or adding to one), then its comparison sheet and
     result.json. images: name -> (H, W, 3) in [0,1] (names from IMAGES, with '_nopsa' variants).

@@ -77,9 +77,12 @@ def write_joint_result(root, name: str, look, surface: np.ndarray, names, sizes,
             "metrics": metrics,
             "summary_line": line,
             "created": datetime.datetime.now().isoformat(timespec="seconds")}
-    from ..show.look_state import look_state_files  # torch: loaded, since the look ran
+    state, files = getattr(look, "state", None), {}
+    if state:  # a look made by PSA: torch is loaded
+        from ..show.look_state import look_state_files
 
-    return write_new_result(root, name, images, full, look_state_files(getattr(look, "state", None))), full
+        files = look_state_files(state)
+    return write_new_result(root, name, images, full, files), full
 
 
 def projector_images(folder) -> list[tuple[dict, np.ndarray]]:

@@ -59,7 +59,9 @@ def test_only_instruct_pix2pix_gets_the_weights_folder(state):
     assert _request(state, ip2p_model="/models/ip2p").backend_options() == {}  # styletransfer takes no model
 
 
+@pytest.mark.torch
 def test_a_ready_depth_adapter_goes_to_instruct_pix2pix_and_asks_for_the_geometry(state, monkeypatch):
+    pytest.importorskip("torch")  # Generate's job runs PSA
     from lapig.lapig_addon.services.generate import generate_job
 
     request = _request(state, backend="instruct-pix2pix", depth_model="/models/depth-adapter")

@@ -21,7 +21,7 @@ from lapig_addon.__main__ import _load_extension_package
 import bpy
 _load_extension_package()
 from lapig.lapig_addon.blender import addon, preferences
-from lapig.lapig_addon.services import panel_state
+from lapig.lapig_addon.services.panel import panel_state
 addon.register()
 print("target:", bpy.utils.user_resource("SCRIPTS", path="modules"))
 print("online:", bpy.app.online_access)
@@ -42,7 +42,7 @@ print("wheel:", bpy.ops.lapig.install_torch_wheel(filepath=sys.argv[1]))
 print("blocker after wheel:", panel_state.torch_blocker(), "| train poll:", bpy.ops.lapig.train_models.poll())
 # Blender's UI: the operator returns at once, a timer steps the job (stepped here: timers never fire in bpy)
 from lapig.lapig_addon.blender import torch_installer
-from lapig.lapig_addon.services.torch_install import SLOT
+from lapig.lapig_addon.services.install.torch_install import SLOT
 torch_installer._in_ui = lambda context: True
 bpy.context.preferences.system.use_online_access = True
 print("ui install:", bpy.ops.lapig.install_torch(build="CPU"), SLOT.running())

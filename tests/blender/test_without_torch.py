@@ -27,7 +27,7 @@ if importlib.util.find_spec("torch") is not None:  # a torch-free venv (the vers
     builtins.__import__ = no_torch                   # and bpy 4.2 crashes at exit (SIGSEGV) with one in place
 _load_extension_package()
 from lapig.lapig_addon.blender import addon, scene_state
-from lapig.lapig_addon.services import panel_state
+from lapig.lapig_addon.services.panel import panel_state
 addon.register()
 print("blocker:", panel_state.models_blocker(scene_state.read(bpy.context.scene)))
 addon.unregister()

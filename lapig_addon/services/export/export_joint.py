@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ....lapig_core.export.result_files import read_summary, stored_bit_depth
+from ....lapig_core.export.result_files import capture_of_result, read_summary, stored_bit_depth
 from ....lapig_core.multi.capture_set import joint_model_path
 from ..light import light_sidecar
 from .crossfade import export_crossfades
@@ -68,7 +68,7 @@ class JointExportWay:
                              f"{', '.join(rig.projectors)}: generate again")
         written = {"images": [], "sidecars": [], "mpcdi": None}
         if mpcdi:
-            model_path = joint_model_path(summary.get("capture") or "")
+            model_path = joint_model_path(capture_of_result(folder, summary))
             if not model_path.is_file():
                 raise ValueError(f"the result's capture has no joint model ({model_path}): capture again")
             joint = JointModel.load(model_path)

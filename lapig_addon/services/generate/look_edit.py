@@ -140,7 +140,7 @@ class EditLookJob(WorkerJob):
         self.seams, self.changes, self.reset, self.device = seams, dict(changes or {}), reset, device
 
     def prepare(self):
-        from ....lapig_core.export.result_files import read_summary
+        from ....lapig_core.export.result_files import capture_of_result, read_summary
         from ..panel import panel_state
         from .generate_job import look_geometry
         from ..train.train_job import device_choice
@@ -154,7 +154,7 @@ class EditLookJob(WorkerJob):
         summary = read_summary(folder)
         params = edited_parameters(summary, self.changes, self.reset)  # a bad value: refused before any work
         before = world_record(summary)[1]
-        capture = summary.get("capture") or state.capture_dir
+        capture = capture_of_result(folder, summary) or state.capture_dir
         if not capture:
             raise PipelineError("the result names no capture: generate it again")
         frame = (summary.get("native_output") or {}).get("frame")

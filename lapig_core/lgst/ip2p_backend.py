@@ -122,7 +122,32 @@ def work_shape(h: int, w: int, size: int, multiple: int) -> tuple[int, int]:
             max(multiple, int(round(w * scale / multiple)) * multiple))
 
 
-class InstructPix2PixBackend(ThetaBackend):
+class PromptDiffusionBackend(ThetaBackend):
+    """What the diffusion backends share (InstructPix2Pix, the one-step model): theta is the prompt's text
+    embedding, and the lit surface is taken at the model's working size. A subclass has `pipe`, `device`, `size`."""
+
+    def _encode_text(self, text: str) -> torch.Tensor:
+        tok = self.pipe.tokenizer
+        ids = tok(text, padding="max_length", max_length=tok.model_max_length, truncation=True,
+                  return_tensors="pt").input_ids.to(self.device)
+        return self.pipe.text_encoder(ids)[0]
+
+    def _take_surface(self, surface, prompt, mix, model_words: str):
+        """Check the surface and the prompt, keep the surface and the working size; (prompt text, notes)."""
+        from .prompt_mapping import validate_prompt
+
+        if surface.ndim != 4 or surface.shape[:2] != (1, 3):
+            raise ValueError(f"surface must be (1,3,H,W), got {tuple(surface.shape)}")
+        text, notes = validate_prompt(prompt)
+        if mix is not None:
+            notes.append(f"style mixes are ignored by {model_words}: it follows the prompt only")
+        self.surface = surface.detach().float().clamp(0, 1)
+        self.out_size = tuple(self.surface.shape[-2:])
+        self.work_size = work_shape(*self.out_size, self.size, self.pipe.vae_scale_factor)
+        return text, notes
+
+
+class InstructPix2PixBackend(PromptDiffusionBackend):
     """InstructPix2Pix edits the white-lit surface as the prompt instructs; theta = prompt embedding."""
 
     name = "instruct-pix2pix"
@@ -168,24 +193,9 @@ class InstructPix2PixBackend(ThetaBackend):
         return _load_pipeline(self.model, str(self.device), self.allow_download)
 
     # -- setup -----------------------------------------------------------------------------------
-    def _encode_text(self, text: str) -> torch.Tensor:
-        tok = self.pipe.tokenizer
-        ids = tok(text, padding="max_length", max_length=tok.model_max_length, truncation=True,
-                  return_tensors="pt").input_ids.to(self.device)
-        return self.pipe.text_encoder(ids)[0]
-
     def prepare(self, surface, prompt, seed=0, mix=None):
-        from .prompt_mapping import validate_prompt
-
-        if surface.ndim != 4 or surface.shape[:2] != (1, 3):
-            raise ValueError(f"surface must be (1,3,H,W), got {tuple(surface.shape)}")
-        text, notes = validate_prompt(prompt)
-        if mix is not None:
-            notes.append("style mixes are ignored by InstructPix2Pix: it follows the prompt only")
+        text, notes = self._take_surface(surface, prompt, mix, "InstructPix2Pix")
         pipe = self.pipe
-        self.surface = surface.detach().float().clamp(0, 1)
-        self.out_size = tuple(self.surface.shape[-2:])
-        self.work_size = work_shape(*self.out_size, self.size, pipe.vae_scale_factor)
         dtype = pipe.unet.dtype
         with torch.no_grad():
             self._image = resize(self.surface.to(self.device), self.work_size)

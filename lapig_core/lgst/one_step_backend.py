@@ -13,8 +13,8 @@ import os
 
 import torch
 
-from .base import LGSTUnavailable, ThetaBackend
-from .ip2p_backend import work_shape
+from .base import LGSTUnavailable
+from .ip2p_backend import PromptDiffusionBackend
 from .styletransfer_backend import resize
 
 NAME = "one-step"
@@ -31,7 +31,7 @@ def model_status(model: str | None) -> tuple[bool, str]:
     return True, f"the one-step model from {folder}"
 
 
-class OneStepBackend(ThetaBackend):
+class OneStepBackend(PromptDiffusionBackend):
     """SD-Turbo's one step from the noised surface; theta = prompt embedding."""
 
     name = NAME
@@ -68,25 +68,10 @@ class OneStepBackend(ThetaBackend):
         except ModelError as exc:
             raise LGSTUnavailable(str(exc)) from None
 
-    def _encode_text(self, text: str) -> torch.Tensor:
-        tok = self.pipe.tokenizer
-        ids = tok(text, padding="max_length", max_length=tok.model_max_length, truncation=True,
-                  return_tensors="pt").input_ids.to(self.device)
-        return self.pipe.text_encoder(ids)[0]
-
     def prepare(self, surface, prompt, seed=0, mix=None):
-        from .prompt_mapping import validate_prompt
-
-        if surface.ndim != 4 or surface.shape[:2] != (1, 3):
-            raise ValueError(f"surface must be (1,3,H,W), got {tuple(surface.shape)}")
-        text, notes = validate_prompt(prompt)
-        if mix is not None:
-            notes.append("style mixes are ignored by the one-step model: it follows the prompt only")
+        text, notes = self._take_surface(surface, prompt, mix, "the one-step model")
         pipe = self.pipe
         dtype = pipe.unet.dtype
-        self.surface = surface.detach().float().clamp(0, 1)
-        self.out_size = tuple(self.surface.shape[-2:])
-        self.work_size = work_shape(*self.out_size, self.size, pipe.vae_scale_factor)
         alphas = pipe.scheduler.alphas_cumprod
         self._t = max(0, min(len(alphas) - 1, int(round(len(alphas) * self.strength)) - 1))
         a_t = alphas[self._t].float().to(self.device)

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import colorsys
 
+from .ramps import blackbody_colours
+
 VORONOI = {"speckle": "F1", "stones": "DISTANCE_TO_EDGE", "cracks": "DISTANCE_TO_EDGE", "hammered": "F1",
            "embers": "F1", "scales": "F1", "caustics": "DISTANCE_TO_EDGE", "honeycomb": "DISTANCE_TO_EDGE",
            "craters": "F1", "rosettes": "F1", "eyes": "F1"}
@@ -33,8 +35,8 @@ def texture_of(pattern: str) -> tuple[str, str]:
 
 
 def _ramp(colours, blackbody: bool) -> list:
-    if blackbody or not colours:
-        colours = [(0.02, 0.0, 0.0), (0.6, 0.08, 0.0), (1.0, 0.45, 0.05), (1.0, 0.85, 0.45)]
+    if blackbody or not colours:  # the torch look's own fire ramp
+        colours = blackbody_colours()
     n = len(colours)
     return [[round(i / max(n - 1, 1), 4), [float(c) for c in rgb] + [1.0]] for i, rgb in enumerate(colours)]
 

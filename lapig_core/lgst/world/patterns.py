@@ -102,7 +102,7 @@ def cracks(u, v, s, seed, o):
     plate = 0.45 + 0.35 * c.cell_id + 0.2 * _u01(noise.fbm(u * s * 4, v * s * 4, seed + 7, 3))
     t = crack * plate
     if o.get("glow_in_cracks"):
-        t = 1 - crack * (1 - plate * 0.5)  # lava: the cracks are the hot end of the ramp
+        t = 1 - crack * (1 - plate * 0.32)  # lava: the cracks are the hot end of the ramp, the crust dark red heat
     return _out(t)
 
 
@@ -431,19 +431,23 @@ def craters(u, v, s, seed, o):
 
 
 def flames(u, v, s, seed, o):
-    """Flames: turbulence rising (coordinates drawn upwards), hottest low and fading into the dark at the top
-    (t is the temperature through the blackbody ramp)."""
-    h_share = o.get("height", 1.0)
+    """Flames: tongues rising from the bottom of the frame, each reaching its own height (a wave warped by noise
+    across, torn by turbulence rising), hottest at their base and cooling to their tips, a faint glow above them
+    and the dark beyond; sparks carried up. t is the temperature through the ramp. height: the share of the frame
+    the tallest tongues reach."""
+    reach_share = o.get("height", 1.0)
     x, y = u * s, v * s
+    up = 1 - v / v.max().clamp_min(1e-6)  # 0 at the bottom of the frame, 1 at the top
+    wx = x + 0.5 * noise.fbm(x * 0.8, y * 0.6 - 2.0, seed + 35, 3)
+    wave = _u01(torch.sin(2 * math.pi * wx * 0.35)) * 0.6 + _u01(noise.fbm(wx * 0.7, 1.3 + 0 * y, seed + 36, 3)) * 0.4
+    reach = (0.3 + 0.6 * wave) * reach_share
     rise = noise.turbulence(x * 1.2, y * 0.5 + 3.0, seed + 34, 6)
-    wx = x + 0.6 * noise.fbm(x, y * 0.5, seed + 35, 3)
-    tongues = _u01(torch.sin(2 * math.pi * wx * 0.35))
-    vmax = v.max().clamp_min(1e-6)
-    height = (v / vmax) * h_share + (1 - h_share)  # 0 at the top of the frame, 1 at the bottom
-    t = (height * 1.25 - 0.35 * rise - 0.25 * (1 - tongues)).clamp(0, 1) ** o.get("gamma", 1.3)
-    # sparks carried up by the heat, brightest near the flames
-    sparks = shapes.stars(u * s * 9, (v + 0.3 * u) * s * 9, seed + 3, density=0.12, size=0.1) * (1 - height * 0.5)
-    return _out((t + 0.8 * sparks).clamp(0, 1))
+    inside = (reach - up) / reach.clamp_min(1e-3) - 0.35 * (rise - 0.4)  # 1 at the base, 0 at a tongue's tip
+    flame = inside.clamp(0, 1) ** o.get("gamma", 0.7)
+    glow = 0.3 * torch.exp(-((up - reach).clamp_min(0) / (0.12 * reach_share)))  # the air lit above them
+    t = torch.maximum(flame, glow * (1 - 0.5 * rise))
+    sparks = shapes.stars(u * s * 9, (v + 0.3 * u) * s * 9, seed + 3, density=0.12, size=0.1) * up.clamp(0, 1)
+    return _out((t + 0.8 * sparks * (1 - flame)).clamp(0, 1))
 
 
 def embers(u, v, s, seed, o):

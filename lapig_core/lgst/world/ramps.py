@@ -1,16 +1,13 @@
 """Colour ramps: a scalar field 0..1 to colour through evenly spaced stops (Blender's Color Ramp, linear), and the
-blackbody ramp (temperature in kelvin to the colour of a glowing body, as Blender's Blackbody node) for fire,
-embers, lava and glow."""
+fire ramp (the temperature of flames, embers, lava and glow as they are seen) those looks are drawn with."""
 from __future__ import annotations
-
-import math
-
-import torch
 
 
 def ramp(t: torch.Tensor, colours: torch.Tensor) -> torch.Tensor:
     """t (H, W) in 0..1 -> (3, H, W): linear between the n stops of colours (n, 3), evenly spaced.
     Differentiable in t and in the colours (PSA moves the stops)."""
+    import torch  # here: the fire ramp's stops are read by the torch-free node recipe too
+
     n = colours.shape[0]
     if n == 1:
         return colours[0].view(3, 1, 1).expand(3, *t.shape)
@@ -23,21 +20,14 @@ def ramp(t: torch.Tensor, colours: torch.Tensor) -> torch.Tensor:
     return a + f * (b - a)
 
 
-def kelvin_rgb(kelvin: float) -> tuple[float, float, float]:
-    """The colour of a black body at `kelvin` (Tanner Helland's fit of the CIE data), normalised, 0..1."""
-    t = max(1000.0, min(40000.0, kelvin)) / 100.0
-    r = 255.0 if t <= 66 else 329.698727446 * (t - 60) ** -0.1332047592
-    g = 99.4708025861 * math.log(t) - 161.1195681661 if t <= 66 else 288.1221695283 * (t - 60) ** -0.0755148492
-    b = 255.0 if t >= 66 else (0.0 if t <= 19 else 138.5177312231 * math.log(t - 10) - 305.0447927307)
-    return tuple(min(255.0, max(0.0, c)) / 255.0 for c in (r, g, b))
+# Fire as it is seen, a light and not a surface: deep red heat, orange, yellow and a pale yellow-white core. (A black
+# body's chromaticity alone, dimmed by its glow, was this ramp before: peach at 3800 K and a dim brown below, so
+# flames read as smoke; flames in pictures are saturated and bright, their light overexposed towards yellow.)
+FIRE_COLOURS = ((0.02, 0.0, 0.0), (0.42, 0.04, 0.0), (0.85, 0.2, 0.01), (1.0, 0.47, 0.04), (1.0, 0.74, 0.16),
+                (1.0, 0.93, 0.6))
 
 
-def blackbody_colours(low_k: float = 900.0, high_k: float = 3800.0, stops: int = 6) -> list:
-    """Stops from dark red heat to yellow-white, each dimmed by how much a body that hot glows (so the cool end is
-    near black, as embers are): the ramp fire is drawn with."""
-    out = []
-    for i in range(stops):
-        k = low_k + (high_k - low_k) * i / (stops - 1)
-        glow = (i / (stops - 1)) ** 1.4 * 0.95 + 0.05 * (i > 0)
-        out.append(tuple(c * glow for c in kelvin_rgb(k)))
-    return out
+def blackbody_colours() -> list:
+    """The ramp fire, embers, lava and glow are drawn with (the torch look and its node group alike): from near
+    black (embers cooling) through red heat to the pale yellow of the hottest flame."""
+    return [tuple(c) for c in FIRE_COLOURS]

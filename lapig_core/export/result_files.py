@@ -80,13 +80,21 @@ def write_new_result(root, name: str, images: dict, summary: dict, files: dict |
 
 
 def capture_of_result(folder, summary: dict) -> str:
-    """The capture folder a result was made from. result.json records its absolute path; when the project was
-    moved or copied (the .blend with its data folder) that path is gone, and the same capture is found again
-    in the result's own data folder (<data>/results/<result> beside <data>/<object>/setups/<name>): the longest
-    tail of the recorded path, of at least those three parts, that is a folder there. '' where none is."""
+    """The capture folder a result was made from. result.json records its absolute path; a project moved or copied
+    (the .blend with its data folder) has the same capture in the result's own data folder (<data>/results/<result>
+    beside <data>/<object>/setups/<name>), and that one is taken: the longest tail of the recorded path, of at least
+    those three parts, that is a folder there (a copy's own capture, not the original's it was copied from).
+    Otherwise the recorded path as it is ('' where none is recorded)."""
     recorded = str(summary.get("capture") or "")
-    if not recorded or Path(recorded).is_dir():
+    if not recorded:
         return recorded
+    parts = Path(recorded.replace("\\", "/")).parts
+    data = Path(folder).resolve().parent.parent
+    for start in range(1, len(parts) - 2):
+        here = data.joinpath(*parts[start:])
+        if here.is_dir():
+            return str(here)
+    return recorded
     parts = Path(recorded.replace("\\", "/")).parts
     data = Path(folder).resolve().parent.parent
     for start in range(1, len(parts) - 2):

@@ -30,3 +30,9 @@ def test_a_capture_found_nowhere_stays_as_recorded_and_none_stays_empty(tmp_path
     assert capture_of_result(result, {}) == ""
     # a short tail is never taken for the capture: "setups/Wall" alone could be any object's
     assert capture_of_result(result, {"capture": "/gone/setups/Wall"}) == "/gone/setups/Wall"
+
+
+def test_a_copied_project_takes_its_own_capture_while_the_original_still_stands(tmp_path):
+    original, _ = _project(tmp_path / "original")
+    copy_capture, copy_result = _project(tmp_path / "copy")
+    assert capture_of_result(copy_result, {"capture": str(original)}) == str(copy_capture)

@@ -24,8 +24,8 @@ class NeedsTorch:
 
 
 def _jobs(name: str):
-    """A torch-backed job's module (train.train_job, generate.generate_job), imported once a button needs it: the add-on enables
-    without torch."""
+    """A torch-backed job's module (train.train_job, generate.generate_job, relative to services), imported once a
+    button needs it: the add-on enables without torch."""
     require("torch")
     return importlib.import_module(f"..lapig_addon.services.{name}", __package__)
 

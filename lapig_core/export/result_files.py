@@ -95,13 +95,6 @@ def capture_of_result(folder, summary: dict) -> str:
         if here.is_dir():
             return str(here)
     return recorded
-    parts = Path(recorded.replace("\\", "/")).parts
-    data = Path(folder).resolve().parent.parent
-    for start in range(1, len(parts) - 2):
-        moved = data.joinpath(*parts[start:])
-        if moved.is_dir():
-            return str(moved)
-    return recorded
 
 
 def write_result(folder, images: dict, summary: dict, sheet=None) -> Path:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import colorsys
 
-from .ramps import blackbody_colours
+from .ramps import fire_colours
 
 VORONOI = {"speckle": "F1", "stones": "DISTANCE_TO_EDGE", "cracks": "DISTANCE_TO_EDGE", "hammered": "F1",
            "embers": "F1", "scales": "F1", "caustics": "DISTANCE_TO_EDGE", "honeycomb": "DISTANCE_TO_EDGE",
@@ -36,7 +36,7 @@ def texture_of(pattern: str) -> tuple[str, str]:
 
 def _ramp(colours, blackbody: bool) -> list:
     if blackbody or not colours:  # the torch look's own fire ramp
-        colours = blackbody_colours()
+        colours = fire_colours()
     n = len(colours)
     return [[round(i / max(n - 1, 1), 4), [float(c) for c in rgb] + [1.0]] for i, rgb in enumerate(colours)]
 

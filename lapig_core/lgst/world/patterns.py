@@ -439,7 +439,8 @@ def flames(u, v, s, seed, o):
     x, y = u * s, v * s
     up = 1 - v / v.max().clamp_min(1e-6)  # 0 at the bottom of the frame, 1 at the top
     wx = x + 0.5 * noise.fbm(x * 0.8, y * 0.6 - 2.0, seed + 35, 3)
-    wave = _u01(torch.sin(2 * math.pi * wx * 0.35)) * 0.6 + _u01(noise.fbm(wx * 0.7, 1.3 + 0 * y, seed + 36, 3)) * 0.4
+    along = noise.fbm(wx * 0.7, torch.full_like(y, 1.3), seed + 36, 3)  # noise across the frame only
+    wave = _u01(torch.sin(2 * math.pi * wx * 0.35)) * 0.6 + _u01(along) * 0.4
     reach = (0.3 + 0.6 * wave) * reach_share
     rise = noise.turbulence(x * 1.2, y * 0.5 + 3.0, seed + 34, 6)
     inside = (reach - up) / reach.clamp_min(1e-3) - 0.35 * (rise - 0.4)  # 1 at the base, 0 at a tongue's tip

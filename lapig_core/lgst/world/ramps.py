@@ -27,7 +27,7 @@ FIRE_COLOURS = ((0.02, 0.0, 0.0), (0.42, 0.04, 0.0), (0.85, 0.2, 0.01), (1.0, 0.
                 (1.0, 0.93, 0.6))
 
 
-def blackbody_colours() -> list:
+def fire_colours() -> list:
     """The ramp fire, embers, lava and glow are drawn with (the torch look and its node group alike): from near
     black (embers cooling) through red heat to the pale yellow of the hottest flame."""
     return [tuple(c) for c in FIRE_COLOURS]

@@ -20,7 +20,7 @@ from .moving import Clock
 from ...look_parameters import LookParameters
 from .compose import Composition
 from .patterns import PATTERNS, _smooth, _u01
-from .ramps import blackbody_colours, ramp
+from .ramps import fire_colours, ramp
 
 
 def coordinates(h: int, w: int, device=None) -> tuple[torch.Tensor, torch.Tensor]:
@@ -32,7 +32,7 @@ def coordinates(h: int, w: int, device=None) -> tuple[torch.Tensor, torch.Tensor
 
 
 def stops(material: Material) -> list:
-    return blackbody_colours() if material.ramp == "blackbody" else [list(c) for c in material.colours]
+    return fire_colours() if material.ramp == "blackbody" else [list(c) for c in material.colours]
 
 
 def already_has(material: Material, rgb) -> bool:

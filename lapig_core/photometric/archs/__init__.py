@@ -6,21 +6,11 @@
 from torch import nn
 
 from .compennest import CompenNeSt
+from .net import count_parameters, describe
 from .pcnet import PCNet
 
 # Registry so settings/checkpoints can name an architecture by string.
 ARCHS = {CompenNeSt.ARCH_NAME: CompenNeSt, PCNet.ARCH_NAME: PCNet}
-
-
-def count_parameters(module: nn.Module, trainable_only: bool = False) -> int:
-    """Number of scalar parameters (optionally only those with requires_grad)."""
-    return sum(p.numel() for p in module.parameters() if p.requires_grad or not trainable_only)
-
-
-def describe(module: nn.Module) -> str:
-    """One-line human readable summary, e.g. for logs and UI labels."""
-    name = getattr(module, "ARCH_NAME", type(module).__name__)
-    return f"{name} ({count_parameters(module):,} parameters)"
 
 
 def build(name: str, **kwargs) -> nn.Module:

@@ -24,36 +24,24 @@ from torch import nn
 from torch.nn import functional as F
 
 from .layout import into, out_of
+from .net import Net
 
 
-class CompenNeSt(nn.Module):
+class CompenNeSt(Net):
     ARCH_NAME = "CompenNeSt"
 
     def __init__(self):
         super().__init__()
-        # Siamese encoder (shared by x and s).
+        # Siamese encoder (shared by x and s): these, then conv2 and conv3 of the trunk.
         self.s1_a = nn.Conv2d(3, 3, 1, 1, 0)
         self.s1_b = nn.Conv2d(3, 3, 3, 1, 1)
         self.s1_c = nn.Conv2d(3, 3, 3, 1, 1)
         self.conv1 = nn.Conv2d(3, 32, 3, 2, 1)
         self.s2_a = nn.Conv2d(32, 64, 1, 1, 0)
         self.s2_b = nn.Conv2d(64, 64, 3, 1, 1)
-        self.conv2 = nn.Conv2d(32, 64, 3, 2, 1)
-        self.conv3 = nn.Conv2d(64, 128, 3, 1, 1)
-        # Decoder (x path only).
-        self.conv4 = nn.Conv2d(128, 256, 3, 1, 1)
-        self.conv5 = nn.Conv2d(256, 128, 3, 1, 1)
-        self.tconv1 = nn.ConvTranspose2d(128, 64, 3, 2, 1, output_padding=1)
-        self.tconv2 = nn.ConvTranspose2d(64, 32, 2, 2, 0)
-        self.conv6 = nn.Conv2d(32, 3, 3, 1, 1)
-        for m in self.modules():
-            if isinstance(m, nn.Conv2d):  # spec: Kaiming on Conv2d only
-                nn.init.kaiming_normal_(m.weight)
+        self.add_trunk()  # the rest of the trunk, conv4 to conv6, is the decoder (x path only)
+        self.init_weights()
         self.clear_surface_cache()
-
-    def describe(self) -> str:
-        n = sum(p.numel() for p in self.parameters())
-        return f"{self.ARCH_NAME} ({n:,} parameters)"
 
     # -- encoder -------------------------------------------------------------
     def encode(self, z: torch.Tensor, in_place: bool = False):

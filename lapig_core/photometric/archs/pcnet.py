@@ -24,6 +24,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from .layout import into, out_of
+from .net import Net
 
 
 def _bound(v, like: torch.Tensor, default: float) -> torch.Tensor:
@@ -33,20 +34,14 @@ def _bound(v, like: torch.Tensor, default: float) -> torch.Tensor:
     return torch.as_tensor(v, dtype=like.dtype, device=like.device)
 
 
-class PCNet(nn.Module):
+class PCNet(Net):
     ARCH_NAME = "PCNet"
 
     def __init__(self):
         super().__init__()
         # Backbone on x.
         self.conv1 = nn.Conv2d(3, 32, 3, 2, 1)
-        self.conv2 = nn.Conv2d(32, 64, 3, 2, 1)
-        self.conv3 = nn.Conv2d(64, 128, 3, 1, 1)
-        self.conv4 = nn.Conv2d(128, 256, 3, 1, 1)
-        self.conv5 = nn.Conv2d(256, 128, 3, 1, 1)
-        self.tconv1 = nn.ConvTranspose2d(128, 64, 3, 2, 1, output_padding=1)
-        self.tconv2 = nn.ConvTranspose2d(64, 32, 2, 2, 0)
-        self.conv6 = nn.Conv2d(32, 3, 3, 1, 1)
+        self.add_trunk()
         # Surface branch on cat(s, x*s).
         self.sconv1 = nn.Conv2d(6, 32, 3, 2, 1)
         self.sconv2 = nn.Conv2d(32, 64, 3, 2, 1)
@@ -58,13 +53,7 @@ class PCNet(nn.Module):
         self.res_a = nn.Conv2d(3, 3, 1, 1, 0)
         self.res_b = nn.Conv2d(3, 3, 3, 1, 1)
         self.res_c = nn.Conv2d(3, 3, 3, 1, 1)
-        for m in self.modules():
-            if isinstance(m, nn.Conv2d):  # spec: Kaiming on Conv2d only
-                nn.init.kaiming_normal_(m.weight)
-
-    def describe(self) -> str:
-        n = sum(p.numel() for p in self.parameters())
-        return f"{self.ARCH_NAME} ({n:,} parameters)"
+        self.init_weights()
 
     def forward(self, x: torch.Tensor, s: torch.Tensor, i_min=None, i_max=None) -> torch.Tensor:
         """Simulate the capture of projecting x onto surface s.

@@ -22,6 +22,8 @@ from typing import Callable
 
 import numpy as np
 
+from ..common.closing import Closing
+
 FRAME_DTYPES = {8: np.uint8, 16: np.uint16}
 
 
@@ -64,7 +66,7 @@ class GeometryChecks:
     exact_projector_to_camera: Callable[[np.ndarray], np.ndarray] | None = None
 
 
-class CaptureDevice:
+class CaptureDevice(Closing):
     """Implement describe(), show() and grab(); override capture() where batches are faster."""
 
     main_thread = False  # True: every call must come from Blender's main thread (bpy work)
@@ -118,12 +120,3 @@ class CaptureDevice:
         """Make the next captures a new noise draw (draw: a count). A real camera's noise is new with every
         grab; a renderer's sampling noise repeats with its seed, which a simulated device changes here, so
         that repeated captures of one image (closed-loop refinement) differ as a real camera's would."""
-
-    def close(self) -> None:
-        """Release the device; called on success, error and cancel alike."""
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()

@@ -29,6 +29,7 @@ from ..capture import dataset as ds
 from ..capture.settings import CaptureError, CaptureSettings
 from ..capture.staging import StagedCapture
 from ..capture.structured_light import decode_graycode_partial, graycode_patterns
+from ..common.closing import Closing
 from ..common.imageio import write_png
 from . import capture_set as layout
 from .blend_probe import probe_frames
@@ -49,7 +50,7 @@ class MultiDeviceInfo:
     details: dict = field(default_factory=dict)  # recorded in setup.json as they are
 
 
-class MultiProjectorDevice:
+class MultiProjectorDevice(Closing):
     """K projectors and one camera. Implement describe() and capture(); the rest has defaults.
 
     capture(frame_sets): frame_sets is a list of frame sets, each one uint8 (h_k,w_k,3) frame per projector
@@ -73,15 +74,6 @@ class MultiProjectorDevice:
         """(H,W) bool: where the camera sees the surface object, where the device knows it (None: it does
         not; the union of the projectors' reach stands in)."""
         return None
-
-    def close(self) -> None:
-        """Release the device; called on success, error and cancel alike."""
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
 
 def training_frames(projector_size, count: int, seed: int) -> np.ndarray:

@@ -16,6 +16,7 @@ import time
 import cv2
 import numpy as np
 
+from ..common.closing import Closing
 from . import RigError
 from .camera_controls import lock_controls, not_locked, quiet_opencv, reread, set_control
 from .camera_sources import (BACKENDS, backend_label, native_backend, parse_source, redacted, resolve_backend,
@@ -38,7 +39,7 @@ def _open_capture(source, api: int, params: list[int]):
         return cv2.VideoCapture(source, api, params) if params else cv2.VideoCapture(source, api)
 
 
-class OpenCVCamera:
+class OpenCVCamera(Closing):
     """A camera through cv2.VideoCapture: an index, a stream URL or a video file.
 
     Every automatic control is turned off (exposure, focus, white balance), then the values asked
@@ -215,12 +216,6 @@ class OpenCVCamera:
             if self._cap is not None:
                 self._cap.release()
                 self._cap = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
     @staticmethod
     def list_cameras(max_index: int = 8, backend: str = "auto") -> list[dict]:

@@ -22,6 +22,7 @@ import weakref
 
 import numpy as np
 
+from ..common.closing import Closing
 from . import RigError
 from .window_process import CLOSED_BY_USER, ProtocolError, encode_message, read_message
 
@@ -230,7 +231,7 @@ def list_displays(python: str | None = None, timeout_s: float = START_TIMEOUT_S,
         helper.kill()
 
 
-class ProjectorWindow:
+class ProjectorWindow(Closing):
     """The projector output on `display` (an index, or a case-insensitive part of its name as
     list_displays() gives it): opened on construction, the display's pixels shown 1:1."""
 
@@ -328,12 +329,6 @@ class ProjectorWindow:
     def is_open(self) -> bool:
         helper = self._helper
         return helper is not None and helper.alive() and not helper.closed_by_user
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
     def _call(self, header: dict, payload=None, timeout_s: float | None = None) -> dict:
         timeout_s = self.timeout_s if timeout_s is None else timeout_s

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..common.closing import Closing
 from ..common.imageio import decode_image, to_float, to_uint8
 
 from . import RigError
@@ -59,7 +60,7 @@ def decode_frame(data: bytes, keep_16_bit: bool = False) -> tuple[np.ndarray, in
     return (to_float(rgb) if keep_16_bit else to_uint8(rgb)), depth
 
 
-class TetheredFolderCamera:
+class TetheredFolderCamera(Closing):
     """The Camera interface over a folder a tethering program saves into (see the module doc).
 
     grab() waits up to ``timeout_s`` for the next new file and returns it with the
@@ -218,9 +219,3 @@ class TetheredFolderCamera:
 
     def close(self) -> None:
         self._closed.set()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()

@@ -82,7 +82,6 @@ class JointRefinement(RefinementLoop):
                 raise RefineError(f"projector {k + 1}'s image must be {m.projector_size[0]}x{m.projector_size[1]}, "
                                   f"got {frame.shape}")
             self.light.append(np.power(np.clip(frame, 0, 1), model.gamma_p[k]))
-        self.light_start = [lt.copy() for lt in self.light]
         self.q = self._drives()
         self.alpha = np.full(model.shape, settings.damping)
         self._begin(settings)
@@ -143,10 +142,6 @@ class JointRefinement(RefinementLoop):
             missed = np.where(inside, change - camera_map.sample(light), 0.0).astype(np.float32)
             light = light + camera_map.to_projector(missed, outside=0.0, bleed=bleed)
         return light
-
-    def linear_correction(self) -> list:
-        """Per projector, the light the loop added (h_k,w_k,3), linear units."""
-        return [lt - st for lt, st in zip(self.light, self.light_start)]
 
 
 def device_capture(device):

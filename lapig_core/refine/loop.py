@@ -234,7 +234,6 @@ class Refinement(RefinementLoop):
             start = np.power(self._working(self.native), 1.0 / model.gamma_p)
         start = np.asarray(start, np.float32).reshape(targets.shape)
         self.x = np.power(np.clip(start.astype(np.float64), 0, 1), model.gamma_p)
-        self.x_start = self.x.copy()
         self.alpha = np.full(targets.shape[:3], settings.damping)  # per pixel
         self._begin(settings)
 
@@ -291,11 +290,6 @@ class Refinement(RefinementLoop):
             self.x = self._working(self.native)
         self.record.iterations += 1
         self._choose_repeats(mean)
-
-    # -- the correction, for another frame (the native output)
-    def linear_correction(self) -> np.ndarray:
-        """x_refined - x_start (N,H,W,3): the light the loop added per projector pixel, linear units."""
-        return self.x - self.x_start
 
 
 def run(refinement: RefinementLoop, capture, cancel=None) -> RefineRecord:

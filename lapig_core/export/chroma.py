@@ -39,11 +39,6 @@ def _chroma_of(rgb: np.ndarray):
     return y, cb, cr
 
 
-def _upsampled(plane: np.ndarray, width: int, height: int) -> np.ndarray:
-    """A decoder's bilinear interpolation of a half-size chroma plane (centre siting)."""
-    return cv2.resize(plane, (width, height), interpolation=cv2.INTER_LINEAR)
-
-
 # from RGB in [0, 1]: Y', Cb, Cr (BT.709)
 _B, _A = 2 * (1 - KB), 2 * (1 - KR)  # decoded B = Y' + _B Cb, R = Y' + _A Cr
 _TO_YCBCR = np.array([[KR, KG, KB], [-KR / _B, -KG / _B, (1 - KB) / _B], [(1 - KR) / _A, -KG / _A, -KB / _A]],

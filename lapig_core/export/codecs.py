@@ -9,7 +9,7 @@
                            a pipe for what PyAV lacks: HAP, with PyPI's `av` wheel)
     check_codec(name, ffmpeg=None)
                            the VideoCodec, or VideoExportError with one line
-    av_problem(), av_version(), available_codecs()
+    av_problem(), av_version()
     encoded_depth(codec, bit_depth) -> (depth, note or "")
                            16-bit frames go in at the codec's deepest depth, with a note; never refused
     pixel_format(codec, depth), padded_size(codec, w, h) -> (w, h, note or ""), check_frame_size(codec, w, h)
@@ -233,10 +233,6 @@ def availability(ffmpeg: str | None = None) -> dict:
             out[name] = f"{why}. PyAV (av {av_version()}) has no {codec.encoder} encoder, {system}. " \
                         f"Available here: {available}"
     return out
-
-
-def available_codecs(ffmpeg: str | None = None) -> list[str]:
-    return [name for name, problem in availability(ffmpeg).items() if problem is None]
 
 
 def check_codec(name, ffmpeg: str | None = None) -> VideoCodec:

@@ -81,13 +81,6 @@ class ProjectorModel:
         d = np.stack([x, y, -np.ones_like(x)], axis=-1)
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
-    def half_angles(self) -> tuple[float, float]:
-        """Largest angle off the axis, horizontally and vertically (lens shift included)."""
-        sx, sy = self.uv_scale()
-        hx = (0.5 + abs(self.shift_x)) / sx
-        hy = (0.5 + abs(self.shift_y)) / sy
-        return float(np.arctan(hx)), float(np.arctan(hy))
-
     def emitted(self, image: np.ndarray) -> np.ndarray:
         """Input values (float in [0,1], or uint8/uint16 file pixels) -> relative emitted light
         (gamma, then black-level leak)."""

@@ -43,9 +43,6 @@ class ProjectorPreset:
     def black_level(self) -> float:
         return black_level_from_contrast(self.contrast)
 
-    def throw_ratio_fits(self, throw_ratio: float) -> bool:
-        return self.throw_ratio[0] - 1e-6 <= throw_ratio <= self.throw_ratio[1] + 1e-6
-
     def nearest_throw_ratio(self, throw_ratio: float) -> float:
         return min(max(throw_ratio, self.throw_ratio[0]), self.throw_ratio[1])
 

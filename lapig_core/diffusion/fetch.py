@@ -78,6 +78,21 @@ def _half_copies(parts: list[RemoteFile]) -> dict[str, RemoteFile]:
     return copies
 
 
+def _loaded(parts: list[RemoteFile], half: bool) -> list[RemoteFile]:
+    """Of one folder's files, those loaded: the weights' default variant, in safetensors where there is one (else
+    the .bin); where half, the fp16 copies (_half_copies) under the default names."""
+    names = [p.path.rsplit("/", 1)[-1] for p in parts]
+    has_safetensors = any(n.endswith(".safetensors") and not _variant(n) for n in names)
+    copies = _half_copies(parts) if half else {}
+    chosen = []
+    for part, name in zip(parts, names):
+        if _variant(name) or (has_safetensors and name.endswith(".bin")):
+            continue
+        copy = copies.get(part.path)
+        chosen.append(replace(copy, local=part.path) if copy else part)
+    return chosen
+
+
 def select_files(files: list[RemoteFile], index: dict, half: bool = False) -> list[RemoteFile]:
     """The files from_pretrained loads: model_index.json and its components' folders; of the weights, the
     default variant in safetensors where the folder has it (else the .bin). half: where a component has fp16
@@ -91,14 +106,7 @@ def select_files(files: list[RemoteFile], index: dict, half: bool = False) -> li
         if top in wanted and rest and "/" not in rest and not rest.endswith(SKIP_SUFFIXES):
             by_folder.setdefault(top, []).append(f)
     for top, parts in sorted(by_folder.items()):
-        names = [p.path.rsplit("/", 1)[1] for p in parts]
-        has_safetensors = any(n.endswith(".safetensors") and not _variant(n) for n in names)
-        copies = _half_copies(parts) if half else {}
-        for part, name in zip(parts, names):
-            if _variant(name) or (has_safetensors and name.endswith(".bin")):
-                continue
-            copy = copies.get(part.path)
-            chosen.append(replace(copy, local=part.path) if copy else part)
+        chosen += _loaded(parts, half)
     return chosen
 
 
@@ -107,17 +115,7 @@ def select_model_files(files: list[RemoteFile], half: bool = False) -> list[Remo
     root, chosen as a pipeline component's are (safetensors over .bin, the fp16 copies where half)."""
     root = [f for f in files if "/" not in f.path and f.path != "config.json" and not f.path.endswith(SKIP_SUFFIXES)
             and f.path.endswith(pf.WEIGHT_SUFFIXES)]
-    config = [f for f in files if f.path == "config.json"]
-    names = [f.path for f in root]
-    has_safetensors = any(n.endswith(".safetensors") and not _variant(n) for n in names)
-    copies = _half_copies(root) if half else {}
-    chosen = list(config)
-    for f in root:
-        if _variant(f.path) or (has_safetensors and f.path.endswith(".bin")):
-            continue
-        copy = copies.get(f.path)
-        chosen.append(replace(copy, local=f.path) if copy else f)
-    return chosen
+    return [f for f in files if f.path == "config.json"] + _loaded(root, half)
 
 
 @dataclass

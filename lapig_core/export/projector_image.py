@@ -164,7 +164,7 @@ def sidecar_bytes(caller: dict | None, own: dict) -> bytes:
 # ----------------------------------------------------------------------------- atomic files
 
 
-def _check_folder(folder: Path) -> None:
+def check_folder(folder: Path) -> None:
     if not folder.exists():
         raise ExportError(f"output folder does not exist: {folder}")
     if not folder.is_dir():
@@ -217,7 +217,7 @@ def export_projector_image(out_path, working_image, width: int, height: int, bit
     width, height = _check_size(width, height)
     png_path = _png_path(out_path)
     json_path = png_path.with_suffix(".json")
-    _check_folder(png_path.parent)
+    check_folder(png_path.parent)
     if png_path.is_dir():
         raise ExportError(f"output path is a folder, not a file name: {png_path} (e.g. "
                           f"{png_path / 'projector_image.png'})")
@@ -287,12 +287,12 @@ def crossfade_sequence(out_dir, image_a, image_b, frames: int = 60, *, width: in
 
     folder = Path(os.fspath(out_dir))
     if not folder.exists():
-        _check_folder(folder.parent)
+        check_folder(folder.parent)
         try:
             folder.mkdir()
         except OSError as exc:
             raise ExportError(f"cannot create output folder {folder}: {exc}") from exc
-    _check_folder(folder)
+    check_folder(folder)
 
     frame_a, resampled_a = _native(image_a, width, height, "image A")
     frame_b, resampled_b = _native(image_b, width, height, "image B")

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..common.imageio import to_uint8, to_uint16
-from .projector_image import ExportError
+from .projector_image import ExportError, check_folder
 
 # the NTSC rates: n * 1000 / 1001 frames a second, written as 23.976, 29.97, 59.94, ...
 _NTSC = (24, 30, 48, 60, 120)
@@ -80,10 +80,7 @@ def check_size(size) -> tuple[int, int]:
 
 def check_writable(folder: Path) -> None:
     """An existing folder that a file can be made in (tried, not guessed: permissions, read-only mounts)."""
-    if not folder.exists():
-        raise ExportError(f"output folder does not exist: {folder}")
-    if not folder.is_dir():
-        raise ExportError(f"output folder is not a folder: {folder}")
+    check_folder(folder)
     try:
         fd, probe = tempfile.mkstemp(prefix=".lapig_probe_", dir=folder)
         os.close(fd)

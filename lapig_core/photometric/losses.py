@@ -126,16 +126,16 @@ def _bound(v, like: torch.Tensor, default: float) -> torch.Tensor:
     return torch.as_tensor(default if v is None else v, dtype=like.dtype, device=like.device)
 
 
-def physical_saturation_map(target: torch.Tensor, i_min=None, i_max=None) -> torch.Tensor:
-    """Per-pixel L_ps, (B,1,H,W): squared distance of target outside [i_min, i_max].
+def clamped(x: torch.Tensor, i_min=None, i_max=None) -> torch.Tensor:
+    """x within [i_min, i_max]: per-pixel tensors (I- / I+ captures) or scalars; None = 0 / 1.
+    minimum/maximum (not clamp) so tensor bounds broadcast (PCNet's output clamp too)."""
+    return torch.minimum(torch.maximum(x, _bound(i_min, x, 0.0)), _bound(i_max, x, 1.0))
 
-    Bounds are per-pixel tensors (I- / I+ captures) or scalars; None = 0 / 1.
-    minimum/maximum (not clamp) so tensor bounds broadcast and the gradient of
-    the difference reaches `target` where it is out of range.
-    """
-    clipped = torch.minimum(torch.maximum(target, _bound(i_min, target, 0.0)),
-                            _bound(i_max, target, 1.0))
-    return ((clipped - target) ** 2).mean(dim=1, keepdim=True)
+
+def physical_saturation_map(target: torch.Tensor, i_min=None, i_max=None) -> torch.Tensor:
+    """Per-pixel L_ps, (B,1,H,W): squared distance of target outside [i_min, i_max] (bounds as `clamped`'s;
+    the gradient of the difference reaches `target` where it is out of range)."""
+    return ((clamped(target, i_min, i_max) - target) ** 2).mean(dim=1, keepdim=True)
 
 
 def physical_saturation_loss(target: torch.Tensor, i_min=None, i_max=None) -> torch.Tensor:

@@ -23,15 +23,9 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from ..losses import clamped
 from .layout import into, out_of
 from .net import Net
-
-
-def _bound(v, like: torch.Tensor, default: float) -> torch.Tensor:
-    """Scalar / tensor / None bound -> tensor broadcastable to `like`."""
-    if v is None:
-        v = default
-    return torch.as_tensor(v, dtype=like.dtype, device=like.device)
 
 
 class PCNet(Net):
@@ -79,5 +73,4 @@ class PCNet(Net):
         h7 = F.relu(self.tconv2(h6))
         res = F.relu(self.res_c(F.relu(self.res_b(F.relu(self.res_a(s_once))))))
         y = F.relu(self.conv6(h7) + res)
-        # minimum/maximum (not clamp) so tensor bounds broadcast per pixel.
-        return out_of(torch.minimum(torch.maximum(y, _bound(i_min, y, 0.0)), _bound(i_max, y, 1.0)))
+        return out_of(clamped(y, i_min, i_max))

@@ -29,11 +29,6 @@ def projector_blacks(model: JointModel, contrasts) -> np.ndarray:
     return (model.M.sum(axis=-1) * ratio[:, None, None, None]).astype(np.float32)
 
 
-def black_level_map(model: JointModel, contrasts) -> np.ndarray:
-    """(H,W,3) float32: the projectors' black at each camera pixel, the sum over the ones that reach it."""
-    return projector_blacks(model, contrasts).sum(axis=0)
-
-
 @dataclass
 class BlackUplift:
     """Black relative to white (linear) where one projector reaches and where several overlap; the ratio

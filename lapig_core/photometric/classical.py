@@ -287,10 +287,6 @@ class ClassicalModel:
         gamma_c, gamma_p, _ = search_gammas(p, c, w, gamma_range=gamma_range)
         return gamma_c, gamma_p
 
-    def residual_rms(self) -> float:
-        """RMS error of the fit on its own training data, in encoded capture units ([0,1])."""
-        return self.residual
-
     # --------------------------------------------------------------- prediction
     def _check(self, a: np.ndarray, name: str) -> tuple[np.ndarray, bool]:
         a = _as_float_images(a, name)

@@ -120,11 +120,6 @@ def watts_to_lumens(watts: float, model, white_mean: float = 1.0, rule: str = "a
     return watts * lumens_to_watts(1.0, model, white_mean, rule) ** -1
 
 
-def intensity_cd(watts: float, emitted: float = 1.0) -> float:
-    """Luminous intensity (cd) of the light towards a pixel of relative emitted light `emitted`."""
-    return LUMENS_PER_WATT * watts * emitted / (4 * math.pi)
-
-
 def planning_illuminance(lumens: float, area_m2: float, incidence_deg: float = 0.0) -> float:
     """The planner's E = lumens / lit area x cos(incidence), in lux."""
     check_lumens(lumens)

@@ -69,9 +69,6 @@ class ToneField(torch.nn.Module):
         return t if tuple(t.shape[-2:]) == size else F.interpolate(t, size=size, mode="bilinear",
                                                                    align_corners=False)
 
-    def is_identity(self) -> bool:
-        return all(float(p.detach().abs().max()) == 0.0 for p in self.parameters())
-
     def summary(self) -> dict:
         """What the field did, in words a person can read in result.json: the mean gain (x) and
         offset per channel, and how much the look follows the surface's range (beta)."""

@@ -43,7 +43,7 @@ def fitted(truth):
 
 def test_fit_recovers_gammas_and_predicts_held_out(truth, fitted):
     assert abs(fitted.gamma_c - GC) <= 0.1 and abs(fitted.gamma_p - GP) <= 0.1
-    assert fitted.residual_rms() < 1e-3
+    assert fitted.residual < 1e-3
     held_out = _patterns(10, seed=2)
     assert _psnr(fitted.simulate(held_out), truth.simulate(held_out)) > 40
     assert fitted.fit_seconds > 0
@@ -55,7 +55,7 @@ def test_fit_with_capture_noise(truth):
     cam = np.clip(truth.simulate(prj) + 0.005 * rng.standard_normal(prj.shape), 0, 1)
     model = ClassicalModel.fit(prj, cam.astype(np.float32))
     assert abs(model.gamma_c - GC) <= 0.1 and abs(model.gamma_p - GP) <= 0.1
-    assert 0.003 < model.residual_rms() < 0.008  # about the noise level
+    assert 0.003 < model.residual < 0.008  # about the noise level
     held_out = _patterns(10, seed=5)
     assert _psnr(model.simulate(held_out), truth.simulate(held_out)) > 45
 
@@ -106,7 +106,7 @@ def test_dead_and_saturated_pixels_give_no_nan(truth):
     cam[:, -3:, -3:] = 1.0  # always saturated
     model = ClassicalModel.fit(prj, cam)
     assert np.isfinite(model.M).all() and np.isfinite(model.o).all()
-    assert np.isfinite(model.residual_rms())
+    assert np.isfinite(model.residual)
     sim = model.simulate(_patterns(3, seed=9))
     comp = model.compensate(_patterns(3, seed=10))
     assert np.isfinite(sim).all() and np.isfinite(comp).all()
@@ -134,7 +134,7 @@ def test_uint8_input(truth):
     prj8 = np.round(prj * 255).astype(np.uint8)
     cam8 = np.round(truth.simulate(prj8.astype(np.float32) / 255) * 255).astype(np.uint8)
     model = ClassicalModel.fit(prj8, cam8, gammas=(GC, GP))
-    assert model.residual_rms() < 0.003  # 8-bit quantisation only
+    assert model.residual < 0.003  # 8-bit quantisation only
     assert model.simulate(prj8).dtype == np.float32
 
 
@@ -144,7 +144,7 @@ def test_save_load_round_trip(tmp_path, fitted):
     assert path.exists()
     loaded = ClassicalModel.load(path)
     assert (loaded.gamma_c, loaded.gamma_p) == (fitted.gamma_c, fitted.gamma_p)
-    assert loaded.residual_rms() == fitted.residual_rms()
+    assert loaded.residual == fitted.residual
     np.testing.assert_array_equal(loaded.M, fitted.M)
     np.testing.assert_array_equal(loaded.o, fitted.o)
     prj = _patterns(2, seed=14)

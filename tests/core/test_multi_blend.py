@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.multi import fake_rig
-from lapig.lapig_core.multi.black_level import black_level_map, black_uplift, model_black_uplift
+from lapig.lapig_core.multi.black_level import black_uplift, model_black_uplift, projector_blacks
 from lapig.lapig_core.multi.blend import BlendSettings, alpha_maps, blend_weights, encode_alpha
 from lapig.lapig_core.multi.camera_map import CameraMap
 from lapig.lapig_core.multi.coverage import coverage
@@ -124,7 +124,7 @@ def test_black_uplift_is_the_number_of_overlapping_projectors(count):
     # the model's black map is the fake's own black light
     truth = sum(rig.true_black(k) for k in range(count))
     inside = away_from_edges(model)
-    np.testing.assert_allclose(black_level_map(model, [500.0] * count)[inside], truth[inside], rtol=0.06, atol=2e-6)
+    np.testing.assert_allclose(projector_blacks(model, [500.0] * count).sum(axis=0)[inside], truth[inside], rtol=0.06, atol=2e-6)
 
 
 def test_black_uplift_follows_the_blend_and_the_contrasts():

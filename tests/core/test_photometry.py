@@ -8,6 +8,11 @@ from lapig.lapig_core.optics.projector_model import ProjectorModel
 from lapig.lapig_core.photometry import dose, light_maps, presets, projector_table, units
 
 
+def _intensity_cd(watts):
+    """Luminous intensity (cd) of a Blender spot of `watts` towards a white pixel: 683 lm/W over 4 pi sr."""
+    return units.LUMENS_PER_WATT * watts / (4 * math.pi)
+
+
 def _grid_illuminance(model, watts, n=400):
     """Illuminance (lux) on the plane at distance 1 over the image, from the pinhole's physics:
     E = I cos^3 / d^2 with I = 683 W / 4pi per unit emitted light; and each cell's area."""
@@ -15,7 +20,7 @@ def _grid_illuminance(model, watts, n=400):
     xs = x0 + (np.arange(n) + 0.5) / n * (x1 - x0)
     ys = y0 + (np.arange(n) + 0.5) / n * (y1 - y0)
     x, y = np.meshgrid(xs, ys)
-    e = units.intensity_cd(watts) * (1 + x * x + y * y) ** -1.5
+    e = _intensity_cd(watts) * (1 + x * x + y * y) ** -1.5
     return e, (x1 - x0) * (y1 - y0) / n ** 2
 
 
@@ -24,7 +29,7 @@ def _grid_illuminance(model, watts, n=400):
 def test_ansi_rule_gives_the_lumens_as_a_meter_on_nine_points_reads_them(model):
     watts = units.lumens_to_watts(3000, model)
     x = units.ansi_points(model)
-    nine = units.intensity_cd(watts) * (1 + x[:, 0] ** 2 + x[:, 1] ** 2) ** -1.5  # lux at unit distance
+    nine = _intensity_cd(watts) * (1 + x[:, 0] ** 2 + x[:, 1] ** 2) ** -1.5  # lux at unit distance
     assert nine.mean() * units.image_area_at_unit_distance(model) == pytest.approx(3000, rel=1e-9)
     assert units.watts_to_lumens(watts, model) == pytest.approx(3000)
 

@@ -23,7 +23,7 @@ def test_the_releases_capture_of_one_projector_loads_with_its_first_look():
     cs = load_capture_set(folder, frame=(model.shape[1], model.shape[0]))
     assert cs.cam_train.shape == (4, 48, 64, 3)
     rms = float(np.sqrt(((model.simulate(cs.prj_train) - cs.cam_train) ** 2).mean()))
-    assert rms == pytest.approx(model.residual_rms(), abs=1e-5) and rms < 0.01
+    assert rms == pytest.approx(model.residual, abs=1e-5) and rms < 0.01
 
 
 def test_the_releases_capture_of_two_projectors_loads_with_its_joint_model():

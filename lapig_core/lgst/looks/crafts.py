@@ -31,10 +31,6 @@ BATIK = ((0.29, 0.0, 0.51), (0.25, 0.16, 0.08), (0.44, 0.26, 0.08), (0.72, 0.25,
 TAPESTRY = ((0.0, 0.0, 0.5), (0.86, 0.08, 0.24), (0.8, 0.47, 0.13), (0.61, 0.69, 0.53), (1.0, 0.99, 0.82))
 
 
-def _palette(colours, default):
-    return tensor(sorted_palette(colours, default))
-
-
 # -- flat colour with fine outlines ---------------------------------------------------------------------
 def _flat(x, p, simplify, wobble=0.0):
     h, w = x.shape[-2:]
@@ -131,16 +127,6 @@ def paper_cutouts(x, p, surface=None):
         shape = torch.sigmoid((fields[:, i:i + 1] - level[i]) * 30) * (1 - cut)
         out = out * (1 - shape) + inks[i].view(1, 3, 1, 1) * shape
     return out
-
-
-def region_mean_sat(x, ids, n):
-    """The saturated mean colour of each region, (n, 3)."""
-    flat = ids.flatten()
-    sums = torch.zeros(3, n, dtype=x.dtype, device=x.device).index_add(1, flat, x[0].flatten(1))
-    counts = torch.zeros(n, dtype=x.dtype, device=x.device).index_add(0, flat, torch.ones_like(flat, dtype=x.dtype))
-    mean = (sums / counts.clamp_min(1)).t()
-    lum = (mean * torch.tensor((0.299, 0.587, 0.114), device=x.device)).sum(1, keepdim=True)
-    return (lum + 1.5 * (mean - lum)).clamp(0, 1)
 
 
 def _frame_colour(cs):

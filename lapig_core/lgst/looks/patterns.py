@@ -10,7 +10,7 @@ import math
 import torch
 import torch.nn.functional as F
 
-from .ops import blur, fixed_noise, luminance, px
+from .ops import fixed_noise, luminance
 from .palette import ramp_colours
 
 # how far the named looks equalise the image's tones before choosing inks by tone: most, so every
@@ -176,7 +176,3 @@ def tile_coords(h: int, w: int, share: float, device=None):
     ys, xs = coords(h, w, device)
     ty, tx = ys / share, xs / share
     return ty - torch.floor(ty) - 0.5, tx - torch.floor(tx) - 0.5, torch.floor(ty).long(), torch.floor(tx).long()
-
-
-def soft_blur(x: torch.Tensor, share: float) -> torch.Tensor:
-    return blur(x, px(x, share))

@@ -314,10 +314,3 @@ class InstructPix2PixBackend(PromptDiffusionBackend):
             if hook is not None:
                 hook.remove()
         return resize(out.float().clamp(0, 1), self.out_size).to(self.surface.device)
-
-    def describe(self):
-        self._require_prepared()
-        return dict(self._info)
-
-    def state(self):
-        return {"theta": [p.detach().clone() for p in self.parameters()], "describe": self.describe()}

@@ -216,6 +216,3 @@ class ArbitraryStyleBackend(ThetaBackend):
         info = dict(self._info)
         info["strength_now"] = round(float(self._theta[1].detach().clamp(0, 1)), 4)
         return info
-
-    def state(self):
-        return {"theta": [p.detach().clone() for p in self.parameters()], "describe": self.describe()}

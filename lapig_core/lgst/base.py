@@ -76,12 +76,13 @@ class LGSTBackend:
 class ThetaBackend(LGSTBackend):
     """A backend whose theta is a list of leaf tensors kept beside a copy of their prompt-given values.
 
-    Subclasses fill self._theta and self._anchor in prepare(); PSA's style-retention term uses
-    theta_distance().
+    Subclasses fill self._theta and self._anchor in prepare(), and self._info (what describe() gives);
+    PSA's style-retention term uses theta_distance().
     """
 
     _theta: list = []
     _anchor: list = []
+    _info: dict = {}
 
     def _require_prepared(self):
         if not self._theta:
@@ -101,6 +102,14 @@ class ThetaBackend(LGSTBackend):
         self._require_prepared()
         terms = [((t - a) ** 2).mean() / (a.pow(2).mean() + 1e-6) for t, a in zip(self._theta, self._anchor)]
         return torch.stack(terms).mean()
+
+    def describe(self):
+        self._require_prepared()
+        return dict(self._info)
+
+    def state(self):
+        """theta, and what was chosen with it (a PSA run keeps its best state with its description)."""
+        return {"theta": [p.detach().clone() for p in self.parameters()], "describe": self.describe()}
 
 
 BACKENDS: dict[str, type] = {}

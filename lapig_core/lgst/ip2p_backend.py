@@ -209,7 +209,6 @@ class InstructPix2PixBackend(PromptDiffusionBackend):
         # float32 leaf even when the UNet runs fp16, so Adam's small steps are not rounded away
         self._theta = [cond.detach().float().clone().requires_grad_(True)]
         self._anchor = [cond.detach().float().clone()]
-        self._seed = int(seed)
         depth_info = self._prepare_depth(notes)
         self._info = {"backend": self.name, "model": self.model, "prompt": text, "seed": int(seed),
                       "steps": self.steps, "psa_steps": self.psa_steps, "guidance": self.guidance,
@@ -315,10 +314,3 @@ class InstructPix2PixBackend(PromptDiffusionBackend):
             if hook is not None:
                 hook.remove()
         return resize(out.float().clamp(0, 1), self.out_size).to(self.surface.device)
-
-    def describe(self):
-        self._require_prepared()
-        return dict(self._info)
-
-    def state(self):
-        return {"theta": [p.detach().clone() for p in self.parameters()], "describe": self.describe()}

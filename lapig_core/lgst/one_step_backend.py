@@ -106,10 +106,3 @@ class OneStepBackend(PromptDiffusionBackend):
         image = pipe.vae.decode((x0 / pipe.vae.config.scaling_factor).to(pipe.vae.dtype), return_dict=False)[0]
         image = ((image.float() + 1) / 2).clamp(0, 1)
         return resize(image, self.out_size).to(self.surface.device)
-
-    def describe(self):
-        self._require_prepared()
-        return dict(self._info)
-
-    def state(self):
-        return {"theta": [p.detach().clone() for p in self.parameters()], "describe": self.describe()}

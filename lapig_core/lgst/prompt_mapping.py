@@ -120,11 +120,6 @@ def explain_prompt(prompt: str, k: int = DEFAULT_K, temperature: float | None = 
             "best_score": best, "notes": notes}
 
 
-def map_prompt(prompt: str, k: int = DEFAULT_K, temperature: float | None = None) -> list[tuple[str, float]]:
-    """The prompt's style mix: the k best styles, softmax(score / temperature), best first."""
-    return explain_prompt(prompt, k, temperature)["mix"]
-
-
 def _style_name(token: str) -> str:
     key = re.sub(r"[\s\-]+", "_", token.strip().lower())
     if key.isdigit() and int(key) < len(STYLES):

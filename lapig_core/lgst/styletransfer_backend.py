@@ -145,19 +145,7 @@ class StyleTransferBackend(ThetaBackend):
             # the named look makes the pixels itself (art lexicon): no second, misaligned grid over it
             effects = [e for e in effects if e.name != plan.look]
             notes = [n for n in notes if not n.startswith("style chosen for the effects' look")]
-        self._effects = effects  # the prompt is accepted: from here on the backend holds its look
-        self.plan = plan
-        self.surface = surface.detach().float().clamp(0, 1)
-        self.size = tuple(self.surface.shape[-2:])
-        self._layers, self._theta, self._anchor, self._scales = [], [], [], []
-        gen = torch.Generator().manual_seed(int(seed))
-        if plan.medium_kind == "style":
-            self._prepare_style_net(plan.styles, gen)
-        self._stages = self._build_stages(plan, seed, self.geometry, self.look_parameters)
-        for stage in self._stages:
-            for key, value, scale in stage.tensors():
-                self._add_theta(value.to(self.surface.device), gen, scale)
-                stage.params[key] = self._theta[-1]
+        self._hold(plan, effects, surface, seed)  # the prompt is accepted: from here on the backend holds its look
         chosen = plan.styles if plan.medium_kind == "style" else []
         self._info = {"backend": self.name, "prompt": text, "seed": int(seed),
                       "styles": [(n, round(float(w), 4)) for n, w in chosen],
@@ -174,6 +162,22 @@ class StyleTransferBackend(ThetaBackend):
             self._info["geometry"] = self.geometry.to_dict()
             if self.geometry.note:
                 notes.append(self.geometry.note)
+
+    def _hold(self, plan, effects, surface, seed):
+        """Take the plan's look for `surface`: the style net's tensors (a style medium) and the stages', as theta."""
+        self._effects = effects
+        self.plan = plan
+        self.surface = surface.detach().float().clamp(0, 1)
+        self.size = tuple(self.surface.shape[-2:])
+        self._layers, self._theta, self._anchor, self._scales = [], [], [], []
+        gen = torch.Generator().manual_seed(int(seed))
+        if plan.medium_kind == "style":
+            self._prepare_style_net(plan.styles, gen)
+        self._stages = self._build_stages(plan, seed, self.geometry, self.look_parameters)
+        for stage in self._stages:
+            for key, value, scale in stage.tensors():
+                self._add_theta(value.to(self.surface.device), gen, scale)
+                stage.params[key] = self._theta[-1]
 
     def _add_theta(self, t, gen, scale):
         t = t.detach().clone().float()
@@ -215,17 +219,8 @@ class StyleTransferBackend(ThetaBackend):
                           world_colour_layers={int(k): [tuple(c) for c in v]
                                                for k, v in (record.get("colour_layers") or {}).items()},
                           texture=record.get("texture"), mood=record.get("mood"))
-        self._effects = effects_for_prompt(prompt) if self.effects_spec == "auto" else list(self.effects_spec or [])
-        self.plan = plan
-        self.surface = surface.detach().float().clamp(0, 1)
-        self.size = tuple(self.surface.shape[-2:])
-        self._layers, self._theta, self._anchor, self._scales = [], [], [], []
-        gen = torch.Generator().manual_seed(int(seed))
-        self._stages = self._build_stages(plan, seed, self.geometry, self.look_parameters)
-        for stage in self._stages:
-            for key, value, scale in stage.tensors():
-                self._add_theta(value.to(self.surface.device), gen, scale)
-                stage.params[key] = self._theta[-1]
+        effects = effects_for_prompt(prompt) if self.effects_spec == "auto" else list(self.effects_spec or [])
+        self._hold(plan, effects, surface, seed)
         self._info = {"backend": self.name, "prompt": prompt, "seed": int(seed), "styles": [],
                       "looks": [st.label() for st in self._stages], "effects": [e.label() for e in self._effects],
                       "look_parameters": self.world_controls().look.to_dict(), "look_record": dict(record),
@@ -325,10 +320,3 @@ class StyleTransferBackend(ThetaBackend):
     def _require_prepared(self):
         if not self._info:
             raise RuntimeError("call prepare(surface, prompt) first")
-
-    def describe(self):
-        self._require_prepared()
-        return dict(self._info)
-
-    def state(self):
-        return {"theta": [p.detach().clone() for p in self.parameters()], "describe": self.describe()}

@@ -281,7 +281,7 @@ def test_backend_rejects_bad_input():
 @needs_text_model
 def test_mapping_follows_art_words():
     def top(prompt):
-        mix = pm.map_prompt(prompt)
+        mix = pm.explain_prompt(prompt)["mix"]
         assert len(mix) == 3 and sum(w for _, w in mix) == pytest.approx(1.0)
         assert [w for _, w in mix] == sorted((w for _, w in mix), reverse=True)
         return BY_NAME[mix[0][0]]
@@ -305,13 +305,13 @@ def test_minilm_loads_with_every_network_path_off(monkeypatch):
 
 @needs_text_model
 def test_mapping_non_ascii_and_temperature():
-    mix = pm.map_prompt("Mach es zu einem Buntglasfenster – ステンドグラス")
+    mix = pm.explain_prompt("Mach es zu einem Buntglasfenster – ステンドグラス")["mix"]
     assert len(mix) == 3 and sum(w for _, w in mix) == pytest.approx(1.0)
-    sharp = pm.map_prompt("watercolour", temperature=0.01)
-    soft = pm.map_prompt("watercolour", temperature=10.0)
+    sharp = pm.explain_prompt("watercolour", temperature=0.01)["mix"]
+    soft = pm.explain_prompt("watercolour", temperature=10.0)["mix"]
     assert sharp[0][1] > soft[0][1] and soft[0][1] < 0.4
     with pytest.raises(ValueError):
-        pm.map_prompt("watercolour", temperature=0)
+        pm.explain_prompt("watercolour", temperature=0)
 
 
 @needs_text_model

@@ -6,16 +6,12 @@ in shares of the image.
 """
 from __future__ import annotations
 
-import colorsys
-
 import torch
 
 from .graphic import ink_lines
-from .ops import blur, cell_average, cell_grid, fixed_noise, luminance, px, ramp, saturate
-from .patterns import coords, palette_inks, ranked_tone, sorted_palette, tile_coords, veins
+from .ops import blur, cell_average, cell_grid, fixed_noise, keep_detail, luminance, px, ramp, saturate
+from .patterns import INK_SCALES, coords, goldness, palette_inks, ranked_tone, sorted_palette, tile_coords, veins
 from .stage import Stage, tensor
-
-INK_SCALES = {"colours": 0.2, "sharpness": 4.0, "hue_weight": 0.2, "detail": 0.15}
 
 INDIAN = ((0.89, 0.26, 0.2), (0.96, 0.77, 0.19), (0.31, 0.78, 0.47), (0.15, 0.38, 0.61), (1.0, 0.84, 0.0),
           (1.0, 0.99, 0.82))
@@ -31,11 +27,15 @@ BATIK = ((0.29, 0.0, 0.51), (0.25, 0.16, 0.08), (0.44, 0.26, 0.08), (0.72, 0.25,
 TAPESTRY = ((0.0, 0.0, 0.5), (0.86, 0.08, 0.24), (0.8, 0.47, 0.13), (0.61, 0.69, 0.53), (1.0, 0.99, 0.82))
 
 
-def _palette(colours, default):
-    return tensor(sorted_palette(colours, default))
-
-
 # -- flat colour with fine outlines ---------------------------------------------------------------------
+def _with_paper(tone, ground, k):
+    """The lightest `ground` share of the tones (a parameter) goes to the palette's lightest colour (the paper,
+    the white glaze), the other tones spread over its other colours."""
+    g = ground.clamp(0.05, 0.9)
+    paper = torch.sigmoid((tone - (1 - g)) * 25)
+    return paper + (1 - paper) * (tone / (1 - g)).clamp(0, 1) * (k - 2) / max(1, k - 1)
+
+
 def _flat(x, p, simplify, wobble=0.0):
     h, w = x.shape[-2:]
     smooth = blur(x, px(x, simplify))
@@ -43,14 +43,10 @@ def _flat(x, p, simplify, wobble=0.0):
     if wobble:
         tone = (tone + wobble * fixed_noise(h, w, seed=111, share=0.02, device=x.device)).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
-    if "ground" in p:  # the lightest colour is the paper: the lightest `ground` share of the tones
-        k = cs.shape[0]
-        g = p["ground"].clamp(0.05, 0.9)
-        paper = torch.sigmoid((tone - (1 - g)) * 25)
-        tone = paper + (1 - paper) * (tone / (1 - g)).clamp(0, 1) * (k - 2) / max(1, k - 1)
+    if "ground" in p:
+        tone = _with_paper(tone, p["ground"], cs.shape[0])
     flat = palette_inks(saturate(smooth, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
-    d = p["detail"].clamp(0, 1)
-    return flat * (1 - d) + d * smooth
+    return keep_detail(flat, smooth, p)
 
 
 def _border(x, p):
@@ -133,21 +129,8 @@ def paper_cutouts(x, p, surface=None):
     return out
 
 
-def region_mean_sat(x, ids, n):
-    """The saturated mean colour of each region, (n, 3)."""
-    flat = ids.flatten()
-    sums = torch.zeros(3, n, dtype=x.dtype, device=x.device).index_add(1, flat, x[0].flatten(1))
-    counts = torch.zeros(n, dtype=x.dtype, device=x.device).index_add(0, flat, torch.ones_like(flat, dtype=x.dtype))
-    mean = (sums / counts.clamp_min(1)).t()
-    lum = (mean * torch.tensor((0.299, 0.587, 0.114), device=x.device)).sum(1, keepdim=True)
-    return (lum + 1.5 * (mean - lum)).clamp(0, 1)
-
-
 def _frame_colour(cs):
     """The border of a miniature: the palette's gold if it has one, else its darkest colour."""
-    def goldness(c):
-        hh, ll, ss = colorsys.rgb_to_hls(*c)
-        return abs(hh * 360 - 48) / 60 + (1 - ss) + abs(ll - 0.5)
     best = min(cs, key=goldness)
     return best if goldness(best) < 1.2 else cs[0]
 
@@ -228,9 +211,7 @@ def glazed_tiles(x, p, surface=None):
     smooth = blur(x, px(x, 0.004))
     tone = ranked_tone(smooth)
     cs = p["colours"].clamp(0, 1)
-    k = cs.shape[0]
-    white = torch.sigmoid((tone - (1 - p["ground"].clamp(0.05, 0.9))) * 25)  # the glaze: the lightest tones
-    tone = white + (1 - white) * (tone / (1 - p["ground"].clamp(0.05, 0.9))).clamp(0, 1) * (k - 2) / max(1, k - 1)
+    tone = _with_paper(tone, p["ground"], cs.shape[0])  # the white glaze: the lightest tones
     painted = ramp(tone.clamp(1e-4, 1) ** p["gamma"].clamp(0.3, 3.0), cs)
     fy, fx, _, _ = tile_coords(h, w, TILE, x.device)
     r = torch.sqrt(fy ** 2 + fx ** 2)

@@ -7,14 +7,13 @@ projected object is still recognisable.
 """
 from __future__ import annotations
 
-import colorsys
 import math
 
 import torch
 
 from .graphic import ink_lines
 from .ops import blur, fixed_noise, luminance, px, saturate
-from .patterns import coords, palette_inks, ranked_tone, sorted_palette
+from .patterns import goldness, palette_inks, ranked_tone, sorted_palette, unit_coords
 from .stage import Stage, tensor
 
 DECO = ((0.05, 0.05, 0.06), (0.0, 0.0, 0.5), (0.31, 0.78, 0.47), (1.0, 0.99, 0.82))
@@ -24,17 +23,6 @@ KANDINSKY = ((0.05, 0.05, 0.05), (0.0, 0.28, 0.67), (0.54, 0.17, 0.89), (0.89, 0
              (1.0, 0.87, 0.0), (0.97, 0.95, 0.88))
 
 
-def _unit(x, h, w):
-    """Pixel centres in shares of the image's height (t, down) and width (s, across), each 0..1."""
-    ys, xs = coords(h, w, x.device)
-    return ys / (h / max(h, w)), xs / (w / max(h, w))
-
-
-def _goldness(c):
-    hh, ll, ss = colorsys.rgb_to_hls(*c)
-    return abs(hh * 360 - 48) / 60 + (1 - ss) + abs(ll - 0.5)
-
-
 # -- Art Deco: sunbursts, chevrons, gold lines ------------------------------------------------------------
 def deco_sunburst(x, p, surface=None):
     """The image's dark shapes in flat black, navy or jade with crisp gold outlines; its light ground a
@@ -42,7 +30,7 @@ def deco_sunburst(x, p, surface=None):
     near the sun and black beyond a stepped arc (`night`);
     a band of gold and black chevrons along the foot (`band` of the height)."""
     h, w = x.shape[-2:]
-    t, s = _unit(x, h, w)
+    t, s = unit_coords(h, w, x.device)
     smooth = blur(x, px(x, 0.005))
     tone = ranked_tone(smooth)
     cs = p["colours"].clamp(0, 1)
@@ -84,9 +72,9 @@ def deco_sunburst(x, p, surface=None):
 
 def deco_sunburst_stage(colours=None) -> Stage:
     if colours:  # the named colour nearest gold is the metal, the others the inks and the ground
-        leaf = min(colours, key=_goldness)
+        leaf = min(colours, key=goldness)
         rest = [c for c in colours if c is not leaf] or [(0.05, 0.05, 0.06), (1.0, 0.99, 0.82)]
-        if _goldness(leaf) > 1.2:  # no gold named: keep the metal, all named colours are inks
+        if goldness(leaf) > 1.2:  # no gold named: keep the metal, all named colours are inks
             leaf, rest = DECO_GOLD, list(colours)
         cs = sorted_palette(rest, DECO)
         if len(cs) < 2:
@@ -119,7 +107,7 @@ def floating_shapes(x, p, surface=None):
     shape's place, size and tilt is a parameter (`shapes`), its colour darkened where the image under
     it is dark (`follow`), so the object still shows through the composition."""
     h, w = x.shape[-2:]
-    t, s = _unit(x, h, w)
+    t, s = unit_coords(h, w, x.device)
     cs = p["colours"].clamp(0, 1)
     k = cs.shape[0]
     ground, inks = cs[-1].view(1, 3, 1, 1), cs[:-1]
@@ -165,7 +153,7 @@ def circles_and_lines(x, p, surface=None):
     arcs crossing the whole; circles' places and sizes (`circles`), the lines' weight (`line`) and how
     much of the image's wash shows (`wash`) are parameters."""
     h, w = x.shape[-2:]
-    t, s = _unit(x, h, w)
+    t, s = unit_coords(h, w, x.device)
     cs = p["colours"].clamp(0, 1)
     k = cs.shape[0]
     smooth = blur(x, px(x, 0.008))

@@ -92,6 +92,13 @@ def saturate(x: torch.Tensor, amount) -> torch.Tensor:
     return lum + amount * (x - lum)
 
 
+def keep_detail(paint: torch.Tensor, own: torch.Tensor, p: dict) -> torch.Tensor:
+    """The `detail` share (a parameter) of the image's own colour (`own`: smoothed, or its ramp) kept under
+    the paint, so the projected object stays recognisable."""
+    d = p["detail"].clamp(0, 1)
+    return paint * (1 - d) + d * own
+
+
 def soft_steps(v: torch.Tensor, levels: int, sharpness) -> torch.Tensor:
     """v in [0,1] -> `levels` flat steps joined by sigmoids (a posterise that has gradients)."""
     edges = (torch.arange(1, levels, dtype=v.dtype, device=v.device) - 0.5) / (levels - 1)
@@ -129,18 +136,26 @@ def cell_grid(h: int, w: int, cell: float, offset=(0.0, 0.0), device=None):
     return dist, torch.floor(ys).long(), torch.floor(xs).long(), fy, fx
 
 
-def cell_average(x: torch.Tensor, cell: float, offset=(0.0, 0.0)) -> torch.Tensor:
-    """Each pixel gets the mean colour of its grid cell (differentiable: mean per cell)."""
-    b, c, h, w = x.shape
-    _, iy, ix, _, _ = cell_grid(h, w, cell, offset, x.device)
+def cell_ids(h: int, w: int, cell: float, offset=(0.0, 0.0), device=None):
+    """Each pixel's grid cell as one index (H,W) counted from 0, and the number of cells."""
+    _, iy, ix, _, _ = cell_grid(h, w, cell, offset, device)
     iy, ix = iy - iy.min(), ix - ix.min()
     ny, nx = int(iy.max()) + 1, int(ix.max()) + 1
-    idx = (iy.view(-1, 1) * nx + ix.view(1, -1)).flatten()
-    sums = torch.zeros(b, c, ny * nx, dtype=x.dtype, device=x.device).index_add(2, idx, x.flatten(2))
-    counts = torch.zeros(ny * nx, dtype=x.dtype, device=x.device).index_add(
-        0, idx, torch.ones_like(idx, dtype=x.dtype))
-    means = sums / counts.clamp_min(1)
-    return means[:, :, idx].view(b, c, h, w)
+    return iy.view(-1, 1) * nx + ix.view(1, -1), ny * nx
+
+
+def region_mean(x: torch.Tensor, ids: torch.Tensor, n: int) -> torch.Tensor:
+    """Each pixel gets the mean of its region (differentiable: a mean per region)."""
+    b, c, h, w = x.shape
+    flat = ids.flatten()
+    sums = torch.zeros(b, c, n, dtype=x.dtype, device=x.device).index_add(2, flat, x.flatten(2))
+    counts = torch.zeros(n, dtype=x.dtype, device=x.device).index_add(0, flat, torch.ones_like(flat, dtype=x.dtype))
+    return (sums / counts.clamp_min(1))[:, :, flat].view(b, c, h, w)
+
+
+def cell_average(x: torch.Tensor, cell: float, offset=(0.0, 0.0)) -> torch.Tensor:
+    """Each pixel gets the mean colour of its grid cell (differentiable: mean per cell)."""
+    return region_mean(x, *cell_ids(*x.shape[-2:], cell, offset, x.device))
 
 
 def fixed_noise(h: int, w: int, seed: int, share: float, device=None) -> torch.Tensor:

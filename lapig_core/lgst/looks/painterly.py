@@ -12,12 +12,11 @@ from __future__ import annotations
 import torch
 
 from .graphic import ink_lines
-from .ops import blur, cell_grid, fixed_noise, luminance, px, ramp, saturate, soft_steps, stretched_luminance
-from .patterns import (coords, directional_noise, palette_inks, per_region, ranked_tone, region_mean, sorted_palette,
-                       tile_coords, veins, voronoi)
+from .ops import (blur, cell_grid, cell_ids, fixed_noise, keep_detail, luminance, px, ramp, region_mean, saturate,
+                  soft_steps, stretched_luminance)
+from .patterns import (INK_SCALES, coords, directional_noise, goldness, palette_inks, per_region, ranked_tone,
+                       sorted_palette, tile_coords, unit_coords, veins, voronoi)
 from .stage import Stage, tensor
-
-INK_SCALES = {"colours": 0.2, "sharpness": 4.0, "hue_weight": 0.2, "detail": 0.15}
 
 # default palettes (when a prompt names the look but no colours): the lexicon's main entry for each
 MONET = ((0.58, 0.69, 0.55), (0.78, 0.64, 0.78), (0.68, 0.8, 0.92), (1.0, 0.75, 0.8), (1.0, 0.99, 0.82))
@@ -43,9 +42,7 @@ def broken_strokes(x, p, surface=None):
     tone = (ranked_tone(smooth) + p["jitter"] * 0.25 * strokes).clamp(0, 1)
     cs = p["colours"].clamp(0, 1)
     ink = palette_inks(saturate(smooth, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
-    d = p["detail"].clamp(0, 1)
-    paint = ink * (1 - d) + d * smooth
-    return paint * (1 + p["relief"] * 0.3 * strokes.clamp(-1.5, 1.5))
+    return keep_detail(ink, smooth, p) * (1 + p["relief"] * 0.3 * strokes.clamp(-1.5, 1.5))
 
 
 def broken_strokes_stage(colours=None) -> Stage:
@@ -64,9 +61,8 @@ def pointillist_dots(x, p, surface=None):
     h, w = x.shape[-2:]
     cell = px(x, DOT_CELL, 2.0)
     smooth = blur(x, px(x, 0.006))
-    dist, iy, ix, _, _ = cell_grid(h, w, cell, device=x.device)
-    ids = (iy.view(-1, 1) - iy.min()) * (int(ix.max() - ix.min()) + 1) + (ix.view(1, -1) - ix.min())
-    n = int(ids.max()) + 1
+    dist, *_ = cell_grid(h, w, cell, device=x.device)
+    ids, n = cell_ids(h, w, cell, device=x.device)
     mean = region_mean(smooth, ids, n)
     # every dot one pure colour: the tone of its spot, shifted by a fixed amount per dot, so neighbouring
     # dots take neighbouring colours and mix in the eye
@@ -76,7 +72,7 @@ def pointillist_dots(x, p, surface=None):
     # dots a little irregular in size
     radius = p["radius"].clamp(0.2, 0.7) * (1 + 0.15 * per_region(ids, n, seed=32))
     cover = torch.sigmoid((radius - dist.view(1, 1, h, w)) / 0.07)
-    ground = p["ground"].view(1, 3, 1, 1) * (1 - p["detail"].clamp(0, 1)) + p["detail"].clamp(0, 1) * smooth
+    ground = keep_detail(p["ground"].view(1, 3, 1, 1), smooth, p)
     return ground * (1 - cover) + ink * cover
 
 
@@ -94,9 +90,7 @@ def colour_fields(x, p, surface=None):
     """Soft-edged rectangles stacked on a ground: the palette's darkest colour is the ground, the
     others the fields, top to bottom from light to dark; the image's tones breathe through them."""
     h, w = x.shape[-2:]
-    ys, xs = coords(h, w, x.device)
-    height, width = h / max(h, w), w / max(h, w)
-    t, s = ys / height, xs / width  # 0..1 down and across
+    t, s = unit_coords(h, w, x.device)
     wobble = 0.012 * fixed_noise(h, w, seed=41, share=0.03, device=x.device)
     cs = p["colours"].clamp(0, 1)
     ground, fields = cs[0], cs.flip(0)[:-1] if cs.shape[0] > 1 else cs
@@ -140,8 +134,7 @@ def primary_grid(x, p, surface=None):
     """Black lines (their positions are parameters) cut the image into rectangles; each is the ground
     colour or one of the block colours: the plan and the rectangle's own colour choose."""
     h, w = x.shape[-2:]
-    ys, xs = coords(h, w, x.device)
-    t, s = ys / (h / max(h, w)), xs / (w / max(h, w))
+    t, s = unit_coords(h, w, x.device)
     cs = p["colours"].clamp(0, 1)
     ground, line, blocks = cs[-1], cs[0], cs[1:-1] if cs.shape[0] > 2 else cs
     gx, gy = p["grid_x"].clamp(0.02, 0.98), p["grid_y"].clamp(0.02, 0.98)
@@ -224,18 +217,13 @@ def gold_leaf(x, p, surface=None):
     paint_tone = (tone / p["threshold"].clamp(0.05, 0.95)).clamp(0, 1)
     paint = palette_inks(saturate(smooth, 1.2).clamp(0, 1), paint_tone, cs, tensor(8.0).to(x.device),
                          tensor(0.4).to(x.device))
-    d = p["detail"].clamp(0, 1)
-    paint = paint * (1 - d) + d * smooth
+    paint = keep_detail(paint, smooth, p)
     gilded = torch.sigmoid((tone - p["threshold"]) * 12)
     return paint * (1 - gilded) + gold * gilded
 
 
 def gold_leaf_stage(colours=None) -> Stage:
     if colours:  # the named colour nearest gold is the leaf, the others paint and ornament
-        def goldness(c):
-            import colorsys
-            hh, ll, ss = colorsys.rgb_to_hls(*c)
-            return abs(hh * 360 - 48) / 60 + (1 - ss) + abs(ll - 0.5)
         leaf = min(colours, key=goldness)
         rest = [c for c in colours if c is not leaf] or [(0.06, 0.06, 0.06)]
         cs = sorted_palette(rest, KLIMT)
@@ -259,8 +247,7 @@ def side_light(h, w, p, device):
     right; positive turns it downwards) and falling off over `soften`, and slowly across it, so it is a
     raking light with an edge, not a disc;
     `blinds` casts the stripes of a venetian blind across it."""
-    ys, xs = coords(h, w, device)
-    t, s = ys / (h / max(h, w)), xs / (w / max(h, w))
+    t, s = unit_coords(h, w, device)
     a = p["light_angle"]
     along = (s - p["light_x"]) * torch.cos(a) + (t - p["light_y"]) * torch.sin(a)
     across = -(s - p["light_x"]) * torch.sin(a) + (t - p["light_y"]) * torch.cos(a)
@@ -368,8 +355,7 @@ def cubist_facets(x, p, surface=None):
     slope = (oy.view(1, 1, h, w) * torch.sin(angle) + ox.view(1, 1, h, w) * torch.cos(angle)) / 0.085
     paint = paint * (1 - p["shade"] * (1 - slope.clamp(-1, 1)) / 2)  # each facet darkens towards one side
     line = torch.sigmoid((p["line"].clamp(0.0005, 0.01) - edge.view(1, 1, h, w)) / 0.001)
-    d = p["detail"].clamp(0, 1)
-    paint = paint * (1 - d) + d * smooth
+    paint = keep_detail(paint, smooth, p)
     return paint * (1 - line) + cs[0].view(1, 3, 1, 1) * 0.6 * line
 
 
@@ -390,8 +376,7 @@ def poured_lines(x, p, surface=None):
     cs = p["colours"].clamp(0, 1)
     ground = palette_inks(smooth.clamp(0, 1), ranked_tone(smooth), cs, tensor(4.0).to(x.device),
                           tensor(0.3).to(x.device))
-    d = p["detail"].clamp(0, 1)
-    out = ground * (1 - d) + d * smooth
+    out = keep_detail(ground, smooth, p)
     k = cs.shape[0]
     for i in range(k):
         layer = veins(h, w, seed=91 + i, share=0.05 + 0.02 * (i % 3), width=0.0025 + 0.0015 * (i % 2), device=x.device)
@@ -433,8 +418,7 @@ def wavy_bands(x, p, surface=None):
     cs = p["colours"].clamp(0, 1)
     ink = palette_inks(saturate(smooth, 1.3).clamp(0, 1), tone, cs, p["sharpness"], p["hue_weight"])
     streaks = directional_noise(h, w, seed=152, share=0.005, length=0.03, device=x.device)
-    d = p["detail"].clamp(0, 1)
-    return (ink * (1 - d) + d * smooth) * (1 + 0.08 * streaks.clamp(-1.5, 1.5))
+    return keep_detail(ink, smooth, p) * (1 + 0.08 * streaks.clamp(-1.5, 1.5))
 
 
 def wavy_bands_stage(colours=None) -> Stage:

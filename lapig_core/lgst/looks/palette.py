@@ -11,7 +11,7 @@ import colorsys
 
 import torch
 
-from .ops import band_weights, blur, equalised_luminance, px, ramp, soft_steps, stretched_luminance
+from .ops import band_weights, blur, equalised_luminance, keep_detail, px, ramp, soft_steps, stretched_luminance
 from .stage import Stage, tensor
 
 SCALES = {"colours": 0.2, "strength": 0.3, "sharpness": 10.0, "detail": 0.3, "plateau": 2.0}
@@ -67,5 +67,4 @@ def flat_bands(x, p, surface=None):
     cs = p["colours"].clamp(0, 1)
     w = band_weights(v, cs.shape[0], p["sharpness"])
     flat = torch.einsum("bkhw,kc->bchw", w, cs)
-    d = p["detail"].clamp(0, 1)
-    return flat * (1 - d) + d * ramp(v, cs)
+    return keep_detail(flat, ramp(v, cs), p)

@@ -4,18 +4,21 @@ has the same pieces, strokes and tiles at the working frame and at the projector
 colours and strengths laid on them are the looks' parameters (theta)."""
 from __future__ import annotations
 
+import colorsys
 import functools
 import math
 
 import torch
 import torch.nn.functional as F
 
-from .ops import blur, fixed_noise, luminance, px
+from .ops import fixed_noise, luminance
 from .palette import ramp_colours
 
 # how far the named looks equalise the image's tones before choosing inks by tone: most, so every
 # colour of a palette gets its share even on a surface of nearly one tone
 EQUALISE = 0.8
+# the typical sizes (PSA's style-retention scales) of the parameters the palette-ink looks share
+INK_SCALES = {"colours": 0.2, "sharpness": 4.0, "hue_weight": 0.2, "detail": 0.15}
 
 
 def ranked_tone(x: torch.Tensor, knots: int = 16, share: float = EQUALISE) -> torch.Tensor:
@@ -46,6 +49,12 @@ def sorted_palette(colours, default) -> list:
     return ramp_colours(list(colours) if colours else list(default))
 
 
+def goldness(c) -> float:
+    """How far an RGB colour is from gold (0 gold itself; a palette's colour under 1.2 can stand for gold)."""
+    hh, ll, ss = colorsys.rgb_to_hls(*c)
+    return abs(hh * 360 - 48) / 60 + (1 - ss) + abs(ll - 0.5)
+
+
 def palette_inks(colour: torch.Tensor, tone: torch.Tensor, cs: torch.Tensor, sharpness, hue_weight) -> torch.Tensor:
     """Each pixel painted one of the palette's colours (softly: a softmax), chosen by its tone (the
     palette is dark to light, so every colour gets its band of tones) and, with hue_weight, by its
@@ -65,6 +74,12 @@ def coords(h: int, w: int, device=None):
     ys = ((torch.arange(h, dtype=torch.float32, device=device) + 0.5) / side).view(-1, 1)
     xs = ((torch.arange(w, dtype=torch.float32, device=device) + 0.5) / side).view(1, -1)
     return ys, xs
+
+
+def unit_coords(h: int, w: int, device=None):
+    """Pixel centres in shares of the image's height (t (H,1), down) and width (s (1,W), across), each 0..1."""
+    ys, xs = coords(h, w, device)
+    return ys / (h / max(h, w)), xs / (w / max(h, w))
 
 
 @functools.lru_cache(maxsize=16)
@@ -105,15 +120,6 @@ def voronoi(h: int, w: int, share: float, seed: int, device=None):
     piece's key, the same at any resolution, for per_region)."""
     ids, edge, oy, ox, n, keys = _voronoi(h, w, float(share), int(seed))
     return ids.to(device), edge.to(device), oy.to(device), ox.to(device), n, keys
-
-
-def region_mean(x: torch.Tensor, ids: torch.Tensor, n: int) -> torch.Tensor:
-    """Each pixel gets the mean of its region (differentiable: a mean per region)."""
-    b, c, h, w = x.shape
-    flat = ids.flatten()
-    sums = torch.zeros(b, c, n, dtype=x.dtype, device=x.device).index_add(2, flat, x.flatten(2))
-    counts = torch.zeros(n, dtype=x.dtype, device=x.device).index_add(0, flat, torch.ones_like(flat, dtype=x.dtype))
-    return (sums / counts.clamp_min(1))[:, :, flat].view(b, c, h, w)
 
 
 def region_lots(n: int, seed: int, keys: torch.Tensor | None = None, columns: int = 1) -> torch.Tensor:
@@ -176,7 +182,3 @@ def tile_coords(h: int, w: int, share: float, device=None):
     ys, xs = coords(h, w, device)
     ty, tx = ys / share, xs / share
     return ty - torch.floor(ty) - 0.5, tx - torch.floor(tx) - 0.5, torch.floor(ty).long(), torch.floor(tx).long()
-
-
-def soft_blur(x: torch.Tensor, share: float) -> torch.Tensor:
-    return blur(x, px(x, share))

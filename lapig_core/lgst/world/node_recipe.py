@@ -8,8 +8,6 @@ An approximation for the artist to carry on from in the node editor: the torch g
 and PSA's adaptation is not in it (the projector image is). Plain Python, no torch."""
 from __future__ import annotations
 
-import colorsys
-
 from .ramps import fire_colours
 
 VORONOI = {"speckle": "F1", "stones": "DISTANCE_TO_EDGE", "cracks": "DISTANCE_TO_EDGE", "hammered": "F1",
@@ -64,8 +62,3 @@ def node_recipe(material, params, colours=None) -> dict:
             "ramp": _ramp(own, material.ramp == "blackbody"),
             "hue": round(hue, 4), "saturation": round(float(params.saturation), 4),
             "pattern": material.pattern, "material": material.name}
-
-
-def ramp_hues(recipe: dict) -> list[float]:
-    """The ramp's hues in degrees (for checks)."""
-    return [colorsys.rgb_to_hsv(*stop[1][:3])[0] * 360.0 for stop in recipe["ramp"]]

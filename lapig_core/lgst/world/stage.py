@@ -14,7 +14,7 @@ import numpy as np
 import torch
 
 from ..looks.stage import Stage, tensor
-from . import cells, moving, noise, shapes
+from . import cells, moving, noise
 from .catalog import Material
 from .moving import Clock
 from ...look_parameters import LookParameters

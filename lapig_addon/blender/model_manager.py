@@ -71,10 +71,6 @@ def _ended(job):
 _in_ui = in_ui
 
 
-def _model_items(self, context):
-    return [(m.key, m.title, m.purpose) for m in catalogue.CATALOGUE]
-
-
 class LAPIG_OT_download_model(ReportsErrors, bpy.types.Operator):
     """Download this model into the models folder, in the background: every file checked against the
     repository's hashes; a cancelled download resumes where it stopped"""

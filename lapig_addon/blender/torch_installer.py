@@ -70,10 +70,6 @@ def _start(operator, context, plan) -> set:
     return {"CANCELLED"}
 
 
-def _build_items(self, context):
-    return [(b.key, b.label, f"{b.description} ({b.size_note})") for b in torch_builds.builds_for(sys.platform)]
-
-
 class LAPIG_OT_install_torch(ReportsErrors, bpy.types.Operator):
     """Download torch (the build chosen beside the button) into Blender's Python, in the background"""
     bl_idname = "lapig.install_torch"

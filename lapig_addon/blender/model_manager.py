@@ -17,16 +17,13 @@ from ..services.install.model_download import DOWNLOADS, DownloadRequest, ModelD
 from . import torch_installer
 from .operator_boundary import ReportsErrors
 
-from .timer_jobs import STEP_S, in_ui, redraw, timer_step
+from . import timer_jobs
+from .timer_jobs import in_ui, redraw, timer_step
 ICONS = {"absent": "IMPORT", "downloading": "SORTTIME", "ready": "CHECKMARK", "damaged": "ERROR"}
 
 
 def online_access() -> bool:
     return torch_installer.online_access()  # one reading of Blender's setting for both boxes
-
-
-def _overridden() -> bool:
-    return bool(getattr(bpy.app, "online_access_override", False))
 
 
 def models_root(prefs=None) -> str:
@@ -83,24 +80,19 @@ class LAPIG_OT_download_model(ReportsErrors, bpy.types.Operator):
     @classmethod
     def description(cls, context, properties):
         text = cls.__doc__.replace("\n    ", " ")
-        refusal = fetch.online_refusal(online_access(), _overridden())
+        refusal = fetch.online_refusal(online_access(), torch_installer.overridden())
         return f"{text}.\n{refusal}" if refusal else text
 
     def execute(self, context):
         prefs = _prefs(context)
         request = DownloadRequest(self.model, models_root(prefs), online_access(),
                                   base=prefs.hub_endpoint if prefs else "", token=prefs.hub_token if prefs else "",
-                                  overridden=_overridden(), device=prefs.device.lower() if prefs else "auto")
+                                  overridden=torch_installer.overridden(), device=prefs.device.lower() if prefs else "auto")
         job = ModelDownloadJob(request)  # an unknown model: ModelError, reported by ReportsErrors
-        refusal = DOWNLOADS.start(job)
-        if refusal:
-            self.report({"ERROR"}, refusal)
-            return {"CANCELLED"}
-        if _in_ui(context):
-            job.poll_timeout = 0
-            bpy.app.timers.register(_step, first_interval=STEP_S)
-            self.report({"INFO"}, f"Downloading {job.entry.title}: the add-on preferences show its progress")
-            return {"FINISHED"}
+        started = timer_jobs.start(self, DOWNLOADS, job, _step, _in_ui(context),
+                                   f"Downloading {job.entry.title}: the add-on preferences show its progress")
+        if started:
+            return started
         job.run()
         _ended(job)
         kind, line = DOWNLOADS.said[self.model]
@@ -199,7 +191,7 @@ def draw_models(layout, prefs, fit, wrapped):
     col.prop(prefs, "hub_token")
     online = online_access()
     if not online:
-        wrapped(box, fit, fetch.online_refusal(False, _overridden()), "INTERNET_OFFLINE")
+        wrapped(box, fit, fetch.online_refusal(False, torch_installer.overridden()), "INTERNET_OFFLINE")
     root = models_root(prefs)
     for entry in catalogue.CATALOGUE:
         row_state = model_download.model_row(entry.key, root, own_folder(prefs, entry.key))
@@ -236,9 +228,5 @@ def register():
 
 
 def unregister():
-    if DOWNLOADS.running():  # the add-on goes: nothing may go on writing into the models folder
-        DOWNLOADS.job.stop()
-        DOWNLOADS.ended(DOWNLOADS.job)
-    if bpy.app.timers.is_registered(_step):
-        bpy.app.timers.unregister(_step)
+    timer_jobs.stop(DOWNLOADS, _step)  # nothing may go on writing into the models folder
     _unregister()

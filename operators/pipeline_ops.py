@@ -6,7 +6,7 @@ import bpy
 
 from ..lapig_addon.blender import live_devices, prompt_preview, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import BackgroundJobRunner, JobRunnerMixin, cancel_background
-from ..lapig_addon.blender.operator_boundary import (AsksForFolder, ReportsErrors, poll_reason, report_notes,
+from ..lapig_addon.blender.operator_boundary import (AsksForFolder, ReportsErrors, poll_reason, refuse, report_notes,
                                                      show_in_image_editor)
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
@@ -142,9 +142,7 @@ class LAPIG_OT_look_nodes(NeedsTorch, ReportsErrors, bpy.types.Operator):
 
         scene = context.scene
         state = scene_state.read(scene)
-        blocker = panel_state.result_blocker(state)
-        if blocker:
-            raise ValueError(blocker)
+        refuse(panel_state.result_blocker(state))
         group = look_nodes.build_group(_look_edit().node_recipe_of(read_summary(state.result_dir)))
         node = look_nodes.add_to_material(scene_state.rig_objects(scene)[2], group)
         where = f"added to the material '{node.id_data.name}'" if node is not None else "in the file's node groups"

@@ -72,7 +72,8 @@ def show_in_image_editor(operator, context, image, elsewhere: str) -> None:
 
 
 def refuse(reason: str) -> None:
-    """Stop with `reason` (a blocker's sentence) where there is one: ReportsErrors reports it in one line."""
+    """Stop with `reason` (a blocker's sentence) where there is one: ReportsErrors (or the command line) says it
+    in one line."""
     if reason:
         raise ValueError(reason)
 

@@ -12,6 +12,7 @@ from ...lapig_core.capture import dataset as ds
 from ...lapig_core.common.imageio import read_image, write_png
 from ...lapig_core.common.sheets import labelled_grid
 from ..blender import addon, result_preview, scene_state, storage
+from ..blender.operator_boundary import refuse
 from ..blender.scene_store import BlenderSceneStore, scene_seams
 from ..services.errors import one_line
 from ..services.panel.panel_state import rig_blocker
@@ -373,9 +374,7 @@ def _several_displays(args, store, count: int, whose: str = "the rig") -> list:
         raise ValueError(f"{whose} has {count} projectors: give --display one display each, e.g. "
                          f"--display {','.join(str(k + 1) for k in range(count))}")
     if not args.display:
-        problem = projectors_blocker(rig)
-        if problem:
-            raise ValueError(problem)
+        refuse(projectors_blocker(rig))
     return displays
 
 
@@ -413,18 +412,22 @@ def cmd_show(args) -> int:
             summary["crossfade"] = live_output.play(sink.window, frames, fps=args.fps)
         t = time.perf_counter()
         sink.show(frame)
-        if sink.problem:
-            raise ValueError(sink.problem)
+        refuse(sink.problem)
         summary["show_s"] = round(sink.shown_at - t, 4)
         print(f"showing {folder} on display {summary['display'].get('name')}: Esc in the window stops"
               if args.seconds is None else f"showing {folder} for {args.seconds:g} s")
         print_json(summary)
-        deadline = None if args.seconds is None else time.perf_counter() + args.seconds
-        while sink.window.is_open and (deadline is None or time.perf_counter() < deadline):
-            time.sleep(0.05)
+        _until_closed(sink.window, args.seconds)
     finally:
         live_output.close_live()
     return 0
+
+
+def _until_closed(window, seconds) -> None:
+    """Wait while the window (or windows) stays open: until Esc in it, or `seconds` (None: no end)."""
+    deadline = None if seconds is None else time.perf_counter() + seconds
+    while window.is_open and (deadline is None or time.perf_counter() < deadline):
+        time.sleep(0.05)
 
 
 def _show_several(args, scene, store, folder: str) -> int:
@@ -449,8 +452,7 @@ def _show_several(args, scene, store, folder: str) -> int:
                                                  settings.bit_depth).run_to_completion()
         t = time.perf_counter()
         sink.show_all(frames)
-        if sink.problem:
-            raise ValueError(sink.problem)
+        refuse(sink.problem)
         summary = {"displays": [w.describe().get("display") for w in windows.windows], "result": folder,
                    "show_s": round(time.perf_counter() - t, 4), **({"crossfade": crossfade} if crossfade else {})}
         if args.lock_frames:
@@ -458,9 +460,7 @@ def _show_several(args, scene, store, folder: str) -> int:
         print(f"showing {folder} on {len(frames)} projectors: Esc in a window stops"
               if args.seconds is None else f"showing {folder} on {len(frames)} projectors for {args.seconds:g} s")
         print_json(summary)
-        deadline = None if args.seconds is None else time.perf_counter() + args.seconds
-        while windows.is_open and (deadline is None or time.perf_counter() < deadline):
-            time.sleep(0.05)
+        _until_closed(windows, args.seconds)
     finally:
         live_output.close_live()
     return 0

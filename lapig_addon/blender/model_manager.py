@@ -15,7 +15,7 @@ from ...lapig_core.diffusion import catalogue, fetch
 from ..services.install import model_download
 from ..services.install.model_download import DOWNLOADS, DownloadRequest, ModelDownloadJob
 from . import torch_installer
-from .operator_boundary import ReportsErrors
+from .operator_boundary import AsksForFolder, ReportsErrors
 
 from . import timer_jobs
 from .timer_jobs import in_ui, redraw, timer_step
@@ -112,18 +112,13 @@ class LAPIG_OT_cancel_model_download(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class LAPIG_OT_use_model_folder(ReportsErrors, bpy.types.Operator):
+class LAPIG_OT_use_model_folder(AsksForFolder, bpy.types.Operator):
     """Use a folder of this model you already have (a diffusers pipeline: model_index.json, unet/, vae/, ...; the
     depth adapter: config.json and its weights), for computers that stay offline"""
     bl_idname = "lapig.use_model_folder"
     bl_label = "Use Folder"
 
     model: bpy.props.StringProperty(name="Model")
-    directory: bpy.props.StringProperty(subtype="DIR_PATH")
-
-    def invoke(self, context, event):
-        context.window_manager.fileselect_add(self)
-        return {"RUNNING_MODAL"}
 
     def execute(self, context):
         folder = model_download.use_folder(self.model, bpy.path.abspath(self.directory))  # ModelError: one line

@@ -93,24 +93,17 @@ def cmd_demo(args) -> int:
 def contact_sheet(setup_dir) -> np.ndarray:
     """Raw and registered references, a few Gray-code captures, and training pairs."""
     layout = ds.DatasetLayout(os.path.dirname(os.path.dirname(setup_dir)), os.path.basename(setup_dir))
-    images, labels = [], []
-    for i, name in enumerate(["I- (black)", "I+ (white)", "s (gray)"], start=1):
-        images.append(read_image(layout.image_path(layout.cam_raw_dir("ref"), i)))
-        labels.append(f"raw {name}")
-    for i, name in enumerate(["I- (black)", "I+ (white)", "s (gray)"], start=1):
-        images.append(read_image(layout.image_path(layout.cam_warp_dir("ref"), i)))
-        labels.append(f"registered {name}")
-    for i in (1, 7, 15):
-        images.append(read_image(layout.image_path(layout.cam_raw_dir("sl"), i)))
-        labels.append(f"Gray code {i}")
+    refs = list(enumerate(["I- (black)", "I+ (white)", "s (gray)"], start=1))
+    cells = [(layout.cam_raw_dir("ref"), i, f"raw {name}") for i, name in refs]  # (folder, image, label)
+    cells += [(layout.cam_warp_dir("ref"), i, f"registered {name}") for i, name in refs]
+    cells += [(layout.cam_raw_dir("sl"), i, f"Gray code {i}") for i in (1, 7, 15)]
     for i in (1, 2, 3):
-        images.append(read_image(layout.image_path(layout.prj_dir("train"), i)))
-        labels.append(f"projected train {i}")
-        images.append(read_image(layout.image_path(layout.cam_raw_dir("train"), i)))
-        labels.append(f"raw capture {i}")
-        images.append(read_image(layout.image_path(layout.cam_warp_dir("train"), i)))
-        labels.append(f"registered capture {i}")
-    return labelled_grid(images, labels, columns=6, cell=220, title=f"LAPIG capture set: {layout.setup}")
+        cells += [(layout.prj_dir("train"), i, f"projected train {i}"),
+                  (layout.cam_raw_dir("train"), i, f"raw capture {i}"),
+                  (layout.cam_warp_dir("train"), i, f"registered capture {i}")]
+    images = [read_image(layout.image_path(folder, i)) for folder, i, _ in cells]
+    return labelled_grid(images, [label for *_, label in cells], columns=6, cell=220,
+                         title=f"LAPIG capture set: {layout.setup}")
 
 
 def _open_scene(args):

@@ -2,7 +2,7 @@ import bpy
 
 from ..lapig_addon.blender import light_plan_run, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
-from ..lapig_addon.blender.operator_boundary import ReportsErrors
+from ..lapig_addon.blender.operator_boundary import ReportsErrors, refuse, report_notes
 from ..lapig_addon.services.panel.panel_state import rig_blocker
 
 
@@ -15,9 +15,7 @@ class LAPIG_OT_light_report(JobRunnerMixin, bpy.types.Operator):
     def make_job(self, context):
         scene = context.scene
         plan = scene_state.light_plan(scene)
-        problem = rig_blocker(scene_state.read_rig(scene)) or plan.problem()
-        if problem:
-            raise ValueError(problem)
+        refuse(rig_blocker(scene_state.read_rig(scene)) or plan.problem())
         # several projectors: every projector's light over the camera's pixels (the rig's strategy)
         return light_plan_run.report_job(scene, plan, scene_state.read(scene).result_dir or None)
 
@@ -51,14 +49,12 @@ class LAPIG_OT_light_cap(JobRunnerMixin, bpy.types.Operator):
         problem = plan.problem() or ("" if plan.limit else "choose a conservation category first")
         if not problem and not scene_state.read(scene).result_dir:
             problem = "generate a look first"
-        if problem:
-            raise ValueError(problem)
+        refuse(problem)
         return light_plan_run.cap_job(scene, plan)  # several projectors: one factor on every projector's light
 
     def on_done(self, context, job):
         out = job.result
-        for note in out.get("notes", []):
-            self.report({"WARNING"}, note)
+        report_notes(self, out.get("notes", []))
         if "scale" in out:
             self.report({"INFO"}, f"limited look: every projector's light x{out['scale']:.2f}, "
                                   f"{out['predicted_max_lux']} lux at most on the region")

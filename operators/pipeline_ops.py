@@ -6,7 +6,7 @@ import bpy
 
 from ..lapig_addon.blender import live_devices, prompt_preview, result_preview, scene_state
 from ..lapig_addon.blender.modal_runner import BackgroundJobRunner, JobRunnerMixin, cancel_background
-from ..lapig_addon.blender.operator_boundary import (AsksForFolder, ReportsErrors, poll_reason, report_notes,
+from ..lapig_addon.blender.operator_boundary import (AsksForFolder, ReportsErrors, poll_reason, refuse, report_notes,
                                                      show_in_image_editor)
 from ..lapig_addon.blender.properties import PREVIEW_MODES
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
@@ -24,10 +24,16 @@ class NeedsTorch:
 
 
 def _jobs(name: str):
-    """A torch-backed job's module (train.train_job, generate.generate_job, relative to services), imported once a
-    button needs it: the add-on enables without torch."""
+    """A torch-backed job's module (train.train_job, generate.look_edit, ... relative to services), imported once
+    a button needs it: the add-on enables without torch."""
     require("torch")
     return importlib.import_module(f"..lapig_addon.services.{name}", __package__)
+
+
+def _train_job(scene):
+    job = _jobs("train.train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
+    job.check()  # fail now, with the reason, not on the thread (several projectors: nothing to train)
+    return job
 
 
 class LAPIG_OT_train_models(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
@@ -37,10 +43,7 @@ class LAPIG_OT_train_models(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     replaces_models = True  # a Train in the background is cancelled first
 
     def make_job(self, context):
-        scene = context.scene
-        job = _jobs("train.train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
-        job.check()  # fail now, with the reason, not on the thread (several projectors: nothing to train)
-        return job
+        return _train_job(context.scene)
 
     def on_done(self, context, job):
         self.report({"INFO"}, scene_state.read(context.scene).models_status)
@@ -56,8 +59,7 @@ class LAPIG_OT_train_background(BackgroundJobRunner, bpy.types.Operator):
         scene = context.scene
         if panel_state.train_blocker(scene_state.read(scene)):  # no torch, no capture: the first look stays
             return None
-        job = _jobs("train.train_job").TrainModelsJob(scene_seams(scene), scene_state.finetune_iterations(scene))
-        job.check()
+        job = _train_job(scene)
         job.rig_in_use = lambda: live_devices.rig_in_use(job.seams.store.scene)  # their live window stays theirs
         job.device_per_render = True  # no studio scene left between two steps, while the artist works
         self.scene_name = scene.name
@@ -103,13 +105,6 @@ class LAPIG_OT_generate(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
             self.report({"INFO"}, "Generated: " + job.result["summary_line"])
 
 
-def _look_edit():
-    require("torch")
-    from ..lapig_addon.services.generate import look_edit
-
-    return look_edit
-
-
 class LAPIG_OT_edit_look(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     """Draw the world look again with the sliders' values and compensate it (no new prompt, no Train)"""
     bl_idname = "lapig.edit_look"
@@ -120,7 +115,7 @@ class LAPIG_OT_edit_look(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     def make_job(self, context):
         scene = context.scene
         changes = {} if self.reset else scene_state.look_slider_values(scene)
-        job = _look_edit().EditLookJob(scene_seams(scene), changes, reset=self.reset)
+        job = _jobs("generate.look_edit").EditLookJob(scene_seams(scene), changes, reset=self.reset)
         job.check()  # a bad value or a look without sliders: one line, before any work
         return job
 
@@ -142,10 +137,8 @@ class LAPIG_OT_look_nodes(NeedsTorch, ReportsErrors, bpy.types.Operator):
 
         scene = context.scene
         state = scene_state.read(scene)
-        blocker = panel_state.result_blocker(state)
-        if blocker:
-            raise ValueError(blocker)
-        group = look_nodes.build_group(_look_edit().node_recipe_of(read_summary(state.result_dir)))
+        refuse(panel_state.result_blocker(state))
+        group = look_nodes.build_group(_jobs("generate.look_edit").node_recipe_of(read_summary(state.result_dir)))
         node = look_nodes.add_to_material(scene_state.rig_objects(scene)[2], group)
         where = f"added to the material '{node.id_data.name}'" if node is not None else "in the file's node groups"
         self.report({"INFO"}, f"Node group '{group.name}' {where}")
@@ -158,10 +151,7 @@ class LAPIG_OT_render_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     bl_label = "Render Real Capture"
 
     def make_job(self, context):
-        require("torch")  # as NeedsTorch says
-        from ..lapig_addon.services.render.render_job import RenderResultJob
-
-        return RenderResultJob(scene_seams(context.scene))
+        return _jobs("render.render_job").RenderResultJob(scene_seams(context.scene))  # torch, as NeedsTorch says
 
     def on_done(self, context, job):
         m = job.result["metrics"]
@@ -175,10 +165,8 @@ class LAPIG_OT_refine_result(NeedsTorch, JobRunnerMixin, bpy.types.Operator):
     bl_label = "Refine on the Rig"
 
     def make_job(self, context):
-        require("torch")
-        from ..lapig_addon.services.refine.refine_job import RefineResultJob
-
-        return RefineResultJob(scene_seams(context.scene), scene_state.refine_steps(context.scene))
+        return _jobs("refine.refine_job").RefineResultJob(scene_seams(context.scene),
+                                                          scene_state.refine_steps(context.scene))
 
     def on_done(self, context, job):
         self.report({"INFO"}, "Refined on the rig: " + job.result["line"])

@@ -4,7 +4,7 @@ import bpy
 
 from ..lapig_addon.blender import live_devices, scene_state
 from ..lapig_addon.blender.modal_runner import JobRunnerMixin
-from ..lapig_addon.blender.operator_boundary import ReportsErrors, show_in_image_editor
+from ..lapig_addon.blender.operator_boundary import ReportsErrors, refuse, report_notes, show_in_image_editor
 from ..lapig_addon.blender.scene_store import BlenderSceneStore, scene_seams
 from ..lapig_addon.rigs import device_list, live_output
 from ..lapig_addon.services.panel import panel_state
@@ -30,43 +30,40 @@ class LAPIG_OT_find_devices(JobRunnerMixin, bpy.types.Operator):
         return device_list.FindDevicesJob()
 
     def on_done(self, context, job):
-        for problem in job.result.problems:
-            self.report({"WARNING"}, problem)
+        report_notes(self, job.result.problems)
         self.report({"INFO"}, job.result.summary())
 
 
-class LAPIG_OT_choose_display(ReportsErrors, bpy.types.Operator):
+class ChoosesDevice(ReportsErrors):
+    """Mixin of Choose Display and Choose Camera: bl_property names the enum ('display' or 'camera')."""
+    bl_options = {"REGISTER", "UNDO", "INTERNAL"}
+
+    def execute(self, context):
+        kind = self.bl_property
+        chosen = getattr(self, kind)
+        if chosen == NOTHING[0]:
+            self.report({"ERROR"}, f"Find the {kind}s first (Find Displays and Cameras)")
+            return {"CANCELLED"}
+        scene_state.choose_real_device(context.scene, **{kind: chosen})
+        return {"FINISHED"}
+
+
+class LAPIG_OT_choose_display(ChoosesDevice, bpy.types.Operator):
     """The projector's display, among those found"""
     bl_idname = "lapig.choose_display"
     bl_label = "Choose Display"
-    bl_options = {"REGISTER", "UNDO", "INTERNAL"}
     bl_property = "display"
 
     display: bpy.props.EnumProperty(name="Display", items=lambda self, context: _items("display"))
 
-    def execute(self, context):
-        if self.display == NOTHING[0]:
-            self.report({"ERROR"}, "Find the displays first (Find Displays and Cameras)")
-            return {"CANCELLED"}
-        scene_state.choose_real_device(context.scene, display=self.display)
-        return {"FINISHED"}
 
-
-class LAPIG_OT_choose_camera(ReportsErrors, bpy.types.Operator):
+class LAPIG_OT_choose_camera(ChoosesDevice, bpy.types.Operator):
     """The camera, among those found"""
     bl_idname = "lapig.choose_camera"
     bl_label = "Choose Camera"
-    bl_options = {"REGISTER", "UNDO", "INTERNAL"}
     bl_property = "camera"
 
     camera: bpy.props.EnumProperty(name="Camera", items=lambda self, context: _items("camera"))
-
-    def execute(self, context):
-        if self.camera == NOTHING[0]:
-            self.report({"ERROR"}, "Find the cameras first (Find Displays and Cameras)")
-            return {"CANCELLED"}
-        scene_state.choose_real_device(context.scene, camera=self.camera)
-        return {"FINISHED"}
 
 
 class LAPIG_OT_check_rig(JobRunnerMixin, bpy.types.Operator):
@@ -80,14 +77,11 @@ class LAPIG_OT_check_rig(JobRunnerMixin, bpy.types.Operator):
         rig = seams.store.read().rig
         if rig.kind != "REAL":
             raise ValueError("Check the Rig checks a real projector and camera: set Rig to Real rig")
-        blocker = panel_state.device_blocker(rig)
-        if blocker:
-            raise ValueError(blocker)
+        refuse(panel_state.device_blocker(rig))
         return RigCheckJob(seams, seams.store.capture_settings())
 
     def on_done(self, context, job):
-        for problem in job.result.problems:
-            self.report({"WARNING"}, problem)
+        report_notes(self, job.result.problems)
         if job.result.ok:
             self.report({"INFO"}, "The rig passed its checks: " + "; ".join(line.label() for line in job.result.lines))
 
@@ -160,9 +154,7 @@ class LAPIG_OT_play_crossfade(JobRunnerMixin, bpy.types.Operator):
         if not sinks:
             raise ValueError("Show on Projector first: the crossfade plays in the projector window")
         state = scene_state.read(scene)
-        blocker = panel_state.result_blocker(state)
-        if blocker:
-            raise ValueError(blocker)
+        refuse(panel_state.result_blocker(state))
         settings = scene_state.export_settings(scene)
         job = live_output.CrossfadeJob(sinks[-1], BlenderSceneStore(scene), state.result_dir,
                                        settings.crossfade_frames, scene.lapig.crossfade_fps, settings.bit_depth)

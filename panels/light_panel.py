@@ -6,7 +6,7 @@ from ..lapig_addon.blender import scene_state, ui_text
 from ..lapig_addon.services.light import light_report
 from ..lapig_addon.services.light.dose_cap import DoseCapJob
 from ..lapig_addon.services.light.light_report_job import LightReportJob
-from .main_panel import LapigPanel, _job_running, _lines, _progress
+from .main_panel import LapigPanel, _job_running, _lines, _progress, _props
 
 
 class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
@@ -32,9 +32,7 @@ class LAPIG_PT_light(LapigPanel, bpy.types.Panel):
             col = layout.column(align=True)
             if s.category == "CUSTOM":
                 col.prop(s, "limit_lux")
-            col.prop(s, "hours_per_day")
-            col.prop(s, "days_per_year")
-            col.prop(s, "region_material")
+            _props(col, s, "hours_per_day", "days_per_year", "region_material")
             target = context.scene.lapig.target
             if target is not None and target.type == "MESH":
                 col.prop_search(s, "region_group", target, "vertex_groups")

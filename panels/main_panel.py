@@ -42,28 +42,17 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             p = s.projector.lapig_projector
             col = layout.column(align=True)
             col.label(text="Projector", icon="LIGHT_SPOT")  # its size, lens and light; the camera's below
-            row = col.row(align=True)
-            row.prop(p, "resolution_x")
-            row.prop(p, "resolution_y")
+            _pair(col, p, "resolution_x", "resolution_y")
             col.prop(p, "throw_ratio")
-            row = col.row(align=True)
-            row.prop(p, "shift_x")
-            row.prop(p, "shift_y")
-            col.prop(p, "brightness")
-            col.prop(p, "black_level")
-            col.prop(p, "gamma")
+            _pair(col, p, "shift_x", "shift_y")
+            _props(col, p, "brightness", "black_level", "gamma")
         if s.projector and not real:  # how Cycles renders the captures: a real rig's are real
             p = s.projector.lapig_projector
             box = layout.box()
             box.prop(p, "transport_mode")
             if p.transport_mode == "REALISTIC":
-                col = box.column(align=True)
-                col.prop(p, "bounces")
-                col.prop(p, "indirect_samples")
-                col.prop(p, "indirect_downscale")
-                col = box.column(align=True)
-                col.prop(p, "lens_radius_mm")
-                col.prop(p, "focus_distance")
+                _props(box.column(align=True), p, "bounces", "indirect_samples", "indirect_downscale")
+                _props(box.column(align=True), p, "lens_radius_mm", "focus_distance")
                 if s.camera:
                     c = s.camera.lapig_camera
                     col = box.column(align=True)
@@ -78,9 +67,7 @@ class LAPIG_PT_setup(LapigPanel, bpy.types.Panel):
             c = s.camera.lapig_camera
             col = layout.column(align=True)
             col.label(text="Camera", icon="CAMERA_DATA")
-            row = col.row(align=True)
-            row.prop(c, "resolution_x")
-            row.prop(c, "resolution_y")
+            _pair(col, c, "resolution_x", "resolution_y")
             col.prop(c, "auto_exposure")
             sub = col.column()
             sub.enabled = not c.auto_exposure
@@ -162,9 +149,7 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
         state = scene_state.read(scene)
         busy = _job_running()
         found = device_list.found()
-        row = layout.row()
-        row.enabled = not busy
-        row.operator("lapig.find_devices", icon="VIEWZOOM")
+        _button(layout, not busy, "lapig.find_devices", icon="VIEWZOOM")
         if found is not None:
             _lines(layout, fit, [(found.summary(), True)] + [(problem, False) for problem in found.problems])
         row = layout.row(align=True)
@@ -179,9 +164,7 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
             layout.prop(r, "camera_backend")
             col = layout.column(align=True)
             col.label(text="Picture size (0: the camera's)")
-            row = col.row(align=True)
-            row.prop(r, "camera_width")
-            row.prop(r, "camera_height")
+            _pair(col, r, "camera_width", "camera_height")
             for key in scene_state.CAMERA_CONTROLS:
                 row = col.row(align=True)
                 row.prop(r, "use_" + key, text="")
@@ -191,28 +174,23 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
         else:
             layout.prop(r, "tethered_folder")
         layout.prop(r, "name")
-        col = layout.column(align=True)
-        col.prop(r, "frame_code")
-        col.prop(r, "health_checks")
+        _props(layout.column(align=True), r, "frame_code", "health_checks")
         blocked = _blocked(layout, state.rig.devices_problem, fit)
 
         box = layout.box()
         inner = fit.boxed()
         _progress(box, other_than=live_output.OpenWindowJob.title)
-        row = box.row()
-        row.enabled = not blocked and not busy
-        row.operator("lapig.check_rig", icon="CHECKMARK")
+        _button(box, not blocked and not busy, "lapig.check_rig", icon="CHECKMARK")
         check = last_check(state.rig.fingerprint)
         if check is not None:
             _lines(box, inner, [(line.label(), line.ok) for line in check.lines] + [(p, False) for p in check.problems])
 
         box = layout.box()
         viewing = live_devices.camera_view_running()
-        row = box.row()
         spec = scene_state.real_rig_spec(scene)
-        row.enabled = viewing or (not busy and spec is not None and not spec.problem(display=False))
-        row.operator("lapig.camera_view", icon="CAMERA_DATA", depress=viewing,
-                     text="Stop Camera View" if viewing else "Camera View")
+        can_view = not busy and spec is not None and not spec.problem(display=False)
+        _button(box, viewing or can_view, "lapig.camera_view", icon="CAMERA_DATA", depress=viewing,
+                text="Stop Camera View" if viewing else "Camera View")
         line = camera_view.status()
         if line is not None:
             _lines(box, inner, [line])
@@ -220,17 +198,12 @@ class LAPIG_PT_real_rig(LapigPanel, bpy.types.Panel):
         box = layout.box()
         showing = bool(live_output.open_sinks())
         _progress(box, live_output.OpenWindowJob.title)  # its helper takes seconds to start
-        row = box.row()
-        row.enabled = showing or not busy
-        row.operator("lapig.show_on_projector", icon="WINDOW", depress=showing,
-                     text="Close Projector Window" if showing else "Show on Projector")
+        _button(box, showing or not busy, "lapig.show_on_projector", icon="WINDOW", depress=showing,
+                text="Close Projector Window" if showing else "Show on Projector")
         _lines(box, inner, live_output.status_lines())
-        col = box.column(align=True)
-        col.prop(scene.lapig, "crossfade_frames")
-        col.prop(scene.lapig, "crossfade_fps")
-        row = box.row()
-        row.enabled = showing and not busy and not panel_state.result_blocker(state)
-        row.operator("lapig.play_crossfade", icon="PLAY")
+        _props(box.column(align=True), scene.lapig, "crossfade_frames", "crossfade_fps")
+        _button(box, showing and not busy and not panel_state.result_blocker(state), "lapig.play_crossfade",
+                icon="PLAY")
 
 
 class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
@@ -249,12 +222,7 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
             _lines(layout, fit, [(status.text, True)], icon=STATE_ICONS[status.state])
         if state.capture_dir and state.capture_transport:
             _lines(layout, fit, [("Light: " + state.capture_transport, True)], icon="LIGHT_SPOT")
-        col = layout.column(align=True)
-        col.prop(s, "train_count")
-        col.prop(s, "test_count")
-        col.prop(s, "working_size")
-        col.prop(s, "samples")
-        col.prop(s, "gray_level")
+        _props(layout.column(align=True), s, "train_count", "test_count", "working_size", "samples", "gray_level")
         layout.prop(s, "pattern_source", expand=True)
         if s.pattern_source == "FOLDER":
             layout.prop(s, "pattern_folder")
@@ -263,14 +231,10 @@ class LAPIG_PT_capture(LapigPanel, bpy.types.Panel):
             _lines(layout, fit, [(storage.location_message(), False)])
         else:  # where the data goes: the folder's tail
             layout.label(text=fit.tail("Data: " + folder, keep="Data: "), icon="FILE_FOLDER")
-        job = active_job()
-        if job is not None and not job.finished:
-            layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
-        row = layout.row()
+        _progress(layout)
         # numpy and OpenCV, not torch (the operator's poll says so in the tooltip); then the rig
         blocked = panel_state.capture_button_blocker(state)
-        row.enabled = not blocked and (job is None or job.finished)
-        row.operator("lapig.capture", icon="RENDER_STILL")
+        _button(layout, not blocked and not _job_running(), "lapig.capture", icon="RENDER_STILL")
         _blocked(layout, blocked, fit)
         layout.operator("lapig.import_capture", icon="IMPORT")
 
@@ -287,6 +251,26 @@ def _progress(layout, title=None, other_than=None):
     job = active_job()
     if job is not None and not job.finished and (title is None or job.title == title) and job.title != other_than:
         layout.progress(factor=job.progress, text=f"{job.message} (Esc to cancel)")
+
+
+def _button(layout, enabled: bool, idname: str, **kwargs):
+    """An operator's button on a row of its own, greyed out unless `enabled`; its properties, to set."""
+    row = layout.row()
+    row.enabled = enabled
+    return row.operator(idname, **kwargs)
+
+
+def _props(layout, owner, *names):
+    """The owner's properties one under the other, in `layout` (an aligned column, most often)."""
+    for name in names:
+        layout.prop(owner, name)
+
+
+def _pair(layout, owner, first: str, second: str):
+    """Two properties side by side (a width and a height, x and y), on an aligned row."""
+    row = layout.row(align=True)
+    row.prop(owner, first)
+    row.prop(owner, second)
 
 
 def _blocked(layout, reason, fit):
@@ -309,10 +293,8 @@ class LAPIG_PT_models(LapigPanel, bpy.types.Panel):
         layout.prop(context.scene.lapig, "finetune_iterations")
         blocked = panel_state.train_blocker(state)
         _blocked(layout, blocked, fit)
-        row = layout.row()
-        row.enabled = not blocked and not _job_running()
-        row.operator("lapig.train_models", icon="SHADERFX",
-                     text="Fine-tune Again" if status.state == "DONE" else "Train Models")
+        _button(layout, not blocked and not _job_running(), "lapig.train_models", icon="SHADERFX",
+                text="Fine-tune Again" if status.state == "DONE" else "Train Models")
         layout.prop(context.scene.lapig, "train_in_background")
         _background(layout, fit)
 
@@ -417,9 +399,8 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         refine_blocked = has_result and (panel_state.refine_blocker(state) or panel_state.models_blocker(state))
         if render_blocked and render_blocked == refine_blocked:  # the result is there: say why these two wait
             _blocked(layout, render_blocked, fit)
-        row = layout.row()
-        row.enabled = has_result and not render_blocked and not _job_running()
-        row.operator("lapig.render_result", icon="RENDER_RESULT")
+        _button(layout, has_result and not render_blocked and not _job_running(), "lapig.render_result",
+                icon="RENDER_RESULT")
         if render_blocked and render_blocked != refine_blocked:
             _blocked(layout, render_blocked, fit)
         col = layout.column(align=True)  # closed loop: the rig's captures correct the image (progress; Esc cancels)
@@ -430,9 +411,7 @@ class LAPIG_PT_preview_export(LapigPanel, bpy.types.Panel):
         if refine_blocked and render_blocked != refine_blocked:
             _blocked(layout, refine_blocked, fit)
         _progress(layout, "LAPIG refine on the rig")
-        row = layout.row()
-        row.enabled = has_result
-        row.operator("lapig.show_comparison", icon="IMAGE_REFERENCE")
+        _button(layout, has_result, "lapig.show_comparison", icon="IMAGE_REFERENCE")
         layout.separator()
         col = layout.column()
         col.enabled = has_result

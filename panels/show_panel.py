@@ -4,7 +4,7 @@ import bpy
 
 from ..lapig_addon.blender import scene_state, show_timeline, ui_text
 from ..lapig_addon.rigs import live_output
-from .main_panel import LapigPanel, _blocked, _job_running, _lines, _progress
+from .main_panel import LapigPanel, _blocked, _button, _job_running, _lines, _pair, _progress
 
 
 class LAPIG_UL_show_looks(bpy.types.UIList):
@@ -48,9 +48,7 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
                 row.prop(item, "transition_s")
             box.prop(item, "motion")
             if item.motion != "none":
-                row = box.row(align=True)
-                row.prop(item, "motion_amount")
-                row.prop(item, "motion_period_s")
+                _pair(box, item, "motion_amount", "motion_period_s")
         plan = scene_state.read_show(scene)
         if plan.looks and plan.fps > 0:
             _lines(layout, fit, [(f"{plan.frame_count()} frames, {plan.seconds():.1f} s at {plan.fps:g} fps "
@@ -58,9 +56,7 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
         blocked = _blocked(layout, show_timeline.blocker(scene), fit)
         text, ok = show_timeline.previz_status(scene)
         _lines(layout, fit, [(text, True)], icon="CHECKMARK" if ok else "ERROR" if ok is False else "DOT")
-        row = layout.row()
-        row.enabled = not blocked and not _job_running()
-        row.operator("lapig.bake_show", icon="RENDER_ANIMATION")
+        _button(layout, not blocked and not _job_running(), "lapig.bake_show", icon="RENDER_ANIMATION")
         _progress(layout, "LAPIG bake show")
         layout.separator()
         col = layout.column()
@@ -70,9 +66,8 @@ class LAPIG_PT_show(LapigPanel, bpy.types.Panel):
         col.prop(s, "show_export_dir")
         col.operator("lapig.export_show", icon="EXPORT")
         _progress(layout, "LAPIG export show")
-        row = layout.row()
-        row.enabled = not blocked and not _job_running() and bool(live_output.open_sinks())
-        row.operator("lapig.play_show", icon="PLAY")
+        _button(layout, not blocked and not _job_running() and bool(live_output.open_sinks()), "lapig.play_show",
+                icon="PLAY")
         _progress(layout, "LAPIG play show")
 
 

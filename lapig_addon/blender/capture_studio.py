@@ -20,7 +20,7 @@ from ...lapig_core.common.scratch import ScratchFolder
 from ...lapig_core.optics.transport import (FAST, LightTransport, NormalGuide, indirect_from_light_passes,
                                             indirect_from_passes)
 from . import projector_nodes
-from .geometry_probe import renderable_objects
+from .studio_scene import linear_cycles, studio_scene
 
 STUDIO_NAME = "LAPIG capture studio"
 # the view-layer passes the 'passes' bounce method reads (lapig_core.common.exr reads the file)
@@ -128,10 +128,7 @@ class CaptureStudio:
             self._scratch = ScratchFolder(tempfile.gettempdir(), "lapig_render_")
             self.work_dir = str(self._scratch.path)
         self._had_render_result = any(i.type == "RENDER_RESULT" for i in bpy.data.images)
-        scene = bpy.data.scenes.new(STUDIO_NAME)
-        self.scene = scene
-        for ob in renderable_objects(self.source_scene):
-            scene.collection.objects.link(ob)
+        scene = self.scene = studio_scene(STUDIO_NAME, self.source_scene)
         scene.collection.objects.link(self.projector)
         scene.collection.objects.link(self.camera)
         scene.camera = self.camera
@@ -182,40 +179,20 @@ class CaptureStudio:
 
     def _configure_render(self):
         scene = self.scene
+        linear_cycles(scene, self.width, self.height, "OPEN_EXR")  # direct light: noise-free with a pinhole projector
         r = scene.render
-        r.engine = "CYCLES"
-        r.resolution_x, r.resolution_y, r.resolution_percentage = self.width, self.height, 100
         r.use_persistent_data = False  # persistent data made pattern captures stale
-        r.use_compositing = False
-        r.use_sequencer = False
-        r.film_transparent = True  # the world is black anyway: alpha then says where a surface is
-        r.image_settings.file_format = "OPEN_EXR"
         r.image_settings.color_mode = "RGBA"
-        r.image_settings.color_depth = "32"
-        r.image_settings.exr_codec = "NONE"
         r.use_file_extension = True
         c = scene.cycles
-        c.device = "CPU"
         c.samples = self._direct_samples()
-        c.use_adaptive_sampling = False
-        c.use_denoising = False
-        c.max_bounces = 0  # direct light: noise-free with a pinhole projector
         c.caustics_reflective = c.caustics_refractive = False
-        if c.samples == 1:
-            c.pixel_filter_type = "BOX"
-            c.filter_width = 0.01  # sample pixel centres: exact geometry for structured light
-        else:
-            c.pixel_filter_type = "BOX"
-            c.filter_width = 1.0
+        # one sample: at the pixel centres, exact geometry for structured light
+        c.filter_width = 0.01 if c.samples == 1 else 1.0
         c.seed = self.seed % (2 ** 31)
         if hasattr(c, "use_light_tree"):
             c.use_light_tree = False  # one light: the tree only costs time (20% at 640x480)
-        try:  # 'Raw' writes the linear render untouched; older configs only have 'Standard'
-            scene.view_settings.view_transform = "Raw"
-        except TypeError:
-            scene.view_settings.view_transform = "Standard"
         scene.view_settings.look = "None"
-        scene.view_settings.exposure = 0.0
         scene.view_settings.gamma = 1.0
 
     def _configure_camera_lens(self):

@@ -28,7 +28,7 @@ from ...lapig_core.photometry.light_passes import (REGION_INDEX, TARGET_INDEX, L
                                                    LightRenderError, ProjectorLightMaps, _rgb)
 from ...lapig_core.photometry.units import lux_from_diffuse_direct, sun_strength_for_lux, world_strength_for_lux
 from . import preview, projector_nodes
-from .geometry_probe import renderable_objects
+from .studio_scene import linear_cycles, studio_scene
 
 STUDIO = "LAPIG light studio"
 
@@ -84,10 +84,7 @@ class LightStudio:
             raise LightRenderError(f"a light map of {self.width} x {self.height} does not have the projector's "
                                    f"{p.resolution_x} x {p.resolution_y} shape")
         self._dir = tempfile.mkdtemp(prefix="lapig_light_")
-        scene = bpy.data.scenes.new(STUDIO)
-        self.scene = scene
-        for ob in renderable_objects(self.source):
-            scene.collection.objects.link(ob)
+        scene = self.scene = studio_scene(STUDIO, self.source)
         cam_data = bpy.data.cameras.new(STUDIO) if self.view is None else self.view.data.copy()
         cam = bpy.data.objects.new(STUDIO, cam_data)
         self._made += [cam, cam_data]
@@ -110,27 +107,7 @@ class LightStudio:
         world = bpy.data.worlds.new(STUDIO)
         self._made.append(world)
         scene.world = world
-        r = scene.render
-        r.engine = "CYCLES"
-        r.resolution_x, r.resolution_y, r.resolution_percentage = self.width, self.height, 100
-        r.use_compositing = r.use_sequencer = False
-        r.film_transparent = True
-        if getattr(r.image_settings, "media_type", None) is not None:  # 5.0 on: multilayer is its own media
-            r.image_settings.media_type = "MULTI_LAYER_IMAGE"
-        r.image_settings.file_format = "OPEN_EXR_MULTILAYER"
-        r.image_settings.color_depth = "32"
-        r.image_settings.exr_codec = "NONE"
-        c = scene.cycles
-        c.device = "CPU"
-        c.use_adaptive_sampling = False
-        c.use_denoising = False
-        c.max_bounces = 0
-        c.pixel_filter_type = "BOX"
-        try:
-            scene.view_settings.view_transform = "Raw"
-        except TypeError:
-            scene.view_settings.view_transform = "Standard"
-        scene.view_settings.exposure = 0.0
+        linear_cycles(scene, self.width, self.height, "OPEN_EXR_MULTILAYER")
         layer = scene.view_layers[0]
         layer.use_pass_diffuse_direct = layer.use_pass_diffuse_color = True
         layer.use_pass_object_index = layer.use_pass_material_index = True

@@ -18,6 +18,8 @@ from bpy.app.handlers import persistent
 from ..rigs import camera_view, live_output
 from ..services.state import JOINT
 from . import scene_state
+from .operator_boundary import refuse
+from .timer_jobs import redraw
 
 IMAGE_NAME = "LAPIG camera view"
 CAMERA_PERIOD_S = 0.2  # five pictures a second
@@ -31,14 +33,6 @@ def _real_spec(scene, what: str):
     if spec is None:
         raise ValueError(f"{what} needs a real rig: set Rig to Real rig")
     return spec
-
-
-def _redraw(kinds=("VIEW_3D",)) -> None:
-    wm = bpy.context.window_manager
-    for window in (wm.windows if wm is not None else ()):
-        for area in window.screen.areas:
-            if area.type in kinds:
-                area.tag_redraw()
 
 
 def report(kind: str, message: str) -> None:
@@ -118,13 +112,13 @@ def refresh_camera_view():
         error = view.error or "the camera's thread ended"
         camera_view.stop_view(error)  # this timer ends by returning None
         report("ERROR", f"Camera view stopped: {error}")
-        _redraw()
+        redraw(("VIEW_3D",))
         return None
     pixels, frames = view.latest()
     if pixels is not None and frames != _seen["frames"]:
         write_image(pixels)
         _seen["frames"] = frames
-        _redraw(("IMAGE_EDITOR", "VIEW_3D"))
+        redraw(("IMAGE_EDITOR", "VIEW_3D"))
     return CAMERA_PERIOD_S
 
 
@@ -135,9 +129,7 @@ def projector_job(scene, window_factory=None) -> live_output.OpenWindowJob:
     (the identification frame before there is one); ValueError where the scene has no display chosen. The
     scene is read here, on the main thread; the window opens on the job's worker thread."""
     spec = _real_spec(scene, "Show on Projector")
-    problem = spec.problem(camera=False)
-    if problem:
-        raise ValueError(problem)
+    refuse(spec.problem(camera=False))
     if window_factory is None:
         from ..rigs import real_rig
 
@@ -148,9 +140,7 @@ def projector_job(scene, window_factory=None) -> live_output.OpenWindowJob:
         from ..services.panel.panel_state import projectors_blocker
         from ...lapig_core.multi.result_files import is_multi_result
 
-        problem = projectors_blocker(rig)
-        if problem:
-            raise ValueError(problem)
+        refuse(projectors_blocker(rig))
         folder = scene_state.read(scene).result_dir
         looks = live_output.StoredLooks(folder if folder and is_multi_result(folder) else "",
                                         scene_state.export_settings(scene).bit_depth)
@@ -186,7 +176,7 @@ def watch_live_window():
     is_open = bool(live_output.open_sinks())
     if is_open != _seen["window_open"]:
         _seen["window_open"] = is_open
-        _redraw()
+        redraw(("VIEW_3D",))
     return WINDOW_PERIOD_S if is_open else None
 
 

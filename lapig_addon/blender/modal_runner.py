@@ -23,10 +23,6 @@ def active_job():
     return SLOTS.foreground
 
 
-def background_job():
-    return SLOTS.background
-
-
 def cancel_background() -> bool:
     """Cancel the background job (the panel's Cancel, a new Capture, an imported one); True when one ran."""
     return SLOTS.cancel_background()

@@ -15,18 +15,15 @@ from ...lapig_core.diffusion import catalogue, fetch
 from ..services.install import model_download
 from ..services.install.model_download import DOWNLOADS, DownloadRequest, ModelDownloadJob
 from . import torch_installer
-from .operator_boundary import ReportsErrors
+from .operator_boundary import AsksForFolder, ReportsErrors
 
-from .timer_jobs import STEP_S, in_ui, redraw, timer_step
+from . import timer_jobs
+from .timer_jobs import in_ui, redraw, timer_step
 ICONS = {"absent": "IMPORT", "downloading": "SORTTIME", "ready": "CHECKMARK", "damaged": "ERROR"}
 
 
 def online_access() -> bool:
     return torch_installer.online_access()  # one reading of Blender's setting for both boxes
-
-
-def _overridden() -> bool:
-    return bool(getattr(bpy.app, "online_access_override", False))
 
 
 def models_root(prefs=None) -> str:
@@ -71,10 +68,6 @@ def _ended(job):
 _in_ui = in_ui
 
 
-def _model_items(self, context):
-    return [(m.key, m.title, m.purpose) for m in catalogue.CATALOGUE]
-
-
 class LAPIG_OT_download_model(ReportsErrors, bpy.types.Operator):
     """Download this model into the models folder, in the background: every file checked against the
     repository's hashes; a cancelled download resumes where it stopped"""
@@ -87,24 +80,19 @@ class LAPIG_OT_download_model(ReportsErrors, bpy.types.Operator):
     @classmethod
     def description(cls, context, properties):
         text = cls.__doc__.replace("\n    ", " ")
-        refusal = fetch.online_refusal(online_access(), _overridden())
+        refusal = fetch.online_refusal(online_access(), torch_installer.overridden())
         return f"{text}.\n{refusal}" if refusal else text
 
     def execute(self, context):
         prefs = _prefs(context)
         request = DownloadRequest(self.model, models_root(prefs), online_access(),
                                   base=prefs.hub_endpoint if prefs else "", token=prefs.hub_token if prefs else "",
-                                  overridden=_overridden(), device=prefs.device.lower() if prefs else "auto")
+                                  overridden=torch_installer.overridden(), device=prefs.device.lower() if prefs else "auto")
         job = ModelDownloadJob(request)  # an unknown model: ModelError, reported by ReportsErrors
-        refusal = DOWNLOADS.start(job)
-        if refusal:
-            self.report({"ERROR"}, refusal)
-            return {"CANCELLED"}
-        if _in_ui(context):
-            job.poll_timeout = 0
-            bpy.app.timers.register(_step, first_interval=STEP_S)
-            self.report({"INFO"}, f"Downloading {job.entry.title}: the add-on preferences show its progress")
-            return {"FINISHED"}
+        started = timer_jobs.start(self, DOWNLOADS, job, _step, _in_ui(context),
+                                   f"Downloading {job.entry.title}: the add-on preferences show its progress")
+        if started:
+            return started
         job.run()
         _ended(job)
         kind, line = DOWNLOADS.said[self.model]
@@ -124,18 +112,13 @@ class LAPIG_OT_cancel_model_download(ReportsErrors, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class LAPIG_OT_use_model_folder(ReportsErrors, bpy.types.Operator):
+class LAPIG_OT_use_model_folder(AsksForFolder, bpy.types.Operator):
     """Use a folder of this model you already have (a diffusers pipeline: model_index.json, unet/, vae/, ...; the
     depth adapter: config.json and its weights), for computers that stay offline"""
     bl_idname = "lapig.use_model_folder"
     bl_label = "Use Folder"
 
     model: bpy.props.StringProperty(name="Model")
-    directory: bpy.props.StringProperty(subtype="DIR_PATH")
-
-    def invoke(self, context, event):
-        context.window_manager.fileselect_add(self)
-        return {"RUNNING_MODAL"}
 
     def execute(self, context):
         folder = model_download.use_folder(self.model, bpy.path.abspath(self.directory))  # ModelError: one line
@@ -203,7 +186,7 @@ def draw_models(layout, prefs, fit, wrapped):
     col.prop(prefs, "hub_token")
     online = online_access()
     if not online:
-        wrapped(box, fit, fetch.online_refusal(False, _overridden()), "INTERNET_OFFLINE")
+        wrapped(box, fit, fetch.online_refusal(False, torch_installer.overridden()), "INTERNET_OFFLINE")
     root = models_root(prefs)
     for entry in catalogue.CATALOGUE:
         row_state = model_download.model_row(entry.key, root, own_folder(prefs, entry.key))
@@ -240,9 +223,5 @@ def register():
 
 
 def unregister():
-    if DOWNLOADS.running():  # the add-on goes: nothing may go on writing into the models folder
-        DOWNLOADS.job.stop()
-        DOWNLOADS.ended(DOWNLOADS.job)
-    if bpy.app.timers.is_registered(_step):
-        bpy.app.timers.unregister(_step)
+    timer_jobs.stop(DOWNLOADS, _step)  # nothing may go on writing into the models folder
     _unregister()

@@ -71,6 +71,13 @@ def show_in_image_editor(operator, context, image, elsewhere: str) -> None:
     operator.report({"INFO"}, elsewhere)
 
 
+def refuse(reason: str) -> None:
+    """Stop with `reason` (a blocker's sentence) where there is one: ReportsErrors (or the command line) says it
+    in one line."""
+    if reason:
+        raise ValueError(reason)
+
+
 def report_notes(operator, notes):
     """Notes about a result (a cut prompt, a weak match, a fallback) as warnings the user sees."""
     for note in notes:

@@ -13,6 +13,7 @@ from ..services.panel.bundle_status import bundle_lines, read_bundle
 from ..services.install.torch_install import SLOT as TORCH_INSTALL
 from . import model_manager, torch_installer, ui_text
 from .preferences_access import addon_package as _addon_package
+from .preferences_access import addon_preferences
 from .preferences_access import compute_device  # noqa: F401 (scene_state reads it from here)
 from .operator_boundary import ReportsErrors
 
@@ -23,8 +24,7 @@ class LAPIG_OT_copy_install_command(ReportsErrors, bpy.types.Operator):
     bl_label = "Copy install command"
 
     def execute(self, context):
-        target = bpy.utils.user_resource("SCRIPTS", path="modules", create=False)
-        context.window_manager.clipboard = install_command(sys.executable, target)
+        context.window_manager.clipboard = install_command(sys.executable, _modules_folder())
         self.report({"INFO"}, "Install command copied to the clipboard")
         return {"FINISHED"}
 
@@ -108,8 +108,7 @@ class LAPIG_AP_preferences(bpy.types.AddonPreferences):
         if any(d.required and not d.present for d in deps):
             box = layout.box()
             box.label(text="By hand: this command installs the missing packages; then restart Blender")
-            target = bpy.utils.user_resource("SCRIPTS", path="modules", create=False)
-            box.label(text=install_command(sys.executable, target))
+            box.label(text=install_command(sys.executable, _modules_folder()))
             box.operator(LAPIG_OT_copy_install_command.bl_idname, icon="COPYDOWN")
             box.label(text=f"{INSTALL_DOC} explains each step.")
 
@@ -178,10 +177,9 @@ def ip2p_model() -> str:
     is ready ('' when neither, or when the add-on is registered without being enabled, as in the bpy module)."""
     from ..services.install.model_download import ready_folder
 
-    addon = bpy.context.preferences.addons.get(_addon_package())
-    if not (addon and addon.preferences):
+    prefs = addon_preferences()
+    if prefs is None:
         return ""
-    prefs = addon.preferences
     if prefs.ip2p_model:
         return bpy.path.abspath(prefs.ip2p_model)
     return ready_folder("instruct-pix2pix", model_manager.models_root(prefs))
@@ -192,17 +190,16 @@ def ready_model(key: str) -> str:
     manager's download ('' when neither is ready, or when the add-on is registered without being enabled)."""
     from ..services.install.model_download import ready_folder
 
-    addon = bpy.context.preferences.addons.get(_addon_package())
-    if not (addon and addon.preferences):
+    prefs = addon_preferences()
+    if prefs is None:
         return ""
-    prefs = addon.preferences
     return ready_folder(key, model_manager.models_root(prefs), model_manager.own_folder(prefs, key))
 
 
 def ffmpeg_path() -> str:
     """The system ffmpeg from the preferences ('' when unset: the one on PATH)."""
-    addon = bpy.context.preferences.addons.get(_addon_package())
-    return bpy.path.abspath(addon.preferences.ffmpeg_path) if addon and addon.preferences else ""
+    prefs = addon_preferences()
+    return bpy.path.abspath(prefs.ffmpeg_path) if prefs is not None else ""
 
 
 CLASSES = (LAPIG_OT_copy_install_command, LAPIG_OT_copy_cuda_command, LAPIG_AP_preferences)

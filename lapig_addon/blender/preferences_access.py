@@ -17,5 +17,5 @@ def addon_preferences(context=None):
 def compute_device() -> str:
     """'auto' or 'cpu' from the preferences ('auto' when the add-on is registered without being enabled, as
     in the bpy module)."""
-    addon = bpy.context.preferences.addons.get(addon_package())
-    return addon.preferences.device.lower() if addon and addon.preferences else "auto"
+    prefs = addon_preferences()
+    return prefs.device.lower() if prefs is not None else "auto"

@@ -11,7 +11,6 @@ import os
 import bpy
 
 from ...lapig_core.capture.settings import CaptureSettings
-from ...lapig_core.optics.camera_model import CameraResponse
 from ...lapig_core.optics.projector_model import ProjectorModel
 from ...lapig_core.optics.transport import LightTransport
 from ..services.state import (CameraSettings, ExportSettings, GenerateRequest, Rig, SceneState,
@@ -69,10 +68,6 @@ def camera_settings(obj) -> CameraSettings:
     c = obj.lapig_camera
     return CameraSettings(width=c.resolution_x, height=c.resolution_y, auto_exposure=c.auto_exposure,
                           exposure=c.exposure, response_gamma=c.response_gamma, noise=c.noise)
-
-
-def camera_response(obj, exposure_stops: float | None = None) -> CameraResponse:
-    return camera_settings(obj).response(exposure_stops)
 
 
 def rig_objects(scene) -> tuple:

@@ -16,6 +16,7 @@ from bpy.app.handlers import persistent
 
 from ..services.show.show_source import FRAME_NAME
 from . import projector_nodes, scene_state, storage
+from .operator_boundary import refuse
 
 SEQUENCE_PREFIX = projector_nodes.SHOW_IMAGE_PREFIX
 
@@ -151,9 +152,7 @@ def blocker(scene) -> str:
 
 
 def _checked(scene) -> None:
-    problem = blocker(scene)
-    if problem:
-        raise ValueError(problem)
+    refuse(blocker(scene))
 
 
 def bake_job(scene, use_producer: bool = True):

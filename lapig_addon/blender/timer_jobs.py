@@ -35,3 +35,27 @@ def timer_step(slot, ended, area_types):
             return None
         return STEP_S
     return step
+
+
+def start(operator, slot, job, step, ui: bool, started: str):
+    """Start `job` in `slot`: refused, the refusal is reported ({'CANCELLED'}); in Blender's UI (`ui`) the `step`
+    timer drives it and the operator says `started` ({'FINISHED'}); else None, and the caller runs it to its end."""
+    refusal = slot.start(job)
+    if refusal:
+        operator.report({"ERROR"}, refusal)
+        return {"CANCELLED"}
+    if ui:
+        job.poll_timeout = 0  # the UI thread never waits for the worker
+        bpy.app.timers.register(step, first_interval=STEP_S)
+        operator.report({"INFO"}, started)
+        return {"FINISHED"}
+    return None
+
+
+def stop(slot, step) -> None:
+    """The add-on goes: the running job stopped (nothing may go on writing into its folder) and its timer off."""
+    if slot.running():
+        slot.job.stop()
+        slot.ended(slot.job)
+    if bpy.app.timers.is_registered(step):
+        bpy.app.timers.unregister(step)

@@ -15,7 +15,8 @@ from ..services.install import torch_builds, torch_install
 from ..services.install.torch_install import SLOT, TorchInstallJob
 from .operator_boundary import ReportsErrors
 
-from .timer_jobs import STEP_S, in_ui, redraw, timer_step
+from . import timer_jobs
+from .timer_jobs import in_ui, redraw, timer_step
 
 
 def target_folder() -> str:
@@ -27,10 +28,13 @@ def online_access() -> bool:
     return bool(getattr(bpy.app, "online_access", True))  # Blender 4.2 and later have the setting
 
 
+def overridden() -> bool:
+    return bool(getattr(bpy.app, "online_access_override", False))  # --offline-mode on the command line
+
+
 def online_refusal() -> str:
     """Why Install torch may not download now ('' when it may)."""
-    overridden = bool(getattr(bpy.app, "online_access_override", False))  # --offline-mode on the command line
-    return torch_install.online_refusal(online_access(), overridden=overridden)
+    return torch_install.online_refusal(online_access(), overridden=overridden())
 
 
 _in_ui = in_ui
@@ -52,15 +56,10 @@ def _ended(job):
 
 def _start(operator, context, plan) -> set:
     job = TorchInstallJob(plan)
-    refusal = SLOT.start(job)
-    if refusal:
-        operator.report({"ERROR"}, refusal)
-        return {"CANCELLED"}
-    if _in_ui(context):
-        job.poll_timeout = 0  # the UI thread never waits for the worker
-        bpy.app.timers.register(_step, first_interval=STEP_S)
-        operator.report({"INFO"}, f"Installing torch ({plan.label}): the add-on preferences show its progress")
-        return {"FINISHED"}
+    started = timer_jobs.start(operator, SLOT, job, _step, _in_ui(context),
+                               f"Installing torch ({plan.label}): the add-on preferences show its progress")
+    if started:
+        return started
     job.run()  # a script, background mode, the bpy module: to the end here
     _ended(job)
     if job.state == "DONE":
@@ -68,10 +67,6 @@ def _start(operator, context, plan) -> set:
         return {"FINISHED"}
     operator.report({"ERROR"}, SLOT.failure)
     return {"CANCELLED"}
-
-
-def _build_items(self, context):
-    return [(b.key, b.label, f"{b.description} ({b.size_note})") for b in torch_builds.builds_for(sys.platform)]
 
 
 class LAPIG_OT_install_torch(ReportsErrors, bpy.types.Operator):
@@ -152,9 +147,5 @@ def register():
 
 
 def unregister():
-    if SLOT.running():  # the add-on goes: pip must not go on writing into the target
-        SLOT.job.stop()
-        SLOT.ended(SLOT.job)
-    if bpy.app.timers.is_registered(_step):
-        bpy.app.timers.unregister(_step)
+    timer_jobs.stop(SLOT, _step)  # pip must not go on writing into the target
     _unregister()

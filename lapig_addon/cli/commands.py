@@ -12,6 +12,7 @@ from ...lapig_core.capture import dataset as ds
 from ...lapig_core.common.imageio import read_image, write_png
 from ...lapig_core.common.sheets import labelled_grid
 from ..blender import addon, result_preview, scene_state, storage
+from ..blender.operator_boundary import refuse
 from ..blender.scene_store import BlenderSceneStore, scene_seams
 from ..services.errors import one_line
 from ..services.panel.panel_state import rig_blocker
@@ -92,24 +93,17 @@ def cmd_demo(args) -> int:
 def contact_sheet(setup_dir) -> np.ndarray:
     """Raw and registered references, a few Gray-code captures, and training pairs."""
     layout = ds.DatasetLayout(os.path.dirname(os.path.dirname(setup_dir)), os.path.basename(setup_dir))
-    images, labels = [], []
-    for i, name in enumerate(["I- (black)", "I+ (white)", "s (gray)"], start=1):
-        images.append(read_image(layout.image_path(layout.cam_raw_dir("ref"), i)))
-        labels.append(f"raw {name}")
-    for i, name in enumerate(["I- (black)", "I+ (white)", "s (gray)"], start=1):
-        images.append(read_image(layout.image_path(layout.cam_warp_dir("ref"), i)))
-        labels.append(f"registered {name}")
-    for i in (1, 7, 15):
-        images.append(read_image(layout.image_path(layout.cam_raw_dir("sl"), i)))
-        labels.append(f"Gray code {i}")
+    refs = list(enumerate(["I- (black)", "I+ (white)", "s (gray)"], start=1))
+    cells = [(layout.cam_raw_dir("ref"), i, f"raw {name}") for i, name in refs]  # (folder, image, label)
+    cells += [(layout.cam_warp_dir("ref"), i, f"registered {name}") for i, name in refs]
+    cells += [(layout.cam_raw_dir("sl"), i, f"Gray code {i}") for i in (1, 7, 15)]
     for i in (1, 2, 3):
-        images.append(read_image(layout.image_path(layout.prj_dir("train"), i)))
-        labels.append(f"projected train {i}")
-        images.append(read_image(layout.image_path(layout.cam_raw_dir("train"), i)))
-        labels.append(f"raw capture {i}")
-        images.append(read_image(layout.image_path(layout.cam_warp_dir("train"), i)))
-        labels.append(f"registered capture {i}")
-    return labelled_grid(images, labels, columns=6, cell=220, title=f"LAPIG capture set: {layout.setup}")
+        cells += [(layout.prj_dir("train"), i, f"projected train {i}"),
+                  (layout.cam_raw_dir("train"), i, f"raw capture {i}"),
+                  (layout.cam_warp_dir("train"), i, f"registered capture {i}")]
+    images = [read_image(layout.image_path(folder, i)) for folder, i, _ in cells]
+    return labelled_grid(images, [label for *_, label in cells], columns=6, cell=220,
+                         title=f"LAPIG capture set: {layout.setup}")
 
 
 def _open_scene(args):
@@ -373,9 +367,7 @@ def _several_displays(args, store, count: int, whose: str = "the rig") -> list:
         raise ValueError(f"{whose} has {count} projectors: give --display one display each, e.g. "
                          f"--display {','.join(str(k + 1) for k in range(count))}")
     if not args.display:
-        problem = projectors_blocker(rig)
-        if problem:
-            raise ValueError(problem)
+        refuse(projectors_blocker(rig))
     return displays
 
 
@@ -413,18 +405,22 @@ def cmd_show(args) -> int:
             summary["crossfade"] = live_output.play(sink.window, frames, fps=args.fps)
         t = time.perf_counter()
         sink.show(frame)
-        if sink.problem:
-            raise ValueError(sink.problem)
+        refuse(sink.problem)
         summary["show_s"] = round(sink.shown_at - t, 4)
         print(f"showing {folder} on display {summary['display'].get('name')}: Esc in the window stops"
               if args.seconds is None else f"showing {folder} for {args.seconds:g} s")
         print_json(summary)
-        deadline = None if args.seconds is None else time.perf_counter() + args.seconds
-        while sink.window.is_open and (deadline is None or time.perf_counter() < deadline):
-            time.sleep(0.05)
+        _until_closed(sink.window, args.seconds)
     finally:
         live_output.close_live()
     return 0
+
+
+def _until_closed(window, seconds) -> None:
+    """Wait while the window (or windows) stays open: until Esc in it, or `seconds` (None: no end)."""
+    deadline = None if seconds is None else time.perf_counter() + seconds
+    while window.is_open and (deadline is None or time.perf_counter() < deadline):
+        time.sleep(0.05)
 
 
 def _show_several(args, scene, store, folder: str) -> int:
@@ -449,8 +445,7 @@ def _show_several(args, scene, store, folder: str) -> int:
                                                  settings.bit_depth).run_to_completion()
         t = time.perf_counter()
         sink.show_all(frames)
-        if sink.problem:
-            raise ValueError(sink.problem)
+        refuse(sink.problem)
         summary = {"displays": [w.describe().get("display") for w in windows.windows], "result": folder,
                    "show_s": round(time.perf_counter() - t, 4), **({"crossfade": crossfade} if crossfade else {})}
         if args.lock_frames:
@@ -458,9 +453,7 @@ def _show_several(args, scene, store, folder: str) -> int:
         print(f"showing {folder} on {len(frames)} projectors: Esc in a window stops"
               if args.seconds is None else f"showing {folder} on {len(frames)} projectors for {args.seconds:g} s")
         print_json(summary)
-        deadline = None if args.seconds is None else time.perf_counter() + args.seconds
-        while windows.is_open and (deadline is None or time.perf_counter() < deadline):
-            time.sleep(0.05)
+        _until_closed(windows, args.seconds)
     finally:
         live_output.close_live()
     return 0

@@ -122,14 +122,12 @@ def status_lines() -> list:
             where = (" on displays " + ", ".join(str(d["index"]) for d in shown)) if all("index" in d for d in shown) \
                 else ""
             lines.append((f"Showing {len(shown)} projectors{where}, presented together (Esc in one closes it)", True))
-            if sink.problem:
-                lines.append((sink.problem, False))
-            continue
-        describe = getattr(sink.window, "describe", None)  # a test's window may not say: its size is enough
-        display = describe().get("display", {}) if describe else {}
-        w, h = sink.window.size
-        where = f"display {display['index']} '{display['name']}'" if "index" in display else "the projector"
-        lines.append((f"Showing on {where}, {w}x{h} (Esc closes it)", True))
+        else:
+            describe = getattr(sink.window, "describe", None)  # a test's window may not say: its size is enough
+            display = describe().get("display", {}) if describe else {}
+            w, h = sink.window.size
+            where = f"display {display['index']} '{display['name']}'" if "index" in display else "the projector"
+            lines.append((f"Showing on {where}, {w}x{h} (Esc closes it)", True))
         if sink.problem:
             lines.append((sink.problem, False))
     if not lines and _CLOSED["note"]:
@@ -165,7 +163,6 @@ def play(window, frames, fps: float = 30.0, clock=time, on_frame=None, ahead: in
 def _ahead(frames, depth: int = 4):
     """``frames`` made on a worker thread, up to ``depth`` ahead of the one being shown."""
     import queue
-    import threading
 
     made: queue.Queue = queue.Queue(maxsize=depth)
     done, failed = object(), []

@@ -10,7 +10,6 @@ own ("Use Folder") stands in for the download.
 from __future__ import annotations
 
 import os
-import time
 from dataclasses import dataclass
 
 from ....lapig_core.diffusion import catalogue, fetch
@@ -165,12 +164,3 @@ def remove(key: str, root: str, slot: DownloadSlot = DOWNLOADS) -> str:
         slot.said.pop(key, None)
         return f"{entry.title} removed from {root}"
     return f"{entry.title} is not in {root}: nothing to remove"
-
-
-def wait_idle(slot: DownloadSlot = DOWNLOADS, timeout_s: float = 30.0):
-    """For tests and unregister: the running download stopped and its thread gone."""
-    if slot.job is not None:
-        slot.job.stop()
-    deadline = time.monotonic() + timeout_s
-    while slot.running() and time.monotonic() < deadline:
-        time.sleep(0.05)

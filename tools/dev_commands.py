@@ -248,7 +248,7 @@ def cmd_dataset(args) -> int:
 
 
 def cmd_pretrain(args) -> int:
-    from ..lapig_core.photometric import pretrain
+    from . import pretrain
 
     names = {"compennest": ("CompenNeSt", "compensation"), "pcnet": ("PCNet", "simulation"),
              "reversed": ("CompenNeSt", "simulation")}

@@ -27,7 +27,7 @@ from ..lapig_core.common.sheets import labelled_grid
 from ..lapig_core.lgst import backend_class
 from ..lapig_core.lgst.prompt_mapping import validate_prompt
 from ..lapig_addon.blender import scene_state
-from ..lapig_addon.blender.projection_render import register_at, render_working_images
+from .bench.projection_render import register_at, render_working_images
 from ..lapig_addon.cli import headless
 
 SHARPNESS_SIGMA = 1.0  # px blurred before the Laplacian: finer, a rendered capture's detail is camera noise

@@ -30,7 +30,7 @@ Choices, and why (issue 52, checked with an independent FFmpeg and ffprobe):
 - Colour: BT.709 matrix, limited range (16-235), and the file says so: primaries, transfer and matrix BT.709,
   range limited, in the stream and the container. Readers that honour the tags (FFmpeg, VLC, mpv, QuickTime,
   media servers) decode it right. OpenCV's reader ignores the tags (it assumes BT.601): not a reader to judge
-  these files by (video_read decodes with FFmpeg, honouring them).
+  these files by (tools/checks/video_read decodes with FFmpeg, honouring them).
 - ProRes 422 HQ (yuv422p10le) and 4444 (yuv444p10le): what Watchout transcodes and editors take; 422 HQ is a
   third smaller. 8- and 16-bit frames go in at ProRes's 10 bits.
 - 'lossless' is QuickTime Animation (qtrle, rgb24, .mov): the RGB bytes themselves, exact through any decoder;

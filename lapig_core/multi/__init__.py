@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Several projectors on one object (issue 36), numpy + OpenCV only: the joint classical model in camera
-space, its box-constrained compensation, geometric blend weights, the black level of overlaps, coverage,
-and a numpy fake rig of K projectors and one camera for tests.
+space, its box-constrained compensation, geometric blend weights, the black level of overlaps, coverage
+(the numpy fake rig of K projectors and one camera the tests use: tools/fakes/fake_rig).
 
 Entry points for the benchmarks (`bench multi`):
 - PSA on the joint reach (joint_psa, torch):
-    stack_gain.stack_psa_gain(stacked: JointModel, single: JointModel, surface, prompt, backend="styletransfer",
+    tools/bench/stack_gain.stack_psa_gain(stacked: JointModel, single: JointModel, surface, prompt, backend="styletransfer",
         object_mask=None, seed=0, working_size=256, settings=None, single_surface=None, looks=None)
         -> StackFigures; .stack_psa_gain_db (PSA's simulated PSNR, each against its own PSA look, stacked
         minus single), .stack_look_gain_db (the same against the asked, un-adapted look), .psa_gain_db_stacked

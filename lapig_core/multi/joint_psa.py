@@ -21,11 +21,11 @@ Entry points (the benchmark `bench multi` calls them):
 - stylize.stylize_joint(..., psa=True): the look adapted, with and without PSA kept (JointLook.without);
 - simulated_psnr(model, look, mask): PSNR of the joint model's capture of a look's projector images
   against its target (encoded units, on the mask);
-- stack_gain.stack_psa_gain(stacked, single, surface, prompt, ...) -> StackFigures: PSA's simulated PSNR with all of
+- tools/bench/stack_gain.stack_psa_gain(stacked, single, surface, prompt, ...) -> StackFigures: PSA's simulated PSNR with all of
   `stacked`'s projectors against `single`'s (`stack_psa_gain_db`, each against its own PSA look, as
   bench_psa counts PSA's PSNR), the same against the asked (un-adapted) look (`stack_look_gain_db`), and
   PSA against none on each (`psa_gain_db_stacked`, `psa_gain_db_single`).
-- fake_rig.stacked_rig(count, albedo_scale=0.3) and FakeRig.subset / true_model: the dark stacked rig of
+- tools/fakes/fake_rig.stacked_rig(count, albedo_scale=0.3) and FakeRig.subset / true_model: the dark stacked rig of
   the tests and its one-projector counterpart.
 """
 from __future__ import annotations

@@ -26,7 +26,7 @@ Entry points (the benchmark `bench multi` and the add-on's Refine call them):
   request() -> (frames, repeats), take(captures (repeats,H,W,3)); .images, .record (refine/loop.RefineRecord),
   .done;
 - loop.run(refinement, capture(frames, repeats) -> (repeats,H,W,3) in [0,1], cancel=None) -> RefineRecord;
-- device_capture(device): such a capture function over a MultiProjectorDevice (fake_rig.FakeRigDevice, Cycles);
+- device_capture(device): such a capture function over a MultiProjectorDevice (tools/fakes/fake_rig.FakeRigDevice, Cycles);
 - refine_gain_db_multi(model, device, target, valid=None, settings=None) -> (RefineRecord, MultiRefinement):
   open-loop joint compensation of `target` with `model`, refined on `device`; record.refined_psnr -
   record.open_loop_psnr is the gain (bench multi's figure of that name).

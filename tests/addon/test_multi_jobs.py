@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.capture.settings import CaptureSettings
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 
 ADDON = "lapig.lapig_addon"
 CAMERA, PROJECTOR = (96, 72), (48, 36)
@@ -179,7 +179,7 @@ def test_export_writes_each_projectors_image_and_refuses_a_package_it_cannot_wri
     assert sidecar["image"]["bit_depth"] == 16 and os.path.isfile(written["mpcdi"])
     assert "light" not in sidecar and "table" not in written  # no Light Report yet: as it always wrote
     # the 'sl' profile: the scene's geometry from the store (main thread), alphas from the joint model
-    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+    from lapig.tools.checks.mpcdi_read import read_mpcdi
     from lapig.lapig_core.optics.projector_model import ProjectorModel
 
     pm = ProjectorModel(width=PROJECTOR[0], height=PROJECTOR[1], throw_ratio=1.2)

@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 
-from lapig.lapig_core.multi.fake_rig import FakeProjector, FakeRig, FakeRigDevice, homography_onto
+from lapig.tools.fakes.fake_rig import FakeProjector, FakeRig, FakeRigDevice, homography_onto
 from lapig.lapig_core.rig.clock import VirtualClock
 from lapig.lapig_core.rig.frame_lock import LockedWindows, SimulatedWindow
 from lapig.lapig_core.rig.multi_rig import SimulatedScreens, _SummedOptics

@@ -25,7 +25,7 @@ def _scene():
 
 def test_sl_package_round_trip(tmp_path):
     from lapig.lapig_addon.blender.geometry_probe import sl_rig_geometry
-    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+    from lapig.tools.checks.mpcdi_read import read_mpcdi
     from lapig.lapig_core.multi.mpcdi_export import (sl_coordinate_frame, sl_frustum, sl_texel_pixels,
                                                      write_rig_mpcdi_sl)
     from lapig.lapig_core.optics.projector_model import ProjectorModel

@@ -81,7 +81,7 @@ def test_add_projector_puts_the_second_on_the_other_side_and_the_panel_lists_bot
 @pytest.mark.torch
 def test_two_projectors_capture_first_look_generate_and_export(statue, tmp_path):
     from lapig.lapig_addon.blender import scene_state
-    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+    from lapig.tools.checks.mpcdi_read import read_mpcdi
     from lapig.lapig_core.multi.capture_set import load_multi_capture
 
     scene, projector, camera, target = statue
@@ -283,7 +283,7 @@ def test_the_command_line_captures_stylizes_and_exports_a_rig_of_two(statue, tmp
     assert sorted(p.name for p in out.iterdir()) == ["look_1.json", "look_1.png", "look_2.json", "look_2.png",
                                                       "rig.mpcdi"]
     from lapig.lapig_core.common.imageio import read_image
-    from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+    from lapig.tools.checks.mpcdi_read import read_mpcdi
 
     assert read_image(out / "look_1.png").shape == (48, 64, 3) and read_image(out / "look_2.png").shape == (36, 48, 3)
     assert [b.resolution for b in read_mpcdi(out / "rig.mpcdi").buffers] == [(64, 48), (48, 36)]

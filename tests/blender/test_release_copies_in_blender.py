@@ -89,7 +89,7 @@ def test_todays_export_of_the_releases_result_is_the_releases_export(name, tmp_p
         import re
         import zipfile
 
-        from lapig.lapig_core.export.mpcdi_read import read_mpcdi
+        from lapig.tools.checks.mpcdi_read import read_mpcdi
 
         assert [b.resolution for b in read_mpcdi(out / "rig.mpcdi").buffers] == [(64, 48)] * 2
         with zipfile.ZipFile(out / "rig.mpcdi") as ours, zipfile.ZipFile(folder / "export" / "rig.mpcdi") as theirs:

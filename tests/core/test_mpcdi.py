@@ -18,7 +18,7 @@ import pytest
 from lapig.lapig_core.common import atomic
 from lapig.lapig_core.export.mpcdi import (MpcdiBuffer, MpcdiCoordinateFrame, MpcdiFrustum, MpcdiRegion,
                                            encode_alpha, write_mpcdi)
-from lapig.lapig_core.export.mpcdi_read import png_header, read_mpcdi
+from lapig.tools.checks.mpcdi_read import png_header, read_mpcdi
 from lapig.lapig_core.export.pfm import decode_pfm, encode_pfm
 
 W, H = 64, 48

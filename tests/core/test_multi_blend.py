@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.multi.black_level import black_uplift, model_black_uplift, projector_blacks
 from lapig.lapig_core.multi.blend import BlendSettings, alpha_maps, blend_weights, encode_alpha
 from lapig.lapig_core.multi.camera_map import CameraMap

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.capture.settings import CaptureSettings
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.multi.blend import alpha_maps, blend_weights, encode_alpha
 from lapig.lapig_core.multi.blend_probe import PROBE_GAMMA, fit_blend_gammas, probe_frames
 from lapig.lapig_core.multi.capture import run_multi_capture

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.capture.settings import CaptureError, CaptureSettings
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.multi.capture import run_multi_capture
 from lapig.lapig_core.multi.capture_set import is_multi, joint_model_path, load_multi_capture
 from lapig.lapig_core.multi.first_look import fit_joint_first_look, load_joint_model

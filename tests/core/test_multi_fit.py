@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.capture.structured_light import DecodeResult
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.multi.camera_map import CameraMap
 from lapig.lapig_core.multi.joint_model import JointModel
 from lapig.lapig_core.multi.push_pull import push_pull

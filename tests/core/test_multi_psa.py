@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.common.psnr import masked_psnr
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.multi.joint_solve import reach
 
 pytestmark = pytest.mark.torch
@@ -27,7 +27,7 @@ def dark_stack():
 @pytest.fixture(scope="module")
 def stacked_against_one(dark_stack):
     """(figures, looks) of the default PSA on the dark stack of two and on its first projector alone."""
-    from lapig.lapig_core.multi.stack_gain import stack_psa_gain
+    from lapig.tools.bench.stack_gain import stack_psa_gain
 
     rig, one = dark_stack
     looks = {}
@@ -106,7 +106,7 @@ def test_a_stack_of_two_shows_more_of_the_look_than_one(stacked_against_one):
 def test_when_the_look_is_kept_the_stack_shows_it_better_than_one(dark_stack):
     """adaptation 0 (keep my look): PSA leaves each look nearer the prompt's, and the stack's wider reach shows it
     better; at the default 0.5 each rig's PSA adapts the look to its own reach (about equal PSNRs, above)."""
-    from lapig.lapig_core.multi.stack_gain import stack_psa_gain
+    from lapig.tools.bench.stack_gain import stack_psa_gain
     from lapig.lapig_core.psa.adaptation import PSASettings
 
     rig, one = dark_stack

@@ -9,7 +9,7 @@ import pytest
 from lapig.lapig_core.capture.settings import CaptureError, CaptureSettings
 from lapig.lapig_core.common.steps import run_to_end
 from lapig.lapig_core.multi.capture import run_multi_capture
-from lapig.lapig_core.multi.fake_rig import FakeProjector, FakeRig, FakeRigDevice, homography_onto
+from lapig.tools.fakes.fake_rig import FakeProjector, FakeRig, FakeRigDevice, homography_onto
 from lapig.lapig_core.rig import RigError
 from lapig.lapig_core.rig.multi_rig import simulated_multi_rig
 from lapig.lapig_core.rig.simulated import CameraFaults

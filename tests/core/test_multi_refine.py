@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.multi.joint_model import JointModel
 from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
 from lapig.lapig_core.refine.joint import JointRefinement, device_capture, refine_gain_db_multi, run

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.capture.settings import CaptureSettings
-from lapig.lapig_core.export.mpcdi_read import read_mpcdi
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.checks.mpcdi_read import read_mpcdi
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.multi.capture import run_multi_capture
 from lapig.lapig_core.multi.capture_set import load_multi_capture
 from lapig.lapig_core.multi.first_look import fit_joint_first_look

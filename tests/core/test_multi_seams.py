@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""bench multi's seam and overlap figures (lapig_core/multi/seams) on hand-made two-projector layouts."""
+"""bench multi's seam and overlap figures (tools/bench/seams) on hand-made two-projector layouts."""
 import math
 
 import numpy as np
 import pytest
 
-from lapig.lapig_core.multi.seams import blend_edges, near_edges, psnr_on, seam_ratio, white_uniformity_pct
+from lapig.tools.bench.seams import blend_edges, near_edges, psnr_on, seam_ratio, white_uniformity_pct
 
 H, W = 40, 100
 
@@ -66,7 +66,7 @@ def test_psnr_on_a_mask():
 
 
 def test_share_frames_light_each_projectors_share_in_its_colour():
-    from lapig.lapig_core.multi import fake_rig
+    from lapig.tools.fakes import fake_rig
     from lapig.lapig_core.multi.blend import blend_weights, share_frames
 
     rig = fake_rig.side_by_side_rig((96, 72), (128, 96))

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.multi.blend import blend_weights
 from lapig.lapig_core.multi.box_qp import box_quadratic
 from lapig.lapig_core.multi.joint_model import JointModel

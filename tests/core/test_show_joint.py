@@ -9,7 +9,7 @@ torch = pytest.importorskip("torch")  # the producer is torch's: the torch-free 
 from show_fakes import keyed_look
 
 from lapig.lapig_core.common.psnr import masked_psnr
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.show.frames import FrameMaker, show_frames
 from lapig.lapig_core.show.joint_setup import JointShowSetup, working_size_of
 from lapig.lapig_core.show.model import Look, Motion, Show, ShowError, Transition

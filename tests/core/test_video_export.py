@@ -15,7 +15,7 @@ from lapig.lapig_core.export import codecs, video  # noqa: E402
 from lapig.lapig_core.export.show_output import Cancelled  # noqa: E402
 from lapig.lapig_core.export.projector_image import ExportError  # noqa: E402
 from lapig.lapig_core.export.video import write_video  # noqa: E402
-from lapig.lapig_core.export.video_read import decode_with_opencv as _decode_cv2  # noqa: E402
+from lapig.tools.checks.video_read import decode_with_opencv as _decode_cv2  # noqa: E402
 
 W, H = 64, 48
 

@@ -20,7 +20,7 @@ from lapig.lapig_core.export import codecs, levels, video  # noqa: E402
 from lapig.lapig_core.export.projector_image import ExportError  # noqa: E402
 from lapig.lapig_core.export.show_output import Cancelled  # noqa: E402
 from lapig.lapig_core.export.video import write_video  # noqa: E402
-from lapig.lapig_core.export.video_read import decode_with_ffmpeg, probe  # noqa: E402
+from lapig.tools.checks.video_read import decode_with_ffmpeg, probe  # noqa: E402
 
 needs_ffmpeg = pytest.mark.skipif(shutil.which("ffprobe") is None or shutil.which("ffmpeg") is None,
                                   reason="the system ffmpeg and ffprobe are not installed (apt-get install ffmpeg; "

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from ...lapig_addon.blender.projection_render import render_working_images
+from .projection_render import render_working_images
 from ...lapig_core.capture.dataset import setup_dir_of
 from ...lapig_core.common import metrics
 from ...lapig_core.photometric import choice

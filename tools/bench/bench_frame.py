@@ -39,7 +39,7 @@ from ...lapig_core.common.surfaces import make_surface
 from ...lapig_core.pipeline import as_image, output_at, stylize, surface_models
 from ...lapig_core.psa.adaptation import PSASettings
 from ...lapig_core.photometric.training_data import to_tensor
-from ...lapig_addon.blender.projection_render import register_at, render_working_images
+from .projection_render import register_at, render_working_images
 from ..evaluate import SHARPNESS_SIGMA, build_surface_scene, capture_surface
 
 WALLS = (  # name, projector, wall (m), camera

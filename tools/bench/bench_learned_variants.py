@@ -81,7 +81,7 @@ def train_camera_loss(model, x, y, s, camera_loss, iterations=ITERATIONS, crop=6
 
 
 def run(args) -> dict:
-    from ...lapig_addon.blender.projection_render import render_working_images
+    from .projection_render import render_working_images
     from ...lapig_core.photometric.finetune import PAPER_LOSS, camera_space_loss, cpu_recipe, finetune, start_model
     from ...lapig_core.photometric.training import predict
     from ...lapig_core.photometric.training_data import to_numpy, to_tensor

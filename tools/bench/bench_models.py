@@ -31,7 +31,7 @@ from ...lapig_core.photometric.training import predict
 from ...lapig_core.photometric.training_data import SurfaceTensors, to_numpy, to_tensor
 from .. import synthetic_setups as syn
 from .noise_floor import below_floor, noise_floor
-from ...lapig_addon.blender.projection_render import render_working_images
+from .projection_render import render_working_images
 
 SIZES = (8, 48, 125)
 PAPER = {"pcnet_psnr_8": 26.77, "pcnet_psnr_48": 30.74, "pcnet_psnr_125": 31.14,

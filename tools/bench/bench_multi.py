@@ -187,7 +187,7 @@ def _in_reach(pattern, lo, hi, low=0.1, high=0.9):
 def _bound(model, target, mask):
     """The PSNR a perfect compensation reaches within `model`'s reach: the target clamped into [I-, I+]."""
     from ...lapig_core.multi.joint_solve import reach
-    from ...lapig_core.multi.seams import psnr_on
+    from .seams import psnr_on
 
     lo, hi = reach(model)
     return psnr_on(np.clip(target, lo, hi), target, mask)
@@ -220,11 +220,11 @@ def _weights_colour(weights):
 
 # ------------------------------------------------------------------ the three setups
 def _run_bust(out, projector_size, refine_iterations):
-    from ...lapig_core.export.mpcdi_read import read_mpcdi
+    from ..checks.mpcdi_read import read_mpcdi
     from ...lapig_core.multi.blend import blend_weights
     from ...lapig_core.multi.joint_solve import joint_compensate
     from ...lapig_core.multi.mpcdi_export import write_rig_mpcdi
-    from ...lapig_core.multi.seams import psnr_on, seam_ratio
+    from .seams import psnr_on, seam_ratio
 
     scene, projectors, camera, target = _bust(os.path.join(out, "scene_bust"), projector_size)
     rig = Rig(scene, projectors, camera, target, os.path.join(out, "captures"), "bust")
@@ -322,7 +322,7 @@ def _run_bust(out, projector_size, refine_iterations):
 def _run_wall(out, projector_size):
     from ...lapig_core.multi.blend import alpha_maps, blend_weights, encode_alpha
     from ...lapig_core.multi.joint_solve import joint_compensate
-    from ...lapig_core.multi.seams import psnr_on, seam_ratio, white_uniformity_pct
+    from .seams import psnr_on, seam_ratio, white_uniformity_pct
 
     scene, projectors, camera, target, layout = _wall(os.path.join(out, "scene_wall"), projector_size)
     rig = Rig(scene, projectors, camera, target, os.path.join(out, "captures"), "wall")
@@ -416,7 +416,7 @@ def _run_wall(out, projector_size):
 
 
 def _run_stack(out, projector_size, backend, working_size):
-    from ...lapig_core.multi.seams import psnr_on
+    from .seams import psnr_on
 
     scene, projectors, camera, target = _stack(os.path.join(out, "scene_stack"), projector_size)
     rig = Rig(scene, projectors, camera, target, os.path.join(out, "captures"), "stack")

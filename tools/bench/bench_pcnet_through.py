@@ -60,7 +60,7 @@ def train_through_pcnet(app, pcnet, cs, surf, camera_loss, reach, iterations=EXT
 
 
 def run(args) -> dict:
-    from ...lapig_addon.blender.projection_render import render_working_images
+    from .projection_render import render_working_images
     from ...lapig_core.common import metrics
     from ...lapig_core.photometric.finetune import camera_space_loss, cpu_recipe, finetune
     from ...lapig_core.photometric.training import predict

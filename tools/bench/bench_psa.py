@@ -40,7 +40,7 @@ from ...lapig_core.photometric.training_data import SurfaceTensors
 from ..evaluate import build_surface_scene, capture_surface
 from ..research.psa_resample import ABLATIONS, run_resample
 from .structure_sheet import structure_sheet
-from ...lapig_addon.blender.projection_render import render_working_images
+from .projection_render import render_working_images
 
 SURFACES = ("bench", "wood", "stripe", "sakura", "spray")  # the paper's surface names, our own textures
 PAPER_PROMPTS = (

@@ -295,7 +295,7 @@ def rendered_quality(args, psa_iterations, out_dir) -> dict:
     """quality() on a Cycles-rendered rig (tools/evaluate: the demo panel with the `bench` texture, captured
     now, its first look), every frame rendered. Minutes on 2 cores."""
     from ...lapig_core.common.surfaces import make_surface
-    from ...lapig_addon.blender.projection_render import render_working_images
+    from .projection_render import render_working_images
     from ..evaluate import build_surface_scene, capture_surface
 
     rig = build_surface_scene(make_surface("bench", size=256, seed=7), os.path.join(out_dir, "textures"),

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """`python -m lapig_addon bench show-multi --json`: a show on a rig of several projectors (issues 36 and 38).
 
-The fake rig of two side by side (lapig_core/multi/fake_rig: each projector's own homography, gamma, gain,
+The fake rig of two side by side (tools/fakes/fake_rig: each projector's own homography, gamma, gain,
 crosstalk and grazing light; 8-bit projectors and camera, noise off so the flicker is the show's) is captured as
 the add-on captures it (multi/capture: each projector's Gray code and references, its joint first look). Two looks
 are made as Generate of several makes them (multi/stylize.stylize_joint with PSA on the joint reach, written with
@@ -31,7 +31,7 @@ import numpy as np
 
 from ...lapig_core.capture.settings import CaptureSettings
 from ...lapig_core.common.psnr import masked_psnr
-from ...lapig_core.multi import fake_rig
+from ..fakes import fake_rig
 from ...lapig_core.multi.capture import run_multi_capture
 
 CAMERA, PROJECTOR = (320, 240), (400, 300)
@@ -185,7 +185,7 @@ def run(args) -> dict:
 
     summary = {k: r(v) for k, v in figures.items()}
     summary.update({
-        "measured_by": "simulated: lapig_core/multi/fake_rig side by side (8-bit, noise off), its capture and joint "
+        "measured_by": "simulated: tools/fakes/fake_rig side by side (8-bit, noise off), its capture and joint "
                        "first look; not Cycles",
         "camera": list(CAMERA), "projectors": [list(PROJECTOR)] * 2, "working_size": working_size,
         "psa_iterations_keyed": psa_iterations, "fps": FPS, "sheet": "benchmarks/bench_show_multi.png",

@@ -248,7 +248,7 @@ def psa_runs(refs, args, out_dir) -> dict:
     from ...lapig_core.pipeline import as_image, surface_models
     from ...lapig_core.photometric.training_data import SurfaceTensors
     from ...lapig_core.psa.adaptation import PSASettings, run_psa, without_psa
-    from ...lapig_addon.blender.projection_render import render_working_images
+    from .projection_render import render_working_images
     from ..evaluate import build_surface_scene, capture_surface
 
     rows, sheets = [], []

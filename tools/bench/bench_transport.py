@@ -263,7 +263,7 @@ def _write_partial(out, part, per_setup):
 def compensation_run(args, data, out) -> tuple[dict, list]:
     import torch
 
-    from ...lapig_addon.blender.projection_render import render_working_images
+    from .projection_render import render_working_images
     from ...lapig_core.common import metrics
     from ...lapig_core.photometric import choice
     from ...lapig_core.photometric.finetune import CAMERA_SPACE, PAPER_LOSS, cpu_recipe, finetune

@@ -39,8 +39,8 @@ from ...lapig_core.export import chroma, codecs
 from ...lapig_core.export.image_sequence import write_image_sequence
 from ...lapig_core.export.projector_image import crossfade_frames
 from ...lapig_core.export.video import write_video
-from ...lapig_core.export.video_read import decode_with_ffmpeg, probe, system_tool
-from ...lapig_core.export.video_read import decode_with_opencv as _decode_cv2
+from ..checks.video_read import decode_with_ffmpeg, probe, system_tool
+from ..checks.video_read import decode_with_opencv as _decode_cv2
 from .test_images import drawn_scene
 
 W, H = 1920, 1080

@@ -4,7 +4,7 @@ against none) and the refinement of all projectors together against the open loo
 
     .venv/bin/python tools/research/multi_fake_figures.py [--sheet /tmp/multi_psa_refine.png]
 
-Prints one JSON object: `stack_psa_gain_db` (lapig_core/multi/stack_gain.stack_psa_gain) per prompt and surface,
+Prints one JSON object: `stack_psa_gain_db` (tools/bench/stack_gain.stack_psa_gain) per prompt and surface,
 `refine_gain_db_multi` (lapig_core/refine/joint.refine_gain_db_multi) per rig. The Cycles-rendered figures are
 `bench multi`'s; these need no Blender and run in seconds.
 """
@@ -41,7 +41,7 @@ def _white(rig):
 
 def _perturbed_fit(rig, make):
     """A joint model fitted on the rig as it is not (other gains and gammas): the model error refinement corrects."""
-    from lapig.lapig_core.multi import fake_rig
+    from lapig.tools.fakes import fake_rig
     from lapig.lapig_core.multi.joint_model import JointModel
 
     wrong = make()
@@ -60,8 +60,8 @@ def run(sheet_path: str | None) -> dict:
     from lapig.lapig_core.common.imageio import write_png
     from lapig.lapig_core.common.psnr import masked_psnr
     from lapig.lapig_core.common.sheets import labelled_grid
-    from lapig.lapig_core.multi import fake_rig
-    from lapig.lapig_core.multi.stack_gain import stack_psa_gain
+    from lapig.tools.fakes import fake_rig
+    from lapig.tools.bench.stack_gain import stack_psa_gain
     from lapig.lapig_core.multi.joint_solve import reach
     from lapig.lapig_core.refine.joint import refine_gain_db_multi
 

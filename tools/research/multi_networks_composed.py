@@ -32,7 +32,7 @@ from lapig.lapig_core.capture.native_references import registered_references
 from lapig.lapig_core.capture.registration import Registration
 from lapig.lapig_core.multi.blend import blend_weights
 from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
-from lapig.lapig_core.multi.seams import psnr_on
+from lapig.tools.bench.seams import psnr_on
 from lapig.lapig_core.native_output import compensate_frame, tile_for
 from lapig.lapig_core.photometric.classical_compensator import ClassicalCompensator
 from lapig.lapig_core.photometric.training_data import to_tensor

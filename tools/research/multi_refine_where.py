@@ -15,7 +15,7 @@ from lapig.lapig_addon.cli.commands import _ensure_registered
 from lapig.lapig_core.multi.joint_solve import joint_compensate, reach
 from lapig.lapig_core.multi.blend import blend_weights
 from lapig.lapig_core.refine.joint import JointRefinement, device_capture
-from lapig.lapig_core.multi.seams import near_edges
+from lapig.tools.bench.seams import near_edges
 from lapig.lapig_core.refine.loop import RefineSettings
 from lapig.lapig_core.common.psnr import masked_psnr
 

@@ -8,7 +8,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 spec = importlib.util.spec_from_file_location("lapig", ROOT / "__init__.py", submodule_search_locations=[str(ROOT)])
 pkg = importlib.util.module_from_spec(spec); sys.modules["lapig"] = pkg; spec.loader.exec_module(pkg)
 from lapig.tools.bench import bench_show_multi as B
-from lapig.lapig_core.multi import fake_rig
+from lapig.tools.fakes import fake_rig
 from lapig.lapig_core.show.joint_setup import JointShowSetup
 from lapig.lapig_core.show.frames import FrameMaker
 from lapig.lapig_core.show.model import Look, Motion, Show, Transition

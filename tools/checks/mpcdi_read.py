@@ -22,8 +22,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .mpcdi_model import GEOMETRIC_UNITS, INTERPOLATIONS, ORIGINS_OF_3D_DATA, MpcdiCoordinateFrame, MpcdiFrustum
-from .pfm import decode_pfm
+from ...lapig_core.export.mpcdi_model import GEOMETRIC_UNITS, INTERPOLATIONS, ORIGINS_OF_3D_DATA, MpcdiCoordinateFrame, MpcdiFrustum
+from ...lapig_core.export.pfm import decode_pfm
 
 ALL_PROFILES = ("2d", "3d", "a3", "sl")  # table 3-2
 _MAX_MEMBERS = 10_000

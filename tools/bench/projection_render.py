@@ -2,8 +2,8 @@
 rig's objects: services/capture/projection through the Cycles device factory of those objects."""
 from __future__ import annotations
 
-from ..services.capture.projection import project_and_capture, register_at  # noqa: F401 (register_at re-exported)
-from .cycles_factory import CyclesDeviceFactory
+from ...lapig_addon.services.capture.projection import project_and_capture, register_at  # noqa: F401 (register_at re-exported)
+from ...lapig_addon.blender.cycles_factory import CyclesDeviceFactory
 
 
 def render_working_images(scene, projector, camera, target, setup_dir, images, seed=0, chunk=8,

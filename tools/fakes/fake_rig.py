@@ -21,11 +21,11 @@ from typing import Sequence
 import cv2
 import numpy as np
 
-from ..capture.fake_device import default_albedo
-from ..photometric.classical import _as_float_images
-from .camera_map import CameraMap
-from .capture import MultiDeviceInfo, MultiProjectorDevice
-from .frames import smooth_frames  # noqa: F401 (the tests' frames, and the capture's)
+from ...lapig_core.capture.fake_device import default_albedo
+from ...lapig_core.photometric.classical import _as_float_images
+from ...lapig_core.multi.camera_map import CameraMap
+from ...lapig_core.multi.capture import MultiDeviceInfo, MultiProjectorDevice
+from ...lapig_core.multi.frames import smooth_frames  # noqa: F401 (the tests' frames, and the capture's)
 
 _MIX = np.array([[0.90, 0.08, 0.02], [0.06, 0.88, 0.06], [0.02, 0.10, 0.88]])
 
@@ -119,7 +119,7 @@ class FakeRig:
 
     def true_model(self):
         """The JointModel of the rig's ground truth (exact maps, M_k, offset and gammas)."""
-        from .joint_model import JointModel
+        from ...lapig_core.multi.joint_model import JointModel
 
         return JointModel(self.camera_gamma, tuple(p.gamma for p in self.projectors),
                           np.stack([self.true_m(k) for k in range(self.count)]), self.true_offset(),

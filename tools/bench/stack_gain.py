@@ -9,10 +9,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..common.psnr import masked_psnr
-from .joint_model import JointModel
-from .joint_psa import simulated_psnr
-from .stylize import stylize_joint
+from ...lapig_core.common.psnr import masked_psnr
+from ...lapig_core.multi.joint_model import JointModel
+from ...lapig_core.multi.joint_psa import simulated_psnr
+from ...lapig_core.multi.stylize import stylize_joint
 
 
 @dataclass

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import torch
 
-from . import checkpoints
-from ..capture.dataset import load_capture_set
-from .training import Recipe, Trainer, evaluate_pairs
-from .training_data import PairSet, SurfaceTensors, pairs_from_capture_sets
+from ..lapig_core.photometric import checkpoints
+from ..lapig_core.capture.dataset import load_capture_set
+from ..lapig_core.photometric.training import Recipe, Trainer, evaluate_pairs
+from ..lapig_core.photometric.training_data import PairSet, SurfaceTensors, pairs_from_capture_sets
 
 JOBS = (("CompenNeSt", "compensation"), ("PCNet", "simulation"), ("CompenNeSt", "simulation"))
 

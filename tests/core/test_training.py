@@ -6,7 +6,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lapig.lapig_core.photometric import checkpoints, finetune, pretrain
+from lapig.lapig_core.photometric import checkpoints, finetune
+from lapig.tools import pretrain
 from lapig.lapig_core.capture.dataset import load_capture_set
 from lapig.lapig_core.photometric.training import (COMPENNEST_FINETUNE, PCNET_TRAIN, Recipe, Trainer, TrainingError, evaluate_pairs)
 from lapig.lapig_core.photometric.training_data import pairs_from_capture_sets

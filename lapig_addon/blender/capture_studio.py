@@ -15,6 +15,7 @@ import tempfile
 import bpy
 import numpy as np
 
+from ...lapig_core.common.closing import BuiltOnEnter
 from ...lapig_core.common.exr import ExrError, pass_rgb, read_exr_channels
 from ...lapig_core.common.scratch import ScratchFolder
 from ...lapig_core.optics.transport import (FAST, LightTransport, NormalGuide, indirect_from_light_passes,
@@ -92,7 +93,7 @@ def has_transmission(objects) -> bool:
                                     "ShaderNodeBsdfTranslucent"), "Transmission Weight")
 
 
-class CaptureStudio:
+class CaptureStudio(BuiltOnEnter):
     def __init__(self, source_scene, projector, camera, width, height, samples=1, ambient=0.03,
                  ambient_distance=None, work_dir=None, transport: LightTransport = FAST, seed: int = 0):
         self.source_scene = source_scene
@@ -112,17 +113,6 @@ class CaptureStudio:
         self._guide = None  # transport.NormalGuide of the bounce pass, built with its first frame
 
     # -- lifecycle -------------------------------------------------------------------------
-    def __enter__(self):
-        try:
-            self._build()
-        except Exception:
-            self.close()
-            raise
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
     def _build(self):
         if self.work_dir is None:  # locked while it renders; the next studio removes one a kill left
             self._scratch = ScratchFolder(tempfile.gettempdir(), "lapig_render_")

@@ -22,6 +22,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
+from ...lapig_core.common.closing import BuiltOnEnter
 from ...lapig_core.common.exr import read_exr_channels
 from ...lapig_core.common.steps import run_to_end
 from ...lapig_core.photometry.light_passes import (REGION_INDEX, TARGET_INDEX, LightPasses,  # noqa: F401
@@ -40,7 +41,7 @@ def _white_image(width, height):
     return image
 
 
-class LightStudio:
+class LightStudio(BuiltOnEnter):
     def __init__(self, scene, projector, target, width: int, height: int, ambient_lux: float = 0.0,
                  lamp_direction=None, region_material: str = "", ambient_samples: int = 32, region_group: str = "",
                  view=None):
@@ -54,17 +55,6 @@ class LightStudio:
         self._made, self._saved = [], []
         self.scene = None
         self._dir = None
-
-    def __enter__(self):
-        try:
-            self._build()
-        except BaseException:
-            self.close()
-            raise
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
     def _build(self):
         # the object in its own materials (the preview's copies are unlit or tinted), the preview back on close

@@ -11,3 +11,19 @@ class Closing:
 
     def __exit__(self, *exc):
         self.close()
+
+
+class BuiltOnEnter(Closing):
+    """`with thing:` builds it (_build) and closes it on the way out; a build that fails (or is interrupted) part way
+    is closed at once, so what it had changed is put back (the Cycles studios' temporary scenes)."""
+
+    def _build(self) -> None:
+        """Make what the thing holds while it is open."""
+
+    def __enter__(self):
+        try:
+            self._build()
+        except BaseException:
+            self.close()
+            raise
+        return self

@@ -33,18 +33,6 @@ def resize(x: torch.Tensor, size: tuple[int, int]) -> torch.Tensor:
     return F.interpolate(x, size=size, mode="area")
 
 
-def stylize_mix(surface: torch.Tensor, mix, internal_size: int = 512, blend: float = 0.15,
-                params: dict | None = None) -> torch.Tensor:
-    """One pass of the pipeline for a given mix (or explicit CIN params); used by previews and tests."""
-    from .style_net import load_style_net
-
-    net = load_style_net(surface.device)
-    params = params if params is not None else net.style_params(mix)
-    big = resize(surface, internal_shape(*surface.shape[-2:], internal_size))
-    styled = resize(net.forward_with_params(big, params), tuple(surface.shape[-2:]))
-    return (1.0 - blend) * styled + blend * surface
-
-
 def look_record(plan) -> dict:
     """What rebuilds a world look without the prompt model (result.json's lgst.look_record): the composition by
     its materials' names, the colours each layer takes, the texture and the mood."""

@@ -26,7 +26,7 @@ from . import RigError
 
 
 class LockedWindows:
-    """K outputs (ProjectorWindow, SimulatedWindow, ...) whose frames go up together."""
+    """K outputs (ProjectorWindow, tools/fakes' SimulatedWindow, ...) whose frames go up together."""
 
     def __init__(self, windows: Sequence, names: Sequence[str] | None = None):
         if not windows:
@@ -98,35 +98,6 @@ class LockedWindows:
         self._pool.shutdown(wait=False)
         if errors:
             raise errors[0]
-
-
-class SimulatedWindow:
-    """A window without a screen, for tests and the bench where no display is: load copies the frame,
-    present takes present_s and returns time.monotonic()."""
-
-    def __init__(self, size, present_s: float = 0.001):
-        self.size, self.present_s = tuple(size), present_s
-        self.is_open = True
-        self.frames = 0
-        self._loaded = self.shown = None
-
-    def load(self, frame) -> None:
-        self._loaded = np.array(frame, copy=True)
-
-    def present(self) -> float:
-        time.sleep(self.present_s)
-        self.shown, self.frames = self._loaded, self.frames + 1
-        return time.monotonic()
-
-    def show(self, frame) -> float:
-        self.load(frame)
-        return self.present()
-
-    def describe(self) -> dict:
-        return {"kind": "simulated window", "size": list(self.size), "frames_shown": self.frames}
-
-    def close(self) -> None:
-        self.is_open = False
 
 
 def play_locked(windows: LockedWindows, frame_sets, fps: float = 30.0, on_frame=None) -> dict:

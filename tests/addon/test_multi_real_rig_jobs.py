@@ -9,7 +9,8 @@ import numpy as np
 
 from lapig.tools.fakes.fake_rig import FakeProjector, FakeRig, FakeRigDevice, homography_onto
 from lapig.lapig_core.rig.clock import VirtualClock
-from lapig.lapig_core.rig.frame_lock import LockedWindows, SimulatedWindow
+from lapig.lapig_core.rig.frame_lock import LockedWindows
+from lapig.tools.fakes.simulated_window import SimulatedWindow
 from lapig.lapig_core.rig.multi_rig import SimulatedScreens, _SummedOptics
 from lapig.lapig_core.rig.simulated import CameraFaults, SimulatedCamera, SimulatedScreen
 

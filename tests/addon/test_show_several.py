@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.optics.projector_model import ProjectorModel
-from lapig.lapig_core.rig.frame_lock import LockedWindows, SimulatedWindow
+from lapig.lapig_core.rig.frame_lock import LockedWindows
+from lapig.tools.fakes.simulated_window import SimulatedWindow
 from window_fakes import Recording
 
 ADDON = "lapig.lapig_addon"

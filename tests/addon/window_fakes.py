@@ -1,5 +1,5 @@
 """A simulated projector window that records what it presents, for the tests of live output on several windows."""
-from lapig.lapig_core.rig.frame_lock import SimulatedWindow
+from lapig.tools.fakes.simulated_window import SimulatedWindow
 
 
 class Recording(SimulatedWindow):

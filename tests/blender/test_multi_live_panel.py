@@ -17,7 +17,7 @@ SIZE = (64, 48)  # the statue's projectors
 @pytest.fixture
 def simulated_windows(monkeypatch):
     from lapig.lapig_addon.rigs import live_output, real_rig
-    from lapig.lapig_core.rig.frame_lock import SimulatedWindow
+    from lapig.tools.fakes.simulated_window import SimulatedWindow
 
     opened = {}
 
@@ -141,7 +141,7 @@ def test_play_show_and_show_timeline_play_each_projectors_frames_on_its_window(s
     opened = []
 
     def window(display, **kw):
-        from lapig.lapig_core.rig.frame_lock import SimulatedWindow
+        from lapig.tools.fakes.simulated_window import SimulatedWindow
 
         opened.append(SimulatedWindow(SIZE))
         return opened[-1]

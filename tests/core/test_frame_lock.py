@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from lapig.lapig_core.rig import RigError
-from lapig.lapig_core.rig.frame_lock import LockedWindows, SimulatedWindow, play_locked
+from lapig.lapig_core.rig.frame_lock import LockedWindows, play_locked
+from lapig.tools.fakes.simulated_window import SimulatedWindow
 
 
 def _sets(count, sizes):

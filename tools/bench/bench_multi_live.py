@@ -5,7 +5,7 @@ Two projector windows (rig/projector_window: each its own helper process), full 
 virtual X server (tools/virtual_screens: Xvnc, 1280x720 each), play 150 frame sets at 30 fps through
 lapig_core/rig/frame_lock.play_locked: each window loads its frame, then one barrier releases every present; each
 helper says when its window was updated (time.monotonic, shared by the processes). Where Xvnc, xwd, xdotool or
-PySDL2 are missing, on simulated windows (frame_lock.SimulatedWindow), and `window` says so. A screenshot of both
+PySDL2 are missing, on simulated windows (tools/fakes/simulated_window), and `window` says so. A screenshot of both
 monitors after the last frame set is written beside the figures (screenshot) and checked against the frames.
 
 Keys: max_skew_frames (the largest spread of one frame set's present times across the windows, in frames; goal
@@ -44,7 +44,8 @@ def _frames(k: int) -> list:
 
 
 def run(args) -> dict:
-    from ...lapig_core.rig.frame_lock import LockedWindows, SimulatedWindow, play_locked
+    from ...lapig_core.rig.frame_lock import LockedWindows, play_locked
+    from ..fakes.simulated_window import SimulatedWindow
     from .. import virtual_screens as vs
 
     out = os.path.abspath(args.out)

@@ -75,7 +75,6 @@ def _op_art_waves(size=256) -> np.ndarray:
 
 
 def _catalogue_render(photo: np.ndarray, mix: str) -> np.ndarray:
-    from ...lapig_core.lgst.styletransfer_backend import stylize_mix
     from ...lapig_core.lgst.prompt_mapping import mix_vector, resolve_mix
 
     img = image_tensor(photo)
@@ -316,3 +315,16 @@ def run(args) -> dict:
         summary["psa"] = psa_runs(refs, args, out)
     summary["total_s"] = round(time.perf_counter() - t0, 1)
     return summary
+
+
+def stylize_mix(surface: torch.Tensor, mix, internal_size: int = 512, blend: float = 0.15,
+                params: dict | None = None) -> torch.Tensor:
+    """One pass of the style network for a given mix (or explicit CIN params): the bench's reference look."""
+    from ...lapig_core.lgst.style_net import load_style_net
+    from ...lapig_core.lgst.styletransfer_backend import internal_shape, resize
+
+    net = load_style_net(surface.device)
+    params = params if params is not None else net.style_params(mix)
+    big = resize(surface, internal_shape(*surface.shape[-2:], internal_size))
+    styled = resize(net.forward_with_params(big, params), tuple(surface.shape[-2:]))
+    return (1.0 - blend) * styled + blend * surface

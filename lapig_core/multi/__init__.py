@@ -1,15 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Several projectors on one object (issue 36), numpy + OpenCV only: the joint classical model in camera
-space, its box-constrained compensation, geometric blend weights, the black level of overlaps, coverage
-(the numpy fake rig of K projectors and one camera the tests use: tools/fakes/fake_rig).
+space, its box-constrained compensation, geometric blend weights, the black level of overlaps, coverage.
+(Not shipped: the numpy fake rig of K projectors and one camera the tests use, tools/fakes/fake_rig.)
 
-Entry points for the benchmarks (`bench multi`):
+Entry points for the benchmarks (`bench multi`; the stack's PSA gain the tests measure is
+tools/bench/stack_gain.stack_psa_gain, not shipped):
 - PSA on the joint reach (joint_psa, torch):
-    tools/bench/stack_gain.stack_psa_gain(stacked: JointModel, single: JointModel, surface, prompt, backend="styletransfer",
-        object_mask=None, seed=0, working_size=256, settings=None, single_surface=None, looks=None)
-        -> StackFigures; .stack_psa_gain_db (PSA's simulated PSNR, each against its own PSA look, stacked
-        minus single), .stack_look_gain_db (the same against the asked, un-adapted look), .psa_gain_db_stacked
-        / .psa_gain_db_single (PSA minus none), .to_dict();
     stylize.stylize_joint(model, surface, prompt, backend, ..., psa=True, psa_settings=None) -> JointLook
         (.target, .frames, .without: the look without PSA, .psa: what PSA did);
     joint_psa.simulated_psnr(model, look, mask) and joint_psa.joint_surface_models(model, shape, on_object).

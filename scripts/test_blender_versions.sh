@@ -57,6 +57,12 @@ find_python() {  # find_python 3.11|3.13 -> path of an interpreter of that versi
   return 1
 }
 
+quiet_pip() {  # quiet_pip PYTHON ARGS...: pip install, without this machine's "Location ... is ignored" warnings
+  local python="$1"; shift
+  "$python" -m pip install --quiet --disable-pip-version-check --no-cache-dir "$@" \
+      2> >(grep -v "^WARNING: Location '.*' is ignored" >&2)
+}
+
 make_venv() {  # make_venv RELEASE PY NUMPY OPENCV -> creates $VENVS/bpy-RELEASE (idempotent)
   local release="$1" py="$2" numpy="$3" opencv="$4"
   local venv="$VENVS/bpy-$release"
@@ -73,7 +79,7 @@ make_venv() {  # make_venv RELEASE PY NUMPY OPENCV -> creates $VENVS/bpy-RELEASE
   echo "creating $venv with $("$interpreter" --version) and $wants"
   rm -rf "$venv"
   "$interpreter" -m venv "$venv" || return 1
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-cache-dir $wants || return 1
+  quiet_pip "$venv/bin/python" $wants || return 1
   "$venv/bin/python" -c "import bpy, numpy, cv2; print('bpy', bpy.app.version_string, 'numpy', numpy.__version__, 'cv2', cv2.__version__)" || return 1
   echo "$wants" > "$venv/.lapig-requirements"
   echo "$venv: $((SECONDS - start)) s, $(du -sm "$venv" | cut -f1) MB"
@@ -100,9 +106,9 @@ make_full_venv() {  # make_full_venv RELEASE PY NUMPY OPENCV -> $VENVS/bpy-RELEA
   # index only has Linux CUDA builds (torch plus its nvidia-* wheels, several GB).
   local torch_pin
   torch_pin="$(full_deps | tr ' ' '\n' | grep '^torch==')"
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-cache-dir \
+  quiet_pip "$venv/bin/python" \
       ${LAPIG_WHEELS:+--no-index --find-links "$LAPIG_WHEELS"} "$torch_pin" || return 1
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-cache-dir \
+  quiet_pip "$venv/bin/python" \
       ${LAPIG_WHEELS:+--no-index --find-links "$LAPIG_WHEELS"} $wants || return 1
   "$venv/bin/python" -c "import bpy, numpy, cv2, torch; print('bpy', bpy.app.version_string, 'numpy', numpy.__version__, 'cv2', cv2.__version__, 'torch', torch.__version__)" || return 1
   echo "$wants" > "$venv/.lapig-requirements"
@@ -138,6 +144,9 @@ run_tier() {  # run_tier RELEASE VENV MODE -> pytest into $VENVS/results/bpy-REL
   ROWS+=("$VENVS/results/$name.row")
   echo "   $summary ($((SECONDS - start)) s)"
   grep -E '^(FAILED|ERROR) ' "$log" | head -20
+  if [ -z "$summary" ]; then  # pytest ended without its summary (a crash, or a hung test's stacks): its last lines
+    tail -n 60 "$log"
+  fi
   return $status
 }
 

@@ -181,7 +181,8 @@ def find_ffmpeg(explicit: str | None = None) -> str | None:
 def _ffmpeg_encoders(path: str, mtime: float) -> frozenset:
     """The encoders `ffmpeg -encoders` lists (mtime: a replaced binary is asked again)."""
     try:
-        out = subprocess.run([path, "-hide_banner", "-encoders"], capture_output=True, text=True, timeout=30).stdout
+        out = subprocess.run([path, "-hide_banner", "-encoders"], stdin=subprocess.DEVNULL, capture_output=True,
+                             text=True, timeout=30).stdout
     except (OSError, subprocess.SubprocessError):
         return frozenset()
     names = set()

@@ -43,7 +43,8 @@ def _streams(path):
 
 def _decoded_sound(path):
     out = subprocess.run(["ffmpeg", "-v", "error", "-xerror", "-i", str(path), "-map", "0:a:0", "-ac", "1", "-ar",
-                          "48000", "-f", "f32le", "pipe:1"], capture_output=True, check=True)
+                          "48000", "-f", "f32le", "pipe:1"], stdin=subprocess.DEVNULL, capture_output=True,
+                         check=True, timeout=300)
     return np.frombuffer(out.stdout, "<f4")
 
 

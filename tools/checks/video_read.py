@@ -40,7 +40,7 @@ def probe(path, ffprobe: str | None = None) -> dict:
         raise FileNotFoundError("ffprobe is not installed")
     out = subprocess.run([tool, "-v", "error", "-select_streams", "v:0", "-show_streams",
                           "-show_format", "-show_entries", "packet=pts_time,flags", "-of", "json", str(path)],
-                         capture_output=True, text=True, timeout=120)
+                         stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120)
     if out.returncode != 0:
         raise ValueError(f"ffprobe refused {path}: {out.stderr.strip()}")
     info = json.loads(out.stdout)
@@ -63,7 +63,7 @@ def decode_with_ffmpeg(path, ffmpeg: str | None = None, size=None) -> tuple[list
     width, height = size or (int(info["width"]), int(info["height"]))
     out = subprocess.run([tool, "-v", "error", "-xerror", "-i", str(path), "-map", "0:v:0",
                           "-sws_flags", "bilinear+accurate_rnd+full_chroma_int", "-f", "rawvideo", "-pix_fmt", "rgb24",
-                          "pipe:1"], capture_output=True, timeout=300)
+                          "pipe:1"], stdin=subprocess.DEVNULL, capture_output=True, timeout=300)
     if out.returncode != 0 or out.stderr.strip():
         raise ValueError(f"ffmpeg could not decode {path} cleanly: {out.stderr.decode('utf-8', 'replace').strip()}")
     frames = np.frombuffer(out.stdout, np.uint8).reshape(-1, height, width, 3)

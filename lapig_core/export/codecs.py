@@ -75,8 +75,9 @@ class VideoCodec:
     intra: bool = False  # every frame a keyframe anyway
     missing: str = ""  # why an FFmpeg may lack it, and how to get one that has it
     # libx265 corrupts its heap on frames under one 64-pixel CTU: valgrind shows its lookahead (cuTree) writing
-    # out of bounds at 48 wide, and at 64x48 it crashed 2 times in about 9,000 encodes (none in 9,000 at 64x64
-    # and 128x96; /work/notes/s18): both sides at least this
+    # out of bounds at 48 wide, and at 64x48 it crashed 2 times in about 6,700 encodes, and once in a loop of the
+    # video tests (none in 4,500 each at 64x64 and 128x96; tools/research/x265_small_frames.py): both sides at
+    # least this
     min_side: int = 1
     block: int = 1  # width and height must be multiples of this (4:2:0: 2; HAP's DXT blocks: 4): padded
 

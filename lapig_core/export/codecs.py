@@ -74,10 +74,11 @@ class VideoCodec:
     bytes_per_pixel: float = 1.0
     intra: bool = False  # every frame a keyframe anyway
     missing: str = ""  # why an FFmpeg may lack it, and how to get one that has it
-    # libx265 corrupts its heap on frames under one 64-pixel CTU: valgrind shows its lookahead (cuTree) writing
-    # out of bounds at 48 wide, and at 64x48 it crashed 2 times in about 6,700 encodes, and once in a loop of the
-    # video tests (none in 4,500 each at 64x64 and 128x96; tools/research/x265_small_frames.py): both sides at
-    # least this
+    # libx265 corrupts its heap on small frames: valgrind shows its lookahead (cuTree) writing out of bounds at 48
+    # wide; with the export's own stream at 64x48 it hung in 2 of 3 runs of 1,500 encodes (a CI run that never
+    # ended) and crashed in the video tests' loop; at 64x64 it still crashed once in 3 runs
+    # (tools/research/x265_small_frames.py). Both sides at least this: a floor that refuses the hang, not yet one
+    # shown safe
     min_side: int = 1
     block: int = 1  # width and height must be multiples of this (4:2:0: 2; HAP's DXT blocks: 4): padded
 

@@ -250,6 +250,9 @@ def test_odd_sizes_in_every_yuv_codec_padded_where_its_chroma_needs_it(tmp_path)
             assert out["notes"] == []
     with pytest.raises(codecs.VideoExportError, match="H.265 needs frames at least 64x64 pixels, got 33x17"):
         write_video(_frames(2, 33, 17), tmp_path / "narrow", 24, (33, 17), "h265")
+    with pytest.raises(codecs.VideoExportError, match="H.265 4:4:4 needs frames at least 64x64 pixels, got 128x48"):
+        write_video(_frames(2, 128, 48), tmp_path / "low", 24, (128, 48), "h265-444")  # wide enough, too low
+    assert not list(tmp_path.glob("narrow*")) and not list(tmp_path.glob("low*"))
 
 
 def test_availability_lists_every_codec():
